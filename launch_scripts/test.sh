@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# The whole test suite: performs any missing setup, then runs pytest. Extra args go to pytest.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+bash "$ROOT/launch_scripts/setup.sh"
+cd "$ROOT"
+source devel/setup.bash
+export ROS_HOME="${ROS_HOME:-$ROOT/build/ros_home}" ROS_IP=127.0.0.1
+.venv/bin/python -m ruff check src tests benchmarks
+exec .venv/bin/python -m pytest "$@"

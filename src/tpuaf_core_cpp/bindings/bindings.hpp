@@ -1,0 +1,9 @@
+#pragma once
+#include <pybind11/pybind11.h>
+
+namespace tpuaf::bindings {
+void bind_perception(pybind11::module_& m);
+void bind_uncertainty(pybind11::module_& m);
+void bind_graph(pybind11::module_& m);
+void bind_utility(pybind11::module_& m);
+}  // namespace tpuaf::bindings

@@ -1,0 +1,10 @@
+// The compiled module tpuaf_core._core: lists the bindings, one file per type.
+#include "bindings.hpp"
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "tpuaf C++ core: perception, uncertainty field, patrol graph, TPUAF utility, world.";
+  tpuaf::bindings::bind_perception(m);
+  tpuaf::bindings::bind_uncertainty(m);
+  tpuaf::bindings::bind_graph(m);
+  tpuaf::bindings::bind_utility(m);
+}

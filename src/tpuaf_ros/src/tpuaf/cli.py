@@ -1,0 +1,51 @@
+"""The `tpuaf` command line. Each subcommand lives in its own module and registers here."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from . import __version__
+
+# (name, module, help): modules define add_arguments(parser) and run(args) -> int.
+SUBCOMMANDS: list[tuple[str, str, str]] = []
+
+
+class CliError(Exception):
+    """A user error: printed as one line, exit code 2."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="tpuaf", description="Multi-robot continuous monitoring: TPUAF and baselines."
+    )
+    parser.add_argument("--version", action="version", version=f"tpuaf {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    import importlib
+
+    for name, module, help_text in SUBCOMMANDS:
+        mod = importlib.import_module(f"tpuaf.{module}")
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        mod.add_arguments(p)
+        p.set_defaults(_handler=mod.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_handler", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args._handler(args) or 0)
+    except CliError as err:
+        print(f"tpuaf {args.command}: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"tpuaf {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

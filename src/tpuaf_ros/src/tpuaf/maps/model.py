@@ -1,0 +1,85 @@
+"""In-memory patrol map: the graph, per-target parameters and per-map settings (SPEC section 7)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import tpuaf_core
+
+
+class MapError(ValueError):
+    """A map, graph or map settings file is malformed; the message names the file and line."""
+
+
+@dataclass
+class MapSettings:
+    """Per-map settings. Units in the names' comments."""
+
+    nominal_speed: float = 1.0  # [m/s]
+    sensing_radius: float = 5.0  # r_i [m] of Eq. 1
+    sensing_peak: float = 1.0  # G_i of Eq. 1
+    interference_distance: float = 2.0  # d_if [m] (SPEC section 6)
+    goal_tolerance: float = 0.4  # [m]
+    robot_radius: float = 0.105  # [m], TurtleBot3 Burger
+    # g(X) = sum a_l X^l of Eq. 2, and the defaults for targets without a per-vertex value.
+    growth_coefficients: list[float] = field(default_factory=lambda: [1.0, 0.6])
+    default_importance: float = 0.01  # C_j [1/s-ish units of M]
+    default_initial_uncertainty: float = 1.0  # X0_j
+    # Start positions per team size: vertex ids, or poses [m] (x, y) snapped to the nearest vertex.
+    initial_vertices: dict[int, list[int]] = field(default_factory=dict)
+    initial_poses: dict[int, list[tuple[float, float]]] = field(default_factory=dict)
+
+
+@dataclass
+class PatrolMap:
+    """A patrol graph with metric coordinates, targets' C and X0, and settings.
+
+    Vertex indices (0..n-1) are used inside the core and by the policies; `vertex_ids` are the
+    ids of the source file, used in every file we write and every message we print.
+    """
+
+    name: str
+    vertex_ids: list[int]
+    positions: np.ndarray  # (n, 2) [m], map frame
+    edges: list[tuple[int, int, float]]  # (i, j, length_m) by index; NaN length = Euclidean
+    importance: np.ndarray  # (n,) C_j >= 0
+    initial_uncertainty: np.ndarray  # (n,) X0_j >= 0
+    settings: MapSettings = field(default_factory=MapSettings)
+    source: Path | None = None
+    occupancy: Any = None  # tpuaf.maps.occupancy.OccupancyGrid, or None (generated on demand)
+
+    @cached_property
+    def graph(self) -> tpuaf_core.PatrolGraph:
+        try:
+            return tpuaf_core.PatrolGraph(
+                np.asarray(self.positions, dtype=float), list(self.edges), list(self.vertex_ids)
+            )
+        except (ValueError, IndexError) as err:
+            where = f" ({self.source})" if self.source else ""
+            raise MapError(f"map '{self.name}'{where}: {err}") from None
+
+    @property
+    def num_vertices(self) -> int:
+        return len(self.vertex_ids)
+
+    def index_of(self, vertex_id: int) -> int:
+        try:
+            return self._index[int(vertex_id)]
+        except KeyError:
+            raise MapError(f"map '{self.name}' has no vertex {vertex_id}") from None
+
+    @cached_property
+    def _index(self) -> dict[int, int]:
+        return {int(v): i for i, v in enumerate(self.vertex_ids)}
+
+    def uncertainty_model(self) -> tpuaf_core.UncertaintyModel:
+        return tpuaf_core.UncertaintyModel(list(self.settings.growth_coefficients))
+
+    def nearest_vertex(self, x: float, y: float) -> int:
+        d = np.hypot(self.positions[:, 0] - x, self.positions[:, 1] - y)
+        return int(np.argmin(d))

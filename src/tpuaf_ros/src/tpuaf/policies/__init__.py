@@ -1,0 +1,8 @@
+"""Strategies behind one `Policy` interface, by name. Importing this package registers them all."""
+
+from .base import REGISTRY, Parameter, ParameterError, Policy, Registry, RobotContext, register
+
+__all__ = ["REGISTRY", "Parameter", "ParameterError", "Policy", "Registry", "RobotContext", "register"]
+
+# Strategy modules register themselves on import.
+from . import tpuaf  # noqa: E402,F401

@@ -1,0 +1,149 @@
+"""The strategy interface shared by all three runtimes, and the registry of strategies by name.
+
+A runtime (batch engine, ROS agent node) owns one `Policy` per robot and calls it:
+
+- `start(ctx)` once, with the robot at its start vertex;
+- `decide(ctx)` each time the robot reaches its goal vertex, and again at a time the policy
+  asked for with `ctx.wake_at(t)` while it has no goal. It returns the next goal vertex
+  (the runtime drives the shortest path there; only the goal counts as a visit), or None to
+  wait (the policy must then call `ctx.wake_at`);
+- `on_message(msg, ctx)` for every team message delivered to this robot (never its own);
+- `on_goal_failed(vertex, ctx)` when the navigator gives up on a goal; `decide` follows.
+
+Policies talk to the team only through `ctx.send(message)`, with the typed messages of
+`tpuaf.messages`. They draw randomness only from `ctx.rng` (seeded per run and robot).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+
+
+class RobotContext(Protocol):
+    """What a runtime hands to a policy. Times in seconds, lengths in metres."""
+
+    robot: int  # robot index 0..n_robots-1
+    n_robots: int
+    patrol_map: Any  # tpuaf.maps.PatrolMap: graph (tpuaf_core.PatrolGraph), importance, settings
+    rng: np.random.Generator
+
+    @property
+    def now(self) -> float: ...
+
+    @property
+    def current_vertex(self) -> int: ...
+
+    @property
+    def start_vertex(self) -> int: ...
+
+    @property
+    def position(self) -> tuple[float, float]: ...
+
+    @property
+    def start_position(self) -> tuple[float, float]: ...
+
+    @property
+    def average_speed(self) -> float:
+        """Average speed [m/s] measured online; the map's nominal speed until measured."""
+
+    def send(self, message: Any) -> None:
+        """Broadcast a team message (may be delayed or lost)."""
+
+    def wake_at(self, time: float) -> None:
+        """Ask for `decide` at `time` [s] (only honoured while the robot has no goal)."""
+
+
+class ParameterError(ValueError):
+    """A strategy parameter is unknown or invalid."""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One documented strategy parameter."""
+
+    default: Any
+    doc: str  # meaning, with unit
+    check: Callable[[Any], bool] | None = None
+
+
+class Policy(ABC):
+    """Base class of every strategy. Subclasses set `name`, `description` and `parameters`."""
+
+    name: ClassVar[str] = ""
+    description: ClassVar[str] = ""
+    parameters: ClassVar[Mapping[str, Parameter]] = {}
+
+    def __init__(self, params: Mapping[str, Any] | None = None):
+        self.params: dict[str, Any] = resolve_parameters(self.name, self.parameters, params or {})
+
+    def start(self, ctx: RobotContext) -> None:  # noqa: B027 - optional hook
+        """Called once before the first decision."""
+
+    @abstractmethod
+    def decide(self, ctx: RobotContext) -> int | None:
+        """Next goal vertex (graph index), or None to wait for a `ctx.wake_at` time."""
+
+    def on_message(self, message: Any, ctx: RobotContext) -> None:  # noqa: B027 - optional hook
+        """A team message from another robot arrived."""
+
+    def on_goal_failed(self, vertex: int, ctx: RobotContext) -> None:  # noqa: B027
+        """The navigator gave up on `vertex`; `decide` is called next."""
+
+
+def resolve_parameters(
+    strategy: str, spec: Mapping[str, Parameter], given: Mapping[str, Any]
+) -> dict[str, Any]:
+    """Defaults overlaid with `given`; unknown names and failed checks raise ParameterError."""
+    unknown = sorted(set(given) - set(spec))
+    if unknown:
+        valid = ", ".join(sorted(spec)) or "none"
+        raise ParameterError(
+            f"unknown parameter(s) {', '.join(unknown)} for strategy '{strategy}' (valid: {valid})"
+        )
+    values = {key: p.default for key, p in spec.items()}
+    for key, value in given.items():
+        check = spec[key].check
+        if check is not None and not check(value):
+            raise ParameterError(
+                f"invalid value {value!r} for parameter '{key}' of strategy '{strategy}': "
+                f"{spec[key].doc}"
+            )
+        values[key] = value
+    return values
+
+
+@dataclass
+class Registry:
+    """Strategies by lowercase name; refuses duplicates."""
+
+    _classes: dict[str, type[Policy]] = field(default_factory=dict)
+
+    def register(self, cls: type[Policy]) -> type[Policy]:
+        key = cls.name.lower()
+        if not key:
+            raise ValueError(f"{cls.__qualname__} has no strategy name")
+        if key in self._classes:
+            raise ValueError(f"strategy name '{key}' is already registered")
+        self._classes[key] = cls
+        return cls
+
+    def names(self) -> list[str]:
+        return sorted(self._classes)
+
+    def get(self, name: str) -> type[Policy]:
+        key = name.lower()
+        if key not in self._classes:
+            raise KeyError(f"unknown strategy '{name}' (valid: {', '.join(self.names())})")
+        return self._classes[key]
+
+    def create(self, name: str, params: Mapping[str, Any] | None = None) -> Policy:
+        return self.get(name)(params)
+
+
+REGISTRY = Registry()
+register = REGISTRY.register
