@@ -39,6 +39,11 @@ void tpuaf::bindings::bind_uncertainty(py::module_& m) {
       .def("advance", &UncertaintyField::advance, py::arg("dt_s"), py::arg("robots"),
            py::arg("peaks"), py::arg("radii_m"), py::call_guard<py::gil_scoped_release>(),
            "Advance dt_s [s] with robots (rows, m) held still; exact for affine g.")
+      .def("advance_linear", &UncertaintyField::advance_linear, py::arg("dt_s"), py::arg("start"),
+           py::arg("end"), py::arg("peaks"), py::arg("radii_m"), py::arg("max_substep_s") = 0.25,
+           py::call_guard<py::gil_scoped_release>(),
+           "Advance dt_s [s] with robots moving linearly from start to end (rows, m); substeps of "
+           "at most max_substep_s [s], Simpson's rule for the coverage of each.")
       .def("advance_uncovered", &UncertaintyField::advance_uncovered, py::arg("dt_s"),
            py::call_guard<py::gil_scoped_release>(), "Advance dt_s [s] with no coverage.")
       .def("advance_with_coverage", &UncertaintyField::advance_with_coverage, py::arg("dt_s"),

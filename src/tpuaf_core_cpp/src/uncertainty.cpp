@@ -117,6 +117,34 @@ void UncertaintyField::advance(double dt_s, const Points& robots, const Eigen::V
   advance_with_coverage(dt_s, total_perception(targets_, robots, peaks, radii_m));
 }
 
+void UncertaintyField::advance_linear(double dt_s, const Points& start, const Points& end,
+                                      const Eigen::VectorXd& peaks, const Eigen::VectorXd& radii_m,
+                                      double max_substep_s) {
+  if (!(dt_s >= 0)) throw std::invalid_argument("dt must be >= 0 s");
+  if (!(max_substep_s > 0)) throw std::invalid_argument("max_substep_s must be > 0 s");
+  if (start.rows() != end.rows()) {
+    throw std::invalid_argument("start and end positions need the same number of robots");
+  }
+  if (dt_s == 0) return;
+  const int steps = std::max(1, static_cast<int>(std::ceil(dt_s / max_substep_s)));
+  const double h = dt_s / steps;
+  Points at(start.rows(), 2);
+  auto coverage_at = [&](double fraction) {
+    at = start + fraction * (end - start);
+    return total_perception(targets_, at, peaks, radii_m);
+  };
+  Eigen::VectorXd left = coverage_at(0.0);
+  for (int k = 0; k < steps; ++k) {
+    const Eigen::VectorXd mid = coverage_at((k + 0.5) / steps);
+    const Eigen::VectorXd right = coverage_at((k + 1.0) / steps);
+    const Eigen::VectorXd mean = (left + 4.0 * mid + right) / 6.0;  // Simpson's rule
+    for (Eigen::Index j = 0; j < values_.size(); ++j) {
+      values_[j] = model_.evolve(values_[j], importance_[j] - mean[j], h);
+    }
+    left = right;
+  }
+}
+
 void UncertaintyField::advance_uncovered(double dt_s) {
   advance_with_coverage(dt_s, Eigen::VectorXd::Zero(values_.size()));
 }

@@ -40,6 +40,12 @@ class UncertaintyField {
   // Advance by dt_s seconds with robots held at `robots` (coverage constant over dt).
   void advance(double dt_s, const Points& robots, const Eigen::VectorXd& peaks,
                const Eigen::VectorXd& radii_m);
+  // Advance by dt_s with robots moving linearly from `start` to `end` (rows, m). Split into
+  // substeps of at most max_substep_s; each uses Simpson's rule for the mean coverage over the
+  // substep and the exact constant-coverage solution.
+  void advance_linear(double dt_s, const Points& start, const Points& end,
+                      const Eigen::VectorXd& peaks, const Eigen::VectorXd& radii_m,
+                      double max_substep_s = 0.25);
   // Advance by dt_s with no robot covering any target.
   void advance_uncovered(double dt_s);
   // Advance with a given total coverage per target (sum of M, from any source).

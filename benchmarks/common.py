@@ -1,0 +1,56 @@
+"""Shared helpers of the benchmark scripts: timing medians and the machine/commit header."""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+import platform
+import subprocess
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def median_rate(fn: Callable[[], None], work: float, repeats: int = 7, min_time_s: float = 0.2):
+    """Median over `repeats` of work units per second; each repeat loops fn for >= min_time_s."""
+    rates = []
+    for _ in range(repeats):
+        count, start = 0, time.perf_counter()
+        while True:
+            fn()
+            count += 1
+            elapsed = time.perf_counter() - start
+            if elapsed >= min_time_s:
+                break
+        rates.append(count * work / elapsed)
+    rates.sort()
+    return rates[len(rates) // 2]
+
+
+def header(title: str) -> str:
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            cwd=RESULTS.parent,
+            check=False,
+        ).stdout.strip()
+    except OSError:
+        commit = "unknown"
+    cpu = platform.processor() or platform.machine()
+    return (
+        f"# {title}\n\nMeasured {dt.datetime.now().strftime('%Y-%m-%d %H:%M')} on "
+        f"{os.cpu_count()} cores ({cpu}), commit {commit}. Medians of repeated runs.\n\n"
+    )
+
+
+def write(name: str, text: str) -> Path:
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    path = RESULTS / name
+    path.write_text(text)
+    print(text)
+    print(f"written to {path}")
+    return path
