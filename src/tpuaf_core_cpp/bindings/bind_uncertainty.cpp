@@ -22,7 +22,20 @@ void tpuaf::bindings::bind_uncertainty(py::module_& m) {
       .def_property_readonly("is_affine", &UncertaintyModel::is_affine)
       .def("g", &UncertaintyModel::g, py::arg("x"), "g(X) of Eq. 2.")
       .def("evolve", &UncertaintyModel::evolve, py::arg("x0"), py::arg("rate"), py::arg("dt_s"),
-           "X after dt_s [s] of dX/dt = rate * g(X), rate = C - sum M constant; exact for affine g.");
+           "X after dt_s [s] of dX/dt = rate * g(X), rate = C - sum M constant; exact for affine g.")
+      .def(
+          "evolve_many",
+          [](const UncertaintyModel& model, const Eigen::VectorXd& x0, const Eigen::VectorXd& rate,
+             const Eigen::VectorXd& dt_s) {
+            if (rate.size() != x0.size() || dt_s.size() != x0.size()) {
+              throw std::invalid_argument("x0, rate and dt_s need the same length");
+            }
+            Eigen::VectorXd out(x0.size());
+            for (Eigen::Index j = 0; j < x0.size(); ++j) out[j] = model.evolve(x0[j], rate[j], dt_s[j]);
+            return out;
+          },
+          py::arg("x0"), py::arg("rate"), py::arg("dt_s"), py::call_guard<py::gil_scoped_release>(),
+          "evolve() element-wise over arrays: x0, rate = C - sum M, dt_s [s].");
 
   py::class_<UncertaintyField>(m, "UncertaintyField",
                                "Uncertainty X_j of every target (Eq. 2-3), kept in [0, max_value].")

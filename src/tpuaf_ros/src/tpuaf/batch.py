@@ -1,0 +1,277 @@
+"""Batch runtime: an event-driven simulation of the team without ROS (the reference runtime).
+
+Robots drive shortest paths along graph edges at nominal speed (straight segments between
+vertex positions, each taking edge length / speed) and decide on reaching their goal. Team
+messages go through `TeamBus` (delay, loss). Ground truth (uncertainty, idleness, interference)
+is measured by `tpuaf.metrics.RunRecorder` from the true, piecewise-linear positions. Runs are
+deterministic for a seed.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .bus import TeamBus
+from .maps import load_map, start_vertices
+from .metrics import RunRecorder
+from .policies import REGISTRY, Policy
+
+_ARRIVE, _WAKE, _DELIVER = 0, 1, 2
+STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long, then visits it again
+DEFAULT_RETRY_S = 1.0  # [s] a policy that waits without asking for a wake-up is asked again after
+
+
+class ConfigError(ValueError):
+    """An invalid run configuration; the message names the field and the valid choices."""
+
+
+@dataclass
+class RunConfig:
+    map: str = "grid"
+    strategy: str = "tpuaf"
+    robots: int = 4
+    duration_s: float = 3600.0
+    seed: int = 0
+    delay_s: float = 0.0  # team message delay [s]
+    loss: float = 0.0  # probability that one recipient loses one message
+    strategy_params: dict[str, Any] = field(default_factory=dict)
+    sample_period_s: float = 1.0  # time series period [s]
+
+    def validate(self) -> None:
+        names = REGISTRY.names()
+        if self.strategy.lower() not in names:
+            raise ConfigError(f"unknown strategy '{self.strategy}' (valid: {', '.join(names)})")
+        self.strategy = self.strategy.lower()
+        if not (isinstance(self.robots, int) and self.robots >= 1):
+            raise ConfigError(f"robots must be an integer >= 1, got {self.robots!r}")
+        if not (self.duration_s > 0 and math.isfinite(self.duration_s)):
+            raise ConfigError(f"duration must be a finite number of seconds > 0, got {self.duration_s}")
+        if not (self.delay_s >= 0 and math.isfinite(self.delay_s)):
+            raise ConfigError(f"delay must be >= 0 s, got {self.delay_s}")
+        if not 0.0 <= self.loss <= 1.0:
+            raise ConfigError(f"loss must be a probability in [0, 1], got {self.loss}")
+        if not self.sample_period_s > 0:
+            raise ConfigError(f"sample period must be > 0 s, got {self.sample_period_s}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+class _Robot:
+    """One simulated robot; also the RobotContext its policy sees."""
+
+    def __init__(self, engine: BatchRun, index: int, start_vertex: int, policy: Policy, rng):
+        self.engine = engine
+        self.robot = index
+        self.n_robots = engine.config.robots
+        self.patrol_map = engine.patrol_map
+        self.rng = rng
+        self.policy = policy
+        self._start_vertex = start_vertex
+        self._current = start_vertex
+        position = engine.patrol_map.positions[start_vertex].astype(float)
+        self._start_position = (float(position[0]), float(position[1]))
+        # Current straight segment: from p0 at t0 to p1 at t1.
+        self.p0 = position.copy()
+        self.p1 = position.copy()
+        self.t0 = self.t1 = 0.0
+        self.route: list[int] = []  # waypoints still to reach, the goal last
+        self.goal: int | None = None
+        self.travelled_m = 0.0
+        self.travel_time_s = 0.0
+        self.wake_pending = False
+
+    # --- RobotContext ---
+    @property
+    def now(self) -> float:
+        return self.engine.now
+
+    @property
+    def current_vertex(self) -> int:
+        return self._current
+
+    @property
+    def start_vertex(self) -> int:
+        return self._start_vertex
+
+    @property
+    def start_position(self) -> tuple[float, float]:
+        return self._start_position
+
+    @property
+    def position(self) -> tuple[float, float]:
+        p = self.position_at(self.engine.now)
+        return (float(p[0]), float(p[1]))
+
+    @property
+    def average_speed(self) -> float:
+        if self.travel_time_s > 0:
+            return self.travelled_m / self.travel_time_s
+        return self.patrol_map.settings.nominal_speed
+
+    def send(self, message) -> None:
+        self.engine.bus.send(self.robot, message, self.engine.now, self.engine.schedule_delivery)
+
+    def wake_at(self, time: float) -> None:
+        self.engine.push(max(time, self.engine.now), _WAKE, self.robot)
+        self.wake_pending = True
+
+    # --- motion ---
+    def position_at(self, t: float) -> np.ndarray:
+        if t >= self.t1 or self.t1 <= self.t0:
+            return self.p1
+        return self.p0 + (self.p1 - self.p0) * ((t - self.t0) / (self.t1 - self.t0))
+
+
+class BatchRun:
+    """One batch run. `run()` returns the summary; the recorder holds visits and time series."""
+
+    def __init__(self, config: RunConfig, patrol_map=None):
+        config.validate()
+        self.config = config
+        self.patrol_map = patrol_map if patrol_map is not None else load_map(config.map)
+        graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
+        self.graph = graph
+        self.speed = float(self.patrol_map.settings.nominal_speed)
+        self.now = 0.0
+        self._events: list = []
+        self._seq = 0
+        seed = int(config.seed)
+        self.bus = TeamBus(config.robots, config.delay_s, config.loss, np.random.default_rng([seed, 1]))
+        cls = REGISTRY.get(config.strategy)
+        starts = start_vertices(self.patrol_map, config.robots)
+        self.robots = [
+            _Robot(self, i, starts[i], cls(config.strategy_params), np.random.default_rng([seed, 2, i]))
+            for i in range(config.robots)
+        ]
+        self.recorder = RunRecorder(
+            self.patrol_map, config.robots, sample_period_s=config.sample_period_s
+        )
+        self._last_positions_time = -1.0
+
+    # --- event queue ---
+    def push(self, time: float, kind: int, payload) -> None:
+        self._seq += 1
+        heapq.heappush(self._events, (time, kind, self._seq, payload))
+
+    def schedule_delivery(self, time: float, message, recipients: list[int]) -> None:
+        self.push(time, _DELIVER, (message, recipients))
+
+    def positions(self, t: float) -> np.ndarray:
+        return np.array([r.position_at(t) for r in self.robots])
+
+    def _deliver_ready(self) -> None:
+        ready = self.bus.ready
+        robots = self.robots
+        while ready:
+            message, recipients = ready.popleft()
+            for r in recipients:
+                robot = robots[r]
+                robot.policy.on_message(message, robot)
+            self.bus.stats.delivered += len(recipients)
+
+    # --- robot logic ---
+    def _decide(self, robot: _Robot) -> None:
+        robot.wake_pending = False
+        try:
+            goal = robot.policy.decide(robot)
+        except Exception as err:  # a strategy bug must name the strategy, robot and time
+            raise RuntimeError(
+                f"strategy '{self.config.strategy}' failed for robot {robot.robot} at "
+                f"t = {self.now:.2f} s: {type(err).__name__}: {err}"
+            ) from err
+        if goal is None:
+            robot.goal = None
+            if not robot.wake_pending:
+                robot.wake_at(self.now + DEFAULT_RETRY_S)
+            return
+        goal = int(goal)
+        if not 0 <= goal < self.graph.num_vertices:
+            raise RuntimeError(
+                f"strategy '{self.config.strategy}' chose unknown vertex {goal} for robot {robot.robot}"
+            )
+        robot.goal = goal
+        here = robot.current_vertex
+        robot.route = [here] if goal == here else self.graph.path(here, goal)[1:]
+        self._start_segment(robot)
+
+    def _start_segment(self, robot: _Robot) -> None:
+        here, nxt = robot.current_vertex, robot.route[0]
+        robot.p0 = self.patrol_map.positions[here].astype(float)
+        robot.p1 = self.patrol_map.positions[nxt].astype(float)
+        robot.t0 = self.now
+        if nxt == here:
+            duration = STAY_S
+        else:
+            length = self.graph.edge_length(here, nxt)
+            duration = length / self.speed
+            robot.travelled_m += length
+            robot.travel_time_s += duration
+        robot.t1 = self.now + duration
+        self.push(robot.t1, _ARRIVE, robot.robot)
+
+    def _arrive(self, robot: _Robot) -> None:
+        vertex = robot.route.pop(0)
+        robot._current = vertex
+        robot.p0 = robot.p1
+        if robot.route:
+            self._start_segment(robot)  # pass-through vertex: not a visit
+            return
+        self.recorder.record_visit(robot.robot, vertex, self.now)
+        robot.goal = None
+        self._decide(robot)
+
+    def _record_positions(self, t: float) -> None:
+        if t > self._last_positions_time:
+            self.recorder.record_positions(t, self.positions(t))
+            self._last_positions_time = t
+
+    # --- main loop ---
+    def run(self, progress: Callable[[float], None] | None = None) -> dict:
+        """Simulate until duration_s. `progress(now)` is called now and then."""
+        end = float(self.config.duration_s)
+        self._record_positions(0.0)
+        for robot in self.robots:
+            robot.policy.start(robot)
+        for robot in self.robots:
+            self.recorder.record_visit(robot.robot, robot.current_vertex, 0.0)
+        self._deliver_ready()
+        for robot in self.robots:
+            self._decide(robot)
+            self._deliver_ready()
+        next_progress = 0.0
+        events = self._events
+        while events and events[0][0] <= end:
+            time, kind, _, payload = heapq.heappop(events)
+            if time > self.now:
+                self._record_positions(time)
+                self.now = time
+            if kind == _ARRIVE:
+                self._arrive(self.robots[payload])
+            elif kind == _WAKE:
+                robot = self.robots[payload]
+                if robot.goal is None:
+                    self._decide(robot)
+            else:
+                message, recipients = payload
+                self.bus.ready.append((message, recipients))
+            self._deliver_ready()
+            if progress is not None and self.now >= next_progress:
+                progress(self.now)
+                next_progress = self.now + end / 200.0
+        self._record_positions(end)
+        self.now = end
+        if progress is not None:
+            progress(end)
+        return self.summary()
+
+    def summary(self) -> dict:
+        summary = self.recorder.summary(self.now)
+        summary["messages"] = asdict(self.bus.stats)
+        return summary
