@@ -8,7 +8,9 @@ import sys
 from . import __version__
 
 # (name, module, help): modules define add_arguments(parser) and run(args) -> int.
-SUBCOMMANDS: list[tuple[str, str, str]] = []
+SUBCOMMANDS: list[tuple[str, str, str]] = [
+    ("maps", "maps_cli", "Show map statistics"),
+]
 
 
 class CliError(Exception):

@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
 import tpuaf_core
 
 
@@ -33,6 +32,8 @@ class MapSettings:
     # Start positions per team size: vertex ids, or poses [m] (x, y) snapped to the nearest vertex.
     initial_vertices: dict[int, list[int]] = field(default_factory=dict)
     initial_poses: dict[int, list[tuple[float, float]]] = field(default_factory=dict)
+    # Named alternative pose sets, e.g. "4_a" from patrolling_sim's `grid_4_a` key.
+    initial_pose_variants: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
 
 
 @dataclass
@@ -52,6 +53,20 @@ class PatrolMap:
     settings: MapSettings = field(default_factory=MapSettings)
     source: Path | None = None
     occupancy: Any = None  # tpuaf.maps.occupancy.OccupancyGrid, or None (generated on demand)
+    # For a generated occupancy grid (no image): corridor width [m] and extent
+    # (x_min, y_min, x_max, y_max) [m]; None = defaults of `corridors_from_graph`.
+    corridor_width: float | None = None
+    bounds: tuple[float, float, float, float] | None = None
+    description: str = ""
+    notes: list[str] = field(default_factory=list)  # import remarks (e.g. parallel edges dropped)
+
+    def occupancy_grid(self) -> Any:
+        """The occupancy grid: the map's image, or corridors generated from the graph (cached)."""
+        if self.occupancy is None:
+            from .occupancy import corridors_from_graph
+
+            self.occupancy = corridors_from_graph(self)
+        return self.occupancy
 
     @cached_property
     def graph(self) -> tpuaf_core.PatrolGraph:

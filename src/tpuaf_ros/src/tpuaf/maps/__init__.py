@@ -1,0 +1,109 @@
+"""Patrol maps: built-in maps, our map folders, patrolling_sim imports (SPEC section 7)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .model import MapError, MapSettings, PatrolMap
+from .occupancy import OccupancyGrid, corridors_from_graph, load_occupancy
+
+__all__ = [
+    "MapError",
+    "MapSettings",
+    "OccupancyGrid",
+    "PatrolMap",
+    "builtin_map_names",
+    "corridors_from_graph",
+    "load_map",
+    "load_occupancy",
+    "map_summary",
+    "start_vertices",
+]
+
+
+def builtin_map_names() -> list[str]:
+    from .builtin import GENERATORS
+
+    return sorted(GENERATORS)
+
+
+def load_map(name_or_path: str | Path) -> PatrolMap:
+    """A built-in map by name (`grid`, `lab`), or a path: a folder of ours (with map.yaml), a
+    patrolling_sim folder (with a .graph file) or a .graph file. Every map is checked
+    (connected graph, valid lengths) and comes with an occupancy grid (from its image, or
+    corridors generated from the graph)."""
+    from .builtin import GENERATORS, REPO_MAPS_DIR
+    from .mapfile import load_map_folder
+    from .patrolling_sim import load_patrolling_sim
+
+    text = str(name_or_path)
+    if isinstance(name_or_path, str) and text in GENERATORS:
+        folder = REPO_MAPS_DIR / text
+        pm = load_map_folder(folder) if (folder / "map.yaml").is_file() else GENERATORS[text]()
+    else:
+        path = Path(name_or_path).expanduser()
+        if path.is_dir() and (path / "map.yaml").is_file():
+            pm = load_map_folder(path)
+        elif path.is_dir() and any(path.glob("*.graph")):
+            pm = load_patrolling_sim(path)
+        elif path.is_file() and path.suffix == ".graph":
+            pm = load_patrolling_sim(path)
+        elif path.is_file() and path.name == "map.yaml":
+            pm = load_map_folder(path.parent)
+        elif path.exists():
+            raise MapError(
+                f"{path}: not a map (expected a folder with map.yaml, a patrolling_sim folder "
+                "with a .graph file, or a .graph file)"
+            )
+        else:
+            raise MapError(
+                f"unknown map '{text}': built-in maps are {', '.join(builtin_map_names())}; "
+                "otherwise give the path of a map folder (map.yaml), a patrolling_sim folder "
+                "or a .graph file"
+            )
+    pm.graph  # noqa: B018 - validate now
+    pm.occupancy_grid()
+    return pm
+
+
+def start_vertices(patrol_map: PatrolMap, n_robots: int) -> list[int]:
+    """Start vertex (graph index) of each robot.
+
+    1. the map's `initial_vertices[n_robots]` (vertex ids);
+    2. else its `initial_poses[n_robots]` [m], each snapped to the nearest vertex not yet taken
+       (robots in order), so that start vertices stay distinct;
+    3. else a deterministic spread: farthest-point sampling on shortest-path distances starting
+       at vertex index 0 (ties to the lowest index).
+    Vertices are distinct while n_robots <= number of vertices; beyond that the sequence wraps
+    around (robot k gets the start of robot k - n_vertices), so some robots share a start.
+    """
+    if n_robots <= 0:
+        raise MapError(f"need at least one robot, got {n_robots}")
+    s = patrol_map.settings
+    n = patrol_map.num_vertices
+    if n_robots in s.initial_vertices:
+        return [patrol_map.index_of(v) for v in s.initial_vertices[n_robots]]
+    if n_robots in s.initial_poses:
+        taken: list[int] = []
+        for x, y in s.initial_poses[n_robots]:
+            d = np.hypot(patrol_map.positions[:, 0] - x, patrol_map.positions[:, 1] - y)
+            if len(taken) < n:
+                d[taken] = np.inf
+            taken.append(int(np.argmin(d)))
+        return taken
+    dist = np.asarray(patrol_map.graph.distances, dtype=float)
+    chosen = [0]
+    nearest = dist[0].copy()
+    while len(chosen) < min(n_robots, n):
+        nxt = int(np.argmax(nearest))
+        chosen.append(nxt)
+        nearest = np.minimum(nearest, dist[nxt])
+    return [chosen[k % n] for k in range(n_robots)]
+
+
+def map_summary(patrol_map: PatrolMap) -> dict:
+    from .analysis import map_summary as _summary
+
+    return _summary(patrol_map)

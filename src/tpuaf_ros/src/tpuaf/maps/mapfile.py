@@ -1,0 +1,343 @@
+"""Our own map format (docs/MAPS.md): a folder with `map.yaml` and a graph file `graph.yaml`.
+
+map.yaml:
+    name: grid                      # required
+    description: "..."              # optional
+    graph: graph.yaml               # optional, default graph.yaml
+    occupancy: occupancy.yaml       # optional map_server YAML; else corridors from the graph
+    corridor_width: 1.5             # [m] optional, for the generated corridors
+    bounds: [0, 0, 25.8, 25.8]      # [m] optional extent of the generated corridors
+    settings: {...}                 # any MapSettings field (see model.py)
+
+graph.yaml:
+    vertices:
+      - {id: 0, x: 1.425, y: 24.375}                    # [m]; optional importance, initial_uncertainty
+    edges:
+      - [0, 1]                                          # length = Euclidean
+      - [1, 2, 6.0]                                     # length [m]
+
+Unknown keys are refused; every error names the file and line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from .model import MapError, MapSettings, PatrolMap
+from .occupancy import load_occupancy
+
+
+class _LineDict(dict):
+    line = 0
+
+
+class _LineList(list):
+    line = 0
+
+
+class _Loader(yaml.SafeLoader):
+    """Safe YAML loader that records the line of every mapping and sequence and refuses
+    duplicate keys."""
+
+
+def _construct_map(loader: _Loader, node: yaml.MappingNode) -> _LineDict:
+    out = _LineDict()
+    out.line = node.start_mark.line + 1
+    for key_node, value_node in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        if key in out:
+            raise MapError(f"{node.start_mark.name}:{key_node.start_mark.line + 1}: duplicate key {key!r}")
+        out[key] = loader.construct_object(value_node, deep=True)
+    return out
+
+
+def _construct_seq(loader: _Loader, node: yaml.SequenceNode) -> _LineList:
+    out = _LineList(loader.construct_object(child, deep=True) for child in node.value)
+    out.line = node.start_mark.line + 1
+    return out
+
+
+_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_map)
+_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_seq)
+
+
+def read_yaml(path: Path) -> Any:
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise MapError(f"{path}: cannot read: {err.strerror}") from None
+    try:
+        loader = _Loader(text)
+        loader.name = str(path)
+        try:
+            return loader.get_single_data()
+        finally:
+            loader.dispose()
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f":{mark.line + 1}" if mark is not None else ""
+        raise MapError(f"{path}{where}: invalid YAML: {getattr(err, 'problem', None) or err}") from None
+
+
+def _at(path: Path, node: Any) -> str:
+    line = getattr(node, "line", 0)
+    return f"{path}:{line}" if line else str(path)
+
+
+def _num(path: Path, node: Any, key: str, value: Any, *, minimum: float | None = None,
+         positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise MapError(f"{_at(path, node)}: '{key}' must be a finite number, got {value!r}")
+    if positive and not value > 0:
+        raise MapError(f"{_at(path, node)}: '{key}' must be > 0, got {value}")
+    if minimum is not None and value < minimum:
+        raise MapError(f"{_at(path, node)}: '{key}' must be >= {minimum}, got {value}")
+    return float(value)
+
+
+def _check_keys(path: Path, node: Any, allowed: set[str], what: str) -> None:
+    if not isinstance(node, dict):
+        raise MapError(f"{_at(path, node)}: {what} must be a mapping, got {type(node).__name__}")
+    unknown = sorted(str(k) for k in set(node) - allowed)
+    if unknown:
+        raise MapError(
+            f"{_at(path, node)}: unknown key(s) {', '.join(unknown)} in {what} "
+            f"(valid: {', '.join(sorted(allowed))})"
+        )
+
+
+MAP_KEYS = {"name", "description", "graph", "occupancy", "corridor_width", "bounds", "settings"}
+SETTINGS_KEYS = {f.name for f in dataclasses.fields(MapSettings)} - {"initial_pose_variants"}
+VERTEX_KEYS = {"id", "x", "y", "importance", "initial_uncertainty"}
+
+
+def _parse_settings(path: Path, node: Any) -> MapSettings:
+    _check_keys(path, node, SETTINGS_KEYS, "settings")
+    s = MapSettings()
+    positive = {"nominal_speed", "sensing_radius", "goal_tolerance", "robot_radius"}
+    for key in ("nominal_speed", "sensing_radius", "sensing_peak", "interference_distance",
+                "goal_tolerance", "robot_radius", "default_importance",
+                "default_initial_uncertainty"):
+        if key in node:
+            setattr(s, key, _num(path, node, key, node[key], minimum=0.0,
+                                 positive=key in positive))
+    if "growth_coefficients" in node:
+        coeffs = node["growth_coefficients"]
+        if not isinstance(coeffs, list) or not coeffs:
+            raise MapError(f"{_at(path, node)}: 'growth_coefficients' must be a non-empty list")
+        s.growth_coefficients = [_num(path, coeffs, "growth_coefficients", c, minimum=0.0)
+                                 for c in coeffs]
+    if "initial_vertices" in node:
+        iv = node["initial_vertices"]
+        if not isinstance(iv, dict):
+            raise MapError(f"{_at(path, node)}: 'initial_vertices' must map team size -> ids")
+        for team, ids in iv.items():
+            if not isinstance(team, int) or team <= 0 or not isinstance(ids, list) or \
+                    len(ids) != team or not all(isinstance(v, int) for v in ids):
+                raise MapError(f"{_at(path, ids if isinstance(ids, list) else iv)}: "
+                               f"initial_vertices[{team!r}] must list {team!r} vertex ids")
+            s.initial_vertices[team] = list(ids)
+    if "initial_poses" in node:
+        ip = node["initial_poses"]
+        if not isinstance(ip, dict):
+            raise MapError(f"{_at(path, node)}: 'initial_poses' must map team size -> [[x, y], ...]")
+        for team, poses in ip.items():
+            ok = isinstance(team, int) and team > 0 and isinstance(poses, list) and \
+                len(poses) == team and all(isinstance(p, list) and len(p) == 2 for p in poses)
+            if not ok:
+                raise MapError(f"{_at(path, poses if isinstance(poses, list) else ip)}: "
+                               f"initial_poses[{team!r}] must list {team!r} [x, y] pairs [m]")
+            s.initial_poses[team] = [
+                (_num(path, p, "initial_poses", p[0]), _num(path, p, "initial_poses", p[1]))
+                for p in poses
+            ]
+    return s
+
+
+def parse_graph_yaml(path: Path, settings: MapSettings) -> dict:
+    doc = read_yaml(path)
+    _check_keys(path, doc, {"vertices", "edges"}, "graph file")
+    verts = doc.get("vertices")
+    if not isinstance(verts, list) or not verts:
+        raise MapError(f"{_at(path, doc)}: 'vertices' must be a non-empty list")
+    ids: list[int] = []
+    pos: list[tuple[float, float]] = []
+    imp: list[float] = []
+    x0: list[float] = []
+    for v in verts:
+        _check_keys(path, v, VERTEX_KEYS, "vertex")
+        for key in ("id", "x", "y"):
+            if key not in v:
+                raise MapError(f"{_at(path, v)}: vertex without '{key}'")
+        vid = v["id"]
+        if isinstance(vid, bool) or not isinstance(vid, int):
+            raise MapError(f"{_at(path, v)}: vertex id must be an integer, got {vid!r}")
+        if vid in ids:
+            raise MapError(f"{_at(path, v)}: duplicate vertex id {vid}")
+        ids.append(vid)
+        pos.append((_num(path, v, "x", v["x"]), _num(path, v, "y", v["y"])))
+        imp.append(_num(path, v, "importance", v.get("importance", settings.default_importance),
+                        minimum=0.0))
+        x0.append(_num(path, v, "initial_uncertainty",
+                       v.get("initial_uncertainty", settings.default_initial_uncertainty),
+                       minimum=0.0))
+    index = {vid: i for i, vid in enumerate(ids)}
+    edges_node = doc.get("edges")
+    if not isinstance(edges_node, list):
+        raise MapError(f"{_at(path, doc)}: 'edges' must be a list of [u, v] or [u, v, length_m]")
+    edges: list[tuple[int, int, float]] = []
+    seen: dict[tuple[int, int], int] = {}
+    for e in edges_node:
+        if not isinstance(e, list) or len(e) not in (2, 3):
+            raise MapError(f"{_at(path, e if isinstance(e, list) else edges_node)}: an edge is "
+                           f"[u, v] or [u, v, length_m], got {e!r}")
+        u, w = e[0], e[1]
+        for vid in (u, w):
+            if vid not in index:
+                raise MapError(f"{_at(path, e)}: edge {u}-{w} names unknown vertex {vid!r}")
+        if u == w:
+            raise MapError(f"{_at(path, e)}: self-loop at vertex {u}")
+        key = (min(index[u], index[w]), max(index[u], index[w]))
+        if key in seen:
+            raise MapError(f"{_at(path, e)}: edge {u}-{w} repeats the edge of line {seen[key]}")
+        seen[key] = e.line
+        length = math.nan
+        if len(e) == 3:
+            length = _num(path, e, "length", e[2], positive=True)
+        edges.append((index[u], index[w], length))
+    return {"ids": ids, "positions": np.array(pos, dtype=float), "importance": np.array(imp),
+            "initial": np.array(x0), "edges": edges}
+
+
+def load_map_folder(folder: str | Path) -> PatrolMap:
+    """Load one of our map folders (with map.yaml)."""
+    folder = Path(folder)
+    path = folder / "map.yaml"
+    if not path.is_file():
+        raise MapError(f"{folder}: no map.yaml (not a tpuaf map folder)")
+    doc = read_yaml(path)
+    _check_keys(path, doc, MAP_KEYS, "map.yaml")
+    name = doc.get("name")
+    if not isinstance(name, str) or not name:
+        raise MapError(f"{_at(path, doc)}: 'name' (a non-empty string) is required")
+    settings = _parse_settings(path, doc.get("settings", _LineDict()))
+    graph_name = doc.get("graph", "graph.yaml")
+    graph_path = folder / str(graph_name)
+    if not graph_path.is_file():
+        raise MapError(f"{_at(path, doc)}: graph file '{graph_name}' not found in {folder}")
+    g = parse_graph_yaml(graph_path, settings)
+    occupancy = None
+    if doc.get("occupancy") is not None:
+        occ_path = folder / str(doc["occupancy"])
+        if not occ_path.is_file():
+            raise MapError(f"{_at(path, doc)}: occupancy file '{doc['occupancy']}' not found")
+        occupancy = load_occupancy(occ_path)
+    corridor = doc.get("corridor_width")
+    if corridor is not None:
+        corridor = _num(path, doc, "corridor_width", corridor, positive=True)
+    bounds = doc.get("bounds")
+    if bounds is not None:
+        if not isinstance(bounds, list) or len(bounds) != 4:
+            raise MapError(f"{_at(path, doc)}: 'bounds' must be [x_min, y_min, x_max, y_max] [m]")
+        bounds = tuple(_num(path, bounds, "bounds", b) for b in bounds)
+        if not (bounds[0] < bounds[2] and bounds[1] < bounds[3]):
+            raise MapError(f"{_at(path, doc)}: 'bounds' must have x_min < x_max and y_min < y_max")
+    for team, ids in settings.initial_vertices.items():
+        for vid in ids:
+            if vid not in g["ids"]:
+                raise MapError(f"{path}: initial_vertices[{team}] names unknown vertex {vid}")
+    pm = PatrolMap(
+        name=name,
+        vertex_ids=g["ids"],
+        positions=g["positions"],
+        edges=g["edges"],
+        importance=g["importance"],
+        initial_uncertainty=g["initial"],
+        settings=settings,
+        source=folder,
+        occupancy=occupancy,
+        corridor_width=corridor,
+        bounds=bounds,
+        description=str(doc.get("description", "")),
+    )
+    pm.graph  # noqa: B018 - validates (connected, lengths) now, naming the map folder
+    return pm
+
+
+def _flow_list(values: list) -> str:
+    return "[" + ", ".join(_fmt(v) for v in values) + "]"
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return repr(round(v, 6))
+    return str(v)
+
+
+def save_map_folder(patrol_map: PatrolMap, folder: str | Path, *, occupancy_file: bool = False,
+                    header: str = "") -> Path:
+    """Write `patrol_map` in our format (map.yaml + graph.yaml [+ occupancy.yaml/.pgm])."""
+    from .occupancy import write_occupancy
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    s = patrol_map.settings
+    lines = [f"# {line}" for line in header.splitlines()] if header else []
+    lines.append(f"name: {patrol_map.name}")
+    if patrol_map.description:
+        lines.append(f"description: {yaml.safe_dump(patrol_map.description, width=1000).splitlines()[0]}")
+    lines.append("graph: graph.yaml")
+    if occupancy_file:
+        lines.append("occupancy: occupancy.yaml")
+    if patrol_map.corridor_width is not None:
+        lines.append(f"corridor_width: {_fmt(float(patrol_map.corridor_width))}  # [m]")
+    if patrol_map.bounds is not None:
+        lines.append(f"bounds: {_flow_list([float(b) for b in patrol_map.bounds])}  # [m]")
+    lines.append("settings:")
+    lines += [
+        f"  nominal_speed: {_fmt(s.nominal_speed)}  # [m/s]",
+        f"  sensing_radius: {_fmt(s.sensing_radius)}  # r [m], Eq. 1",
+        f"  sensing_peak: {_fmt(s.sensing_peak)}  # G, Eq. 1",
+        f"  interference_distance: {_fmt(s.interference_distance)}  # d_if [m]",
+        f"  goal_tolerance: {_fmt(s.goal_tolerance)}  # [m]",
+        f"  robot_radius: {_fmt(s.robot_radius)}  # [m]",
+        f"  growth_coefficients: {_flow_list(list(s.growth_coefficients))}  # a_l of g(X), Eq. 2",
+        f"  default_importance: {_fmt(s.default_importance)}  # C_j",
+        f"  default_initial_uncertainty: {_fmt(s.default_initial_uncertainty)}  # X0_j",
+    ]
+    if s.initial_vertices:
+        lines.append("  initial_vertices:  # team size: vertex ids")
+        lines += [f"    {k}: {_flow_list(v)}" for k, v in sorted(s.initial_vertices.items())]
+    if s.initial_poses:
+        lines.append("  initial_poses:  # team size: [[x, y], ...] [m]")
+        lines += [f"    {k}: [{', '.join(_flow_list(list(p)) for p in v)}]"
+                  for k, v in sorted(s.initial_poses.items())]
+    (folder / "map.yaml").write_text("\n".join(lines) + "\n")
+
+    g = ["# Patrol graph: vertices [m] (optional importance C, initial_uncertainty X0),",
+         "# edges [u, v] or [u, v, length_m] (default length: Euclidean).", "vertices:"]
+    for i, vid in enumerate(patrol_map.vertex_ids):
+        x, y = patrol_map.positions[i]
+        extra = ""
+        if patrol_map.importance[i] != s.default_importance:
+            extra += f", importance: {_fmt(float(patrol_map.importance[i]))}"
+        if patrol_map.initial_uncertainty[i] != s.default_initial_uncertainty:
+            extra += f", initial_uncertainty: {_fmt(float(patrol_map.initial_uncertainty[i]))}"
+        g.append(f"  - {{id: {vid}, x: {_fmt(float(x))}, y: {_fmt(float(y))}{extra}}}")
+    g.append("edges:")
+    for u, v, length in patrol_map.edges:
+        a, b = patrol_map.vertex_ids[u], patrol_map.vertex_ids[v]
+        if length is None or (isinstance(length, float) and math.isnan(length)):
+            g.append(f"  - [{a}, {b}]")
+        else:
+            g.append(f"  - [{a}, {b}, {_fmt(float(length))}]")
+    (folder / "graph.yaml").write_text("\n".join(g) + "\n")
+    if occupancy_file:
+        write_occupancy(patrol_map.occupancy_grid(), folder / "occupancy.yaml")
+    return folder

@@ -1,0 +1,297 @@
+"""Importer for patrolling_sim maps (`<name>.graph` + `<name>.yaml` + image), SPEC section 7.
+
+Graph format: whitespace-separated tokens. Header: vertex count, image width px, image height
+px, resolution m/px, offset x m, offset y m. Then per vertex: id, x px, y px, neighbour count k,
+and k triples (neighbour id, compass direction, edge cost px). Metric coordinates:
+x = x_px * res + offset_x, y = y_px * res + offset_y (y up). Edge length = cost px * res.
+
+Edges are listed in both directions; an edge listed in one direction only is an error. Parallel
+edges (the same pair listed more than once, or with different costs each way) are merged into
+one edge with the shortest cost; each merge is recorded in `PatrolMap.notes`.
+
+Settings of imported maps (the files carry none): 1 m/s, r = 5 m, d_if = 2 m, goal tolerance
+0.4 m, robot radius 0.33 m (the reference simulator's robot), other values MapSettings defaults.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .model import MapError, MapSettings, PatrolMap
+from .occupancy import load_occupancy
+
+IMPORTED_SETTINGS = {
+    "nominal_speed": 1.0,
+    "sensing_radius": 5.0,
+    "interference_distance": 2.0,
+    "goal_tolerance": 0.4,
+    "robot_radius": 0.33,
+}
+
+
+class _Tokens:
+    """Tokens of a text file with their line numbers, for error messages."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        try:
+            text = path.read_text(errors="replace")
+        except OSError as err:
+            raise MapError(f"{path}: cannot read graph file: {err.strerror}") from None
+        self.items: list[tuple[str, int]] = [
+            (tok, lineno)
+            for lineno, line in enumerate(text.splitlines(), start=1)
+            for tok in line.split()
+        ]
+        self.pos = 0
+
+    def where(self, index: int | None = None) -> str:
+        i = self.pos if index is None else index
+        if i < len(self.items):
+            return f"{self.path}:{self.items[i][1]} (token {i + 1})"
+        last = self.items[-1][1] if self.items else 1
+        return f"{self.path}:{last} (end of file)"
+
+    def next(self, what: str) -> str:
+        if self.pos >= len(self.items):
+            raise MapError(f"{self.where()}: file is truncated, expected {what}")
+        tok = self.items[self.pos][0]
+        self.pos += 1
+        return tok
+
+    def integer(self, what: str) -> int:
+        tok = self.next(what)
+        try:
+            return int(tok)
+        except ValueError:
+            raise MapError(f"{self.where(self.pos - 1)}: expected an integer {what}, got {tok!r}") from None
+
+    def number(self, what: str) -> float:
+        tok = self.next(what)
+        try:
+            value = float(tok)
+        except ValueError:
+            raise MapError(f"{self.where(self.pos - 1)}: expected a number {what}, got {tok!r}") from None
+        if not np.isfinite(value):
+            raise MapError(f"{self.where(self.pos - 1)}: {what} must be finite, got {tok!r}")
+        return value
+
+
+_DIRECTIONS = {"N", "S", "E", "W", "NE", "NW", "SE", "SW"}
+
+
+def parse_graph(path: str | Path) -> dict:
+    """Parse a patrolling_sim .graph file. Returns header values, vertices and merged edges."""
+    path = Path(path)
+    tk = _Tokens(path)
+    n = tk.integer("vertex count")
+    if n <= 0:
+        raise MapError(f"{tk.where(0)}: vertex count must be > 0, got {n}")
+    width = tk.integer("image width [px]")
+    height = tk.integer("image height [px]")
+    res = tk.number("resolution [m/px]")
+    if res <= 0:
+        raise MapError(f"{tk.where(3)}: resolution must be > 0, got {res}")
+    off_x = tk.number("offset x [m]")
+    off_y = tk.number("offset y [m]")
+    ids: list[int] = []
+    px: list[tuple[float, float]] = []
+    adjacency: list[list[tuple[int, float, int]]] = []  # (neighbour id, cost px, token index)
+    vertex_token: dict[int, int] = {}
+    for k in range(n):
+        start = tk.pos
+        vid = tk.integer(f"id of vertex {k + 1} of {n}")
+        if vid in vertex_token:
+            raise MapError(f"{tk.where(start)}: duplicate vertex id {vid}")
+        vertex_token[vid] = start
+        x = tk.number(f"x [px] of vertex {vid}")
+        y = tk.number(f"y [px] of vertex {vid}")
+        count = tk.integer(f"neighbour count of vertex {vid}")
+        if count < 0:
+            raise MapError(f"{tk.where(tk.pos - 1)}: negative neighbour count {count}")
+        nbrs = []
+        for _ in range(count):
+            at = tk.pos
+            nb = tk.integer(f"neighbour id of vertex {vid}")
+            direction = tk.next(f"direction to neighbour {nb} of vertex {vid}")
+            if direction.upper() not in _DIRECTIONS:
+                raise MapError(
+                    f"{tk.where(tk.pos - 1)}: expected a compass direction (N, NE, ...) "
+                    f"for edge {vid}-{nb}, got {direction!r}"
+                )
+            cost = tk.number(f"cost [px] of edge {vid}-{nb}")
+            if cost <= 0:
+                raise MapError(f"{tk.where(tk.pos - 1)}: edge {vid}-{nb} has cost {cost} <= 0")
+            nbrs.append((nb, cost, at))
+        ids.append(vid)
+        px.append((x, y))
+        adjacency.append(nbrs)
+    if tk.pos < len(tk.items):
+        raise MapError(
+            f"{tk.where()}: unexpected data after {n} vertices (vertex count mismatch: "
+            f"header says {n})"
+        )
+    index = {v: i for i, v in enumerate(ids)}
+    # Directed costs, merged (shortest) per ordered pair; remember parallels.
+    directed: dict[tuple[int, int], float] = {}
+    notes: list[str] = []
+    parallel: set[tuple[int, int]] = set()
+    for i, nbrs in enumerate(adjacency):
+        for nb, cost, at in nbrs:
+            if nb not in index:
+                raise MapError(f"{tk.where(at)}: vertex {ids[i]} lists unknown neighbour {nb}")
+            j = index[nb]
+            if j == i:
+                raise MapError(f"{tk.where(at)}: vertex {ids[i]} lists itself as a neighbour")
+            if (i, j) in directed:
+                pair = (min(ids[i], nb), max(ids[i], nb))
+                if pair not in parallel:
+                    parallel.add(pair)
+                    notes.append(
+                        f"parallel edge {pair[0]}-{pair[1]} listed more than once: kept the "
+                        "shortest"
+                    )
+                directed[(i, j)] = min(directed[(i, j)], cost)
+            else:
+                directed[(i, j)] = cost
+    edges: list[tuple[int, int, float]] = []
+    for (i, j), cost in directed.items():
+        if (j, i) not in directed:
+            at = next(a for nb, _, a in adjacency[i] if nb == ids[j])
+            raise MapError(
+                f"{tk.where(at)}: asymmetric edge: vertex {ids[i]} lists {ids[j]}, "
+                f"but vertex {ids[j]} does not list {ids[i]}"
+            )
+        if i < j:
+            back = directed[(j, i)]
+            if back != cost:
+                notes.append(
+                    f"edge {ids[i]}-{ids[j]} has cost {cost:g} px one way and {back:g} px the "
+                    "other: kept the shortest"
+                )
+            edges.append((i, j, min(cost, back) * res))
+    return {
+        "n": n,
+        "width_px": width,
+        "height_px": height,
+        "resolution": res,
+        "offset": (off_x, off_y),
+        "ids": ids,
+        "pixels": np.array(px, dtype=float),
+        "positions": np.array(px, dtype=float) * res + np.array([off_x, off_y]),
+        "edges": edges,
+        "notes": notes,
+        "directed_count": sum(len(a) for a in adjacency),
+    }
+
+
+def read_initial_poses(path: str | Path, map_name: str) -> tuple[dict, dict]:
+    """Poses [m] of map `map_name` from a patrolling_sim `initial_poses.txt` (INI, section
+    [InitialPoses], keys `<map>_<N>`, values `[x0, y0, x1, y1, ...]`).
+
+    Returns ({N: [(x, y), ...]}, {"<N>_<suffix>": [(x, y), ...]}) for keys with a suffix.
+    """
+    path = Path(path)
+    try:
+        lines = path.read_text(errors="replace").splitlines()
+    except OSError as err:
+        raise MapError(f"{path}: cannot read initial poses: {err.strerror}") from None
+    poses: dict[int, list[tuple[float, float]]] = {}
+    variants: dict[str, list[tuple[float, float]]] = {}
+    section = None
+    key_re = re.compile(rf"^{re.escape(map_name)}_(\d+)(?:_(\w+))?$")
+    for lineno, raw in enumerate(lines, start=1):
+        line = raw.strip()
+        if not line or line.startswith(("#", ";")):
+            continue
+        if line.startswith("["):
+            if not line.endswith("]"):
+                raise MapError(f"{path}:{lineno}: malformed section header {line!r}")
+            section = line[1:-1].strip()
+            continue
+        m = re.match(r"^([^:=]+)[:=](.*)$", line)
+        if not m:
+            raise MapError(f"{path}:{lineno}: expected 'key: [x0, y0, ...]', got {line!r}")
+        if section != "InitialPoses":
+            continue
+        key, value = m.group(1).strip(), m.group(2).strip()
+        km = key_re.match(key)
+        if not km:
+            continue
+        try:
+            numbers = ast.literal_eval(value)
+            numbers = [float(v) for v in numbers]
+        except (ValueError, SyntaxError, TypeError):
+            raise MapError(f"{path}:{lineno}: '{key}' must be a list of numbers, got {value!r}") from None
+        team = int(km.group(1))
+        if len(numbers) != 2 * team:
+            raise MapError(
+                f"{path}:{lineno}: '{key}' needs {2 * team} numbers (x, y per robot), "
+                f"got {len(numbers)}"
+            )
+        pts = [(numbers[2 * i], numbers[2 * i + 1]) for i in range(team)]
+        if km.group(2):
+            variants[f"{team}_{km.group(2)}"] = pts
+        else:
+            poses[team] = pts
+    return poses, variants
+
+
+def find_graph_file(folder: Path) -> Path:
+    graphs = sorted(folder.glob("*.graph"))
+    if not graphs:
+        raise MapError(f"{folder}: no .graph file (not a patrolling_sim map folder)")
+    preferred = folder / f"{folder.name}.graph"
+    if preferred in graphs:
+        return preferred
+    if len(graphs) > 1:
+        names = ", ".join(p.name for p in graphs)
+        raise MapError(f"{folder}: several .graph files ({names}); pass the one to use")
+    return graphs[0]
+
+
+def load_patrolling_sim(path: str | Path) -> PatrolMap:
+    """Import a patrolling_sim map: a folder holding `<name>.graph`, or the .graph file itself.
+
+    The map_server YAML is `<name>.yaml` beside the graph; when the image it names does not
+    exist, `<name>.pgm` / `<name>.png` beside it is used (ctcv's YAML names `ctcv_map.pgm`).
+    `initial_poses.txt` is read from the folder or its parent when present.
+    """
+    path = Path(path)
+    graph_file = path if path.is_file() else find_graph_file(path)
+    folder = graph_file.parent
+    name = graph_file.stem
+    g = parse_graph(graph_file)
+    yaml_file = folder / f"{name}.yaml"
+    if not yaml_file.is_file():
+        raise MapError(f"{graph_file}: map YAML {yaml_file.name} not found beside it")
+    occ = load_occupancy(
+        yaml_file, image_fallbacks=(folder / f"{name}.pgm", folder / f"{name}.png")
+    )
+    settings = MapSettings(**IMPORTED_SETTINGS)
+    for candidate in (folder / "initial_poses.txt", folder.parent / "initial_poses.txt"):
+        if candidate.is_file():
+            settings.initial_poses, settings.initial_pose_variants = read_initial_poses(
+                candidate, name
+            )
+            break
+    n = g["n"]
+    pm = PatrolMap(
+        name=name,
+        vertex_ids=g["ids"],
+        positions=g["positions"],
+        edges=g["edges"],
+        importance=np.full(n, settings.default_importance),
+        initial_uncertainty=np.full(n, settings.default_initial_uncertainty),
+        settings=settings,
+        source=graph_file,
+        occupancy=occ,
+        description=f"patrolling_sim map '{name}' imported from {folder}",
+        notes=list(g["notes"]),
+    )
+    pm.graph  # noqa: B018 - validates connectivity now, with the file named in the error
+    return pm
