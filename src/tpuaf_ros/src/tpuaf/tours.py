@@ -162,7 +162,9 @@ def _adjacency(graph: Any) -> dict[int, dict[int, float]]:
     return adj
 
 
-def _dijkstra(adj: dict[int, dict[int, float]], source: int, allowed: set[int]) -> tuple[dict, dict]:
+def _dijkstra(
+    adj: dict[int, dict[int, float]], source: int, allowed: set[int]
+) -> tuple[dict, dict]:
     dist = {source: 0.0}
     prev: dict[int, int] = {}
     heap = [(0.0, source)]
@@ -217,7 +219,9 @@ def walk_length(graph: Any, walk: list[int]) -> float:
     """Length [m] of the closed walk (edges between consecutive entries, and last -> first)."""
     if len(walk) < 2:
         return 0.0
-    return float(sum(graph.edge_length(walk[i], walk[(i + 1) % len(walk)]) for i in range(len(walk))))
+    return float(
+        sum(graph.edge_length(walk[i], walk[(i + 1) % len(walk)]) for i in range(len(walk)))
+    )
 
 
 def walk_idleness(
@@ -407,16 +411,16 @@ def partition_tours(patrol_map: Any, n_robots: int, max_moves: int = 400) -> Par
     return _cached(("partition", n_robots, max_moves), patrol_map, compute)
 
 
-def assign_parts(partition: Partition, start_vertices: list[int], distances: np.ndarray) -> list[int]:
+def assign_parts(
+    partition: Partition, start_vertices: list[int], distances: np.ndarray
+) -> list[int]:
     """Part index per robot: minimum total distance from the robots' start vertices to their
     parts, each part getting its `robots_per_part` robots (Hungarian assignment)."""
     from scipy.optimize import linear_sum_assignment
 
     slots = [p for p, m in enumerate(partition.robots_per_part) for _ in range(m)]
     dist = np.asarray(distances)
-    cost = np.array(
-        [[dist[s, partition.parts[p]].min() for p in slots] for s in start_vertices]
-    )
+    cost = np.array([[dist[s, partition.parts[p]].min() for p in slots] for s in start_vertices])
     rows, cols = linear_sum_assignment(cost)
     out = [0] * len(start_vertices)
     for r, c in zip(rows, cols, strict=True):
@@ -459,7 +463,11 @@ def reference_tours(patrol_map: Any, n_robots: int, speed: float) -> dict[str, A
         "avg_idleness_time_s": p_time,
         "avg_idleness_visit_s": p_visit,
     }
-    better = "partition" if partition["worst_idleness_s"] < cyclic["worst_idleness_s"] - 1e-9 else "cyclic"
+    better = (
+        "partition"
+        if partition["worst_idleness_s"] < cyclic["worst_idleness_s"] - 1e-9
+        else "cyclic"
+    )
     return {
         "map": patrol_map.name,
         "n_robots": n_robots,

@@ -6,3 +6,7 @@ __all__ = ["REGISTRY", "Parameter", "ParameterError", "Policy", "Registry", "Rob
 
 # Strategy modules register themselves on import.
 from . import tpuaf  # noqa: E402,F401
+
+# isort: split
+# Baselines of BASELINES.md (GBS/SEBS/CBLS, CGG/MSP, DTAG, DTAP, RAND/CR/HCR/HPCC).
+from . import bayesian, cyclic, dtag, dtap, reactive  # noqa: E402,F401
