@@ -154,6 +154,11 @@ class BatchRun:
             self.patrol_map, config.robots, sample_period_s=config.sample_period_s
         )
         self._last_positions_time = -1.0
+        # Segment table of all robots, for vectorised positions.
+        self._p0 = np.array([r.p0 for r in self.robots])
+        self._p1 = self._p0.copy()
+        self._t0 = np.zeros(config.robots)
+        self._t1 = np.zeros(config.robots)
 
     # --- event queue ---
     def push(self, time: float, kind: int, payload) -> None:
@@ -164,7 +169,13 @@ class BatchRun:
         self.push(time, _DELIVER, (message, recipients))
 
     def positions(self, t: float) -> np.ndarray:
-        return np.array([r.position_at(t) for r in self.robots])
+        """True positions of all robots at time t [m], vectorised over robots."""
+        p0, p1 = self._p0, self._p1
+        span = self._t1 - self._t0
+        moving = span > 0
+        fraction = np.ones_like(span)
+        fraction[moving] = np.clip((t - self._t0[moving]) / span[moving], 0.0, 1.0)
+        return p0 + (p1 - p0) * fraction[:, None]
 
     def _deliver_ready(self) -> None:
         ready = self.bus.ready
@@ -214,6 +225,8 @@ class BatchRun:
             robot.travelled_m += length
             robot.travel_time_s += duration
         robot.t1 = self.now + duration
+        i = robot.robot
+        self._p0[i], self._p1[i], self._t0[i], self._t1[i] = robot.p0, robot.p1, robot.t0, robot.t1
         self.push(robot.t1, _ARRIVE, robot.robot)
 
     def _arrive(self, robot: _Robot) -> None:
@@ -270,6 +283,23 @@ class BatchRun:
         if progress is not None:
             progress(end)
         return self.summary()
+
+    def effective_config(self) -> dict:
+        """Everything that determines this run, with defaults resolved (written to config.yaml)."""
+        from . import __version__
+
+        settings = asdict(self.patrol_map.settings)
+        return {
+            "runtime": "batch",
+            "tpuaf_version": __version__,
+            **self.config.to_dict(),
+            "strategy_params": dict(self.robots[0].policy.params),
+            "map_name": self.patrol_map.name,
+            "map_source": str(self.patrol_map.source) if self.patrol_map.source else "built-in",
+            "map_settings": settings,
+            "start_vertices": [int(self.patrol_map.vertex_ids[r.start_vertex]) for r in self.robots],
+            "motion": "straight segments between vertices, edge length / nominal speed each",
+        }
 
     def summary(self) -> dict:
         summary = self.recorder.summary(self.now)

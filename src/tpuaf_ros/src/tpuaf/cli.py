@@ -9,6 +9,7 @@ from . import __version__
 
 # (name, module, help): modules define add_arguments(parser) and run(args) -> int.
 SUBCOMMANDS: list[tuple[str, str, str]] = [
+    ("run", "run_cli", "Run one batch experiment (no ROS) and print its metrics"),
     ("maps", "maps_cli", "Show map statistics"),
 ]
 

@@ -34,31 +34,52 @@ class TeamKnowledge:
         # One straight pass at nominal speed: mean M over the 2r/v crossing is 8G/15 (Eq. 1).
         self.pass_time_s = 2.0 * settings.sensing_radius / settings.nominal_speed
         self.pass_coverage = 8.0 * settings.sensing_peak / 15.0
+        self.pending_visits: list[tuple[int, float]] = []
         self.intentions: dict[int, Intention] = {}
         self.last_heard: dict[int, float] = {}
         self.intention_timeout_s = intention_timeout_s
         self.silence_timeout_s = silence_timeout_s
 
     def record_visit(self, vertex: int, time: float) -> None:
-        if time >= self.last_visit[vertex]:
-            self.last_visit[vertex] = time
-        if time >= self.anchor_time[vertex]:
-            x = self.model.evolve(
-                self.anchor_value[vertex], self.importance[vertex], time - self.anchor_time[vertex]
+        """A visit of `vertex` at `time` [s]; applied lazily (see `_apply_visits`)."""
+        self.pending_visits.append((vertex, time))
+
+    def _apply_visits(self) -> None:
+        """Apply pending visits in time order, vectorised over vertices: each round takes the
+        earliest pending visit of every vertex, grows X to it and applies one pass."""
+        if not self.pending_visits:
+            return
+        pending = sorted(self.pending_visits, key=lambda vt: vt[1])
+        self.pending_visits = []
+        while pending:
+            seen: set[int] = set()
+            now_round, later = [], []
+            for vertex, time in pending:
+                (later if vertex in seen else now_round).append((vertex, time))
+                seen.add(vertex)
+            pending = later
+            vertices = np.fromiter((v for v, _ in now_round), dtype=np.int64, count=len(now_round))
+            times = np.fromiter((t for _, t in now_round), dtype=float, count=len(now_round))
+            np.maximum.at(self.last_visit, vertices, times)
+            fresh = times >= self.anchor_time[vertices]
+            vertices, times = vertices[fresh], times[fresh]
+            if not len(vertices):
+                continue
+            c = self.importance[vertices]
+            x = self.model.evolve_many(self.anchor_value[vertices], c, times - self.anchor_time[vertices])
+            self.anchor_value[vertices] = self.model.evolve_many(
+                x, c - self.pass_coverage, np.full(len(vertices), self.pass_time_s)
             )
-            self.anchor_value[vertex] = self.model.evolve(
-                x, self.importance[vertex] - self.pass_coverage, self.pass_time_s
-            )
-            self.anchor_time[vertex] = time
+            self.anchor_time[vertices] = times
 
     def hear(self, message, now: float) -> None:
         self.last_heard[message.robot] = now
-        if isinstance(message, Visit):
-            self.record_visit(message.vertex, message.time)
+        if type(message) is Visit:
+            self.pending_visits.append((message.vertex, message.time))
             current = self.intentions.get(message.robot)
             if current is not None and current.vertex == message.vertex:
                 del self.intentions[message.robot]
-        elif isinstance(message, Intention):
+        elif type(message) is Intention:
             current = self.intentions.get(message.robot)
             if current is None or message.time >= current.time:
                 self.intentions[message.robot] = message
@@ -72,6 +93,7 @@ class TeamKnowledge:
                 del self.intentions[robot]
 
     def estimate(self, now: float) -> np.ndarray:
+        self._apply_visits()
         return self.model.evolve_many(
             self.anchor_value, self.importance, np.maximum(0.0, now - self.anchor_time)
         )
@@ -141,9 +163,10 @@ class Tpuaf(Policy):
             ctx.send(Visit(ctx.robot, here, now, here))
             return here
         arrival, travel = knowledge.announced(n)
+        estimate = knowledge.estimate(now)  # applies pending visits, so last_visit is current
         result = self._utilities(
             patrol_map.graph, knowledge.importance, knowledge.model, now, here, candidates,
-            ctx.average_speed, knowledge.last_visit, knowledge.estimate(now), arrival, travel,
+            ctx.average_speed, knowledge.last_visit, estimate, arrival, travel,
             self.form, self.any_vertex,
         )
         self.last_utilities = result

@@ -1,0 +1,167 @@
+"""`tpuaf run`: one batch run with a progress bar, a results folder and a summary table."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from .cli import CliError
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got '{text}'") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got '{text}'") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got '{text}'") from None
+    if not value >= 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text}")
+    return value
+
+
+def probability(text: str) -> float:
+    value = non_negative_float(text)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"expected a probability in [0, 1], got {text}")
+    return value
+
+
+def parse_params(items: list[str]) -> dict:
+    """`key=value` pairs; values parsed as YAML scalars (numbers, booleans, strings)."""
+    import yaml
+
+    params = {}
+    for item in items:
+        key, sep, raw = item.partition("=")
+        if not sep or not key:
+            raise CliError(f"--param expects key=value, got '{item}'")
+        params[key.strip()] = yaml.safe_load(raw)
+    return params
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--map", default="grid", help="built-in map name (grid, lab) or a map folder path")
+    p.add_argument("--strategy", default="tpuaf", help="strategy name, any case (see --list)")
+    p.add_argument("--robots", type=positive_int, default=4, help="team size N")
+    p.add_argument("--duration", type=positive_float, default=3600.0, help="simulated seconds")
+    p.add_argument("--seed", type=int, default=0, help="random seed (runs are deterministic)")
+    p.add_argument("--out", type=Path, default=None, help="results folder (default: none written)")
+    p.add_argument("--delay", type=non_negative_float, default=0.0, help="team message delay [s]")
+    p.add_argument("--loss", type=probability, default=0.0, help="message loss probability")
+    p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                   help="strategy parameter (repeatable), e.g. --param utility=eq14")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--list", action="store_true", help="list strategies and maps, then exit")
+
+
+def format_summary(summary: dict) -> str:
+    rows = [
+        ("interval idleness mean I_avg", "idleness_avg_s", "s"),
+        ("interval idleness std I_std", "idleness_std_s", "s"),
+        ("interval idleness min I_min", "idleness_min_s", "s"),
+        ("interval idleness max I_max", "idleness_max_s", "s"),
+        ("instantaneous idleness I_ins (time mean)", "instantaneous_idleness_mean_s", "s"),
+        ("worst idleness", "worst_idleness_s", "s"),
+        ("uncertainty X (time mean)", "uncertainty_mean", ""),
+        ("interferences", "interferences", ""),
+        ("interference rate If_rate", "interference_rate_per_min", "1/min"),
+        ("visits", "visits", ""),
+        ("complete patrol cycles", "complete_cycles", ""),
+    ]
+    width = max(len(r[0]) for r in rows)
+    lines = []
+    for label, key, unit in rows:
+        value = summary.get(key)
+        if value is None:
+            text = "n/a"
+        elif isinstance(value, float):
+            text = f"{value:,.2f}"
+        else:
+            text = f"{value:,}"
+        lines.append(f"  {label:<{width}}  {text:>12} {unit}")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    from .batch import BatchRun, ConfigError, RunConfig
+    from .maps import MapError, builtin_map_names, load_map
+    from .policies import REGISTRY, ParameterError
+
+    if args.list:
+        print("strategies:", ", ".join(REGISTRY.names()))
+        print("maps:", ", ".join(builtin_map_names()), "(or a path to a map folder)")
+        return 0
+    config = RunConfig(
+        map=args.map, strategy=args.strategy, robots=args.robots, duration_s=args.duration,
+        seed=args.seed, delay_s=args.delay, loss=args.loss,
+        strategy_params=parse_params(args.param),
+    )
+    try:
+        patrol_map = load_map(args.map)
+        engine = BatchRun(config, patrol_map)
+    except (MapError, ConfigError, ParameterError) as err:
+        raise CliError(str(err)) from None
+    return execute(engine, args.out, quiet=args.quiet)
+
+
+def execute(engine, out: Path | None, quiet: bool = False) -> int:
+    """Run with a progress bar, write the results folder, print the summary table."""
+    from tqdm import tqdm
+
+    from .results import ResultsWriter
+
+    config = engine.config
+    title = (
+        f"{config.strategy} on {engine.patrol_map.name}, N = {config.robots}, "
+        f"{config.duration_s:g} s, seed {config.seed}"
+    )
+    writer = ResultsWriter(out, engine.effective_config()) if out else None
+    bar = tqdm(total=config.duration_s, unit="sim s", disable=quiet, desc=config.strategy,
+               bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} sim s [{elapsed}<{remaining}]",
+               file=sys.stderr)
+
+    def progress(now: float) -> None:
+        bar.update(now - bar.n)
+        if writer is not None:
+            writer.flush_from(engine.recorder)
+
+    wall = time.perf_counter()
+    interrupted = False
+    try:
+        summary = engine.run(progress)
+    except KeyboardInterrupt:
+        interrupted = True
+        summary = engine.summary()
+    finally:
+        bar.close()
+    wall = time.perf_counter() - wall
+    summary["wall_time_s"] = wall
+    if writer is not None:
+        writer.finish(summary, engine.recorder, interrupted=interrupted)
+    print(f"\n{title}{' (interrupted)' if interrupted else ''}")
+    print(format_summary(summary))
+    print(f"  simulated {engine.now:,.0f} s in {wall:.2f} s wall ({engine.now / max(wall, 1e-9):,.0f}x real time)")
+    if out:
+        print(f"  results: {out}")
+    return 130 if interrupted else 0
