@@ -1,0 +1,475 @@
+"""Run metrics (SPEC section 6), shared by the batch engine, the ROS monitor and bag analysis.
+
+Pure functions work on a visit log; `RunRecorder` accumulates a run live. Times in seconds of
+the run clock, positions in metres, vertices are graph indices.
+
+Conventions (chosen where the SPEC is silent):
+- a visit's interval idleness is the time since the previous visit of its vertex by any robot;
+  the first visit of a vertex only starts its clock (as in patrolling_sim);
+- counted visits of a vertex = its visits minus the first one; complete patrol cycles = the
+  minimum over vertices of counted visits (an unvisited vertex gives 0);
+- I_ins(t) and the worst idleness count a never-visited vertex from the run start;
+- the 1 Hz series samples t = start + k * period, k = 1, 2, ...; time means (I_ins, X) are the
+  means of those samples;
+- an interference episode starts when a pair of live robots comes within d_if (centre to
+  centre); the entry is counted if at least `refractory_s` passed since the pair's last counted
+  episode, otherwise it is merged into that episode. Pairs already within d_if when first seen
+  are not counted (they did not "come" within d_if). Entry times are exact for linear motion
+  between `record_positions` calls.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+# ---------------------------------------------------------------------------------------------
+# Pure functions
+
+
+def interval_idleness(visits: Iterable[Sequence], n_vertices: int) -> list[float]:
+    """Interval idleness samples [s] of a visit log of (time, robot, vertex) rows in time order.
+
+    The first visit of each vertex only starts its clock and yields no sample."""
+    last = [math.nan] * n_vertices
+    out: list[float] = []
+    for time, _robot, vertex in visits:
+        if not math.isnan(last[vertex]):
+            out.append(float(time) - last[vertex])
+        last[vertex] = float(time)
+    return out
+
+
+def idleness_stats(samples: Sequence[float]) -> dict[str, float]:
+    """I_avg, I_std (population), I_min, I_max [s] of interval idleness samples (NaN if none)."""
+    a = np.asarray(samples, dtype=float)
+    if a.size == 0:
+        nan = math.nan
+        return {"avg": nan, "std": nan, "min": nan, "max": nan, "count": 0}
+    return {"avg": float(a.mean()), "std": float(a.std()), "min": float(a.min()),
+            "max": float(a.max()), "count": int(a.size)}
+
+
+def acceleration_ratio(i_avg_1: float, i_avg_n: float, n: int) -> float:
+    """a(N) = I_avg(1) / (N * I_avg(N)); > 1 is super-linear (paper Fig. 8)."""
+    if n <= 0 or not i_avg_n > 0:
+        return math.nan
+    return float(i_avg_1) / (n * float(i_avg_n))
+
+
+def visits_per_vertex(visits: Iterable[Sequence], n_vertices: int) -> list[int]:
+    counts = [0] * n_vertices
+    for _t, _r, vertex in visits:
+        counts[vertex] += 1
+    return counts
+
+
+def complete_cycles(visit_counts: Sequence[int]) -> int:
+    """min over vertices of counted visits (visits after the first)."""
+    return int(min(max(c - 1, 0) for c in visit_counts)) if len(visit_counts) else 0
+
+
+def worst_idleness(visits: Iterable[Sequence], n_vertices: int, end_time: float,
+                   start_time: float = 0.0) -> float:
+    """max over vertices and time of (t - last visit) up to end_time; never-visited vertices
+    counted from start_time."""
+    last = [float(start_time)] * n_vertices
+    worst = 0.0
+    for time, _robot, vertex in visits:
+        worst = max(worst, float(time) - last[vertex])
+        last[vertex] = float(time)
+    return max(worst, float(end_time) - min(last))
+
+
+def _clean(value: Any) -> Any:
+    """JSON-safe: NaN/inf -> None, numpy scalars -> Python."""
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+# ---------------------------------------------------------------------------------------------
+# Live recorder
+
+TIMESERIES_COLUMNS = ["time_s", "idleness_ins_s", "worst_idleness_s", "uncertainty_mean",
+                      "visits", "interferences"]
+
+
+class RunRecorder:
+    """Accumulates every metric of SPEC section 6 during a run.
+
+    Feed it `record_visit` (goal arrivals, in time order), `record_positions` (true robot
+    positions, any rate; motion between calls is taken as linear) and `record_robot_death`.
+    Visits may run ahead of positions: the 1 Hz rows are emitted when positions reach them
+    (or, without ground truth, by any call), so every row sees exactly the visits up to its time.
+    """
+
+    def __init__(self, patrol_map: Any, n_robots: int, *, sample_period_s: float = 1.0,
+                 refractory_s: float = 10.0, ground_truth: bool = True,
+                 start_time: float = 0.0, max_substep_s: float = 0.25,
+                 field_merge_s: float = 0.5):
+        if n_robots <= 0:
+            raise ValueError(f"need at least one robot, got {n_robots}")
+        if not sample_period_s > 0:
+            raise ValueError(f"sample_period_s must be > 0, got {sample_period_s}")
+        self.patrol_map = patrol_map
+        self.n_robots = int(n_robots)
+        self.n_vertices = int(patrol_map.num_vertices)
+        self.sample_period_s = float(sample_period_s)
+        self.refractory_s = float(refractory_s)
+        self.ground_truth = bool(ground_truth)
+        self.start_time = float(start_time)
+        self.max_substep_s = float(max_substep_s)
+        # Consecutive position updates closer than this [s] are merged into one linear step of
+        # the ground-truth field (0 = never merge); 0.5 s changes X by < 0.3 % at 1 m/s.
+        self.field_merge_s = float(field_merge_s)
+        self._field_t = self.start_time
+        self._field_p: np.ndarray | None = None
+        self._field_finite = True
+        s = patrol_map.settings
+        self.d_if = float(s.interference_distance)
+        self._dif2 = self.d_if * self.d_if
+
+        # Visit statistics (applied at once).
+        self.visits: list[tuple[float, int, int]] = []
+        self.visit_idleness: list[float] = []  # per visit, NaN for a vertex's first visit
+        self._last_visit = np.full(self.n_vertices, np.nan)
+        self._visit_count = np.zeros(self.n_vertices, dtype=int)
+        self._samples: list[float] = []
+        self._worst = 0.0
+        self._visit_time = self.start_time
+
+        # Sampling view: visits applied lazily up to each sample time.
+        self._pending: deque[tuple[float, int]] = deque()
+        self._sample_last = np.full(self.n_vertices, self.start_time)  # never visited: start
+        self._sample_visits = 0
+        self._sample_worst = 0.0
+        self._next_sample = self.start_time + self.sample_period_s
+        self._sample_k = 1
+        self.timeseries: list[dict] = []
+        self._ins_sum = 0.0
+        self._x_sum = 0.0
+        self._x_count = 0
+
+        # Positions, interference.
+        self._pos_time: float | None = None
+        self._pos: np.ndarray | None = None
+        self._alive = np.ones(self.n_robots, dtype=bool)
+        self.deaths: list[tuple[float, int]] = []
+        self._shape = (self.n_robots, 2)
+        self._all_alive = True
+        iu, ju = np.triu_indices(self.n_robots, k=1)
+        self._iu, self._ju = iu, ju
+        self._n_pairs = len(iu)
+        # Row k of pair_matrix @ positions = position[iu[k]] - position[ju[k]].
+        self._pair_matrix = np.zeros((len(iu), self.n_robots))
+        self._pair_matrix[np.arange(len(iu)), iu] = 1.0
+        self._pair_matrix[np.arange(len(iu)), ju] = -1.0
+        self._none_close = np.zeros(len(iu), dtype=bool)  # shared, never written
+        self._close = self._none_close
+        self._last_count = np.full(len(iu), -np.inf)
+        self.interferences: list[tuple[float, int, int]] = []  # (time, robot a, robot b)
+
+        # Ground truth field.
+        self.field = None
+        if self.ground_truth:
+            import tpuaf_core
+
+            self.field = tpuaf_core.UncertaintyField(
+                np.asarray(patrol_map.positions, dtype=float),
+                np.asarray(patrol_map.importance, dtype=float),
+                np.asarray(patrol_map.initial_uncertainty, dtype=float),
+                patrol_map.uncertainty_model(),
+            )
+            self._peaks_all = np.full(self.n_robots, float(s.sensing_peak))
+            self._radii_all = np.full(self.n_robots, float(s.sensing_radius))
+            self._linear = hasattr(self.field, "advance_linear")
+
+    # -- visits ---------------------------------------------------------------------------
+
+    def record_visit(self, robot: int, vertex: int, time: float) -> None:
+        """Robot `robot` reached its goal vertex `vertex` (graph index) at `time` [s]."""
+        time = float(time)
+        if not 0 <= vertex < self.n_vertices:
+            raise IndexError(f"vertex index {vertex} out of range (map has {self.n_vertices})")
+        if time < self._visit_time:
+            raise ValueError(f"visit at {time} s is earlier than the previous one "
+                             f"({self._visit_time} s): visits must come in time order")
+        self._visit_time = time
+        last = self._last_visit[vertex]
+        base = self.start_time if math.isnan(last) else last
+        self._worst = max(self._worst, time - base)
+        if math.isnan(last):
+            self.visit_idleness.append(math.nan)
+        else:
+            idl = time - last
+            self._samples.append(idl)
+            self.visit_idleness.append(idl)
+        self._last_visit[vertex] = time
+        self._visit_count[vertex] += 1
+        self.visits.append((time, int(robot), int(vertex)))
+        self._pending.append((time, int(vertex)))
+        if not self.ground_truth:
+            self._emit_until(time, None)
+
+    # -- sampling -------------------------------------------------------------------------
+
+    def _apply_pending(self, t: float) -> None:
+        pending = self._pending
+        last = self._sample_last
+        while pending and pending[0][0] <= t:
+            vt, v = pending.popleft()
+            self._sample_worst = max(self._sample_worst, vt - last[v])
+            last[v] = vt
+            self._sample_visits += 1
+
+    def _emit_row(self, t: float, x_mean: float) -> None:
+        self._apply_pending(t)
+        last = self._sample_last
+        ins = t - float(last.mean())
+        worst = max(self._sample_worst, t - float(last.min()))
+        self._ins_sum += ins
+        if not math.isnan(x_mean):
+            self._x_sum += x_mean
+            self._x_count += 1
+        self.timeseries.append({
+            "time_s": t,
+            "idleness_ins_s": ins,
+            "worst_idleness_s": worst,
+            "uncertainty_mean": x_mean,
+            "visits": self._sample_visits,
+            "interferences": self._interferences_until(t),
+        })
+
+    def _interferences_until(self, t: float) -> int:
+        n = len(self.interferences)
+        while n and self.interferences[n - 1][0] > t:
+            n -= 1
+        return n
+
+    def _emit_until(self, t: float, x_mean: float | None) -> None:
+        """Rows for sample times <= t, without ground truth (X = NaN unless given)."""
+        while self._next_sample <= t + 1e-9:
+            self._emit_row(self._next_sample, math.nan if x_mean is None else x_mean)
+            self._advance_sample()
+
+    def _advance_sample(self) -> None:
+        self._sample_k += 1
+        self._next_sample = self.start_time + self._sample_k * self.sample_period_s
+
+    # -- positions ------------------------------------------------------------------------
+
+    def record_positions(self, time: float, positions: np.ndarray) -> None:
+        """True robot positions (n_robots, 2) [m] at `time` [s]; NaN rows = robot absent/dead.
+
+        Advances the ground-truth field, counts interference episodes and emits the 1 Hz rows
+        crossed since the previous call, taking the motion in between as linear."""
+        t1 = float(time)
+        p1 = np.array(positions, dtype=float)
+        if p1.shape != self._shape:
+            p1 = p1.reshape(self._shape)
+        if not self._all_alive:
+            p1[~self._alive] = np.nan
+        p0 = self._pos
+        if p0 is None:
+            t0 = self.start_time if t1 >= self.start_time else t1
+            p0 = p1
+            # Pairs already close at the start are not counted (they did not come close).
+            d = p1[self._iu] - p1[self._ju]
+            self._close = np.einsum("ij,ij->i", d, d) <= self._dif2  # NaN compares False
+            finite = not np.isnan(p1).any()
+        else:
+            t0 = self._pos_time
+            if t1 < t0:
+                raise ValueError(f"positions at {t1} s are earlier than the previous ones "
+                                 f"({t0} s)")
+            step = float(np.abs(p1 - p0).max())  # NaN when a robot is absent at either end
+            finite = step == step
+            if self._n_pairs:
+                if finite:
+                    d1 = self._pair_matrix @ p1
+                else:  # not pair_matrix @ p1: 0 * NaN would spread an absent robot's NaN
+                    d1 = p1[self._iu] - p1[self._ju]
+                c1 = np.einsum("ij,ij->i", d1, d1)
+                # A pair that came within d_if in this interval ends within
+                # d_if + 2 * (largest displacement), displacement <= sqrt(2) * step.
+                reach = self.d_if + 2.8285 * step if finite else math.inf
+                near = c1 <= reach * reach  # NaN (absent robot) compares False
+                if near.any():
+                    self._interference(t0, t1, p0, d1, c1, near)
+                else:
+                    self._close = self._none_close
+        if self.ground_truth:
+            # The field advances over chunks of >= field_merge_s (the chord of the chunk), at
+            # every sample time and whenever a robot is absent.
+            if (not finite or self._next_sample <= t1 + 1e-9
+                    or t1 - self._field_t >= self.field_merge_s or self._field_p is None):
+                fp = p0 if self._field_p is None else self._field_p
+                self._advance_field(self._field_t, t1, fp, p1, finite and self._field_finite)
+                self._field_t, self._field_p, self._field_finite = t1, p1, finite
+        elif self._next_sample <= t1 + 1e-9:
+            self._emit_until(t1, None)
+        self._pos_time, self._pos = t1, p1
+
+    def _interference(self, t0: float, t1: float, p0: np.ndarray, d1: np.ndarray,
+                      c1: np.ndarray, near: np.ndarray) -> None:
+        """Exact episode entries, for linear motion from p0 (t0) to p1 (t1), of the pairs
+        `near` (d1 = pair differences at t1, c1 their squared lengths)."""
+        dif2 = self._dif2
+        close_end = c1 <= dif2
+        # |d0 + s dv|^2 is convex in s: a pair close at both ends is close throughout, and a
+        # pair enters at most once per interval. Candidates: near pairs apart before.
+        cand = np.flatnonzero(near & ~self._close)
+        new: list[tuple[float, int, int]] = []
+        for k in cand.tolist():
+            i, j = int(self._iu[k]), int(self._ju[k])
+            x0 = float(p0[i, 0] - p0[j, 0])
+            y0 = float(p0[i, 1] - p0[j, 1])
+            if x0 != x0 or y0 != y0:  # absent at t0: appears now, not an entry
+                continue
+            vx, vy = float(d1[k, 0]) - x0, float(d1[k, 1]) - y0
+            a = vx * vx + vy * vy
+            b = x0 * vx + y0 * vy  # half the linear coefficient
+            c0 = x0 * x0 + y0 * y0
+            if c0 <= dif2:
+                s_in = 0.0
+            else:
+                s_star = min(max(-b / a, 0.0), 1.0) if a > 0 else 0.0
+                if a * s_star * s_star + 2 * b * s_star + c0 > dif2:
+                    continue  # never within d_if in this interval
+                # smallest root of a s^2 + 2 b s + (c0 - d^2) = 0
+                s_in = (-b - math.sqrt(max(b * b - a * (c0 - dif2), 0.0))) / a
+            t_in = t0 + min(max(s_in, 0.0), 1.0) * (t1 - t0)
+            if t_in - self._last_count[k] >= self.refractory_s:
+                self._last_count[k] = t_in
+                new.append((t_in, i, j))
+        if new:
+            self.interferences.extend(sorted(new))  # all after t0: the list stays sorted
+        self._close = close_end
+
+    def _advance_field(self, t0: float, t1: float, p0: np.ndarray, p1: np.ndarray,
+                       finite: bool) -> None:
+        field = self.field
+        if finite:
+            peaks, radii = self._peaks_all, self._radii_all
+        else:
+            live = ~(np.isnan(p0[:, 0]) | np.isnan(p1[:, 0]))
+            p0, p1 = p0[live], p1[live]
+            peaks, radii = self._peaks_all[: len(p0)], self._radii_all[: len(p0)]
+        ta, pa = t0, p0
+        span = t1 - t0
+        while self._next_sample <= t1 + 1e-9:
+            ts = self._next_sample
+            pb = p0 + (p1 - p0) * ((ts - t0) / span) if span > 0 else p1
+            self._step(ts - ta, pa, pb, peaks, radii)
+            self._emit_row(ts, float(np.mean(field.values)))
+            self._advance_sample()
+            ta, pa = ts, pb
+        if t1 > ta:
+            self._step(t1 - ta, pa, p1, peaks, radii)
+
+    def _step(self, dt: float, pa: np.ndarray, pb: np.ndarray, peaks: np.ndarray,
+              radii: np.ndarray) -> None:
+        if dt <= 0:
+            return
+        if len(pa) == 0:
+            self.field.advance_uncovered(dt)
+        elif self._linear:
+            self.field.advance_linear(dt, pa, pb, peaks, radii, self.max_substep_s)
+        else:
+            self.field.advance(dt, 0.5 * (pa + pb), peaks, radii)
+
+    def record_robot_death(self, robot: int, time: float) -> None:
+        """Robot `robot` stopped at `time` [s]: it no longer senses nor interferes."""
+        if self._alive[robot]:
+            self._alive[robot] = False
+            self._all_alive = False
+            self.deaths.append((float(time), int(robot)))
+
+    # -- results --------------------------------------------------------------------------
+
+    @property
+    def interval_samples(self) -> list[float]:
+        return list(self._samples)
+
+    @property
+    def visit_counts(self) -> list[int]:
+        return [int(c) for c in self._visit_count]
+
+    def finish(self, end_time: float) -> None:
+        """Bring every accumulator to `end_time` [s] (robots held at their last positions)."""
+        end_time = float(end_time)
+        if not self.ground_truth:
+            self._emit_until(end_time, None)
+        elif self._pos is None:  # no positions ever: no robot covered anything
+            self.record_positions(end_time, np.full((self.n_robots, 2), np.nan))
+        elif end_time > self._pos_time:
+            self.record_positions(end_time, self._pos)
+        self._flush_field()
+
+    def _flush_field(self) -> None:
+        """Advance the ground-truth field over a merged chunk still pending."""
+        if self.field is not None and self._pos is not None and self._field_t < self._pos_time:
+            finite = self._field_finite and not np.isnan(self._pos).any()
+            self._advance_field(self._field_t, self._pos_time, self._field_p, self._pos, finite)
+            self._field_t, self._field_p, self._field_finite = self._pos_time, self._pos, finite
+
+    def uncertainty(self) -> np.ndarray:
+        """Ground-truth X of every target at the latest positions' time (NaN without)."""
+        if self.field is None:
+            return np.full(self.n_vertices, np.nan)
+        self._flush_field()
+        return np.asarray(self.field.values, dtype=float)
+
+    def summary(self, end_time: float) -> dict:
+        """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null)."""
+        self.finish(end_time)
+        duration = float(end_time) - self.start_time
+        stats = idleness_stats(self._samples)
+        worst = max(self._worst, float(end_time) - float(
+            np.min(np.where(np.isnan(self._last_visit), self.start_time, self._last_visit))))
+        n_rows = len(self.timeseries)
+        counts = self.visit_counts
+        ids = list(self.patrol_map.vertex_ids)
+        counted = sum(max(c - 1, 0) for c in counts)
+        x_final = float(np.mean(self.field.values)) if self.field is not None else math.nan
+        out = {
+            "map": self.patrol_map.name,
+            "n_robots": self.n_robots,
+            "n_vertices": self.n_vertices,
+            "start_time_s": self.start_time,
+            "duration_s": duration,
+            "idleness_avg_s": stats["avg"],
+            "idleness_std_s": stats["std"],
+            "idleness_min_s": stats["min"],
+            "idleness_max_s": stats["max"],
+            "idleness_samples": stats["count"],
+            "idleness_ins_mean_s": self._ins_sum / n_rows if n_rows else math.nan,
+            "worst_idleness_s": worst,
+            "uncertainty_mean": self._x_sum / self._x_count if self._x_count else math.nan,
+            "uncertainty_final_mean": x_final,
+            "interferences": len(self.interferences),
+            "interference_rate_per_min": (len(self.interferences) / (duration / 60.0)
+                                          if duration > 0 else math.nan),
+            "interference_distance_m": self.d_if,
+            "visits": len(self.visits),
+            "counted_visits": counted,
+            "visits_per_vertex": {str(v): c for v, c in zip(ids, counts, strict=True)},
+            "unvisited_vertices": int(sum(1 for c in counts if c == 0)),
+            "complete_cycles": complete_cycles(counts),
+            "deaths": len(self.deaths),
+            "dead_robots": [r for _, r in self.deaths],
+            "sample_period_s": self.sample_period_s,
+            "timeseries_rows": n_rows,
+        }
+        return _clean(out)

@@ -1,0 +1,225 @@
+"""Metrics of SPEC section 6: hand-computed visit logs and trajectories."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import tpuaf_core
+from tpuaf.maps import MapSettings, PatrolMap, load_map
+from tpuaf.metrics import (
+    RunRecorder,
+    acceleration_ratio,
+    complete_cycles,
+    idleness_stats,
+    interval_idleness,
+    visits_per_vertex,
+    worst_idleness,
+)
+
+
+def line_map(d_if: float = 2.0) -> PatrolMap:
+    settings = MapSettings(interference_distance=d_if)
+    return PatrolMap(
+        name="line3",
+        vertex_ids=[10, 11, 12],
+        positions=np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0]]),
+        edges=[(0, 1, math.nan), (1, 2, math.nan)],
+        importance=np.full(3, 0.01),
+        initial_uncertainty=np.ones(3),
+        settings=settings,
+    )
+
+
+# (time, robot, vertex index)
+LOG = [(0, 0, 0), (2, 1, 2), (5, 0, 1), (10, 0, 0), (14, 1, 2), (15, 0, 1), (22, 1, 0)]
+# interval idleness by hand: v0 10, 12; v2 12; v1 10 (in visit order: 10, 12, 10, 12)
+
+
+def test_pure_functions_on_hand_log():
+    samples = interval_idleness(LOG, 3)
+    assert samples == [10.0, 12.0, 10.0, 12.0]
+    stats = idleness_stats(samples)
+    assert stats == {"avg": 11.0, "std": 1.0, "min": 10.0, "max": 12.0, "count": 4}
+    counts = visits_per_vertex(LOG, 3)
+    assert counts == [3, 2, 2]
+    assert complete_cycles(counts) == 1
+    assert complete_cycles([3, 0, 2]) == 0
+    # Worst: v2 waits 12 s (2 -> 14); v1 first visit at 5 counts from 0; end 25: v2 11 s.
+    assert worst_idleness(LOG, 3, end_time=25) == 12.0
+    assert worst_idleness(LOG, 3, end_time=40) == 40 - 14
+    assert math.isnan(idleness_stats([])["avg"])
+
+
+def test_acceleration_ratio():
+    assert acceleration_ratio(100.0, 20.0, 4) == pytest.approx(1.25)
+    assert acceleration_ratio(100.0, 25.0, 4) == pytest.approx(1.0)
+    assert math.isnan(acceleration_ratio(100.0, 0.0, 4))
+
+
+def _expected_ins(t: float) -> float:
+    last = [0.0, 0.0, 0.0]
+    for vt, _, v in LOG:
+        if vt <= t:
+            last[v] = vt
+    return t - sum(last) / 3
+
+
+def test_recorder_matches_hand_log():
+    rec = RunRecorder(line_map(), 2, ground_truth=False)
+    for t, r, v in LOG:
+        rec.record_visit(r, v, t)
+    s = rec.summary(25.0)
+    assert s["idleness_avg_s"] == 11.0
+    assert s["idleness_std_s"] == 1.0
+    assert s["idleness_min_s"] == 10.0
+    assert s["idleness_max_s"] == 12.0
+    assert s["idleness_samples"] == 4
+    assert s["worst_idleness_s"] == 12.0
+    assert s["complete_cycles"] == 1
+    assert s["visits"] == 7 and s["counted_visits"] == 4
+    assert s["visits_per_vertex"] == {"10": 3, "11": 2, "12": 2}
+    assert s["duration_s"] == 25.0
+    # 1 Hz rows at t = 1..25; by hand: I_ins(1) = 1, I_ins(2) = (2 + 2 + 0) / 3.
+    times = [row["time_s"] for row in rec.timeseries]
+    assert times == [float(k) for k in range(1, 26)]
+    ins = [row["idleness_ins_s"] for row in rec.timeseries]
+    assert ins[0] == pytest.approx(1.0)
+    assert ins[1] == pytest.approx(4.0 / 3.0)
+    assert ins[14] == pytest.approx((5 + 0 + 1) / 3)  # t = 15: last = 10, 15, 14
+    assert ins == pytest.approx([_expected_ins(t) for t in times])
+    assert s["idleness_ins_mean_s"] == pytest.approx(np.mean([_expected_ins(t) for t in times]))
+    assert [row["visits"] for row in rec.timeseries][:6] == [1, 2, 2, 2, 3, 3]
+    assert s["uncertainty_mean"] is None  # no ground truth
+    json.dumps(s)
+
+
+def test_rows_see_only_visits_up_to_their_time():
+    rec = RunRecorder(line_map(), 1)
+    far = np.array([[1000.0, 1000.0]])
+    rec.record_positions(0.0, far)
+    rec.record_visit(0, 1, 2.5)  # visit reported before the positions reach 2.5 s
+    rec.record_positions(3.0, far)
+    rows = rec.timeseries
+    assert [r["time_s"] for r in rows] == [1.0, 2.0, 3.0]
+    assert [r["visits"] for r in rows] == [0, 0, 1]
+    assert rows[1]["idleness_ins_s"] == pytest.approx(2.0)
+    assert rows[2]["idleness_ins_s"] == pytest.approx((3 + 0.5 + 3) / 3)
+
+
+def test_ground_truth_uncovered_growth_matches_model():
+    pm = line_map()
+    rec = RunRecorder(pm, 1)
+    rec.record_positions(0.0, np.array([[500.0, 500.0]]))
+    rec.record_positions(10.0, np.array([[600.0, 500.0]]))
+    model = tpuaf_core.UncertaintyModel([1.0, 0.6])
+    for row in rec.timeseries:
+        assert row["uncertainty_mean"] == pytest.approx(model.evolve(1.0, 0.01, row["time_s"]))
+    s = rec.summary(10.0)
+    assert s["uncertainty_final_mean"] == pytest.approx(model.evolve(1.0, 0.01, 10.0))
+
+
+def test_ground_truth_pass_through_reduces_uncertainty():
+    pm = line_map()
+    rec = RunRecorder(pm, 1)
+    # A robot drives along the line at 1 m/s through all three targets.
+    for k in range(0, 201):
+        rec.record_positions(k * 0.1, np.array([[k * 0.1, 0.0]]))
+    x = np.array([row["uncertainty_mean"] for row in rec.timeseries])
+    assert x[-1] < 0.5  # the targets passed lost most of their uncertainty
+    assert np.all(np.isfinite(x)) and np.all(x >= 0)
+
+
+def _crossing(rec: RunRecorder, t_start: float, t_end: float, steps: int) -> None:
+    """Robot 0 from x=0 to 20, robot 1 from x=20 to 0 over [t_start, t_end]."""
+    for k in range(steps + 1):
+        t = t_start + (t_end - t_start) * k / steps
+        f = k / steps
+        rec.record_positions(t, np.array([[20 * f, 0.0], [20 - 20 * f, 0.0]]))
+
+
+def test_interference_crossing_counted_once_at_exact_time():
+    # Gap 20 - 2t <= 2 m from t = 9 s; one interval only: the closed form still finds it.
+    rec = RunRecorder(line_map(), 2, ground_truth=False)
+    _crossing(rec, 0.0, 20.0, 1)
+    assert rec.interferences == [(pytest.approx(9.0), 0, 1)]
+    rec2 = RunRecorder(line_map(), 2, ground_truth=False)
+    _crossing(rec2, 0.0, 20.0, 40)
+    assert rec2.interferences == [(pytest.approx(9.0), 0, 1)]
+    s = rec2.summary(60.0)
+    assert s["interferences"] == 1
+    assert s["interference_rate_per_min"] == pytest.approx(1.0)
+
+
+def test_interference_pair_staying_close_counts_once():
+    rec = RunRecorder(line_map(), 2, ground_truth=False)
+    rec.record_positions(0.0, np.array([[0.0, 0.0], [10.0, 0.0]]))
+    for k in range(1, 601):  # approach, then stay 1 m apart for a minute
+        rec.record_positions(k * 0.1 + 0.0, np.array([[0.0, 0.0], [max(1.0, 10 - k * 0.1), 0.0]]))
+    assert len(rec.interferences) == 1
+    assert rec.interferences[0][0] == pytest.approx(8.0)
+
+
+def _approach_leave(rec: RunRecorder, times: list[tuple[float, float]]) -> None:
+    """Robots 5 m apart; close (1 m) during each (t_in, t_out), apart otherwise; 0.5 s calls."""
+    t = 0.0
+    while t <= 60.0:
+        close = any(a <= t <= b for a, b in times)
+        rec.record_positions(t, np.array([[0.0, 0.0], [1.0 if close else 5.0, 0.0]]))
+        t += 0.5
+
+
+def test_interference_refractory_and_reapproach():
+    rec = RunRecorder(line_map(), 2, ground_truth=False)
+    # Close from ~5 s to 6 s, again at ~9 s (within 10 s: merged), again at ~30 s (counted).
+    _approach_leave(rec, [(5.0, 6.0), (9.0, 10.0), (30.0, 31.0)])
+    times = [t for t, _, _ in rec.interferences]
+    assert len(times) == 2
+    assert times[0] == pytest.approx(4.875)  # linear from 5 m at 4.5 s to 1 m at 5.0 s
+    assert times[1] == pytest.approx(29.875)
+
+
+def test_interference_needs_separation_and_ignores_start_and_dead_robots():
+    rec = RunRecorder(line_map(), 3, ground_truth=False)
+    # Robots 0 and 1 start 1 m apart (not counted) and stay close 30 s: still not counted.
+    for k in range(61):
+        rec.record_positions(k * 0.5, np.array([[0.0, 0.0], [1.0, 0.0], [50.0, 0.0]]))
+    assert rec.interferences == []
+    # Robot 2 dies, then its row is NaN: never counted, even when "close".
+    rec.record_robot_death(2, 30.0)
+    rec.record_positions(31.0, np.array([[0.0, 0.0], [5.0, 0.0], [0.5, 0.0]]))
+    rec.record_positions(32.0, np.array([[0.0, 0.0], [5.0, 0.0], [np.nan, np.nan]]))
+    assert rec.interferences == []
+    # Now 0 and 1 have separated: a new approach counts (30 s after the start).
+    rec.record_positions(33.0, np.array([[0.0, 0.0], [1.0, 0.0], [np.nan, np.nan]]))
+    assert [(a, b) for _, a, b in rec.interferences] == [(0, 1)]
+    s = rec.summary(40.0)
+    assert s["deaths"] == 1 and s["dead_robots"] == [2]
+
+
+def test_record_positions_rejects_time_going_back_and_bad_shape():
+    rec = RunRecorder(line_map(), 2)
+    rec.record_positions(1.0, np.zeros((2, 2)))
+    with pytest.raises(ValueError):
+        rec.record_positions(0.5, np.zeros((2, 2)))
+    with pytest.raises(ValueError):
+        rec.record_positions(2.0, np.zeros((3, 2)))
+
+
+def test_summary_on_builtin_map_is_json_serialisable():
+    pm = load_map("grid")
+    rec = RunRecorder(pm, 4)
+    rng = np.random.default_rng(1)
+    pos = pm.positions[:4].copy()
+    for k in range(1, 301):
+        pos = pos + rng.normal(scale=0.2, size=pos.shape)
+        rec.record_positions(k * 0.2, pos)
+        if k % 25 == 0:
+            rec.record_visit(k % 4, k % 25, k * 0.2)
+    s = rec.summary(60.0)
+    text = json.dumps(s)
+    assert "NaN" not in text
+    assert s["duration_s"] == 60.0 and len(rec.timeseries) == 60
+    assert s["uncertainty_mean"] > 0
