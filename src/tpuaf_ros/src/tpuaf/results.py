@@ -1,0 +1,260 @@
+"""The results folder of a run (SPEC section 6, docs/RESULTS.md).
+
+    config.yaml      effective configuration, written at start
+    visits.csv       one row per visit, streamed (time_s, robot, vertex_id, vertex_index,
+                     interval_idleness_s)
+    timeseries.csv   the 1 Hz rows of RunRecorder, streamed
+    summary.json     every metric, at the end ("complete": false when interrupted)
+    info.csv, idleness.csv, timeresults.csv   patrolling_sim-compatible files (';' separated)
+
+Streamed files are flushed after every batch of rows, so an interrupted run leaves valid CSV
+files for what was simulated.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import socket
+import time
+from collections.abc import Iterable, Mapping
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from .metrics import TIMESERIES_COLUMNS
+
+VISIT_COLUMNS = ["time_s", "robot", "vertex_id", "vertex_index", "interval_idleness_s"]
+# patrolling_sim monitor's files (monitor.cpp), same columns and separators.
+PS_IDLENESS_HEADER = ["Time", "Robot", "Node", "Idleness", "Interferences"]
+PS_TIMERESULTS_HEADER = ["Time", "Idleness min", "Idleness avg", "Idleness stddev",
+                         "Idleness max", "Interferences"]
+PS_INFO_COLUMNS = ["map", "teamsize", "initial_positions", "goal_reached_wait_s",
+                   "communication_delay_s", "navigation_module", "algorithm", "algorithm_params",
+                   "hostname", "date", "duration_s", "real_duration_s", "interferences",
+                   "termination", "idleness_min_s", "idleness_avg_s", "idleness_stddev_s",
+                   "idleness_max_s", "interference_rate_per_min", "visits",
+                   "avg_visits_per_vertex", "complete_patrol_cycles"]
+
+
+def _plain(value: Any) -> Any:
+    """YAML/JSON-safe plain Python (numpy and paths converted, NaN -> None)."""
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return str(value)
+
+
+def _num(value: Any) -> str:
+    """A CSV cell: empty for None/NaN, repr-exact floats otherwise."""
+    if value is None:
+        return ""
+    if isinstance(value, (float, np.floating)):
+        return "" if not math.isfinite(value) else repr(float(value))
+    return str(value)
+
+
+def _f1(value: float | None) -> str:
+    return "nan" if value is None or not math.isfinite(value) else f"{value:.1f}"
+
+
+class ResultsWriter:
+    """Writes one run's results folder; usable as a context manager.
+
+    with ResultsWriter(out_dir, config) as writer:
+        ... writer.sync(recorder) from time to time ...
+        writer.finish(recorder.summary(end), recorder)
+    Leaving the block by an exception (Ctrl-C, crash) without `finish` calls
+    `finish(None, recorder_last_synced, interrupted=True)` when a recorder was synced.
+    """
+
+    def __init__(self, out_dir: str | Path, config: Mapping[str, Any]):
+        self.out_dir = Path(out_dir)
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        self.config = _plain(dict(config))
+        self._wall_start = time.time()
+        self._date = datetime.now().strftime("%Y%m%d_%H%M%S")
+        (self.out_dir / "config.yaml").write_text(
+            yaml.safe_dump(self.config, sort_keys=False, default_flow_style=False)
+        )
+        self._visits_f = open(self.out_dir / "visits.csv", "w", newline="")  # noqa: SIM115
+        self._visits = csv.writer(self._visits_f)
+        self._visits.writerow(VISIT_COLUMNS)
+        self._ts_f = open(self.out_dir / "timeseries.csv", "w", newline="")  # noqa: SIM115
+        self._ts = csv.writer(self._ts_f)
+        self._ts.writerow(TIMESERIES_COLUMNS)
+        self._visits_f.flush()
+        self._ts_f.flush()
+        self._n_visits = 0
+        self._n_rows = 0
+        self._recorder: Any = None
+        self.finished = False
+
+    # -- streaming --------------------------------------------------------------------------
+
+    def write_visits(self, rows: Iterable[tuple[float, int, int, int, float]]) -> None:
+        """Rows (time_s, robot, vertex_id, vertex_index, interval_idleness_s or NaN)."""
+        n = 0
+        for t, robot, vid, index, idl in rows:
+            self._visits.writerow([_num(float(t)), int(robot), int(vid), int(index), _num(idl)])
+            n += 1
+        if n:
+            self._visits_f.flush()
+        self._n_visits += n
+
+    def write_timeseries(self, rows: Iterable[Mapping[str, Any]]) -> None:
+        n = 0
+        for row in rows:
+            self._ts.writerow([_num(row[c]) for c in TIMESERIES_COLUMNS])
+            n += 1
+        if n:
+            self._ts_f.flush()
+        self._n_rows += n
+
+    def sync(self, recorder: Any) -> None:
+        """Write the visits and 1 Hz rows the recorder gained since the last sync."""
+        self._recorder = recorder
+        ids = recorder.patrol_map.vertex_ids
+        new_visits = recorder.visits[self._n_visits:]
+        idl = recorder.visit_idleness[self._n_visits:]
+        self.write_visits(
+            (t, r, ids[v], v, i) for (t, r, v), i in zip(new_visits, idl, strict=True)
+        )
+        self.write_timeseries(recorder.timeseries[self._n_rows:])
+
+    # -- end ----------------------------------------------------------------------------------
+
+    def finish(self, summary: Mapping[str, Any] | None, recorder: Any,
+               interrupted: bool = False, timeresults_period_s: float = 900.0) -> None:
+        """Write summary.json and the patrolling_sim files; close the streams.
+
+        `summary`: recorder.summary(end_time) (computed here from the recorder's last time when
+        None). timeresults.csv gets one row of cumulative global idleness per
+        `timeresults_period_s` of run time (patrolling_sim writes one per 900 s)."""
+        if self.finished:
+            return
+        if recorder is not None:
+            self.sync(recorder)
+            if summary is None:
+                summary = recorder.summary(self._last_time(recorder))
+                self.sync(recorder)
+        summary = dict(_plain(summary or {}))
+        summary["complete"] = not interrupted
+        summary["real_duration_s"] = time.time() - self._wall_start
+        self._visits_f.close()
+        self._ts_f.close()
+        (self.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        if recorder is not None:
+            self._write_patrolling_sim(summary, recorder, interrupted, timeresults_period_s)
+        self.finished = True
+
+    @staticmethod
+    def _last_time(recorder: Any) -> float:
+        times = [recorder.start_time]
+        if recorder.visits:
+            times.append(recorder.visits[-1][0])
+        if getattr(recorder, "_pos_time", None) is not None:
+            times.append(recorder._pos_time)
+        return max(times)
+
+    def _write_patrolling_sim(self, summary: dict, recorder: Any, interrupted: bool,
+                              period_s: float) -> None:
+        ids = recorder.patrol_map.vertex_ids
+        inter_times = [t for t, _, _ in recorder.interferences]
+        start = recorder.start_time
+
+        def interferences_until(t: float) -> int:
+            return int(np.searchsorted(inter_times, t, side="right"))
+
+        with open(self.out_dir / "idleness.csv", "w", newline="") as f:
+            f.write(";".join(PS_IDLENESS_HEADER) + "\n")
+            for (t, r, v), idl in zip(recorder.visits, recorder.visit_idleness, strict=True):
+                if math.isnan(idl):
+                    continue  # a vertex's first visit has no idleness (as in patrolling_sim)
+                f.write(f"{t - start:.1f};{r};{ids[v]};{idl:.1f};{interferences_until(t)}\n")
+
+        duration = float(summary.get("duration_s") or 0.0)
+        with open(self.out_dir / "timeresults.csv", "w", newline="") as f:
+            f.write(";".join(PS_TIMERESULTS_HEADER) + "\n")
+            samples = [(t, i) for (t, _, _), i in zip(recorder.visits, recorder.visit_idleness,
+                                                       strict=True) if not math.isnan(i)]
+            k = 1
+            while period_s > 0 and k * period_s <= duration + 1e-9:
+                tk = start + k * period_s
+                vals = np.array([i for t, i in samples if t <= tk])
+                if vals.size:
+                    row = (vals.min(), vals.mean(), vals.std(), vals.max())
+                else:
+                    row = (math.nan,) * 4
+                f.write(f"{k * period_s:.1f};" + ";".join(_f1(float(x)) for x in row)
+                        + f";{interferences_until(tk)}\n")
+                k += 1
+
+        cfg = self.config
+        dead = bool(summary.get("deaths"))
+        termination = "FAIL" if dead else ("ABORT" if interrupted else "TIMEOUT")
+        n = recorder.n_vertices
+        counted = int(summary.get("counted_visits") or 0)
+        params = cfg.get("strategy_params", cfg.get("params", ""))
+        if isinstance(params, dict):
+            params = ",".join(f"{k}={v}" for k, v in params.items())
+        info = [
+            str(cfg.get("map", recorder.patrol_map.name)),
+            str(cfg.get("n_robots", recorder.n_robots)),
+            str(cfg.get("initial_positions", "default")),
+            f"{float(cfg.get('goal_reached_wait_s', 0.0)):.1f}",
+            f"{float(cfg.get('communication_delay_s', cfg.get('comm_delay_s', 0.0))):.2f}",
+            str(cfg.get("navigation_module", cfg.get("runtime", "tpuaf"))),
+            str(cfg.get("strategy", "")),
+            str(params),
+            socket.gethostname(),
+            self._date,
+            f"{duration:.1f}",
+            f"{float(summary.get('real_duration_s') or 0.0):.1f}",
+            str(int(summary.get("interferences") or 0)),
+            termination,
+            _f1(summary.get("idleness_min_s")),
+            _f1(summary.get("idleness_avg_s")),
+            _f1(summary.get("idleness_std_s")),
+            _f1(summary.get("idleness_max_s")),
+            f"{float(summary.get('interference_rate_per_min') or 0.0):.2f}",
+            str(counted),
+            f"{counted / n:.1f}",
+            str(int(summary.get("complete_cycles") or 0)),
+        ]
+        with open(self.out_dir / "info.csv", "w", newline="") as f:
+            f.write(";".join(x.replace(";", ",") for x in info) + "\n")
+
+    def close(self) -> None:
+        """Close the streams without writing the end files (prefer `finish`)."""
+        for f in (self._visits_f, self._ts_f):
+            if not f.closed:
+                f.close()
+
+    def __enter__(self) -> ResultsWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if not self.finished:
+            if self._recorder is not None:
+                self.finish(None, self._recorder, interrupted=True)
+            else:
+                self.close()
+                summary = {"complete": False}
+                (self.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+                self.finished = True
