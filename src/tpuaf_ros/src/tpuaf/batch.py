@@ -51,7 +51,9 @@ class RunConfig:
         if not (isinstance(self.robots, int) and self.robots >= 1):
             raise ConfigError(f"robots must be an integer >= 1, got {self.robots!r}")
         if not (self.duration_s > 0 and math.isfinite(self.duration_s)):
-            raise ConfigError(f"duration must be a finite number of seconds > 0, got {self.duration_s}")
+            raise ConfigError(
+                f"duration must be a finite number of seconds > 0, got {self.duration_s}"
+            )
         if not (self.delay_s >= 0 and math.isfinite(self.delay_s)):
             raise ConfigError(f"delay must be >= 0 s, got {self.delay_s}")
         if not 0.0 <= self.loss <= 1.0:
@@ -143,11 +145,15 @@ class BatchRun:
         self._events: list = []
         self._seq = 0
         seed = int(config.seed)
-        self.bus = TeamBus(config.robots, config.delay_s, config.loss, np.random.default_rng([seed, 1]))
+        self.bus = TeamBus(
+            config.robots, config.delay_s, config.loss, np.random.default_rng([seed, 1])
+        )
         cls = REGISTRY.get(config.strategy)
         starts = start_vertices(self.patrol_map, config.robots)
         self.robots = [
-            _Robot(self, i, starts[i], cls(config.strategy_params), np.random.default_rng([seed, 2, i]))
+            _Robot(
+                self, i, starts[i], cls(config.strategy_params), np.random.default_rng([seed, 2, i])
+            )
             for i in range(config.robots)
         ]
         self.recorder = RunRecorder(
@@ -297,7 +303,9 @@ class BatchRun:
             "map_name": self.patrol_map.name,
             "map_source": str(self.patrol_map.source) if self.patrol_map.source else "built-in",
             "map_settings": settings,
-            "start_vertices": [int(self.patrol_map.vertex_ids[r.start_vertex]) for r in self.robots],
+            "start_vertices": [
+                int(self.patrol_map.vertex_ids[r.start_vertex]) for r in self.robots
+            ],
             "motion": "straight segments between vertices, edge length / nominal speed each",
         }
 

@@ -61,7 +61,9 @@ def parse_params(items: list[str]) -> dict:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--map", default="grid", help="built-in map name (grid, lab) or a map folder path")
+    p.add_argument(
+        "--map", default="grid", help="built-in map name (grid, lab) or a map folder path"
+    )
     p.add_argument("--strategy", default="tpuaf", help="strategy name, any case (see --list)")
     p.add_argument("--robots", type=positive_int, default=4, help="team size N")
     p.add_argument("--duration", type=positive_float, default=3600.0, help="simulated seconds")
@@ -69,8 +71,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=None, help="results folder (default: none written)")
     p.add_argument("--delay", type=non_negative_float, default=0.0, help="team message delay [s]")
     p.add_argument("--loss", type=probability, default=0.0, help="message loss probability")
-    p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
-                   help="strategy parameter (repeatable), e.g. --param utility=eq14")
+    p.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="strategy parameter (repeatable), e.g. --param utility=eq14",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--list", action="store_true", help="list strategies and maps, then exit")
 
@@ -113,8 +120,13 @@ def run(args: argparse.Namespace) -> int:
         print("maps:", ", ".join(builtin_map_names()), "(or a path to a map folder)")
         return 0
     config = RunConfig(
-        map=args.map, strategy=args.strategy, robots=args.robots, duration_s=args.duration,
-        seed=args.seed, delay_s=args.delay, loss=args.loss,
+        map=args.map,
+        strategy=args.strategy,
+        robots=args.robots,
+        duration_s=args.duration,
+        seed=args.seed,
+        delay_s=args.delay,
+        loss=args.loss,
         strategy_params=parse_params(args.param),
     )
     try:
@@ -137,9 +149,14 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
         f"{config.duration_s:g} s, seed {config.seed}"
     )
     writer = ResultsWriter(out, engine.effective_config()) if out else None
-    bar = tqdm(total=config.duration_s, unit="sim s", disable=quiet, desc=config.strategy,
-               bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} sim s [{elapsed}<{remaining}]",
-               file=sys.stderr)
+    bar = tqdm(
+        total=config.duration_s,
+        unit="sim s",
+        disable=quiet,
+        desc=config.strategy,
+        bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} sim s [{elapsed}<{remaining}]",
+        file=sys.stderr,
+    )
 
     def progress(now: float) -> None:
         bar.update(now - bar.n)
@@ -161,7 +178,9 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
         writer.finish(summary, engine.recorder, interrupted=interrupted)
     print(f"\n{title}{' (interrupted)' if interrupted else ''}")
     print(format_summary(summary))
-    print(f"  simulated {engine.now:,.0f} s in {wall:.2f} s wall ({engine.now / max(wall, 1e-9):,.0f}x real time)")
+    print(
+        f"  simulated {engine.now:,.0f} s in {wall:.2f} s wall ({engine.now / max(wall, 1e-9):,.0f}x real time)"
+    )
     if out:
         print(f"  results: {out}")
     return 130 if interrupted else 0

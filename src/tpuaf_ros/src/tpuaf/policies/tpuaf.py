@@ -66,7 +66,9 @@ class TeamKnowledge:
             if not len(vertices):
                 continue
             c = self.importance[vertices]
-            x = self.model.evolve_many(self.anchor_value[vertices], c, times - self.anchor_time[vertices])
+            x = self.model.evolve_many(
+                self.anchor_value[vertices], c, times - self.anchor_time[vertices]
+            )
             self.anchor_value[vertices] = self.model.evolve_many(
                 x, c - self.pass_coverage, np.full(len(vertices), self.pass_time_s)
             )
@@ -118,11 +120,13 @@ class Tpuaf(Policy):
     any_vertex = False
     parameters = {
         "utility": Parameter(
-            "eq13", "utility form: 'eq13' (U = X^ I / dt) or 'eq14' (the paper's second form)",
+            "eq13",
+            "utility form: 'eq13' (U = X^ I / dt) or 'eq14' (the paper's second form)",
             lambda v: v in ("eq13", "eq14"),
         ),
         "intention_timeout_s": Parameter(
-            30.0, "drop an intention whose expected arrival passed more than this [s] ago",
+            30.0,
+            "drop an intention whose expected arrival passed more than this [s] ago",
             _positive,
         ),
         "silence_timeout_s": Parameter(
@@ -137,7 +141,8 @@ class Tpuaf(Policy):
             ctx.patrol_map, self.params["intention_timeout_s"], self.params["silence_timeout_s"]
         )
         self.form = (
-            tpuaf_core.UtilityForm.EQ14 if self.params["utility"] == "eq14"
+            tpuaf_core.UtilityForm.EQ14
+            if self.params["utility"] == "eq14"
             else tpuaf_core.UtilityForm.EQ13
         )
         self._utilities = tpuaf_core.tpuaf_utilities
@@ -165,9 +170,19 @@ class Tpuaf(Policy):
         arrival, travel = knowledge.announced(n)
         estimate = knowledge.estimate(now)  # applies pending visits, so last_visit is current
         result = self._utilities(
-            patrol_map.graph, knowledge.importance, knowledge.model, now, here, candidates,
-            ctx.average_speed, knowledge.last_visit, estimate, arrival, travel,
-            self.form, self.any_vertex,
+            patrol_map.graph,
+            knowledge.importance,
+            knowledge.model,
+            now,
+            here,
+            candidates,
+            ctx.average_speed,
+            knowledge.last_visit,
+            estimate,
+            arrival,
+            travel,
+            self.form,
+            self.any_vertex,
         )
         self.last_utilities = result
         utility = result.utility
@@ -177,8 +192,12 @@ class Tpuaf(Policy):
         ctx.send(Visit(ctx.robot, here, now, target))
         ctx.send(
             Intention(
-                ctx.robot, here, target, float(result.arrival_s[k]),
-                float(result.travel_time_s[k]), now,
+                ctx.robot,
+                here,
+                target,
+                float(result.arrival_s[k]),
+                float(result.travel_time_s[k]),
+                now,
             )
         )
         return target
