@@ -1,0 +1,409 @@
+"""Maps (SPEC section 7): patrolling_sim imports, built-in maps, our format, errors, statistics."""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from tpuaf.maps import (
+    MapError,
+    builtin_map_names,
+    corridors_from_graph,
+    load_map,
+    load_occupancy,
+    map_summary,
+    start_vertices,
+)
+from tpuaf.maps.builtin import make_grid, make_lab
+from tpuaf.maps.mapfile import save_map_folder
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared"
+PS_DIR = SHARED / "maps" / "patrolling_sim"
+PS_MAPS = sorted(p for p in PS_DIR.iterdir() if p.is_dir() and any(p.glob("*.graph"))) \
+    if PS_DIR.is_dir() else []
+needs_shared = pytest.mark.skipif(not PS_MAPS, reason=f"no patrolling_sim maps in {PS_DIR}")
+
+
+def raw_graph(path: Path) -> dict:
+    """An independent reading of a .graph file: header and directed adjacency."""
+    tok = path.read_text().split()
+    n, w, h = int(tok[0]), int(tok[1]), int(tok[2])
+    res, ox, oy = float(tok[3]), float(tok[4]), float(tok[5])
+    pos = 6
+    verts, directed = {}, []
+    for _ in range(n):
+        vid, x, y, k = int(tok[pos]), float(tok[pos + 1]), float(tok[pos + 2]), int(tok[pos + 3])
+        pos += 4
+        verts[vid] = (x, y)
+        for _ in range(k):
+            directed.append((vid, int(tok[pos]), float(tok[pos + 2])))
+            pos += 3
+    return {"n": n, "w": w, "h": h, "res": res, "off": (ox, oy), "verts": verts,
+            "directed": directed}
+
+
+# ---------------------------------------------------------------------------------------------
+# patrolling_sim imports
+
+
+@needs_shared
+def test_sample_maps_are_discovered():
+    names = {p.name for p in PS_MAPS}
+    assert {"cumberland", "grid"} <= names
+    assert len(PS_MAPS) >= 6
+
+
+@needs_shared
+@pytest.mark.parametrize("folder", PS_MAPS, ids=lambda p: p.name)
+def test_patrolling_sim_map_imports(folder):
+    pm = load_map(folder)
+    raw = raw_graph(folder / f"{folder.name}.graph")
+    assert pm.num_vertices == raw["n"] == len(raw["verts"])
+    pairs = {frozenset((u, v)) for u, v, _ in raw["directed"]}
+    assert pm.graph.num_edges == len(pairs)
+    # symmetric: every listed edge is listed the other way too
+    listed = {(u, v) for u, v, _ in raw["directed"]}
+    assert all((v, u) in listed for u, v in listed)
+    # metric coordinates, on free cells of the occupancy grid, inside the image
+    occ = pm.occupancy
+    assert occ.width == raw["w"] and occ.height == raw["h"]
+    for i, vid in enumerate(pm.vertex_ids):
+        xp, yp = raw["verts"][vid]
+        assert pm.positions[i] == pytest.approx(
+            (xp * raw["res"] + raw["off"][0], yp * raw["res"] + raw["off"][1]))
+        assert occ.is_free(*pm.positions[i]), f"vertex {vid} of {folder.name} not on free space"
+    # lengths = shortest listed cost * resolution
+    for u, v, length in pm.graph.edges:
+        a, b = pm.vertex_ids[u], pm.vertex_ids[v]
+        costs = [c for x, y, c in raw["directed"] if {x, y} == {a, b}]
+        assert length == pytest.approx(min(costs) * raw["res"])
+
+
+@needs_shared
+def test_cumberland_and_grid_match_the_paper():
+    cumberland = load_map(PS_DIR / "cumberland")
+    assert (cumberland.num_vertices, cumberland.graph.num_edges) == (40, 44)
+    s = map_summary(cumberland)
+    assert (s["size_x_m"], s["size_y_m"]) == pytest.approx((51.6, 37.425))
+    # Paper Table 1: Fiedler value 0.0109 (cumberland), 0.1313 (grid).
+    assert round(s["fiedler_value"], 4) == 0.0109
+    grid = load_map(PS_DIR / "grid" / "grid.graph")
+    assert (grid.num_vertices, grid.graph.num_edges) == (25, 40)
+    assert round(map_summary(grid)["fiedler_value"], 4) == 0.1313
+
+
+@needs_shared
+def test_initial_poses_and_variants():
+    grid = load_map(PS_DIR / "grid")
+    assert grid.settings.initial_poses[1] == [(1.425, 24.375)]
+    assert sorted(grid.settings.initial_poses) == [1, 2, 4, 5, 6, 8, 10, 12]
+    assert "4_a" in grid.settings.initial_pose_variants
+    starts = start_vertices(grid, 4)
+    assert len(set(starts)) == 4
+    assert grid.vertex_ids[starts[0]] == 0  # (1.425, 24.375) is vertex 0
+    # grid_4_a crowds four poses near one corner: still four distinct vertices
+    grid.settings.initial_poses[4] = grid.settings.initial_pose_variants["4_a"]
+    assert len(set(start_vertices(grid, 4))) == 4
+
+
+@needs_shared
+def test_parallel_edges_are_merged_and_reported():
+    example = load_map(PS_DIR / "example")
+    assert any("parallel edge" in note for note in example.notes)
+
+
+# ---------------------------------------------------------------------------------------------
+# built-in maps
+
+
+def test_builtin_grid():
+    pm = load_map("grid")
+    assert (pm.num_vertices, pm.graph.num_edges) == (25, 40)
+    coords = sorted({round(float(x), 6) for x in pm.positions.ravel()})
+    assert coords == pytest.approx([1.425 + 5.7 * k for k in range(5)])
+    assert pm.settings.nominal_speed == 1.0 and pm.settings.sensing_radius == 5.0
+    s = map_summary(pm)
+    assert (s["size_x_m"], s["size_y_m"]) == pytest.approx((25.8, 25.8))
+    assert round(s["fiedler_value"], 4) == 0.1313
+    assert s["mean_edge_length_m"] == pytest.approx(5.7)
+
+
+def test_builtin_lab():
+    pm = load_map("lab")
+    assert (pm.num_vertices, pm.graph.num_edges) == (15, 16)
+    r = pm.settings.robot_radius
+    assert r == 0.105
+    assert pm.positions[:, 0].min() - r > 0 and pm.positions[:, 0].max() + r < 3.0
+    assert pm.positions[:, 1].min() - r > 0 and pm.positions[:, 1].max() + r < 2.6
+    s = map_summary(pm)
+    assert (s["size_x_m"], s["size_y_m"]) == pytest.approx((3.0, 2.6))
+    assert pm.settings.sensing_radius / pm.settings.nominal_speed == pytest.approx(5.0)
+    for n in range(1, 5):
+        starts = start_vertices(pm, n)
+        assert len(set(starts)) == n
+
+
+@pytest.mark.parametrize("name", ["grid", "lab"])
+def test_builtin_corridors_fit_the_robot(name):
+    pm = load_map(name)
+    occ = pm.occupancy
+    r = pm.settings.robot_radius
+    ring = [(r * np.cos(a), r * np.sin(a)) for a in np.linspace(0, 2 * np.pi, 16, endpoint=False)]
+    for u, v, _ in pm.graph.edges:
+        for f in np.linspace(0, 1, 11):
+            x, y = pm.positions[u] * (1 - f) + pm.positions[v] * f
+            assert all(occ.is_free(x + dx, y + dy) for dx, dy in ring)
+
+
+@pytest.mark.parametrize("name,make", [("grid", make_grid), ("lab", make_lab)])
+def test_committed_builtin_files_match_generator(name, make, tmp_path):
+    committed = load_map(name)
+    fresh = make()
+    assert committed.vertex_ids == fresh.vertex_ids
+    assert np.allclose(committed.positions, fresh.positions)
+    assert [e[:2] for e in committed.graph.edges] == [e[:2] for e in fresh.graph.edges]
+    assert committed.settings == fresh.settings
+    regenerated = save_map_folder(fresh, tmp_path / name, occupancy_file=True)
+    assert np.array_equal(load_occupancy(regenerated / "occupancy.yaml").occupied,
+                          committed.occupancy.occupied)
+
+
+def test_unknown_map_name_lists_builtins():
+    with pytest.raises(MapError) as err:
+        load_map("no_such_map")
+    msg = str(err.value)
+    assert all(n in msg for n in builtin_map_names()) and "path" in msg
+    assert builtin_map_names() == ["grid", "lab"]
+
+
+def test_start_vertices_spread_and_wrap():
+    pm = make_grid()
+    starts = start_vertices(pm, 2)
+    assert starts[0] == 0 and pm.graph.distance(0, starts[1]) == pytest.approx(4 * 5.7 * 2)
+    assert start_vertices(pm, 2) == starts  # deterministic
+    many = start_vertices(pm, 27)
+    assert len(set(many[:25])) == 25 and many[25:] == many[:2]
+    with pytest.raises(MapError):
+        start_vertices(pm, 0)
+
+
+# ---------------------------------------------------------------------------------------------
+# occupancy
+
+
+def test_load_occupancy_p2_orientation_negate_thresholds(tmp_path):
+    # 3 x 2 image; top row: white, grey (unknown), black; bottom row: black, white, white.
+    (tmp_path / "m.pgm").write_text("P2\n# c\n3 2\n255\n255 128 0\n0 255 255\n")
+    (tmp_path / "m.yaml").write_text(
+        "image: m.pgm\nresolution: 0.5\norigin: [1.0, 2.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    occ = load_occupancy(tmp_path / "m.yaml")
+    # row 0 is the bottom of the map
+    assert occ.occupied.tolist() == [[True, False, False], [False, True, True]]
+    assert occ.is_free(1.1, 2.1) is False and occ.is_free(1.1, 2.6) is True
+    assert occ.is_free(1.6, 2.6) is False  # grey = unknown counts as occupied
+    assert occ.is_free(0.0, 0.0) is False  # outside
+    (tmp_path / "n.yaml").write_text(
+        "image: m.pgm\nresolution: 0.5\norigin: [0, 0, 0]\nnegate: 1\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    assert load_occupancy(tmp_path / "n.yaml").occupied.tolist() == \
+        [[False, True, True], [True, True, False]]
+
+
+def test_corridors_from_graph():
+    pm = make_lab()
+    occ = corridors_from_graph(pm, corridor_width_m=0.4, resolution_m=0.02)
+    assert occ.extent == pytest.approx((0.0, 0.0, 3.0, 2.6))
+    assert all(occ.is_free(x, y) for x, y in pm.positions)
+    assert occ.is_free(1.2, 0.3) and occ.is_free(0.3, 0.8)  # on edges
+    assert not occ.is_free(1.2, 0.8)  # inside a desk block
+    assert not occ.is_free(0.9, 0.3 + 0.25)  # beyond half a corridor width from any edge
+
+
+# ---------------------------------------------------------------------------------------------
+# malformed inputs
+
+GOOD_GRAPH = """3
+40
+20
+0.5
+0
+0
+
+0
+5
+5
+1
+1
+E
+20
+
+1
+25
+5
+2
+0
+W
+20
+2
+E
+10
+
+2
+35
+5
+1
+1
+W
+10
+"""
+
+PS_YAML = ("image: tiny.pgm\nresolution: 0.5\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+           "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+
+
+def ps_folder(tmp_path: Path, graph: str = GOOD_GRAPH, yaml_text: str = PS_YAML,
+              image: bool = True) -> Path:
+    folder = tmp_path / "tiny"
+    folder.mkdir(exist_ok=True)
+    (folder / "tiny.graph").write_text(graph)
+    (folder / "tiny.yaml").write_text(yaml_text)
+    if image:
+        pixels = np.full((20, 40), 254, dtype=np.uint8)
+        (folder / "tiny.pgm").write_bytes(b"P5\n40 20\n255\n" + pixels.tobytes())
+    return folder
+
+
+def error_of(path) -> str:
+    with pytest.raises(MapError) as err:
+        load_map(path)
+    return str(err.value)
+
+
+def test_good_tiny_graph_imports(tmp_path):
+    pm = load_map(ps_folder(tmp_path))
+    assert pm.num_vertices == 3 and pm.graph.num_edges == 2
+    assert pm.graph.edge_length(0, 1) == pytest.approx(10.0)
+    assert pm.positions[2] == pytest.approx((17.5, 2.5))
+
+
+def line_of_token(text: str, token_index: int) -> int:
+    count = 0
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        count += len(line.split())
+        if count > token_index:
+            return lineno
+    raise AssertionError
+
+
+@pytest.mark.parametrize(
+    "graph,expect",
+    [
+        ("\n".join(GOOD_GRAPH.split("\n")[:30]), r"tiny.graph:\d+ \(end of file\).*truncated"),
+        (GOOD_GRAPH.replace("0.5\n", "zero.5\n", 1), r"tiny.graph:4 .*number.*zero\.5"),
+        (GOOD_GRAPH.replace("2\nE\n10", "7\nE\n10"), r"tiny.graph:23 .*unknown neighbour 7"),
+        (GOOD_GRAPH.replace("\n1\n1\nE\n20\n", "\n1\n2\nE\n20\n", 1),
+         r"tiny.graph:\d+ .*asymmetric edge"),
+        (GOOD_GRAPH.replace("3\n40", "2\n40", 1), r"tiny.graph:\d+ .*vertex count mismatch"),
+        (GOOD_GRAPH.replace("3\n40", "4\n40", 1), r"tiny.graph:\d+ .*truncated"),
+        (GOOD_GRAPH.replace("E\n20", "Q\n20", 1), r"tiny.graph:13 .*compass direction"),
+    ],
+    ids=["truncated", "bad-number", "unknown-neighbour", "asymmetric", "count-mismatch-extra",
+         "count-mismatch-missing", "bad-direction"],
+)
+def test_malformed_graph_names_file_and_line(tmp_path, graph, expect):
+    msg = error_of(ps_folder(tmp_path, graph=graph))
+    assert re.search(expect, msg), msg
+
+
+def test_disconnected_graph(tmp_path):
+    graph = """3\n40\n20\n0.5\n0\n0\n0 5 5 1 1 E 20\n1 25 5 1 0 W 20\n2 35 5 0\n"""
+    msg = error_of(ps_folder(tmp_path, graph=graph))
+    assert "tiny" in msg and "disconnected" in msg
+
+
+def test_bad_map_server_yaml_and_missing_image(tmp_path):
+    msg = error_of(ps_folder(tmp_path, yaml_text="image: [unclosed\n"))
+    assert re.search(r"tiny.yaml:\d+: invalid YAML", msg), msg
+    msg = error_of(ps_folder(tmp_path, yaml_text=PS_YAML + "colour: red\n"))
+    assert "tiny.yaml" in msg and "unknown key" in msg and "colour" in msg
+    shutil.rmtree(tmp_path / "tiny")
+    msg = error_of(ps_folder(tmp_path, yaml_text=PS_YAML.replace("tiny.pgm", "other.pgm"),
+                             image=False))
+    assert "tiny.yaml" in msg and "other.pgm" in msg and "not found" in msg
+
+
+def test_truncated_pgm(tmp_path):
+    folder = ps_folder(tmp_path)
+    (folder / "tiny.pgm").write_bytes(b"P5\n40 20\n255\n" + b"\xfe" * 100)
+    msg = error_of(folder)
+    assert "tiny.pgm" in msg and "truncated" in msg
+
+
+def our_folder(tmp_path: Path) -> Path:
+    return save_map_folder(make_lab(), tmp_path / "mylab")
+
+
+def test_our_format_round_trip(tmp_path):
+    folder = our_folder(tmp_path)
+    pm = load_map(folder)
+    assert (pm.num_vertices, pm.graph.num_edges) == (15, 16)
+    assert pm.settings == make_lab().settings
+    assert pm.occupancy is not None  # generated corridors
+    # per-vertex overrides
+    text = (folder / "graph.yaml").read_text().replace(
+        "{id: 7, x: 1.5, y: 1.3}", "{id: 7, x: 1.5, y: 1.3, importance: 0.05, initial_uncertainty: 3}")
+    (folder / "graph.yaml").write_text(text)
+    pm = load_map(folder)
+    i = pm.index_of(7)
+    assert pm.importance[i] == 0.05 and pm.initial_uncertainty[i] == 3.0
+    assert pm.importance[0] == 0.01
+
+
+@pytest.mark.parametrize(
+    "file,old,new,expect",
+    [
+        ("map.yaml", "  robot_radius: 0.105", "  robot_radius: 0.105\n  colour: red",
+         r"map.yaml:\d+: unknown key\(s\) colour in settings"),
+        ("map.yaml", "name: lab", "name: lab\nsize: 3", r"map.yaml:\d+: unknown key\(s\) size"),
+        ("map.yaml", "graph: graph.yaml", "graph: [graph.yaml", r"map.yaml:\d+: invalid YAML"),
+        ("map.yaml", "nominal_speed: 0.1", "nominal_speed: fast", r"map.yaml:\d+: 'nominal_speed'"),
+        ("map.yaml", "graph: graph.yaml", "graph: nograph.yaml", r"map.yaml:\d+: graph file"),
+        ("graph.yaml", "{id: 3, x: 2.1, y: 0.3}", "{id: 3, x: 2.1, y: 0.3, z: 1}",
+         r"graph.yaml:7: unknown key\(s\) z in vertex"),
+        ("graph.yaml", "  - [13, 14]", "  - [13, 99]", r"graph.yaml:\d+: edge 13-99 names unknown"),
+        ("graph.yaml", "{id: 3, x: 2.1,", "{id: 3, x: two,", r"graph.yaml:7: 'x' must be"),
+        ("graph.yaml", "vertices:\n", "vertices:\n  - {id: 99, x: 1.0, y: 1.0}\n", r"disconnected"),
+    ],
+    ids=["unknown-setting", "unknown-key", "bad-yaml", "bad-number", "missing-graph",
+         "unknown-vertex-key", "unknown-vertex", "bad-coordinate", "disconnected"],
+)
+def test_our_format_errors(tmp_path, file, old, new, expect):
+    folder = our_folder(tmp_path)
+    path = folder / file
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+    msg = error_of(folder)
+    assert re.search(expect, msg), msg
+    assert "mylab" in msg
+
+
+def test_our_format_missing_occupancy_image(tmp_path):
+    folder = save_map_folder(make_lab(), tmp_path / "mylab", occupancy_file=True)
+    (folder / "occupancy.pgm").unlink()
+    msg = error_of(folder)
+    assert "occupancy.yaml" in msg and "not found" in msg
+
+
+def test_maps_cli(capsys):
+    from tpuaf.cli import main
+
+    assert main(["maps", "grid", "lab"]) == 0
+    out = capsys.readouterr().out
+    assert "0.1313" in out and "25.8 x 25.8" in out and "3.0 x 2.6" in out
+    assert main(["maps", "nowhere"]) == 2
+    assert "unknown map" in capsys.readouterr().err
