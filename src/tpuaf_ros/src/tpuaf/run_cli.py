@@ -88,7 +88,7 @@ def format_summary(summary: dict) -> str:
         ("interval idleness std I_std", "idleness_std_s", "s"),
         ("interval idleness min I_min", "idleness_min_s", "s"),
         ("interval idleness max I_max", "idleness_max_s", "s"),
-        ("instantaneous idleness I_ins (time mean)", "instantaneous_idleness_mean_s", "s"),
+        ("instantaneous idleness I_ins (time mean)", "idleness_ins_mean_s", "s"),
         ("worst idleness", "worst_idleness_s", "s"),
         ("uncertainty X (time mean)", "uncertainty_mean", ""),
         ("interferences", "interferences", ""),
@@ -161,7 +161,7 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
     def progress(now: float) -> None:
         bar.update(now - bar.n)
         if writer is not None:
-            writer.flush_from(engine.recorder)
+            writer.sync(engine.recorder)
 
     wall = time.perf_counter()
     interrupted = False
