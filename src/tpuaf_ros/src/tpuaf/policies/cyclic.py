@@ -81,17 +81,18 @@ class CyclicPolicy(_RouteFollower):
 
 
 def team_start_vertices(ctx) -> list[int]:
-    """Every robot's start vertex as the runtimes choose them (tpuaf.maps.start_vertices), with
-    this robot's own actual start vertex."""
+    """Every robot's start vertex as the runtimes choose them (tpuaf.maps.start_vertices).
+
+    Every robot must use the same list so that the part assignment is consistent; a robot
+    whose actual start differs simply drives to its assigned part first."""
     try:
         from ..maps import start_vertices
 
-        starts = list(start_vertices(ctx.patrol_map, ctx.n_robots))
-    except Exception:  # a map without start settings or an older maps package
-        starts = [ctx.start_vertex] * ctx.n_robots
+        starts = [int(v) for v in start_vertices(ctx.patrol_map, ctx.n_robots)]
+    except Exception:  # a map without start settings: robot k gets part k
+        starts = []
     if len(starts) != ctx.n_robots:
-        starts = [ctx.start_vertex] * ctx.n_robots
-    starts[ctx.robot] = ctx.start_vertex
+        return []
     return starts
 
 
@@ -110,6 +111,10 @@ class MultilevelSubgraphPolicy(_RouteFollower):
     def _route(self, ctx):
         part = tours.partition_tours(ctx.patrol_map, ctx.n_robots)
         dist = ctx.patrol_map.graph.distances
-        assignment = tours.assign_parts(part, team_start_vertices(ctx), dist)
+        starts = team_start_vertices(ctx)
+        if starts:
+            assignment = tours.assign_parts(part, starts, dist)
+        else:
+            assignment = [p for p, m in enumerate(part.robots_per_part) for _ in range(m)]
         self.part_index = assignment[ctx.robot]
         return part.tours[self.part_index].walk

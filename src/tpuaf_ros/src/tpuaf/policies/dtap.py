@@ -84,37 +84,61 @@ class DynamicTaskAssignmentPartition(Policy):
         self.bids: dict[int, dict[int, tuple[float, float]]] = {}  # v -> robot -> (bid m, time s)
         self.goal: int | None = None  # the vertex the robot is heading to ("next")
         self.auction: Auction | None = None
+        self.me = int(ctx.robot)
+        self._holder: dict[int, int] = {}  # vertex -> robot with the lowest bid
+        self._mine: set[int] = set()  # my tasks
+        self._expired_at = float(ctx.now)
+        self._center_cache: tuple[tuple[int, ...], int] = ((), -1)
         self.stats = {"won": 0, "taken_anyway": 0, "lost": 0, "fallback": 0}
 
     def _ensure(self, ctx):
         if not hasattr(self, "estimate"):
             self.start(ctx)
 
+    def _refresh(self, vertex: int) -> None:
+        entries = self.bids.get(vertex)
+        if not entries:
+            self.bids.pop(vertex, None)
+            self._holder.pop(vertex, None)
+            self._mine.discard(vertex)
+            return
+        h = min(entries, key=lambda r: (entries[r][0], r))
+        self._holder[vertex] = h
+        if h == self.me:
+            self._mine.add(vertex)
+        else:
+            self._mine.discard(vertex)
+
     def _expire(self, now: float) -> None:
+        """Drop bids older than bid_timeout (checked at most every 5 simulated seconds)."""
+        if now - self._expired_at < 5.0:
+            return
+        self._expired_at = now
         limit = float(self.params["bid_timeout"])
         for v in list(self.bids):
-            entries = {r: bt for r, bt in self.bids[v].items() if now - bt[1] <= limit}
-            if entries:
-                self.bids[v] = entries
-            else:
-                del self.bids[v]
+            entries = self.bids[v]
+            if any(now - t > limit for _, t in entries.values()):
+                self.bids[v] = {r: bt for r, bt in entries.items() if now - bt[1] <= limit}
+                self._refresh(v)
 
     def holder(self, vertex: int) -> int | None:
         """Robot with the lowest recorded bid on `vertex` (ties to the lower id), or None."""
-        entries = self.bids.get(vertex)
-        if not entries:
-            return None
-        return min(entries, key=lambda r: (entries[r][0], r))
+        return self._holder.get(vertex)
 
     def tasks(self, ctx) -> list[int]:
         """Vertices whose lowest recorded (unexpired) bid is mine."""
         self._expire(ctx.now)
-        return sorted(v for v in self.bids if self.holder(v) == ctx.robot)
+        return sorted(self._mine)
 
     def _record(self, vertex: int, bid: float, robot: int, now: float) -> bool:
         """Record `robot`'s bid on `vertex`; True when it holds the lowest bid."""
         self.bids.setdefault(vertex, {})[int(robot)] = (float(bid), float(now))
+        self._refresh(vertex)
         return self.holder(vertex) == robot
+
+    def _forget(self, vertex: int) -> None:
+        self.bids.pop(vertex, None)
+        self._refresh(vertex)
 
     def next_next(self, ctx) -> int | None:
         """The vertex after my goal once its auction is over and mine."""
@@ -129,13 +153,16 @@ class DynamicTaskAssignmentPartition(Policy):
         minimises the summed path length to my tasks (`here` when I hold none)."""
         if vertex == self.goal or vertex == self.next_next(ctx):
             return 0.0
-        tasks = [t for t in self.tasks(ctx) if t != vertex]
-        if tasks:
-            sums = self.dist[np.ix_(tasks, tasks)].sum(axis=1)
-            center = tasks[int(np.argmin(sums))]
-        else:
-            center = here
+        tasks = tuple(t for t in self.tasks(ctx) if t != vertex)
+        center = self._center(tasks) if tasks else here
         return float(self.dist[vertex, center] * (1 + len(tasks)))
+
+    def _center(self, tasks: tuple[int, ...]) -> int:
+        """The task vertex minimising the summed path length to all tasks (cached)."""
+        if self._center_cache[0] != tasks:
+            sums = self.dist[np.ix_(tasks, tasks)].sum(axis=1)
+            self._center_cache = (tasks, tasks[int(np.argmin(sums))])
+        return self._center_cache[1]
 
     def utility(self, base: int) -> np.ndarray:
         n = self.hops.shape[0]
@@ -191,7 +218,7 @@ class DynamicTaskAssignmentPartition(Policy):
         self.estimate.advance(now)
         self.estimate.values[here] = 0.0
         if self.holder(here) == ctx.robot:
-            del self.bids[here]  # task done
+            self._forget(here)  # task done
         if self.goal == here:
             self.goal = None
         if self.hops.shape[0] < 2:
