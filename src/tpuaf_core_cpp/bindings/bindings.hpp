@@ -6,5 +6,6 @@ void bind_perception(pybind11::module_& m);
 void bind_uncertainty(pybind11::module_& m);
 void bind_graph(pybind11::module_& m);
 void bind_utility(pybind11::module_& m);
+void bind_knowledge(pybind11::module_& m);
 void bind_world(pybind11::module_& m);
 }  // namespace tpuaf::bindings

@@ -7,5 +7,6 @@ PYBIND11_MODULE(_core, m) {
   tpuaf::bindings::bind_uncertainty(m);
   tpuaf::bindings::bind_graph(m);
   tpuaf::bindings::bind_utility(m);
+  tpuaf::bindings::bind_knowledge(m);
   tpuaf::bindings::bind_world(m);
 }

@@ -162,7 +162,7 @@ class BatchRun:
         self._last_positions_time = -1.0
         # Segment table of all robots, for vectorised positions.
         self._p0 = np.array([r.p0 for r in self.robots])
-        self._p1 = self._p0.copy()
+        self._velocity = np.zeros_like(self._p0)
         self._t0 = np.zeros(config.robots)
         self._t1 = np.zeros(config.robots)
 
@@ -176,12 +176,8 @@ class BatchRun:
 
     def positions(self, t: float) -> np.ndarray:
         """True positions of all robots at time t [m], vectorised over robots."""
-        p0, p1 = self._p0, self._p1
-        span = self._t1 - self._t0
-        moving = span > 0
-        fraction = np.ones_like(span)
-        fraction[moving] = np.clip((t - self._t0[moving]) / span[moving], 0.0, 1.0)
-        return p0 + (p1 - p0) * fraction[:, None]
+        elapsed = np.minimum(np.maximum(t - self._t0, 0.0), self._t1 - self._t0)
+        return self._p0 + self._velocity * elapsed[:, None]
 
     def _deliver_ready(self) -> None:
         ready = self.bus.ready
@@ -232,7 +228,8 @@ class BatchRun:
             robot.travel_time_s += duration
         robot.t1 = self.now + duration
         i = robot.robot
-        self._p0[i], self._p1[i], self._t0[i], self._t1[i] = robot.p0, robot.p1, robot.t0, robot.t1
+        self._p0[i], self._t0[i], self._t1[i] = robot.p0, robot.t0, robot.t1
+        self._velocity[i] = (robot.p1 - robot.p0) / duration  # [m/s] along the straight segment
         self.push(robot.t1, _ARRIVE, robot.robot)
 
     def _arrive(self, robot: _Robot) -> None:

@@ -1,0 +1,62 @@
+// What one TPUAF robot knows (SPEC section 4, steps 3, 6 and 7): the shared set Q of visits and
+// announced intentions, with stale entries dropped, and its own estimate of every X_j.
+#pragma once
+
+#include <vector>
+
+#include "tpuaf_core/utility.hpp"
+
+namespace tpuaf {
+
+struct Intention {
+  int robot = -1;
+  int from_vertex = -1;
+  int vertex = -1;
+  double expected_arrival_s = 0;
+  double travel_time_s = 0;
+  double sent_s = 0;
+};
+
+class TpuafKnowledge {
+ public:
+  // importance C_j and initial X0_j per vertex; a known visit applies one straight pass at
+  // nominal speed: X <- evolve(X, C - pass_coverage, pass_time_s) (mean M over the pass).
+  TpuafKnowledge(const Eigen::VectorXd& importance, const Eigen::VectorXd& initial,
+                 UncertaintyModel model, double pass_coverage, double pass_time_s,
+                 double intention_timeout_s, double silence_timeout_s);
+
+  // A visit of `vertex` at `time_s` (own or heard). Visits older than the newest known one of
+  // that vertex only update nothing but the idleness clock when newer.
+  void record_visit(int vertex, double time_s);
+  // A Visit message of `robot` heard at `now_s`: records the visit and clears that robot's
+  // intention if it was for this vertex.
+  void hear_visit(int robot, int vertex, double time_s, double now_s);
+  // An Intention message heard at `now_s`; the newest intention per robot wins.
+  void hear_intention(const Intention& intention, double now_s);
+  void forget_intention(int robot);
+  // Drops intentions whose expected arrival passed more than intention_timeout_s ago and those
+  // of robots silent for more than silence_timeout_s.
+  void drop_stale(double now_s);
+
+  Eigen::VectorXd estimate(double now_s) const;
+  const Eigen::VectorXd& last_visit() const { return last_visit_; }
+  const std::vector<Intention>& intentions() const { return intentions_; }
+  // Earliest announced arrival per vertex (+inf: none) and that robot's travel time.
+  void announced(Eigen::VectorXd& arrival_s, Eigen::VectorXd& travel_s) const;
+  int size() const { return static_cast<int>(last_visit_.size()); }
+
+  // Eq. 6-14 for `candidates` with this knowledge (stale entries dropped first).
+  UtilityResult utilities(const PatrolGraph& graph, double now_s, int current_vertex,
+                          const std::vector<int>& candidates, double speed_mps, UtilityForm form,
+                          bool use_path_length);
+
+ private:
+  void check_vertex(int v) const;
+  Eigen::VectorXd importance_, last_visit_, anchor_value_, anchor_time_;
+  UncertaintyModel model_;
+  double pass_coverage_, pass_time_s_, intention_timeout_s_, silence_timeout_s_;
+  std::vector<Intention> intentions_;  // at most one per robot
+  std::vector<double> last_heard_s_;   // per robot index, -inf when never heard
+};
+
+}  // namespace tpuaf
