@@ -11,6 +11,8 @@ from . import __version__
 SUBCOMMANDS: list[tuple[str, str, str]] = [
     ("run", "run_cli", "Run one batch experiment (no ROS) and print its metrics"),
     ("maps", "maps_cli", "Show map statistics"),
+    ("compare", "compare_cli", "Sweep maps x strategies x N x seeds on Dask (resumable)"),
+    ("report", "report_cli", "Markdown report with figures and verdicts of a compare folder"),
 ]
 
 

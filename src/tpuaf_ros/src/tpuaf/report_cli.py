@@ -1,0 +1,29 @@
+"""`tpuaf report DIR`: the Markdown report (tables, figures, verdicts) of a `tpuaf compare` folder."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .cli import CliError
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("dir", type=Path, help="a folder written by `tpuaf compare`")
+    p.add_argument("--out", type=Path, default=None,
+                   help="report folder (default: DIR): report.md and figures/*.png")
+    p.add_argument("--paper", type=Path, default=None,
+                   help="the paper's figures (default: ../shared/reference/paper_tables.csv "
+                        "beside the repository, skipped if absent)")
+    p.add_argument("--title", default=None, help="report title")
+
+
+def run(args: argparse.Namespace) -> int:
+    from .report import ReportError, write_report
+
+    try:
+        path = write_report(args.dir, out=args.out, paper=args.paper, title=args.title)
+    except ReportError as err:
+        raise CliError(str(err)) from None
+    print(f"report: {path}")
+    return 0
