@@ -214,7 +214,7 @@ class ResultsWriter:
         if isinstance(params, dict):
             params = ",".join(f"{k}={v}" for k, v in params.items())
         info = [
-            str(cfg.get("map", recorder.patrol_map.name)),
+            recorder.patrol_map.name,  # the map name, as patrolling_sim (not a path)
             str(cfg.get("n_robots", recorder.n_robots)),
             str(cfg.get("initial_positions", "default")),
             f"{float(cfg.get('goal_reached_wait_s', 0.0)):.1f}",
