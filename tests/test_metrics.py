@@ -223,3 +223,19 @@ def test_summary_on_builtin_map_is_json_serialisable():
     assert "NaN" not in text
     assert s["duration_s"] == 60.0 and len(rec.timeseries) == 60
     assert s["uncertainty_mean"] > 0
+
+
+def test_out_of_order_visits_give_the_same_summary():
+    in_order = RunRecorder(line_map(), 2, ground_truth=False)
+    for t, r, v in LOG:
+        in_order.record_visit(r, v, t)
+    shuffled = RunRecorder(line_map(), 2, ground_truth=False)
+    # delayed reports: (10, v0) after (14, v2) and (15, v1); (5, v1) after (10, v0)
+    for i in [0, 1, 4, 5, 3, 2, 6]:
+        t, r, v = LOG[i]
+        shuffled.record_visit(r, v, t)
+    a, b = in_order.summary(25.0), shuffled.summary(25.0)
+    for key in ("idleness_avg_s", "idleness_std_s", "idleness_min_s", "idleness_max_s",
+                "idleness_samples", "worst_idleness_s", "complete_cycles", "counted_visits"):
+        assert a[key] == b[key], key
+    assert sorted(shuffled.interval_samples) == [10.0, 10.0, 12.0, 12.0]

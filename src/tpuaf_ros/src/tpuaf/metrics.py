@@ -20,6 +20,8 @@ Conventions (chosen where the SPEC is silent):
 
 from __future__ import annotations
 
+import bisect
+import itertools
 import math
 from collections import deque
 from collections.abc import Iterable, Sequence
@@ -140,14 +142,11 @@ class RunRecorder:
         self.d_if = float(s.interference_distance)
         self._dif2 = self.d_if * self.d_if
 
-        # Visit statistics (applied at once).
-        self.visits: list[tuple[float, int, int]] = []
-        self.visit_idleness: list[float] = []  # per visit, NaN for a vertex's first visit
-        self._last_visit = np.full(self.n_vertices, np.nan)
+        # Visit statistics: sorted visit times per vertex (visits may arrive out of order).
+        self.visits: list[tuple[float, int, int]] = []  # in arrival order
+        self.visit_idleness: list[float] = []  # per visit, as known at arrival; NaN = first
+        self._vertex_times: list[list[float]] = [[] for _ in range(self.n_vertices)]
         self._visit_count = np.zeros(self.n_vertices, dtype=int)
-        self._samples: list[float] = []
-        self._worst = 0.0
-        self._visit_time = self.start_time
 
         # Sampling view: visits applied lazily up to each sample time.
         self._pending: deque[tuple[float, int]] = deque()
@@ -198,27 +197,32 @@ class RunRecorder:
     # -- visits ---------------------------------------------------------------------------
 
     def record_visit(self, robot: int, vertex: int, time: float) -> None:
-        """Robot `robot` reached its goal vertex `vertex` (graph index) at `time` [s]."""
+        """Robot `robot` reached its goal vertex `vertex` (graph index) at `time` [s].
+
+        Visits may arrive out of time order (e.g. delayed messages): the summary is exact
+        whatever the order; a 1 Hz row already emitted is not revised."""
         time = float(time)
         if not 0 <= vertex < self.n_vertices:
             raise IndexError(f"vertex index {vertex} out of range (map has {self.n_vertices})")
-        if time < self._visit_time:
-            raise ValueError(f"visit at {time} s is earlier than the previous one "
-                             f"({self._visit_time} s): visits must come in time order")
-        self._visit_time = time
-        last = self._last_visit[vertex]
-        base = self.start_time if math.isnan(last) else last
-        self._worst = max(self._worst, time - base)
-        if math.isnan(last):
-            self.visit_idleness.append(math.nan)
+        times = self._vertex_times[vertex]
+        if not times or time >= times[-1]:
+            prev = times[-1] if times else math.nan
+            times.append(time)
         else:
-            idl = time - last
-            self._samples.append(idl)
-            self.visit_idleness.append(idl)
-        self._last_visit[vertex] = time
+            k = bisect.bisect_right(times, time)
+            prev = times[k - 1] if k else math.nan
+            times.insert(k, time)
+        self.visit_idleness.append(time - prev)
         self._visit_count[vertex] += 1
         self.visits.append((time, int(robot), int(vertex)))
-        self._pending.append((time, int(vertex)))
+        pending = self._pending
+        if time <= self._next_sample - self.sample_period_s:  # its row is already out
+            self._apply_visit(time, int(vertex))
+        elif not pending or time >= pending[-1][0]:
+            pending.append((time, int(vertex)))
+        else:
+            k = bisect.bisect_right([t for t, _ in pending], time)
+            pending.insert(k, (time, int(vertex)))
         if not self.ground_truth:
             self._emit_until(time, None)
 
@@ -226,12 +230,14 @@ class RunRecorder:
 
     def _apply_pending(self, t: float) -> None:
         pending = self._pending
-        last = self._sample_last
         while pending and pending[0][0] <= t:
-            vt, v = pending.popleft()
-            self._sample_worst = max(self._sample_worst, vt - last[v])
-            last[v] = vt
-            self._sample_visits += 1
+            self._apply_visit(*pending.popleft())
+
+    def _apply_visit(self, vt: float, v: int) -> None:
+        last = self._sample_last
+        self._sample_worst = max(self._sample_worst, vt - last[v])
+        last[v] = max(last[v], vt)
+        self._sample_visits += 1
 
     def _emit_row(self, t: float, x_mean: float) -> None:
         self._apply_pending(t)
@@ -400,7 +406,19 @@ class RunRecorder:
 
     @property
     def interval_samples(self) -> list[float]:
-        return list(self._samples)
+        """Interval idleness samples [s], vertex by vertex in time order."""
+        return [b - a for times in self._vertex_times for a, b in itertools.pairwise(times)]
+
+    def worst_idleness(self, end_time: float) -> float:
+        """max over vertices and time up to end_time of (t - last visit) [s]."""
+        worst = 0.0
+        for times in self._vertex_times:
+            prev = self.start_time
+            for t in times:
+                worst = max(worst, t - prev)
+                prev = t
+            worst = max(worst, float(end_time) - prev)
+        return worst
 
     @property
     def visit_counts(self) -> list[int]:
@@ -435,9 +453,8 @@ class RunRecorder:
         """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null)."""
         self.finish(end_time)
         duration = float(end_time) - self.start_time
-        stats = idleness_stats(self._samples)
-        worst = max(self._worst, float(end_time) - float(
-            np.min(np.where(np.isnan(self._last_visit), self.start_time, self._last_visit))))
+        stats = idleness_stats(self.interval_samples)
+        worst = self.worst_idleness(end_time)
         n_rows = len(self.timeseries)
         counts = self.visit_counts
         ids = list(self.patrol_map.vertex_ids)

@@ -272,6 +272,12 @@ def load_patrolling_sim(path: str | Path) -> PatrolMap:
     occ = load_occupancy(
         yaml_file, image_fallbacks=(folder / f"{name}.pgm", folder / f"{name}.png")
     )
+    notes = list(g["notes"])
+    if (occ.width, occ.height) != (g["width_px"], g["height_px"]):
+        notes.append(
+            f"graph header says {g['width_px']}x{g['height_px']} px, image is "
+            f"{occ.width}x{occ.height} px"
+        )
     settings = MapSettings(**IMPORTED_SETTINGS)
     for candidate in (folder / "initial_poses.txt", folder.parent / "initial_poses.txt"):
         if candidate.is_file():
@@ -291,7 +297,7 @@ def load_patrolling_sim(path: str | Path) -> PatrolMap:
         source=graph_file,
         occupancy=occ,
         description=f"patrolling_sim map '{name}' imported from {folder}",
-        notes=list(g["notes"]),
+        notes=notes,
     )
     pm.graph  # noqa: B018 - validates connectivity now, with the file named in the error
     return pm
