@@ -446,18 +446,30 @@ def default_workers() -> int:
 
 
 @contextlib.contextmanager
-def _devel_path_first():
-    """Spawned workers inherit sys.path; catkin's package shims put source folders in front of
-    the devel space once imported, which would hide compiled modules (tpuaf_core._core) from
-    the workers. Start them with the devel python folders first."""
+def _spawn_safely():
+    """Start worker processes (multiprocessing spawn) that work from any entry point.
+
+    - Spawned workers inherit sys.path; catkin's package shims put source folders in front of
+      the devel space once imported, which would hide compiled modules (tpuaf_core._core) from
+      the workers: start them with the devel python folders first.
+    - Spawn re-runs the main script in each worker unless it was run with -m; a console script
+      without a `__name__ == "__main__"` guard would then start a sweep in every worker. The
+      workers need nothing from the main script, so it is hidden from them."""
     saved = list(sys.path)
     devel = [p for p in saved if p.rstrip("/").endswith("lib/python3/dist-packages")
              and Path(p).parent.parent.parent.name == "devel"]
     sys.path[:] = devel + [p for p in saved if p not in devel]
+    main = sys.modules.get("__main__")
+    main_file = getattr(main, "__file__", None)
+    hide = main is not None and main_file is not None and getattr(main, "__spec__", None) is None
+    if hide:
+        del main.__file__
     try:
         yield
     finally:
         sys.path[:] = saved
+        if hide:
+            main.__file__ = main_file
 
 
 def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
@@ -493,7 +505,7 @@ def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
                     raise SweepError(f"cannot connect to the Dask scheduler at {scheduler}: {err}") from None
             else:
                 n = workers or default_workers()
-                with _devel_path_first():
+                with _spawn_safely():
                     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                            dashboard_address=None, host="127.0.0.1",
                                            local_directory=tempfile.gettempdir())
