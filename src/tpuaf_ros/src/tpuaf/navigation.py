@@ -1,0 +1,399 @@
+"""The navigator: graph routes and a reactive local controller (ROS-free, shared by runtimes).
+
+`GraphRoute` is the sequence of vertices along the graph's shortest path from the current vertex
+to the goal. `LocalController` turns (pose, laser ranges, target point) into a velocity command
+(v [m/s], w [rad/s]), steering around obstacles and other robots seen by the laser (keeping
+right, so that two robots meeting head-on in a corridor pass each other), and recovers when
+stuck: back off, wait, retry, and after `max_retries` report the goal failed. `Navigator` chains
+the two: it follows a route waypoint by waypoint.
+
+Everything here is a deterministic function of the inputs it is fed (times in seconds, poses in
+the map frame [m, rad]); no clock, no ROS.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from enum import Enum
+from typing import Any
+
+import numpy as np
+
+# ---------------------------------------------------------------------------------------------
+# Route along the graph
+
+
+class GraphRoute:
+    """Waypoints (vertex indices) of the shortest path from `start_vertex` to `goal_vertex`.
+
+    The start vertex itself is not a waypoint (the robot is there), unless `from_position`
+    [m] is given and lies farther than `snap_m` from it (the robot must first drive back to it).
+    A goal equal to the start gives the single waypoint [goal]."""
+
+    def __init__(self, graph: Any, positions: np.ndarray, start_vertex: int, goal_vertex: int,
+                 *, from_position: tuple[float, float] | None = None, snap_m: float = 0.5):
+        n = int(graph.num_vertices)
+        for name, v in (("start", start_vertex), ("goal", goal_vertex)):
+            if not 0 <= int(v) < n:
+                raise IndexError(f"{name} vertex index {v} out of range (graph has {n})")
+        self.start = int(start_vertex)
+        self.goal = int(goal_vertex)
+        self.positions = np.asarray(positions, dtype=float)
+        if self.goal == self.start:
+            path = [self.goal]
+        else:
+            path = [int(v) for v in graph.path(self.start, self.goal)[1:]]
+        if from_position is not None and self.goal != self.start:
+            p = self.positions[self.start]
+            if math.hypot(from_position[0] - p[0], from_position[1] - p[1]) > snap_m:
+                path.insert(0, self.start)
+        self.waypoints: list[int] = path
+        self._k = 0
+
+    @property
+    def done(self) -> bool:
+        return self._k >= len(self.waypoints)
+
+    @property
+    def next_waypoint(self) -> int | None:
+        return None if self.done else self.waypoints[self._k]
+
+    @property
+    def is_last(self) -> bool:
+        """True when the next waypoint is the goal."""
+        return self._k == len(self.waypoints) - 1
+
+    def next_position(self) -> tuple[float, float]:
+        p = self.positions[self.waypoints[self._k]]
+        return (float(p[0]), float(p[1]))
+
+    def advance(self) -> int:
+        """Mark the next waypoint reached; returns it."""
+        if self.done:
+            raise IndexError("route already done")
+        v = self.waypoints[self._k]
+        self._k += 1
+        return v
+
+    def length(self) -> float:
+        """Length [m] of the polyline start -> waypoints (straight segments)."""
+        pts = self.positions[[self.start, *self.waypoints]]
+        return float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
+
+
+# ---------------------------------------------------------------------------------------------
+# Laser scan
+
+
+@dataclass(frozen=True)
+class Scan:
+    """A planar scan in the robot frame: beam k at angle_min + k * angle_increment [rad]."""
+
+    ranges: np.ndarray  # [m]; 0, NaN, inf or > range_max = no return
+    angle_min: float
+    angle_increment: float
+    range_min: float = 0.0
+    range_max: float = math.inf
+
+
+_TRIG_CACHE: dict[tuple[int, float, float], tuple[np.ndarray, np.ndarray]] = {}
+
+
+def scan_points(scan: Scan) -> np.ndarray:
+    """(k, 2) obstacle points [m] in the robot frame from the valid returns of `scan`."""
+    r = np.asarray(scan.ranges, dtype=float)
+    key = (len(r), float(scan.angle_min), float(scan.angle_increment))
+    trig = _TRIG_CACHE.get(key)
+    if trig is None:
+        a = scan.angle_min + scan.angle_increment * np.arange(len(r))
+        trig = (np.cos(a), np.sin(a))
+        if len(_TRIG_CACHE) > 16:
+            _TRIG_CACHE.clear()
+        _TRIG_CACHE[key] = trig
+    ok = (r > 0) & (r >= scan.range_min) & (r <= scan.range_max)  # NaN compares False
+    return np.column_stack((r[ok] * trig[0][ok], r[ok] * trig[1][ok]))
+
+
+def wrap_angle(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+# ---------------------------------------------------------------------------------------------
+# Local controller
+
+
+@dataclass
+class ControllerConfig:
+    """Parameters of the local controller (units in the comments)."""
+
+    max_linear_speed: float = 1.0  # [m/s]
+    max_angular_speed: float = 2.84  # [rad/s]
+    robot_radius: float = 0.105  # [m]
+    safety_margin: float = 0.08  # [m] kept between the robot's disc and any laser return
+    plan_margin: float = 0.3  # [m] wider clearance wanted when choosing a heading
+    lookahead: float = 1.0  # [m] free length wanted along the chosen heading
+    slow_distance: float = 0.8  # [m] free length below which the speed drops linearly
+    heading_gain: float = 2.5  # [1/s] w = gain * heading error
+    turn_in_place: float = 1.0  # [rad] heading error above which the robot only turns
+    keep_right: float = 0.2  # [rad] extra cost of passing an obstacle on its right side
+    n_headings: int = 24  # candidate headings around the robot
+    stuck_timeout_s: float = 6.0  # [s] no progress of progress_m toward the target -> recover
+    progress_m: float = 0.15  # [m]
+    backoff_s: float = 1.5  # [s] reversing time of one recovery
+    backoff_speed: float = 0.15  # [m/s]
+    retry_wait_s: float = 1.0  # [s] standing still after backing off, before the retry
+    max_retries: int = 2  # recoveries before the goal is reported failed
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name in _NON_NEGATIVE:
+                ok = value >= 0
+            else:
+                ok = value > 0
+            if not ok or not math.isfinite(value):
+                raise ValueError(f"controller parameter {f.name} must be "
+                                 f"{'>= 0' if f.name in _NON_NEGATIVE else '> 0'}"
+                                 f", got {value!r}")
+
+
+_NON_NEGATIVE = ("keep_right", "retry_wait_s", "max_retries", "safety_margin", "plan_margin")
+
+
+class Status(Enum):
+    DRIVING = "driving"
+    REACHED = "reached"  # within tolerance of the target
+    RECOVERING = "recovering"  # backing off or waiting before a retry
+    FAILED = "failed"  # gave up after max_retries recoveries
+
+
+@dataclass(frozen=True)
+class Command:
+    v: float  # [m/s]
+    w: float  # [rad/s]
+    status: Status
+
+
+STOP_FAILED = Command(0.0, 0.0, Status.FAILED)
+
+
+class LocalController:
+    """Drives toward one target point at a time (see module docstring).
+
+    `set_target` starts a new target (and resets the recovery counter when `new_goal`);
+    `step(t, pose, points)` returns the command for pose (x, y, th) at time t, with laser
+    points (k, 2) in the robot frame (from `scan_points`; None = no laser)."""
+
+    _DRIVE, _BACK, _WAIT, _FAILED = range(4)
+
+    def __init__(self, config: ControllerConfig | None = None):
+        self.config = config or ControllerConfig()
+        c = self.config
+        k = np.arange(c.n_headings)
+        self._headings = wrap_angle_array(-math.pi + 2.0 * math.pi * k / c.n_headings)
+        self.target: tuple[float, float] | None = None
+        self.tolerance = 0.4
+        self.retries = 0
+        self._state = self._DRIVE
+        self._state_t = 0.0
+        self._best = math.inf
+        self._best_t = 0.0
+        self._back_w = 0.0
+
+    def set_target(self, xy: tuple[float, float], tolerance_m: float, t: float,
+                   new_goal: bool = True) -> None:
+        self.target = (float(xy[0]), float(xy[1]))
+        self.tolerance = float(tolerance_m)
+        if new_goal:
+            self.retries = 0
+            self._state = self._DRIVE
+        self._best = math.inf
+        self._best_t = float(t)
+
+    # -- geometry ---------------------------------------------------------------------------
+
+    def free_lengths(self, points: np.ndarray | None, headings: np.ndarray,
+                     margin: float | None = None) -> np.ndarray:
+        """Free travel length [m] of the robot's disc, grown by `margin` [m] (default the safety
+        margin), along each heading [rad]: how far it can translate before touching a point,
+        capped at `self.cap`. Points beside or behind the robot do not block (moving away from
+        them is allowed)."""
+        c = self.config
+        return self._free(points, np.atleast_1d(headings),
+                          (c.safety_margin if margin is None else margin,))[0]
+
+    @property
+    def cap(self) -> float:
+        """Longest free length that matters [m]."""
+        c = self.config
+        return max(c.lookahead, c.slow_distance) + 0.5
+
+    def _free(self, points: np.ndarray | None, headings: np.ndarray,
+              margins: tuple[float, ...]) -> list[np.ndarray]:
+        cap = self.cap
+        if points is None or len(points) == 0:
+            return [np.full(len(headings), cap) for _ in margins]
+        ch, sh = np.cos(headings)[:, None], np.sin(headings)[:, None]
+        px, py = points[:, 0][None, :], points[:, 1][None, :]
+        along = px * ch + py * sh
+        lat2 = py * ch - px * sh
+        lat2 *= lat2
+        ahead = along > 0
+        out = []
+        for margin in margins:
+            rm = self.config.robot_radius + margin
+            hit = ahead & (lat2 < rm * rm)
+            reach = np.where(hit, along - np.sqrt(np.maximum(rm * rm - lat2, 0.0)), cap)
+            out.append(np.minimum(np.maximum(reach.min(axis=1), 0.0), cap))
+        return out
+
+    def relevant(self, points: np.ndarray | None) -> np.ndarray | None:
+        """The points close enough to matter (within cap + radius + plan margin)."""
+        if points is None or len(points) == 0:
+            return None
+        c = self.config
+        r = self.cap + c.robot_radius + max(c.plan_margin, c.safety_margin)
+        near = points[:, 0] * points[:, 0] + points[:, 1] * points[:, 1] < r * r
+        return points[near] if near.any() else None
+
+    # -- control ----------------------------------------------------------------------------
+
+    def step(self, t: float, pose: tuple[float, float, float],
+             points: np.ndarray | None) -> Command:
+        if self.target is None:
+            return Command(0.0, 0.0, Status.REACHED)
+        c = self.config
+        x, y, th = pose
+        dx, dy = self.target[0] - x, self.target[1] - y
+        dist = math.hypot(dx, dy)
+        if self._state == self._FAILED:
+            return STOP_FAILED
+        if dist <= self.tolerance:
+            self._state = self._DRIVE
+            return Command(0.0, 0.0, Status.REACHED)
+        points = self.relevant(points)
+        if self._state == self._BACK:
+            if t - self._state_t < c.backoff_s:
+                rear = self.free_lengths(points, np.array([math.pi]))[0]
+                v = -c.backoff_speed if rear > c.backoff_speed * 0.5 else 0.0
+                return Command(v, self._back_w, Status.RECOVERING)
+            self._state, self._state_t = self._WAIT, t
+        if self._state == self._WAIT:
+            if t - self._state_t < c.retry_wait_s:
+                return Command(0.0, 0.0, Status.RECOVERING)
+            self._state = self._DRIVE
+            self._best, self._best_t = dist, t
+        # Progress watch.
+        if dist < self._best - c.progress_m or self._best == math.inf:
+            self._best, self._best_t = dist, t
+        elif t - self._best_t > c.stuck_timeout_s:
+            if self.retries >= c.max_retries:
+                self._state = self._FAILED
+                return STOP_FAILED
+            self.retries += 1
+            self._state, self._state_t = self._BACK, t
+            # Turn while reversing, alternating sides between retries.
+            self._back_w = 0.5 * (1 if self.retries % 2 else -1)
+            return Command(0.0, 0.0, Status.RECOVERING)
+        return self._drive(dist, wrap_angle(math.atan2(dy, dx) - th), points)
+
+    def _drive(self, dist: float, bearing: float, points: np.ndarray | None) -> Command:
+        c = self.config
+        need = min(dist, c.lookahead)
+        margins = (c.safety_margin, c.plan_margin)
+        # Fast path: the straight line to the target is open with the plan margin.
+        safe, wide = self._free(points, np.array([bearing]), margins)
+        if wide[0] >= need:
+            return self._command(bearing, float(safe[0]))
+        headings = np.append(self._headings, bearing)
+        safe, wide = self._free(points, headings, margins)
+        rel = wrap_angle_array(headings - bearing)
+        # Passing on the left of the target direction (heading > bearing) costs keep_right.
+        cost = np.abs(rel) + c.keep_right * (rel > 1e-9)
+        ok = wide >= need
+        if not ok.any():
+            ok = safe >= need
+        if ok.any():
+            k = int(np.argmin(np.where(ok, cost, np.inf)))
+            return self._command(float(headings[k]), float(safe[k]))
+        k = int(np.argmax(safe - 0.1 * np.abs(rel)))  # the most open direction: turn there
+        w = max(-c.max_angular_speed, min(c.max_angular_speed, c.heading_gain * headings[k]))
+        return Command(0.0, float(w), Status.DRIVING)
+
+    def _command(self, heading: float, ahead: float) -> Command:
+        c = self.config
+        w = max(-c.max_angular_speed, min(c.max_angular_speed, c.heading_gain * heading))
+        if abs(heading) > c.turn_in_place:
+            return Command(0.0, w, Status.DRIVING)
+        v = c.max_linear_speed * min(1.0, ahead / c.slow_distance) * math.cos(heading)
+        return Command(max(0.0, v), w, Status.DRIVING)
+
+    @property
+    def failed(self) -> bool:
+        return self._state == self._FAILED
+
+
+def wrap_angle_array(a: np.ndarray) -> np.ndarray:
+    return (np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi
+
+
+# ---------------------------------------------------------------------------------------------
+# Navigator: route + controller
+
+
+class Event(Enum):
+    NONE = 0
+    WAYPOINT = 1  # passed a waypoint that is not the goal
+    ARRIVED = 2  # within goal tolerance of the goal vertex
+    FAILED = 3  # gave up on the goal
+
+
+class Navigator:
+    """Follows a `GraphRoute` with a `LocalController`.
+
+    Pass-through waypoints count as reached within `waypoint_tolerance` [m], the goal within
+    `goal_tolerance` [m] (SPEC: 0.4 m). `step` returns (Command, Event, vertex): the vertex is
+    the waypoint or goal reached, or the goal that failed."""
+
+    def __init__(self, controller: LocalController, goal_tolerance: float = 0.4,
+                 waypoint_tolerance: float = 0.6):
+        self.controller = controller
+        self.goal_tolerance = float(goal_tolerance)
+        self.waypoint_tolerance = float(waypoint_tolerance)
+        self.route: GraphRoute | None = None
+
+    def set_route(self, route: GraphRoute, t: float) -> None:
+        self.route = route
+        self._aim(t, new_goal=True)
+
+    def cancel(self) -> None:
+        self.route = None
+        self.controller.target = None
+
+    def _aim(self, t: float, new_goal: bool) -> None:
+        route = self.route
+        tol = self.goal_tolerance if route.is_last else self.waypoint_tolerance
+        self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
+
+    def step(self, t: float, pose: tuple[float, float, float],
+             points: np.ndarray | None) -> tuple[Command, Event, int]:
+        route = self.route
+        if route is None:
+            return Command(0.0, 0.0, Status.REACHED), Event.NONE, -1
+        cmd = self.controller.step(t, pose, points)
+        if cmd.status == Status.FAILED:
+            goal = route.goal
+            self.cancel()
+            return cmd, Event.FAILED, goal
+        if cmd.status != Status.REACHED:
+            return cmd, Event.NONE, -1
+        last = route.is_last
+        vertex = route.advance()
+        if last:
+            self.cancel()
+            return cmd, Event.ARRIVED, vertex
+        self._aim(t, new_goal=False)
+        # Steer toward the next waypoint right away (no standstill tick at a pass-through).
+        cmd = self.controller.step(t, pose, points)
+        return cmd, Event.WAYPOINT, vertex

@@ -1,0 +1,102 @@
+"""tpuaf.messages <-> tpuaf_ros.msg, vertex index <-> map vertex id, run time <-> ROS stamp.
+
+Run time t [s] is ROS time minus the run's epoch (0 with simulated time; on hardware the epoch
+shared by the team, see docs/FLEET.md), so the policies see the same clock as in batch.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .. import messages as m
+
+# Team topics (global names under the team namespace) of each message type.
+TEAM_TOPICS: dict[type, str] = {
+    m.Visit: "visits",
+    m.Intention: "intentions",
+    m.IdlenessEstimate: "idleness",
+    m.TaskRequest: "task_requests",
+    m.TaskBid: "task_bids",
+}
+EVENTS_TOPIC = "/fleet/agent_events"
+METRICS_TOPIC = "/fleet/metrics"
+
+
+def ros_types() -> dict[type, type]:
+    """tpuaf message class -> generated ROS message class."""
+    from tpuaf_ros import msg
+
+    return {
+        m.Visit: msg.Visit,
+        m.Intention: msg.Intention,
+        m.IdlenessEstimate: msg.IdlenessEstimate,
+        m.TaskRequest: msg.TaskRequest,
+        m.TaskBid: msg.TaskBid,
+    }
+
+
+def stamp(t: float, epoch: float = 0.0):
+    import genpy
+
+    return genpy.Time.from_sec(max(0.0, float(t) + epoch))
+
+
+class Converter:
+    """Converts team messages for one map and robot naming (`prefix` + index)."""
+
+    def __init__(self, patrol_map: Any, prefix: str = "robot_", epoch: float = 0.0):
+        self.patrol_map = patrol_map
+        self.ids = [int(v) for v in patrol_map.vertex_ids]
+        self.prefix = prefix
+        self.epoch = float(epoch)
+        self.types = ros_types()
+
+    def vid(self, index: int) -> int:
+        return -1 if index < 0 else self.ids[index]
+
+    def index(self, vertex_id: int) -> int:
+        return -1 if vertex_id < 0 else self.patrol_map.index_of(vertex_id)
+
+    def time(self, ros_stamp) -> float:
+        return ros_stamp.to_sec() - self.epoch
+
+    def to_ros(self, message: Any):
+        cls = self.types[type(message)]
+        out = cls()
+        out.robot = f"{self.prefix}{message.robot}"
+        out.robot_index = int(message.robot)
+        out.stamp = stamp(message.time, self.epoch)
+        if isinstance(message, m.Visit):
+            out.vertex, out.next_vertex = self.vid(message.vertex), self.vid(message.next_vertex)
+        elif isinstance(message, m.Intention):
+            out.from_vertex, out.vertex = self.vid(message.from_vertex), self.vid(message.vertex)
+            out.expected_arrival = float(message.expected_arrival)
+            out.travel_time = float(message.travel_time)
+        elif isinstance(message, m.IdlenessEstimate):
+            out.vertices = self.ids
+            out.idleness = [float(x) for x in message.estimate]
+            out.next_vertex = self.vid(message.next_vertex)
+        else:  # TaskRequest, TaskBid
+            out.vertex, out.bid = self.vid(message.vertex), float(message.bid)
+        return out
+
+    def from_ros(self, ros_msg: Any) -> Any:
+        """The tpuaf message of a ROS team message (type chosen by the ROS class name)."""
+        kind = type(ros_msg).__name__.rsplit("_", 1)[-1]  # rosbags names: tpuaf_ros__msg__Visit
+        t = self.time(ros_msg.stamp)
+        r = int(ros_msg.robot_index)
+        if kind == "Visit":
+            return m.Visit(r, self.index(ros_msg.vertex), t, self.index(ros_msg.next_vertex))
+        if kind == "Intention":
+            return m.Intention(r, self.index(ros_msg.from_vertex), self.index(ros_msg.vertex),
+                               float(ros_msg.expected_arrival), float(ros_msg.travel_time), t)
+        if kind == "IdlenessEstimate":
+            est = [0.0] * len(self.ids)
+            for vid, value in zip(ros_msg.vertices, ros_msg.idleness, strict=True):
+                est[self.index(int(vid))] = float(value)
+            return m.IdlenessEstimate(r, t, tuple(est), self.index(ros_msg.next_vertex))
+        if kind == "TaskRequest":
+            return m.TaskRequest(r, self.index(ros_msg.vertex), float(ros_msg.bid), t)
+        if kind == "TaskBid":
+            return m.TaskBid(r, self.index(ros_msg.vertex), float(ros_msg.bid), t)
+        raise TypeError(f"not a team message: {type(ros_msg).__name__}")
