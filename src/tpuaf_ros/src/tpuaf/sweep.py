@@ -500,7 +500,7 @@ def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
 
             if scheduler:
                 try:
-                    client = Client(scheduler, timeout="20s")
+                    client = Client(scheduler, timeout="15s")
                 except OSError as err:
                     raise SweepError(f"cannot connect to the Dask scheduler at {scheduler}: {err}") from None
             else:
