@@ -16,8 +16,7 @@ SUBCOMMANDS: list[tuple[str, str, str]] = [
 ]
 
 
-class CliError(Exception):
-    """A user error: printed as one line, exit code 2."""
+from .errors import CliError  # noqa: E402,F401 - re-exported for the subcommand modules
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .cli import CliError
+from .errors import CliError
 from .run_cli import positive_float, positive_int
 
 

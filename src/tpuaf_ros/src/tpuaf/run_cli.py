@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from .cli import CliError
+from .errors import CliError
 
 
 def positive_int(text: str) -> int:

@@ -1,0 +1,133 @@
+"""`tpuaf run` as a user runs it: the real entry point in .venv/bin, as a subprocess."""
+
+from __future__ import annotations
+
+import csv
+import json
+import signal
+import subprocess
+import time
+
+import pytest
+
+from .conftest import REPO
+
+TPUAF = [str(REPO / ".venv" / "bin" / "tpuaf")]
+
+
+def tpuaf(*args, timeout=120):
+    return subprocess.run([*TPUAF, *args], capture_output=True, text=True, timeout=timeout)
+
+
+def test_entry_point_exists():
+    assert (REPO / ".venv" / "bin" / "tpuaf").is_file()
+
+
+def test_run_prints_metrics_and_writes_results(tmp_path):
+    out = tmp_path / "run"
+    result = tpuaf(
+        "run",
+        "--map",
+        "grid",
+        "--robots",
+        "2",
+        "--duration",
+        "600",
+        "--seed",
+        "3",
+        "--out",
+        str(out),
+        "--quiet",
+    )
+    assert result.returncode == 0, result.stderr
+    assert "interval idleness mean I_avg" in result.stdout
+    assert "complete patrol cycles" in result.stdout
+    for name in [
+        "config.yaml",
+        "summary.json",
+        "visits.csv",
+        "timeseries.csv",
+        "info.csv",
+        "idleness.csv",
+        "timeresults.csv",
+    ]:
+        assert (out / name).is_file(), name
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["complete"] is True and summary["n_robots"] == 2
+    rows = list(csv.DictReader((out / "timeseries.csv").open()))
+    assert len(rows) == 600
+    with (out / "idleness.csv").open() as f:
+        assert f.readline().strip() == "Time;Robot;Node;Idleness;Interferences"
+
+
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["--strategy", "nope"], "unknown strategy 'nope' (valid: "),
+        (["--map", "atlantis"], "built-in maps are grid, lab"),
+        (["--robots", "0"], "expected an integer >= 1"),
+        (["--loss", "2"], "expected a probability in [0, 1]"),
+        (["--duration", "-1"], "expected a finite number > 0"),
+        (["--param", "utility=eq99"], "invalid value 'eq99' for parameter 'utility'"),
+        (["--param", "warp=9"], "unknown parameter(s) warp"),
+    ],
+)
+def test_bad_input_is_refused_with_choices(args, message):
+    result = tpuaf("run", "--duration", "10", *args)
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_strategy_name_in_any_case(tmp_path):
+    result = tpuaf("run", "--strategy", "GBS", "--robots", "2", "--duration", "60", "--quiet")
+    assert result.returncode == 0, result.stderr
+    assert "gbs on grid" in result.stdout
+
+
+def test_malformed_map_folder_is_named(tmp_path):
+    bad = tmp_path / "badmap"
+    bad.mkdir()
+    (bad / "bad.graph").write_text("3\n10\n10\n0.1\n0\n0\n0\n1\n1\n1\n7\nE\n5\n")
+    result = tpuaf("run", "--map", str(bad), "--duration", "10")
+    assert result.returncode == 2
+    assert "bad.graph" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_ctrl_c_leaves_valid_results(tmp_path):
+    out = tmp_path / "interrupted"
+    proc = subprocess.Popen(
+        [
+            *TPUAF,
+            "run",
+            "--map",
+            "grid",
+            "--robots",
+            "4",
+            "--duration",
+            "10000000",
+            "--quiet",
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    series = out / "timeseries.csv"
+    while time.monotonic() < deadline:
+        if series.is_file() and series.stat().st_size > 20000:
+            break
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)
+    stdout, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "(interrupted)" in stdout
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["complete"] is False and summary["visits"] > 0
+    rows = list(csv.DictReader(series.open()))
+    assert len(rows) > 100 and all(len(r) == len(rows[0]) for r in rows)
+    visits = list(csv.DictReader((out / "visits.csv").open()))
+    assert len(visits) >= summary["visits"] - 4
