@@ -57,6 +57,13 @@ void edt_1d(const std::vector<double>& f, int n, std::vector<double>& d, std::ve
   }
 }
 
+// Upper bound of |(x, y)| without a square root (octagon): max + (sqrt(2) - 1) min, at most 8%
+// above. The square root was the slowest link of the marching loop.
+inline double centre_distance_bound(double x, double y) {
+  const double ax = std::abs(x), ay = std::abs(y);
+  return std::max(ax, ay) + 0.41421356237309515 * std::min(ax, ay);
+}
+
 void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument(what);
 }
@@ -479,8 +486,7 @@ void World::march_many(double gx, double gy, const double* dx, const double* dy,
         continue;
       }
       const double ux = px - ix, uy = py - iy;  // in [0, 1)
-      const double cx = ux - 0.5, cy = uy - 0.5;
-      const double leap = kFieldStep * (code - 1) - std::sqrt(cx * cx + cy * cy);
+      const double leap = kFieldStep * (code - 1) - centre_distance_bound(ux - 0.5, uy - 0.5);
       const double exit = std::min((bx[k] - ux) * inx[k], (by[k] - uy) * iny[k]);
       t[k] += std::max(leap, exit) + kNudge;
     }
