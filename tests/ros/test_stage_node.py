@@ -272,3 +272,56 @@ def test_unknown_parameter_is_refused(module_roscore, tmp_path):
     assert "unknown parameter(s) ~odom_hz" in text and "~odom_rate" in text
     code, text = run_refused(roscore, [], "no_world")
     assert code != 0 and "~world" in text
+
+
+LOCKSTEP_PROBE = r'''
+import json, sys, time
+import rospy
+from geometry_msgs.msg import Twist
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
+
+N = int(sys.argv[1])
+rospy.init_node("agents", anonymous=True)
+clock = []
+rospy.Subscriber("/clock", Clock, lambda m: clock.append(m.clock.to_sec()), queue_size=10)
+stamps = {i: [] for i in range(N)}
+pubs = {}
+def on_scan(msg, i):
+    stamps[i].append(msg.header.stamp.to_sec())
+    if i in pubs:
+        time.sleep(0.002)  # a slow agent
+        pubs[i].publish(Twist())
+for i in range(N):
+    rospy.Subscriber(f"/robot_{i}/base_scan", LaserScan, on_scan, callback_args=i, queue_size=10)
+time.sleep(3.0)
+gate = sorted(set(clock))
+for i in range(N):
+    pubs[i] = rospy.Publisher(f"/robot_{i}/cmd_vel", Twist, queue_size=10)
+time.sleep(5.0)
+print("RESULT " + json.dumps({"gate_clock": gate, "clock_end": clock[-1] if clock else None,
+                              "stamps": stamps}))
+'''
+
+
+def test_lockstep_waits_for_every_agent(module_roscore, tmp_path):
+    ros = module_roscore
+    world = write_world(tmp_path)
+    node = ros.start(["rosrun", "tpuaf_stage", "tpuaf_stage", f"_world:={world}",
+                      "_lockstep:=true", "_lockstep_timeout:=30.0", "_start_timeout:=600.0",
+                      "_cmd_vel_timeout:=1.0", "__name:=stage_lockstep"], name="stage_lockstep")
+    result = ros.run_python(LOCKSTEP_PROBE, timeout=120, args=[str(N)], name="lockstep_probe")
+    log = ros.output("stage_lockstep")
+    ros.stop(node)
+    lines = [ln for ln in result.stdout.splitlines() if ln.startswith("RESULT ")]
+    assert lines, f"probe failed:\n{result.stderr[-3000:]}\nnode:\n{log[-3000:]}"
+    out = json.loads(lines[-1][7:])
+    # Before every robot's cmd_vel had a publisher the clock stood at the first step.
+    assert out["gate_clock"] == [pytest.approx(0.01)]
+    assert out["clock_end"] > 1.0
+    # Then no scan was skipped: each robot saw every scan, 1 / rate apart.
+    for i in range(N):
+        s = np.array(out["stamps"][str(i)])
+        assert len(s) > 10
+        assert np.diff(s[1:]) == pytest.approx(1.0 / SCAN_RATE, abs=1e-6)
+    assert "every robot has a cmd_vel publisher" in log

@@ -6,6 +6,8 @@ says is due.
 from __future__ import annotations
 
 import math
+import threading
+import time
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
@@ -33,6 +35,11 @@ class NodeParams:
     publish_map_tf: bool = True  # also publish map -> <ns>/odom (perfect localisation)
     scan_topic: str = "base_scan"  # per-robot laser topic name (TurtleBot3 uses "scan")
     status_period: float = 10.0  # [s of wall time] between status log lines; 0 = none
+    lockstep: bool = False  # after each scan, wait for one cmd_vel per robot before going on
+    lockstep_timeout: float = 1.0  # [s of wall time] wait per scan for a robot's reply; a robot
+    #   that misses it is not waited for again until it replies
+    start_timeout: float = 60.0  # [s of wall time] lockstep: wait at start until every robot's
+    #   cmd_vel has a publisher (then go on without the missing ones)
 
 
 PARAM_DOCS = {
@@ -47,6 +54,10 @@ PARAM_DOCS = {
     "publish_map_tf": "publish map -> <ns>/odom too (default true)",
     "scan_topic": "per-robot laser topic (default base_scan)",
     "status_period": "[s, wall time] between status log lines, 0 = none (default 10)",
+    "lockstep": "wait for one cmd_vel per robot after each scan (default false)",
+    "lockstep_timeout": "[s, wall time] lockstep wait per scan for a robot's reply (default 1)",
+    "start_timeout": "[s, wall time] lockstep: wait at start for every cmd_vel publisher "
+                     "(default 60)",
 }
 
 
@@ -84,6 +95,8 @@ def parse_node_params(values: dict[str, Any]) -> NodeParams:
         raise ParamError(f"~odom_rate must be > 0 Hz, got {p.odom_rate}")
     if not p.cmd_vel_timeout > 0:
         raise ParamError(f"~cmd_vel_timeout must be > 0 s, got {p.cmd_vel_timeout}")
+    if not p.lockstep_timeout > 0 or not p.start_timeout >= 0:
+        raise ParamError("~lockstep_timeout must be > 0 s and ~start_timeout >= 0 s")
     if p.status_period < 0:
         raise ParamError(f"~status_period must be >= 0 s, got {p.status_period}")
     for name in ("robot_prefix", "map_frame", "scan_topic"):
@@ -140,6 +153,10 @@ class SimLoop:
         self.commands = np.zeros((n, 2))
         self.last_command = np.full(n, -math.inf)  # [s of sim time]
         self.stopped_by_watchdog = np.zeros(n, dtype=bool)
+        # Lock-step: replies (cmd_vel) counted per robot; robots that missed a reply in time.
+        self.replies = np.zeros(n, dtype=np.int64)
+        self.unresponsive = np.zeros(n, dtype=bool)
+        self._replied = threading.Condition()
         self._clock = _Schedule(params.clock_rate, params.step)
         self._odom = _Schedule(params.odom_rate, params.step)
         self._scan = _Schedule(config.laser.rate, params.step)
@@ -157,6 +174,33 @@ class SimLoop:
         self.commands[i, 0] = v
         self.commands[i, 1] = w
         self.last_command[i] = self.time
+        if self.params.lockstep:
+            with self._replied:
+                self.replies[i] += 1
+                self.unresponsive[i] = False
+                self._replied.notify_all()
+
+    def reply_marks(self) -> np.ndarray:
+        """Reply counters now (before publishing a scan), for wait_replies."""
+        with self._replied:
+            return self.replies.copy()
+
+    def wait_replies(self, marks: np.ndarray, timeout_s: float, stop=lambda: False) -> list[int]:
+        """Lock-step: wait (wall time) until every responsive robot has replied since `marks`.
+        Robots still silent after timeout_s become unresponsive (not waited for until they
+        reply again); returns them."""
+        deadline = time.monotonic() + timeout_s
+        with self._replied:
+            while True:
+                waiting = (self.replies <= marks) & ~self.unresponsive
+                if not waiting.any():
+                    return []
+                left = deadline - time.monotonic()
+                if left <= 0 or stop():
+                    late = np.flatnonzero(waiting).tolist()
+                    self.unresponsive[late] = True
+                    return late
+                self._replied.wait(min(left, 0.5))
 
     def advance(self) -> Tick:
         """One fixed step: watchdog, world step, what to publish."""
@@ -175,6 +219,7 @@ class SimLoop:
         self.world.reset()
         self.commands[:] = 0.0
         self.last_command[:] = -math.inf
+        self.stopped_by_watchdog[:] = True
 
     def wall_delay(self, wall_elapsed_s: float, sim_start_s: float = 0.0) -> float:
         """[s] to sleep so that simulated time keeps real_time_factor; 0 when free-running."""
