@@ -13,6 +13,8 @@ SUBCOMMANDS: list[tuple[str, str, str]] = [
     ("maps", "maps_cli", "Show map statistics"),
     ("compare", "compare_cli", "Sweep maps x strategies x N x seeds on Dask (resumable)"),
     ("report", "report_cli", "Markdown report with figures and verdicts of a compare folder"),
+    ("fleet", "fleet_cli", "Run one headless ROS fleet experiment (simulator, agents, monitor, bag)"),
+    ("analyze", "analyze_cli", "Recompute a ROS run's metrics from its bag (no ROS needed)"),
 ]
 
 

@@ -66,6 +66,7 @@ class AgentRuntime:
         self._wake: float | None = None
         self._next_heartbeat = -math.inf
         self.started = False
+        self.start_at: float | None = 0.0  # [s] run time to begin patrolling; None = not yet known
         self.travelled_m = 0.0
         self.travel_time_s = 0.0
         self.visits = 0
@@ -126,11 +127,13 @@ class AgentRuntime:
         self._now = max(self._now, float(t))
         if self._pose is None:
             return 0.0, 0.0
-        if not self.started:
-            self._start()
-        if self._now >= self._next_heartbeat:
+        if self._now >= self._next_heartbeat:  # also before the start: "ready"
             self._event(HEARTBEAT, self.goal if self.goal is not None else -1, self._current)
             self._next_heartbeat = self._now + self.heartbeat_period_s
+        if not self.started:
+            if self.start_at is None or self._now < self.start_at:
+                return 0.0, 0.0
+            self._start()
         if self.goal is None:
             if self._wake is not None and self._now >= self._wake:
                 self._wake = None
@@ -211,7 +214,7 @@ class AgentRuntime:
             # dwell ends, so the monitor counts the visit at the dwell's end.
             self._stay_until = self._now + STAY_S
             self.navigator.cancel()
-            self._event(GOAL, goal, here, t=self._stay_until - 1e-3)
+            self._event(GOAL, goal, here, t=self._stay_until - 0.01)
             return
         route = GraphRoute(self._graph, self._positions, here, goal, from_position=(x, y),
                            snap_m=self.navigator.waypoint_tolerance)

@@ -12,7 +12,7 @@ same two streams, in arrival order, and so compute the same metrics:
 Definitions (SPEC section 6):
 - the run starts at the first complete pose group at or after `start_after` [s]; every robot
   standing within goal tolerance of a vertex then makes a first visit of it (as batch does);
-- a visit is the first ground-truth pose stamped after a GOAL event (strictly later) within the
+- a visit is the first ground-truth pose stamped after a GOAL event (later by > 1 ms) within the
   goal tolerance of that goal vertex; the goal is then spent;
 - a robot whose agent sent no event (heartbeats every 1 s) for `death_timeout_s` is dead from
   the first pose group after that: `RunRecorder.record_robot_death` (it no longer senses nor
@@ -28,8 +28,11 @@ from typing import Any
 
 import numpy as np
 
-from ..metrics import RunRecorder, idleness_stats
+from ..metrics import RunRecorder
 from .agent import GOAL
+
+# [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
+STAMP_EPS_S = 1e-3
 
 
 class FleetMonitor:
@@ -57,6 +60,7 @@ class FleetMonitor:
         self._goals: list[deque] = [deque() for _ in range(self.n)]  # (stamp, vertex) pending
         self._goal = [-1] * self.n  # active goal vertex, -1 = none (or spent)
         self.deaths: list[tuple[float, int]] = []
+        self._idl_seen, self._idl_sum, self._idl_n, self._idl_max = 0, 0.0, 0, 0.0
 
     # -- inputs -----------------------------------------------------------------------------
 
@@ -132,7 +136,7 @@ class FleetMonitor:
         tol2 = self.tolerance * self.tolerance
         for r in range(self.n):
             q = self._goals[r]
-            while q and q[0][0] < t:
+            while q and q[0][0] < t - STAMP_EPS_S:
                 self._goal[r] = q.popleft()[1]
             g = self._goal[r]
             if g < 0 or not self._alive[r]:
@@ -155,7 +159,7 @@ class FleetMonitor:
         # Goals announced before the start count from the start on.
         for r in range(self.n):
             q = self._goals[r]
-            while q and q[0][0] < t:
+            while q and q[0][0] < t - STAMP_EPS_S:
                 self._goal[r] = q.popleft()[1]
         self.now = t
 
@@ -184,15 +188,21 @@ class FleetMonitor:
                     "idleness_max": nan, "instantaneous_idleness": nan, "worst_idleness": nan,
                     "uncertainty_mean": nan, "interferences": 0, "complete_cycles": 0,
                     "robots_alive": int(self._alive.sum())}
-        stats = idleness_stats(rec._samples)
+        new = rec.visit_idleness[self._idl_seen:]
+        self._idl_seen += len(new)
+        for x in new:
+            if x == x:  # not NaN (a vertex's first visit)
+                self._idl_sum += x
+                self._idl_n += 1
+                self._idl_max = max(self._idl_max, x)
         row = rec.timeseries[-1] if rec.timeseries else {}
         counts = rec.visit_counts
         return {
             "start_time": self.start_time,
             "elapsed": self.elapsed,
             "visits": len(rec.visits),
-            "idleness_avg": stats["avg"],
-            "idleness_max": stats["max"],
+            "idleness_avg": self._idl_sum / self._idl_n if self._idl_n else nan,
+            "idleness_max": self._idl_max if self._idl_n else nan,
             "instantaneous_idleness": row.get("idleness_ins_s", nan),
             "worst_idleness": row.get("worst_idleness_s", nan),
             "uncertainty_mean": row.get("uncertainty_mean", nan),

@@ -1,0 +1,112 @@
+"""Strict private parameters of the tpuaf_ros nodes (ROS-free: the node passes a dict)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import Any
+
+
+class NodeParamError(ValueError):
+    """An unknown or invalid node parameter; the message lists the valid ones."""
+
+
+def parse(cls: type, values: dict[str, Any], node: str) -> Any:
+    """A `cls` dataclass from {name: value}; unknown names, wrong types and missing required
+    values (defaults of None marked `required` in the field metadata) raise NodeParamError."""
+    known = {f.name: f for f in fields(cls)}
+    unknown = sorted(set(values) - set(known))
+    if unknown:
+        raise NodeParamError(f"{node}: unknown parameter(s) {', '.join('~' + u for u in unknown)}"
+                             f" (valid: {', '.join('~' + k for k in sorted(known))})")
+    out = cls()
+    for name, value in values.items():
+        default = getattr(out, name)
+        f = known[name]
+        kind = f.metadata.get("type", type(default))
+        if kind is float:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise NodeParamError(f"{node}: ~{name} must be a finite number, got {value!r}")
+            value = float(value)
+        elif kind is int:
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise NodeParamError(f"{node}: ~{name} must be an integer, got {value!r}")
+        elif kind is bool:
+            if not isinstance(value, bool):
+                raise NodeParamError(f"{node}: ~{name} must be true or false, got {value!r}")
+        elif kind is str:
+            if not isinstance(value, str):
+                raise NodeParamError(f"{node}: ~{name} must be a string, got {value!r}")
+        elif kind is dict:
+            if not isinstance(value, dict):
+                raise NodeParamError(f"{node}: ~{name} must be a mapping, got {value!r}")
+        elif kind is list:
+            if not isinstance(value, list):
+                raise NodeParamError(f"{node}: ~{name} must be a list, got {value!r}")
+        setattr(out, name, value)
+    for f in fields(cls):
+        if f.metadata.get("required") and getattr(out, f.name) in (None, "", -1):
+            raise NodeParamError(f"{node}: ~{f.name} is required ({f.metadata.get('doc', '')})")
+    return out
+
+
+def req(default: Any, doc: str, kind: type | None = None):
+    from dataclasses import field
+
+    meta = {"required": True, "doc": doc}
+    if kind is not None:
+        meta["type"] = kind
+    return field(default=default, metadata=meta)
+
+
+def opt(default: Any, kind: type):
+    from dataclasses import field
+
+    if isinstance(default, (dict, list)):
+        return field(default_factory=lambda: type(default)(default), metadata={"type": kind})
+    return field(default=default, metadata={"type": kind})
+
+
+@dataclass
+class AgentParams:
+    """Private parameters of patrol_agent (units in the comments)."""
+
+    map: str = req("", "patrol map name or path")
+    robot_index: int = req(-1, "this robot's index 0..robots-1")
+    robots: int = req(-1, "team size N")
+    strategy: str = "tpuaf"  # strategy name from the registry
+    strategy_params: dict = opt({}, dict)  # the strategy's parameters (checked by the strategy)
+    seed: int = 0  # run seed (the robot's generator is seeded with [seed, 2, robot_index])
+    localization: str = "ground_truth"  # ground_truth | odom | amcl
+    initial_pose: list = opt([], list)  # [x m, y m, yaw rad] of the odom origin (odom only)
+    robot_name: str = ""  # name in team messages; default: this node's namespace
+    team_ns: str = "/team"  # namespace of the team topics
+    max_linear_speed: float = 0.0  # [m/s]; 0 = the map's nominal speed
+    max_angular_speed: float = 2.84  # [rad/s]
+    robot_radius: float = 0.0  # [m]; 0 = the map's robot radius
+    safety_margin: float = 0.08  # [m]
+    plan_margin: float = 0.3  # [m]
+    stuck_timeout: float = 6.0  # [s] without progress before a recovery
+    backoff_time: float = 1.5  # [s] reversing in a recovery
+    max_retries: int = 2  # recoveries before the goal is reported failed
+    waypoint_tolerance: float = 0.6  # [m] pass-through vertices
+    heartbeat_period: float = 1.0  # [s] AgentEvent HEARTBEAT period
+    wait_for_start: bool = False  # wait for the monitor's /fleet/start (fleet runs)
+    epoch: float = -1.0  # [s] ROS time of run time 0; -1: 0 with sim time, else /tpuaf/epoch
+
+
+@dataclass
+class MonitorParams:
+    """Private parameters of the monitor node (units in the comments)."""
+
+    map: str = req("", "patrol map name or path")
+    robots: int = req(-1, "team size N")
+    duration: float = 3600.0  # [s] run length after the start
+    robot_prefix: str = "robot_"  # robot i's ground truth on /<robot_prefix><i>/base_pose_ground_truth
+    out: str = ""  # results folder ('' = none written)
+    death_timeout: float = 5.0  # [s] an agent silent this long is dead
+    start_delay: float = 1.0  # [s] between all agents ready and the announced start
+    wait_for_recorder: bool = False  # start only once a rosbag recorder subscribes
+    config_file: str = ""  # YAML merged into the results' config.yaml (written by tpuaf fleet)
+    strategy: str = ""  # for config.yaml
+    seed: int = 0  # for config.yaml
