@@ -333,3 +333,156 @@ def test_scan_all_needs_equal_beams():
     with pytest.raises(ValueError, match="same beam count"):
         w.scan_all()
     assert w.scan(1).shape == (20,)
+
+
+# --- world files, node parameters, stepping loop (tpuaf.sim, no ROS) ----------------------------
+
+from pathlib import Path  # noqa: E402
+
+from tpuaf.sim import (  # noqa: E402
+    ParamError,
+    SimLoop,
+    WorldError,
+    load_world,
+    parse_node_params,
+)
+
+TEMPLATE = Path(__file__).resolve().parents[1] / "src/tpuaf_stage/config/world_template.yaml"
+
+
+def write_map(folder: Path) -> Path:
+    occ = np.zeros((100, 100), dtype=bool)
+    occ[:2, :] = occ[-2:, :] = occ[:, :2] = occ[:, -2:] = True
+    (folder / "m.pgm").write_bytes(b"P5\n100 100\n255\n" + np.where(occ[::-1], 0, 254)
+                                   .astype(np.uint8).tobytes())
+    (folder / "m.yaml").write_text("image: m.pgm\nresolution: 0.1\norigin: [-1.0, -2.0, 0.0]\n")
+    return folder / "m.yaml"
+
+
+def test_template_parses_with_documented_defaults():
+    cfg = load_world(TEMPLATE)
+    assert cfg.robot.radius == 0.105 and cfg.robot.max_linear_speed == 0.22
+    assert cfg.laser.beams == 360 and cfg.laser.range_max == 3.5 and cfg.laser.rate == 5.0
+    assert cfg.laser.angle_increment == pytest.approx(math.pi / 180)
+    assert cfg.laser.no_return_range == math.inf
+    assert cfg.build().num_robots == 2
+    # Every key of the template is a real key (the parser refuses unknown ones).
+    assert "patrolling_sim" in TEMPLATE.read_text()
+
+
+def test_world_file_presets_and_overrides(tmp_path):
+    write_map(tmp_path)
+    (tmp_path / "w.yaml").write_text(
+        "map: m.yaml\nrobot: {preset: patrolling_sim, max_angular_speed: 2.0}\n"
+        "laser: {beams: 181, fov: 3.14159, no_return: zero, noise_std: 0.0}\n"
+        "robots: [[1.0, 1.0], [3.0, 3.0, 1.5]]\n")
+    cfg = load_world(tmp_path / "w.yaml")
+    assert cfg.robot.radius == 0.165 and cfg.robot.max_linear_speed == 1.0
+    assert cfg.robot.max_angular_speed == 2.0
+    assert cfg.laser.first_angle == pytest.approx(-3.14159 / 2)
+    assert cfg.laser.angle_increment == pytest.approx(3.14159 / 180)
+    assert cfg.origin == (-1.0, -2.0) and cfg.poses[0] == (1.0, 1.0, 0.0)
+    w = cfg.build()
+    assert w.robot_spec(0).radius_m == 0.165
+    scan = w.scan(0)
+    assert scan.shape == (181,) and (scan == 0.0).any()  # beams beyond 3.5 m read zero
+
+
+@pytest.mark.parametrize("text, message", [
+    ("map: m.yaml\nrobots: [[1, 1]]\nspeed: 3\n", "w.yaml:1: unknown key(s) speed"),
+    ("map: m.yaml\nrobots: [[1, 1]]\nlaser:\n  beams: 10\n  fvo: 1\n", "w.yaml:4: unknown key(s) fvo"),
+    ("map: m.yaml\nrobots: [[1, 1]]\nrobot: {preset: roomba}\n", "unknown robot preset 'roomba'"),
+    ("map: m.yaml\nrobots: [[1, 1]]\nlaser: {range_min: 4.0}\n", "'range_max' (3.5) must be >"),
+    ("map: m.yaml\nrobots: [[1, 1, 2, 3]]\n", "robots[0] must be [x, y] or [x, y, theta]"),
+    ("map: m.yaml\nrobots: 3\n", "'robots' as a count needs 'patrol_map'"),
+    ("map: m.yaml\npatrol_map: grid\nrobots: 3\n", "exactly one of 'map'"),
+    ("map: nope.yaml\nrobots: [[1, 1]]\n", "nope.yaml: cannot read map YAML"),
+    ("map: m.yaml\nrobots: [[-0.95, 1]]\n", "robots[0]: robot 0 at (-0.95, 1) m"),
+    ("map: m.yaml\nrobots: [[1, 1], [1.1, 1]]\n", "overlaps robot 0"),
+    ("map: [m.yaml\n", "w.yaml:2: invalid YAML"),
+])
+def test_bad_world_files_name_file_and_line(tmp_path, text, message):
+    write_map(tmp_path)
+    (tmp_path / "w.yaml").write_text(text)
+    with pytest.raises(WorldError) as err:
+        load_world(tmp_path / "w.yaml").build()
+    assert message in str(err.value)
+
+
+def test_world_from_a_patrol_map_with_a_robot_count(tmp_path):
+    (tmp_path / "w.yaml").write_text("patrol_map: grid\nrobots: 4\n")
+    cfg = load_world(tmp_path / "w.yaml")
+    w = cfg.build()
+    assert w.num_robots == 4 and len(set(cfg.poses)) == 4
+
+
+def test_imported_cumberland(shared_maps, tmp_path):
+    (tmp_path / "w.yaml").write_text(f"patrol_map: {shared_maps / 'cumberland'}\nrobots: 12\n")
+    cfg = load_world(tmp_path / "w.yaml")
+    assert cfg.resolution == 0.075 and cfg.occupied.shape == (499, 688)
+    w = cfg.build()
+    scans = w.scan_all()
+    assert scans.shape == (12, 360) and np.isfinite(scans).any()
+
+
+def test_node_params_are_strict():
+    p = parse_node_params({"world": "w.yaml", "odom_rate": 20, "lockstep": True})
+    assert p.odom_rate == 20.0 and p.lockstep and p.step == 0.01 and p.robot_prefix == "robot_"
+    with pytest.raises(ParamError, match=r"unknown parameter\(s\) ~odom_hz"):
+        parse_node_params({"world": "w.yaml", "odom_hz": 5})
+    with pytest.raises(ParamError, match="~world"):
+        parse_node_params({})
+    with pytest.raises(ParamError, match="~step"):
+        parse_node_params({"world": "w", "step": 0})
+    with pytest.raises(ParamError, match="~clock_rate"):
+        parse_node_params({"world": "w", "clock_rate": 200.0})
+    with pytest.raises(ParamError, match="~lockstep must be true or false"):
+        parse_node_params({"world": "w", "lockstep": "yes"})
+    with pytest.raises(ParamError, match="relative name"):
+        parse_node_params({"world": "w", "robot_prefix": "/tb3_"})
+
+
+def sim_loop(tmp_path, **params):
+    write_map(tmp_path)
+    (tmp_path / "w.yaml").write_text("map: m.yaml\nlaser: {rate: 10.0}\n"
+                                     "robots: [[1.0, 1.0], [4.0, 4.0]]\n")
+    return SimLoop(load_world(tmp_path / "w.yaml"),
+                   parse_node_params({"world": "w.yaml", **params}))
+
+
+def test_loop_schedule_is_exact_in_sim_time(tmp_path):
+    loop = sim_loop(tmp_path, odom_rate=20.0, clock_rate=50.0)
+    ticks = [loop.advance() for _ in range(100)]  # 1 s
+    assert sum(t.odom for t in ticks) == 20 and sum(t.scan for t in ticks) == 10
+    assert sum(t.clock for t in ticks) == 50
+    assert [t.time_ns for t in ticks if t.scan][:2] == [100_000_000, 200_000_000]
+    assert loop.time == pytest.approx(1.0)
+
+
+def test_watchdog_stops_only_the_stale_robot(tmp_path):
+    loop = sim_loop(tmp_path, cmd_vel_timeout=0.2)
+    for k in range(50):  # robot 0 gets a command every step, robot 1 only at the start
+        loop.command(0, 0.0, 1.0)
+        if k == 0:
+            loop.command(1, 0.0, 1.0)
+        loop.advance()
+    assert list(loop.stopped_by_watchdog) == [False, True]
+    v = loop.world.velocities()
+    assert v[0, 1] == pytest.approx(1.0) and v[1, 1] == 0.0
+    assert loop.wall_delay(0.1) == 0.0  # free-running
+    paced = sim_loop(tmp_path, real_time_factor=2.0)
+    for _ in range(100):
+        paced.advance()
+    assert paced.wall_delay(0.1) == pytest.approx(0.5 - 0.1)
+
+
+def test_lockstep_replies(tmp_path):
+    loop = sim_loop(tmp_path, lockstep=True)
+    marks = loop.reply_marks()
+    loop.command(0, 0.1, 0.0)
+    assert loop.wait_replies(marks, 0.05) == [1]  # robot 1 did not answer
+    marks = loop.reply_marks()
+    loop.command(0, 0.1, 0.0)
+    assert loop.wait_replies(marks, 5.0) == []  # robot 1 is not waited for any more
+    loop.command(1, 0.0, 0.0)
+    assert not loop.unresponsive.any()

@@ -57,7 +57,7 @@ class LaserModel:
 
     beams: int  # number of beams
     fov: float  # [rad] field of view; 2 pi = full circle
-    angle_min: float | None  # [rad] first beam; None: -fov/2 (0.0 for a full circle)
+    angle_min: float | None  # [rad] first beam; None: 0.0 on a full circle (LDS-01), else -fov/2
     range_min: float  # [m] closer returns read range_min
     range_max: float  # [m]
     noise_std: float  # [m] Gaussian noise on returns

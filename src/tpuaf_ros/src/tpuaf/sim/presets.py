@@ -30,7 +30,7 @@ ROBOT_PRESETS: dict[str, dict] = {
                        "max_linear_accel": INF, "max_angular_accel": INF, **_ROBOT_COMMON},
 }
 
-_LDS01 = {"beams": 360, "fov": 2 * math.pi, "angle_min": 0.0, "range_min": 0.12,
+_LDS01 = {"beams": 360, "fov": 2 * math.pi, "angle_min": None, "range_min": 0.12,
           "range_max": 3.5, "noise_std": 0.01, "rate": 5.0, "no_return": "inf",
           "x": -0.032, "y": 0.0, "z": 0.172, "yaw": 0.0}
 
