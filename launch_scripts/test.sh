@@ -4,7 +4,9 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/launch_scripts/setup.sh"
 cd "$ROOT"
+set +u  # catkin's setup and env hooks read unset variables
 source devel/setup.bash
+set -u
 export ROS_HOME="${ROS_HOME:-$ROOT/build/ros_home}" ROS_IP=127.0.0.1
 .venv/bin/python -m ruff check src tests benchmarks
 exec .venv/bin/python -m pytest "$@"
