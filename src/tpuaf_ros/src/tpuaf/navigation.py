@@ -311,9 +311,13 @@ class LocalController:
         rel = wrap_angle_array(headings - bearing)
         # Passing on the left of the target direction (heading > bearing) costs keep_right.
         cost = np.abs(rel) + c.keep_right * (rel > 1e-9)
-        ok = wide >= need
+        # Only headings within 90 degrees of the target direction make progress.
+        forward = np.abs(rel) <= 0.5 * math.pi + 1e-9
+        ok = (wide >= need) & forward
         if not ok.any():
-            ok = safe >= need
+            ok = (safe >= need) & forward
+        if not ok.any():  # step aside: any direction with a little room
+            ok = safe >= min(need, 0.5)
         if ok.any():
             k = int(np.argmin(np.where(ok, cost, np.inf)))
             return self._command(float(headings[k]), float(safe[k]))
