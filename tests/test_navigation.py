@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 import tpuaf_core
-
 from tpuaf.maps import load_map, start_vertices
 from tpuaf.navigation import (
     ControllerConfig,
