@@ -74,6 +74,7 @@ import sys
 
 from tpuaf.cli import main
 
-sys.exit(main())
+if __name__ == "__main__":  # Dask worker processes re-import the main module
+    sys.exit(main())
 WRAP
 chmod +x .venv/bin/tpuaf

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import pytest
-
 from tpuaf.batch import BatchRun, RunConfig
 from tpuaf.maps import load_map
 from tpuaf.policies import REGISTRY

@@ -20,6 +20,7 @@ import numpy as np
 from .bus import TeamBus
 from .maps import load_map, start_vertices
 from .metrics import RunRecorder
+from .navigation import GraphRoute
 from .policies import REGISTRY, Policy
 
 _ARRIVE, _WAKE, _DELIVER = 0, 1, 2
@@ -83,11 +84,12 @@ class _Robot:
         self.p0 = position.copy()
         self.p1 = position.copy()
         self.t0 = self.t1 = 0.0
-        self.route: list[int] = []  # waypoints still to reach, the goal last
+        self.route: GraphRoute | None = None  # shared with the ROS navigator
         self.goal: int | None = None
         self.travelled_m = 0.0
         self.travel_time_s = 0.0
         self.wake_pending = False
+        self.redirect: int | None = None  # a new goal asked for while driving
 
     # --- RobotContext ---
     @property
@@ -123,6 +125,12 @@ class _Robot:
     def wake_at(self, time: float) -> None:
         self.engine.push(max(time, self.engine.now), _WAKE, self.robot)
         self.wake_pending = True
+
+    def change_goal(self, vertex: int) -> None:
+        """Redirect a moving robot: it finishes its current edge, then heads to `vertex`."""
+        if not 0 <= int(vertex) < self.engine.graph.num_vertices:
+            raise IndexError(f"unknown vertex index {vertex}")
+        self.redirect = int(vertex)
 
     # --- motion ---
     def position_at(self, t: float) -> np.ndarray:
@@ -199,6 +207,7 @@ class BatchRun:
                 f"strategy '{self.config.strategy}' failed for robot {robot.robot} at "
                 f"t = {self.now:.2f} s: {type(err).__name__}: {err}"
             ) from err
+        robot.redirect = None
         if goal is None:
             robot.goal = None
             if not robot.wake_pending:
@@ -211,11 +220,11 @@ class BatchRun:
             )
         robot.goal = goal
         here = robot.current_vertex
-        robot.route = [here] if goal == here else self.graph.path(here, goal)[1:]
+        robot.route = GraphRoute(self.graph, self.patrol_map.positions, here, goal)
         self._start_segment(robot)
 
     def _start_segment(self, robot: _Robot) -> None:
-        here, nxt = robot.current_vertex, robot.route[0]
+        here, nxt = robot.current_vertex, robot.route.next_waypoint
         robot.p0 = self.patrol_map.positions[here].astype(float)
         robot.p1 = self.patrol_map.positions[nxt].astype(float)
         robot.t0 = self.now
@@ -233,10 +242,16 @@ class BatchRun:
         self.push(robot.t1, _ARRIVE, robot.robot)
 
     def _arrive(self, robot: _Robot) -> None:
-        vertex = robot.route.pop(0)
+        vertex = robot.route.advance()
         robot._current = vertex
         robot.p0 = robot.p1
-        if robot.route:
+        if robot.redirect is not None and robot.goal is not None:
+            robot.goal, robot.redirect = robot.redirect, None
+            robot.route = GraphRoute(self.graph, self.patrol_map.positions, vertex, robot.goal)
+            if vertex != robot.goal:
+                self._start_segment(robot)
+                return
+        elif not robot.route.done:
             self._start_segment(robot)  # pass-through vertex: not a visit
             return
         self.recorder.record_visit(robot.robot, vertex, self.now)

@@ -57,6 +57,10 @@ class RobotContext(Protocol):
     def wake_at(self, time: float) -> None:
         """Ask for `decide` at `time` [s] (only honoured while the robot has no goal)."""
 
+    def change_goal(self, vertex: int) -> None:
+        """Redirect the robot while it drives: it finishes its current edge, then heads to
+        `vertex` (only that goal counts as a visit). Optional for runtimes (DTAG uses it)."""
+
 
 class ParameterError(ValueError):
     """A strategy parameter is unknown or invalid."""
