@@ -322,7 +322,7 @@ def test_cbls_avoids_vertices_intended_by_others():
 
 def test_dtag_utility_estimate_sharing_and_replan():
     m = line([1.0, 2.0])  # 0 -(1 m)- 1 -(2 m)- 2, robot starts at 0
-    ctx = Ctx(m, n_robots=2)
+    ctx = Ctx(m, robot=1, n_robots=2)
     ctx.change_goal = lambda v: ctx.goal_changes.append(v)
     pol = create("dtag", ctx)
     # U1 = 100 - 10*1 - 5*1 = 85, U2 = 100 - 10*3 - 5*3 = 55
@@ -333,13 +333,22 @@ def test_dtag_utility_estimate_sharing_and_replan():
     assert msg.estimate == (0.0, 0.0, 100.0)  # current visited, next reserved
     # merge: E = min(E + elapsed, received + transit)
     ctx.now = 10.0
-    pol.on_message(IdlenessEstimate(1, 8.0, (50.0, 500.0, 3.0), 0), ctx)
+    pol.on_message(IdlenessEstimate(0, 8.0, (50.0, 500.0, 3.0), 0), ctx)
     assert pol.estimate.values == pytest.approx([10.0, 110.0, 5.0])
     assert ctx.goal_changes == []
-    # the sender heads to my goal: re-plan without it
-    pol.on_message(IdlenessEstimate(1, 10.0, (50.0, 0.0, 50.0), 1), ctx)
+    # the (lower-id) sender heads to my goal: re-plan without it, once per decision
+    pol.on_message(IdlenessEstimate(0, 10.0, (50.0, 0.0, 50.0), 1), ctx)
     assert ctx.goal_changes == [2] and pol.next == 2
     assert ctx.sent[-1].next_vertex == 2
+    pol.on_message(IdlenessEstimate(0, 10.0, (50.0, 0.0, 50.0), 2), ctx)
+    assert ctx.goal_changes == [2]  # no second yield before the next decision
+    # a higher-id robot never makes me yield (only one of a clashing pair yields)
+    other = Ctx(m, robot=0, n_robots=2)
+    other.change_goal = lambda v: other.goal_changes.append(v)
+    pol0 = create("dtag", other)
+    assert pol0.decide(other) == 1
+    pol0.on_message(IdlenessEstimate(1, 0.0, (50.0, 0.0, 50.0), 1), other)
+    assert other.goal_changes == []
 
 
 # ---------------------------------------------------------------- DTAP

@@ -64,6 +64,7 @@ class DynamicTaskAssignmentGreedy(Policy):
         self.origin = np.asarray(ctx.start_position, dtype=float)
         self.next: int | None = None
         self.replans = 0  # conflicts resolved by re-planning (for tests and logs)
+        self.replanned = False  # this decision already yielded once
 
     def _ensure(self, ctx):
         if not hasattr(self, "estimate"):
@@ -96,6 +97,7 @@ class DynamicTaskAssignmentGreedy(Policy):
         if nxt is None:
             wait_nowhere_to_go(ctx)
             return None
+        self.replanned = False
         ctx.send(self.estimate.message(ctx.robot, now, nxt))
         return nxt
 
@@ -104,7 +106,15 @@ class DynamicTaskAssignmentGreedy(Policy):
         if not isinstance(message, IdlenessEstimate) or message.robot == ctx.robot:
             return
         self.estimate.merge(message.estimate, message.time, ctx.now)
-        if self.next is not None and message.next_vertex == self.next:
+        # Only the higher-id robot yields, once per decision: two robots that both yielded on
+        # every clash could swap goals forever within one instant (seen with zero delay).
+        if (
+            self.next is not None
+            and message.next_vertex == self.next
+            and message.robot < ctx.robot
+            and not self.replanned
+        ):
+            self.replanned = True
             self.replan(ctx, exclude_vertex=self.next)
 
     def replan(self, ctx, exclude_vertex: int) -> None:
