@@ -106,6 +106,7 @@ class MonitorParams:
     out: str = ""  # results folder ('' = none written)
     death_timeout: float = 5.0  # [s] an agent silent this long is dead
     start_delay: float = 1.0  # [s] between all agents ready and the announced start
+    start_wall_delay: float = 0.0  # [s of wall time] to wait once all are ready (connections)
     wait_for_recorder: bool = False  # start only once a rosbag recorder subscribes
     config_file: str = ""  # YAML merged into the results' config.yaml (written by tpuaf fleet)
     strategy: str = ""  # for config.yaml
