@@ -4,9 +4,9 @@ The live `monitor` node and `tpuaf analyze` (bag replay) both feed one `FleetMon
 same two streams, in arrival order, and so compute the same metrics:
 
 - `on_pose(robot, t, x, y)`: ground-truth positions [m] at run time t [s]. Poses are grouped by
-  time stamp (the simulator stamps all robots of one step alike); a group is processed when
-  every live robot reported, or when a pose `max_lag_s` newer arrives (missing robots keep
-  their last position).
+  time stamp (the simulator stamps all robots of one step alike); a group is processed when a
+  pose `lag_s` newer arrives (robots missing from it keep their last position), so that the
+  agent events stamped up to its time have arrived, whatever the interleaving of the streams.
 - `on_event(robot, kind, vertex, t)`: AgentEvent (tpuaf.ros.agent constants, vertex index).
 
 Definitions (SPEC section 6):
@@ -38,14 +38,14 @@ STAMP_EPS_S = 1e-3
 class FleetMonitor:
     def __init__(self, patrol_map: Any, n_robots: int, duration_s: float, *,
                  start_after: float = 0.0, death_timeout_s: float = 5.0,
-                 sample_period_s: float = 1.0, max_lag_s: float = 0.5):
+                 sample_period_s: float = 1.0, lag_s: float = 2.0):
         self.patrol_map = patrol_map
         self.n = int(n_robots)
         self.duration_s = float(duration_s)
         self.start_after = float(start_after)
         self.death_timeout_s = float(death_timeout_s)
         self.sample_period_s = float(sample_period_s)
-        self.max_lag_s = float(max_lag_s)
+        self.lag_s = float(lag_s)
         self.tolerance = float(patrol_map.settings.goal_tolerance)
         self._positions = np.asarray(patrol_map.positions, dtype=float)
         self.recorder: RunRecorder | None = None
@@ -56,7 +56,8 @@ class FleetMonitor:
         self._counts: dict[float, int] = {}
         self._last = np.full((self.n, 2), np.nan)
         self._alive = np.ones(self.n, dtype=bool)
-        self._heard = np.full(self.n, -math.inf)  # last event time per robot
+        self._heard = np.full(self.n, -math.inf)  # last event stamp <= the processed time
+        self._heard_q: list[deque] = [deque() for _ in range(self.n)]  # event stamps ahead
         self._goals: list[deque] = [deque() for _ in range(self.n)]  # (stamp, vertex) pending
         self._goal = [-1] * self.n  # active goal vertex, -1 = none (or spent)
         self.deaths: list[tuple[float, int]] = []
@@ -67,7 +68,7 @@ class FleetMonitor:
     def on_event(self, robot: int, kind: int, vertex: int, t: float) -> None:
         if not 0 <= robot < self.n:
             return
-        self._heard[robot] = max(self._heard[robot], float(t))
+        self._heard_q[robot].append(float(t))
         if kind == GOAL and vertex >= 0:
             q = self._goals[robot]
             q.append((float(t), int(vertex)))
@@ -91,26 +92,26 @@ class FleetMonitor:
 
     # -- processing -------------------------------------------------------------------------
 
-    def _expected(self) -> int:
-        return self.n if self.recorder is None else int(self._alive.sum())
-
     def _flush(self, newest: float) -> None:
-        """Process, in time order, complete groups and those older than newest - max_lag_s."""
-        expected = self._expected()
-        complete = [t for t, c in self._counts.items() if c >= expected]
-        limit = max(complete) if complete else -math.inf
-        limit = max(limit, newest - self.max_lag_s)
+        """Process, in time order, the pose groups older than newest - lag_s: agent events
+        stamped up to a group's time have arrived by then, in the live node and in a bag alike,
+        so the result does not depend on the order in which the two streams interleave."""
+        limit = newest - self.lag_s
         for t in sorted(t for t in self._groups if t <= limit):
             group = self._groups.pop(t)
-            self._counts.pop(t)
+            count = self._counts.pop(t)
             if not self.finished:
-                self._process(t, group)
+                self._process(t, group, count)
 
-    def _process(self, t: float, group: np.ndarray) -> None:
+    def _process(self, t: float, group: np.ndarray, count: int) -> None:
         seen = ~np.isnan(group[:, 0])
         self._last[seen] = group[seen]
+        for r in range(self.n):  # events heard up to t
+            q = self._heard_q[r]
+            while q and q[0] <= t:
+                self._heard[r] = max(self._heard[r], q.popleft())
         if self.recorder is None:
-            if t < self.start_after or np.isnan(self._last[:, 0]).any():
+            if t < self.start_after or count < self.n:
                 self.now = t
                 return
             self._start(t)
