@@ -40,8 +40,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, required=True, help="run folder (results, bag, logs)")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="strategy parameter (repeatable)")
-    p.add_argument("--rtf", type=float, default=0.0,
-                   help="pace the simulator at this real-time factor (0 = as fast as possible)")
+    p.add_argument("--rtf", type=float, default=10.0,
+                   help="pace the simulator at this real-time factor (default 10; 0 = as fast as "
+                        "possible, which outruns the Python agents: see docs/FLEET.md)")
     p.add_argument("--robot", default="burger",
                    help="simulated robot preset (burger, waffle_pi, patrolling_sim); its speed "
                         "is raised to the map's nominal speed so that batch and fleet compare")
