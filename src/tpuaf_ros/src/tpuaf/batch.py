@@ -21,7 +21,7 @@ from .bus import TeamBus
 from .maps import load_map, start_vertices
 from .metrics import RunRecorder
 from .navigation import GraphRoute
-from .policies import REGISTRY, Policy
+from .policies import REGISTRY, Policy, RobotContextBase
 
 _ARRIVE, _WAKE, _DELIVER = 0, 1, 2
 STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long, then visits it again
@@ -66,7 +66,7 @@ class RunConfig:
         return asdict(self)
 
 
-class _Robot:
+class _Robot(RobotContextBase):
     """One simulated robot; also the RobotContext its policy sees."""
 
     def __init__(self, engine: BatchRun, index: int, start_vertex: int, policy: Policy, rng):
@@ -97,27 +97,9 @@ class _Robot:
         return self.engine.now
 
     @property
-    def current_vertex(self) -> int:
-        return self._current
-
-    @property
-    def start_vertex(self) -> int:
-        return self._start_vertex
-
-    @property
-    def start_position(self) -> tuple[float, float]:
-        return self._start_position
-
-    @property
     def position(self) -> tuple[float, float]:
         p = self.position_at(self.engine.now)
         return (float(p[0]), float(p[1]))
-
-    @property
-    def average_speed(self) -> float:
-        if self.travel_time_s > 0:
-            return self.travelled_m / self.travel_time_s
-        return self.patrol_map.settings.nominal_speed
 
     def send(self, message) -> None:
         self.engine.bus.send(self.robot, message, self.engine.now, self.engine.schedule_delivery)

@@ -1,8 +1,26 @@
 """Strategies behind one `Policy` interface, by name. Importing this package registers them all."""
 
-from .base import REGISTRY, Parameter, ParameterError, Policy, Registry, RobotContext, register
+from .base import (
+    REGISTRY,
+    Parameter,
+    ParameterError,
+    Policy,
+    Registry,
+    RobotContext,
+    RobotContextBase,
+    register,
+)
 
-__all__ = ["REGISTRY", "Parameter", "ParameterError", "Policy", "Registry", "RobotContext", "register"]
+__all__ = [
+    "REGISTRY",
+    "Parameter",
+    "ParameterError",
+    "Policy",
+    "Registry",
+    "RobotContext",
+    "RobotContextBase",
+    "register",
+]
 
 # Strategy modules register themselves on import.
 from . import tpuaf  # noqa: E402,F401

@@ -62,6 +62,36 @@ class RobotContext(Protocol):
         `vertex` (only that goal counts as a visit). Optional for runtimes (DTAG uses it)."""
 
 
+class RobotContextBase:
+    """What every runtime's RobotContext shares: vertex bookkeeping and the measured speed.
+
+    A runtime sets `patrol_map`, `_current`, `_start_vertex`, `_start_position`, and adds to
+    `travelled_m` / `travel_time_s` while its robot drives; it provides `now`, `position`,
+    `send` and `wake_at` itself."""
+
+    travelled_m: float = 0.0  # [m] driven towards goals
+    travel_time_s: float = 0.0  # [s] spent driving towards goals
+
+    @property
+    def current_vertex(self) -> int:
+        return self._current
+
+    @property
+    def start_vertex(self) -> int:
+        return self._start_vertex
+
+    @property
+    def start_position(self) -> tuple[float, float]:
+        return self._start_position
+
+    @property
+    def average_speed(self) -> float:
+        """Vel(i) of Eq. 6 [m/s]: measured once the robot has driven 1 s, nominal before."""
+        if self.travel_time_s > 1.0 and self.travelled_m > 0:
+            return self.travelled_m / self.travel_time_s
+        return float(self.patrol_map.settings.nominal_speed)
+
+
 class ParameterError(ValueError):
     """A strategy parameter is unknown or invalid."""
 

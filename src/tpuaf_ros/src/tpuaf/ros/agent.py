@@ -27,14 +27,14 @@ from ..navigation import (
     LocalController,
     Navigator,
 )
-from ..policies import Policy
+from ..policies import Policy, RobotContextBase
 
 START, GOAL, REACHED, FAILED, HEARTBEAT = 0, 1, 2, 3, 4  # = AgentEvent.msg constants
 EVENT_NAMES = {START: "START", GOAL: "GOAL", REACHED: "REACHED", FAILED: "FAILED",
                HEARTBEAT: "HEARTBEAT"}
 
 
-class AgentRuntime:
+class AgentRuntime(RobotContextBase):
     """RobotContext of one robot; see the module docstring."""
 
     def __init__(self, patrol_map: Any, policy: Policy, robot: int, n_robots: int, seed: int,
@@ -78,26 +78,8 @@ class AgentRuntime:
         return self._now
 
     @property
-    def current_vertex(self) -> int:
-        return self._current
-
-    @property
-    def start_vertex(self) -> int:
-        return self._start_vertex
-
-    @property
     def position(self) -> tuple[float, float]:
         return (self._pose[0], self._pose[1]) if self._pose else self._start_position
-
-    @property
-    def start_position(self) -> tuple[float, float]:
-        return self._start_position
-
-    @property
-    def average_speed(self) -> float:
-        if self.travel_time_s > 1.0 and self.travelled_m > 0:
-            return self.travelled_m / self.travel_time_s
-        return float(self.patrol_map.settings.nominal_speed)
 
     def send(self, message: Any) -> None:
         self._publish_team(message)
