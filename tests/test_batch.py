@@ -127,3 +127,11 @@ def test_imported_cumberland_runs_with_twelve_robots(shared_maps):
     summary, _ = run(patrol_map, map="cumberland", robots=12, duration_s=1200, seed=1)
     assert summary["unvisited_vertices"] == 0
     assert summary["n_vertices"] == 40
+
+
+def test_engine_honours_change_goal_for_dtag_replans():
+    summary, engine = run(map="grid", strategy="dtag", robots=12, duration_s=1200, seed=1)
+    assert sum(r.policy.replans for r in engine.robots) > 0
+    assert summary["unvisited_vertices"] == 0
+    with pytest.raises(IndexError, match="unknown vertex index 25"):
+        engine.robots[0].change_goal(25)

@@ -279,3 +279,30 @@ def _first_then(decide, first):
         return decide(ctx)
 
     return wrapped
+
+
+def test_change_goal_redirects_a_driving_agent(grid):
+    """DTAG's re-plan: a goal changed while driving takes effect at the next vertex passed, and
+    the monitor counts the visit of the new goal (announced by a GOAL event), not the old one."""
+    start = grid.positions[0]
+    w = world_of(grid, [(start[0], start[1], 0.0)])
+    mon = FleetMonitor(grid, 1, 60.0)
+    agent = AgentRuntime(grid, REGISTRY.create("cr"), 0, 1, 0, lambda m: None,
+                         lambda k, v, f, t: mon.on_event(0, k, v, t))
+    agent.policy.decide = _first_then(agent.policy.decide, 4)  # 0 -> 4 along the first row
+    t, redirected = 0.0, False
+    while not mon.finished:
+        pose = w.poses()[0]
+        mon.on_pose(0, t, pose[0], pose[1])
+        agent.on_pose(t, *pose)
+        if not redirected and t >= 2.0:
+            agent.change_goal(10)  # while driving 0 -> 1
+            redirected = True
+        v, om = agent.tick(t, points_of(w, 0))
+        w.set_command(0, v, om)
+        w.step(0.1)
+        t = round(t + 0.1, 6)
+    visited = [v for _, r, v in mon.recorder.visits if r == 0]
+    assert visited[:2] == [0, 10]  # the start, then the new goal; 4 was never reached first
+    with pytest.raises(IndexError, match="unknown vertex index 99"):
+        agent.change_goal(99)

@@ -110,9 +110,7 @@ class _Robot(RobotContextBase):
 
     def change_goal(self, vertex: int) -> None:
         """Redirect a moving robot: it finishes its current edge, then heads to `vertex`."""
-        if not 0 <= int(vertex) < self.engine.graph.num_vertices:
-            raise IndexError(f"unknown vertex index {vertex}")
-        self.redirect = int(vertex)
+        self.redirect = self.checked_vertex(vertex)
 
     # --- motion ---
     def position_at(self, t: float) -> np.ndarray:
@@ -182,24 +180,13 @@ class BatchRun:
     # --- robot logic ---
     def _decide(self, robot: _Robot) -> None:
         robot.wake_pending = False
-        try:
-            goal = robot.policy.decide(robot)
-        except Exception as err:  # a strategy bug must name the strategy, robot and time
-            raise RuntimeError(
-                f"strategy '{self.config.strategy}' failed for robot {robot.robot} at "
-                f"t = {self.now:.2f} s: {type(err).__name__}: {err}"
-            ) from err
+        goal = robot.call_decide(robot.policy)
         robot.redirect = None
         if goal is None:
             robot.goal = None
             if not robot.wake_pending:
                 robot.wake_at(self.now + DEFAULT_RETRY_S)
             return
-        goal = int(goal)
-        if not 0 <= goal < self.graph.num_vertices:
-            raise RuntimeError(
-                f"strategy '{self.config.strategy}' chose unknown vertex {goal} for robot {robot.robot}"
-            )
         robot.goal = goal
         here = robot.current_vertex
         robot.route = GraphRoute(self.graph, self.patrol_map.positions, here, goal)

@@ -91,6 +91,28 @@ class RobotContextBase:
             return self.travelled_m / self.travel_time_s
         return float(self.patrol_map.settings.nominal_speed)
 
+    def checked_vertex(self, vertex) -> int:
+        """`vertex` as an int index of the map; an unknown one is an IndexError."""
+        v = int(vertex)
+        if not 0 <= v < self.patrol_map.num_vertices:
+            raise IndexError(
+                f"unknown vertex index {v} (map '{self.patrol_map.name}' has "
+                f"{self.patrol_map.num_vertices})"
+            )
+        return v
+
+    def call_decide(self, policy: Policy) -> int | None:
+        """`policy.decide(self)`; a strategy failure names the strategy, robot and time, and
+        a goal outside the map is refused."""
+        try:
+            goal = policy.decide(self)
+            return None if goal is None else self.checked_vertex(goal)
+        except Exception as err:
+            raise RuntimeError(
+                f"strategy '{policy.name}' failed for robot {self.robot} at "
+                f"t = {self.now:.2f} s: {type(err).__name__}: {err}"
+            ) from err
+
 
 class ParameterError(ValueError):
     """A strategy parameter is unknown or invalid."""

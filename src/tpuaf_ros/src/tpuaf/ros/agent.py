@@ -64,6 +64,7 @@ class AgentRuntime(RobotContextBase):
         self.goal: int | None = None
         self._stay_until: float | None = None
         self._wake: float | None = None
+        self._redirect: int | None = None  # a new goal asked for while driving
         self._next_heartbeat = -math.inf
         self.started = False
         self.start_at: float | None = 0.0  # [s] run time to begin patrolling; None = not yet known
@@ -86,6 +87,10 @@ class AgentRuntime(RobotContextBase):
 
     def wake_at(self, time: float) -> None:
         self._wake = max(float(time), self._now)
+
+    def change_goal(self, vertex: int) -> None:
+        """Redirect while driving: at the next vertex passed, head to `vertex` instead."""
+        self._redirect = self.checked_vertex(vertex)
 
     # --- inputs ---
     def on_pose(self, t: float, x: float, y: float, th: float) -> None:
@@ -132,6 +137,8 @@ class AgentRuntime(RobotContextBase):
         cmd, event, vertex = self.navigator.step(self._now, self._pose, points)
         if event == Event.WAYPOINT:
             self._current = vertex
+            if self._redirect is not None:
+                self._set_goal(self._redirect)
         elif event == Event.ARRIVED:
             self._arrive(vertex)
             if self.goal is None or self._stay_until is not None:
@@ -170,23 +177,19 @@ class AgentRuntime(RobotContextBase):
 
     def _decide(self) -> None:
         self._wake = None
-        try:
-            goal = self.policy.decide(self)
-        except Exception as err:  # a strategy bug must name the strategy, robot and time
-            raise RuntimeError(
-                f"strategy '{self.policy.name}' failed for robot {self.robot} at "
-                f"t = {self._now:.2f} s: {type(err).__name__}: {err}"
-            ) from err
+        self._redirect = None
+        goal = self.call_decide(self.policy)
         if goal is None:
             self.goal = None
             self.navigator.cancel()
             if self._wake is None:
                 self._wake = self._now + DEFAULT_RETRY_S
             return
-        goal = int(goal)
-        if not 0 <= goal < self.patrol_map.num_vertices:
-            raise RuntimeError(f"strategy '{self.policy.name}' chose unknown vertex {goal} "
-                               f"for robot {self.robot}")
+        self._set_goal(goal)
+
+    def _set_goal(self, goal: int) -> None:
+        """Drive to `goal` from the current vertex (announced to the monitor by a GOAL event)."""
+        self._redirect = None
         self.goal = goal
         here = self._current
         x, y = self.position
