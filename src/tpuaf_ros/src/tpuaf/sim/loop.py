@@ -8,16 +8,16 @@ from __future__ import annotations
 import math
 import threading
 import time
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
+from ..ros.params import NodeParamError, parse
 from .config import WorldConfig
 
-
-class ParamError(ValueError):
-    """A node parameter is unknown or has a bad value."""
+# A node parameter is unknown or has a bad value (the strict parser shared by all nodes).
+ParamError = NodeParamError
 
 
 @dataclass
@@ -63,24 +63,7 @@ PARAM_DOCS = {
 
 def parse_node_params(values: dict[str, Any]) -> NodeParams:
     """NodeParams from {name: value} (private names without '~'); unknown names are refused."""
-    known = {f.name: f for f in fields(NodeParams)}
-    unknown = sorted(set(values) - set(known))
-    if unknown:
-        raise ParamError(f"unknown parameter(s) {', '.join('~' + u for u in unknown)} "
-                         f"(valid: {', '.join('~' + k for k in sorted(known))})")
-    p = NodeParams()
-    for name, value in values.items():
-        default = getattr(p, name)
-        if isinstance(default, bool):
-            if not isinstance(value, bool):
-                raise ParamError(f"~{name} must be true or false, got {value!r}")
-        elif isinstance(default, float):
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ParamError(f"~{name} must be a finite number, got {value!r}")
-            value = float(value)
-        elif isinstance(default, str) and not isinstance(value, str):
-            raise ParamError(f"~{name} must be a string, got {value!r}")
-        setattr(p, name, value)
+    p = parse(NodeParams, values, "tpuaf_stage")
     if not p.world:
         raise ParamError("~world (path of the world YAML file) is required")
     if not p.step > 0:
