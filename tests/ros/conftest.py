@@ -19,7 +19,6 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -30,6 +29,7 @@ from functools import lru_cache
 from pathlib import Path
 
 import pytest
+from tpuaf.fleet_cli import free_port  # a free loopback port, never 11311
 
 REPO = Path(__file__).resolve().parents[2]
 VENV_PYTHON = REPO / ".venv" / "bin" / "python"
@@ -46,15 +46,6 @@ def workspace_env() -> dict[str, str]:
                              "PATH", "")}).stdout
     env = dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
     return env
-
-
-def free_port() -> int:
-    while True:
-        with socket.socket() as s:
-            s.bind(("127.0.0.1", 0))
-            port = s.getsockname()[1]
-        if port != 11311:
-            return port
 
 
 def stop_process(proc: subprocess.Popen, timeout: float = 10.0) -> int | None:
