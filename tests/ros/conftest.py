@@ -1,7 +1,7 @@
 """Shared fixtures for ROS integration tests: a private roscore per test (or module) and helpers
 to start nodes, launch files and probe scripts with the test's environment.
 
-Rules (docs/TEAM_BRIEF.md): own master on a free port (never 11311), ROS_HOME in a temp dir,
+Rules (docs/DEVELOPING.md): own master on a free port (never 11311), ROS_HOME in a temp dir,
 ROS_IP=127.0.0.1, processes stopped by PID (SIGINT, then SIGKILL of the process group we created).
 
 rospy can be initialised once per process and binds to one master, so test-side ROS clients run
