@@ -479,6 +479,21 @@ def _extra_note(data: Data, cases, col: str, extra: list[str]) -> str:
 # ------------------------------------------------------------------------------- figures
 
 
+def _pyplot():
+    """matplotlib.pyplot on the headless Agg backend. Debian's mpl_toolkits beside the venv's
+    matplotlib makes it warn about 3-D axes; no figure here uses them."""
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Unable to import Axes3D")
+        warnings.filterwarnings("ignore", message="Importing matplotlib.tri.triangulation")
+        import matplotlib.pyplot as plt
+    return plt
+
+
 def _colors(strategies: list[str]) -> dict[str, Any]:
     import matplotlib
 
@@ -487,10 +502,7 @@ def _colors(strategies: list[str]) -> dict[str, Any]:
 
 
 def box_figure(data: Data, m: str, path: Path) -> Path | None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
 
     ns = data.robots(m)
     strategies = data.strategies(m)
@@ -537,10 +549,7 @@ def box_figure(data: Data, m: str, path: Path) -> Path | None:
 
 
 def metrics_figure(data: Data, m: str, path: Path) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
 
     panels = [("idleness_avg_s", "I_avg [s]", None),
               ("idleness_max_s", "I_max [s]", "worst_idleness_s"),
@@ -579,10 +588,7 @@ def metrics_figure(data: Data, m: str, path: Path) -> Path:
 
 
 def acceleration_figure(data: Data, path: Path) -> Path | None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = _pyplot()
 
     maps = [m for m in data.maps() if 1 in data.robots(m) and len(data.robots(m)) > 1]
     if not maps:
