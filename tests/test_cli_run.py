@@ -131,3 +131,13 @@ def test_ctrl_c_leaves_valid_results(tmp_path):
     assert len(rows) > 100 and all(len(r) == len(rows[0]) for r in rows)
     visits = list(csv.DictReader((out / "visits.csv").open()))
     assert len(visits) >= summary["visits"] - 4
+
+
+@pytest.mark.parametrize("content", [b"not a bag at all\n", b"#ROSBAG V2.0\n" + b"\0" * 64])
+def test_analyze_refuses_a_damaged_bag_clearly(tmp_path, content):
+    bag = tmp_path / "broken.bag"
+    bag.write_bytes(content)
+    result = tpuaf("analyze", str(bag), "--map", "grid", "--out", str(tmp_path / "a"))
+    assert result.returncode == 2
+    assert "broken.bag: not a readable ROS 1 bag" in result.stderr
+    assert "Traceback" not in result.stderr

@@ -10,6 +10,8 @@ taken from the definitions stored in the bag.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,14 +54,32 @@ def _typestore(reader: Any):
     return store
 
 
+@contextmanager
+def _open(path: Path) -> Iterator[Any]:
+    """An open rosbags Reader; a damaged or foreign file is a BagError naming it."""
+    from rosbags.rosbag1 import Reader, ReaderError
+
+    reader = Reader(path)
+    try:
+        reader.open()
+    except ReaderError as err:
+        raise BagError(
+            f"{path}: not a readable ROS 1 bag ({err}); a bag cut short by a crash can often be "
+            "repaired with `rosbag reindex`"
+        ) from None
+    try:
+        yield reader
+    finally:
+        reader.close()
+
+
 def inspect(path: str | Path) -> BagInfo:
     """Robots, start and duration of a fleet bag (one pass over the small topics)."""
-    from rosbags.rosbag1 import Reader
 
     path = Path(path)
     if not path.is_file():
         raise BagError(f"{path}: bag not found")
-    with Reader(path) as reader:
+    with _open(path) as reader:
         store = _typestore(reader)
         robots: dict[int, str] = {}
         topics = {}
@@ -93,7 +113,6 @@ def replay(path: str | Path, patrol_map: Any, *, robots: int | None = None,
            duration: float | None = None, start_time: float | None = None,
            death_timeout_s: float = 5.0) -> tuple[FleetMonitor, BagInfo]:
     """Feed the bag's ground truth and agent events, in bag order, to a FleetMonitor."""
-    from rosbags.rosbag1 import Reader
 
     info = inspect(path)
     n = robots or info.robots
@@ -105,7 +124,7 @@ def replay(path: str | Path, patrol_map: Any, *, robots: int | None = None,
         raise BagError(f"{path}: no /fleet/start in the bag: give the start time")
     monitor = FleetMonitor(patrol_map, n, duration, start_after=start,
                            death_timeout_s=death_timeout_s)
-    with Reader(Path(path)) as reader:
+    with _open(Path(path)) as reader:
         store = _typestore(reader)
         wanted, robot_of = [], {}
         for conn in reader.connections:
