@@ -15,6 +15,16 @@ from .common import (
 )
 
 
+def neighbour_choice(ctx) -> tuple[list[int], int | None]:
+    """The neighbours of the current vertex, and the decision when there is no real choice:
+    the single neighbour, or None (after asking to decide again) when there is none."""
+    cands = neighbours(ctx)
+    if not cands:
+        wait_nowhere_to_go(ctx)
+        return cands, None
+    return cands, cands[0] if len(cands) == 1 else None
+
+
 @register
 class RandomPolicy(Policy):
     """RAND: a uniformly random neighbour."""
@@ -24,12 +34,9 @@ class RandomPolicy(Policy):
     parameters = {}
 
     def decide(self, ctx):
-        cands = neighbours(ctx)
-        if not cands:
-            wait_nowhere_to_go(ctx)
-            return None
-        if len(cands) == 1:
-            return cands[0]
+        cands, forced = neighbour_choice(ctx)
+        if len(cands) <= 1:
+            return forced
         return cands[int(ctx.rng.integers(len(cands)))]
 
 
@@ -56,12 +63,9 @@ class ConscientiousReactive(_LocalIdleness):
 
     def decide(self, ctx):
         idle = self._arrived(ctx)
-        cands = neighbours(ctx)
-        if not cands:
-            wait_nowhere_to_go(ctx)
-            return None
-        if len(cands) == 1:
-            return cands[0]
+        cands, forced = neighbour_choice(ctx)
+        if len(cands) <= 1:
+            return forced
         return pick_max(cands, idle[cands], ctx.rng)
 
 
@@ -83,12 +87,9 @@ class HeuristicConscientiousReactive(_LocalIdleness):
 
     def decide(self, ctx):
         idle = self._arrived(ctx)
-        cands = neighbours(ctx)
-        if not cands:
-            wait_nowhere_to_go(ctx)
-            return None
-        if len(cands) == 1:
-            return cands[0]
+        cands, forced = neighbour_choice(ctx)
+        if len(cands) <= 1:
+            return forced
         g, here = ctx.patrol_map.graph, ctx.current_vertex
         costs = np.array([g.edge_length(here, n) for n in cands])
         return pick_max(cands, hcr_scores(costs, idle[cands]), ctx.rng)
