@@ -49,15 +49,8 @@ def make_grid() -> PatrolMap:
         goal_tolerance=0.4,
         robot_radius=0.105,
     )
-    n = len(ids)
-    return PatrolMap(
-        name="grid",
-        vertex_ids=ids,
-        positions=np.array(pos),
-        edges=edges,
-        importance=np.full(n, settings.default_importance),
-        initial_uncertainty=np.full(n, settings.default_initial_uncertainty),
-        settings=settings,
+    return _uniform_map(
+        "grid", ids, pos, edges, settings,
         corridor_width=1.5,
         bounds=(0.0, 0.0, 25.8, 25.8),
         description="5x5 lattice, 5.7 m spacing, 25.8 x 25.8 m (paper's Grid)",
@@ -87,18 +80,26 @@ def make_lab() -> PatrolMap:
         robot_radius=0.105,
         initial_vertices={1: [0], 2: [0, 14], 3: [0, 7, 14], 4: [0, 4, 10, 14]},
     )
+    return _uniform_map(
+        "lab", ids, pos, edges, settings,
+        corridor_width=0.5,
+        bounds=(0.0, 0.0, 3.0, 2.6),
+        description="3.0 x 2.6 m lab room: three aisles of five stops, two desk blocks",
+    )
+
+
+def _uniform_map(name, ids, pos, edges, settings, **extra) -> PatrolMap:
+    """A built-in map whose targets all take the settings' default C and X0."""
     n = len(ids)
     return PatrolMap(
-        name="lab",
+        name=name,
         vertex_ids=ids,
         positions=np.array(pos),
         edges=edges,
         importance=np.full(n, settings.default_importance),
         initial_uncertainty=np.full(n, settings.default_initial_uncertainty),
         settings=settings,
-        corridor_width=0.5,
-        bounds=(0.0, 0.0, 3.0, 2.6),
-        description="3.0 x 2.6 m lab room: three aisles of five stops, two desk blocks",
+        **extra,
     )
 
 
