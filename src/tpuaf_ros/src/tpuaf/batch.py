@@ -98,7 +98,7 @@ class _Robot(RobotContextBase):
 
     @property
     def position(self) -> tuple[float, float]:
-        p = self.position_at(self.engine.now)
+        p = self.engine.position_of(self.robot, self.engine.now)
         return (float(p[0]), float(p[1]))
 
     def send(self, message) -> None:
@@ -111,12 +111,6 @@ class _Robot(RobotContextBase):
     def change_goal(self, vertex: int) -> None:
         """Redirect a moving robot: it finishes its current edge, then heads to `vertex`."""
         self.redirect = self.checked_vertex(vertex)
-
-    # --- motion ---
-    def position_at(self, t: float) -> np.ndarray:
-        if t >= self.t1 or self.t1 <= self.t0:
-            return self.p1
-        return self.p0 + (self.p1 - self.p0) * ((t - self.t0) / (self.t1 - self.t0))
 
 
 class BatchRun:
@@ -161,6 +155,11 @@ class BatchRun:
 
     def schedule_delivery(self, time: float, message, recipients: list[int]) -> None:
         self.push(time, _DELIVER, (message, recipients))
+
+    def position_of(self, robot: int, t: float) -> np.ndarray:
+        """True position of one robot at time t [m], from the same segment table."""
+        elapsed = min(max(t - self._t0[robot], 0.0), self._t1[robot] - self._t0[robot])
+        return self._p0[robot] + self._velocity[robot] * elapsed
 
     def positions(self, t: float) -> np.ndarray:
         """True positions of all robots at time t [m], vectorised over robots."""
