@@ -12,8 +12,8 @@ import time
 from pathlib import Path
 
 from common import header, write
-from tpuaf.batch import BatchRun, RunConfig
 from tpuaf.maps import load_map
+from tpuaf.runtimes.graph import BatchRun, RunConfig
 
 SHARED_MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps" / "patrolling_sim"
 CASES = [

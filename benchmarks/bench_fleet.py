@@ -43,8 +43,8 @@ def fleet(map_ref: str, n: int, duration: float, rtf: float, out: Path) -> dict:
 
 
 def batch_visits(map_ref: str, n: int, duration: float) -> int:
-    from tpuaf.batch import BatchRun, RunConfig
     from tpuaf.maps import load_map
+    from tpuaf.runtimes.graph import BatchRun, RunConfig
 
     run = BatchRun(RunConfig(map=map_ref, strategy="tpuaf", robots=n, duration_s=duration,
                              seed=0), load_map(map_ref))

@@ -44,7 +44,7 @@ def world_yaml(map_dir: Path, folder: Path, noise: bool = True) -> Path:
 
 
 def bench_laser(map_dir: Path, reps: int, seconds: float) -> dict:
-    from tpuaf.sim import load_world
+    from tpuaf_stage import load_world
 
     out = {}
     with tempfile.TemporaryDirectory() as tmp:

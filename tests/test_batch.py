@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 import pytest
-from tpuaf.batch import BatchRun, ConfigError, RunConfig
 from tpuaf.maps import MapError, MapSettings, PatrolMap, load_map
 from tpuaf.policies import ParameterError
+from tpuaf.runtimes.graph import BatchRun, ConfigError, RunConfig
 
 
 def ring_map(n: int = 8, radius_m: float = 10.0) -> PatrolMap:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import tpuaf_core
 from tpuaf.maps import load_map, start_vertices
+from tpuaf.monitor import FleetMonitor
 from tpuaf.navigation import (
     ControllerConfig,
     Event,
@@ -20,8 +21,7 @@ from tpuaf.navigation import (
     scan_points,
 )
 from tpuaf.policies import REGISTRY
-from tpuaf.ros.agent import AgentRuntime
-from tpuaf.ros.monitor import FleetMonitor
+from tpuaf.runtimes.agent import AgentRuntime
 
 DEG = math.radians(1.0)
 

@@ -4,9 +4,9 @@
 from __future__ import annotations
 
 import pytest
-from tpuaf.batch import BatchRun, RunConfig
 from tpuaf.maps import load_map
 from tpuaf.policies import REGISTRY
+from tpuaf.runtimes.graph import BatchRun, RunConfig
 
 from .conftest import PATROLLING_SIM_MAPS
 

@@ -335,11 +335,11 @@ def test_scan_all_needs_equal_beams():
     assert w.scan(1).shape == (20,)
 
 
-# --- world files, node parameters, stepping loop (tpuaf.sim, no ROS) ----------------------------
+# --- world files, node parameters, stepping loop (tpuaf_stage, no ROS) ----------------------------
 
 from pathlib import Path  # noqa: E402
 
-from tpuaf.sim import (  # noqa: E402
+from tpuaf_stage import (  # noqa: E402
     ParamError,
     SimLoop,
     WorldError,

@@ -29,7 +29,7 @@ from functools import lru_cache
 from pathlib import Path
 
 import pytest
-from tpuaf.fleet_cli import free_port  # a free loopback port, never 11311
+from tpuaf.cli.fleet import free_port  # a free loopback port, never 11311
 
 REPO = Path(__file__).resolve().parents[2]
 VENV_PYTHON = REPO / ".venv" / "bin" / "python"

@@ -72,7 +72,7 @@ def test_bag_is_closed_and_analyze_matches_the_monitor(tpuaf_run):
 
 
 def test_batch_and_fleet_idleness_within_factor(tpuaf_run):
-    from tpuaf.batch import BatchRun, RunConfig
+    from tpuaf.runtimes.graph import BatchRun, RunConfig
 
     out, _ = tpuaf_run
     fleet = json.loads((out / "summary.json").read_text())["idleness_avg_s"]

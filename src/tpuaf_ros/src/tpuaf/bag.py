@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .ros.monitor import FleetMonitor
+from .monitor import FleetMonitor
+from .topics import EVENTS_TOPIC, METRICS_TOPIC, START_TOPIC
 
 GT_TOPIC = re.compile(r"^/(?P<prefix>.*?)(?P<index>\d+)/base_pose_ground_truth$")
 
@@ -95,10 +96,10 @@ def inspect(path: str | Path) -> BagInfo:
         if len(prefixes) > 1:
             raise BagError(f"{path}: ground truth under several prefixes: {sorted(prefixes)}")
         info = BagInfo(path, max(robots) + 1, prefixes.pop(), None, None, topics)
-        small = [c for c in reader.connections if c.topic in ("/fleet/start", "/fleet/metrics")]
+        small = [c for c in reader.connections if c.topic in (START_TOPIC, METRICS_TOPIC)]
         for conn, _t, raw in reader.messages(connections=small):
             msg = store.deserialize_ros1(raw, conn.msgtype)
-            if conn.topic == "/fleet/start":
+            if conn.topic == START_TOPIC:
                 info.start_time = float(msg.data)
             else:
                 info.duration = float(msg.duration)
@@ -132,7 +133,7 @@ def replay(path: str | Path, patrol_map: Any, *, robots: int | None = None,
             if m and int(m["index"]) < n:
                 robot_of[conn.id] = int(m["index"])
                 wanted.append(conn)
-            elif conn.topic == "/fleet/agent_events":
+            elif conn.topic == EVENTS_TOPIC:
                 wanted.append(conn)
         index_of = patrol_map.index_of
         for conn, _t, raw in reader.messages(connections=wanted):

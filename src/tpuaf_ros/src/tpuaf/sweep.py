@@ -189,8 +189,8 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     result: dict[str, Any] = {"task": task, "host": socket.gethostname(), "pid": os.getpid()}
     try:
-        from .batch import BatchRun, RunConfig
         from .maps import load_map
+        from .runtimes.graph import BatchRun, RunConfig
 
         config = RunConfig(map=task["map_source"], strategy=task["strategy"],
                            robots=int(task["robots"]), duration_s=float(task["duration_s"]),

@@ -34,13 +34,13 @@ def load_map(name_or_path: str | Path) -> PatrolMap:
     patrolling_sim folder (with a .graph file) or a .graph file. Every map is checked
     (connected graph, valid lengths) and comes with an occupancy grid (from its image, or
     corridors generated from the graph)."""
-    from .builtin import GENERATORS, REPO_MAPS_DIR
+    from .builtin import BUILTIN_MAPS_DIR, GENERATORS
     from .mapfile import load_map_folder
     from .patrolling_sim import load_patrolling_sim
 
     text = str(name_or_path)
     if isinstance(name_or_path, str) and text in GENERATORS:
-        folder = REPO_MAPS_DIR / text
+        folder = BUILTIN_MAPS_DIR / text
         pm = load_map_folder(folder) if (folder / "map.yaml").is_file() else GENERATORS[text]()
     else:
         path = Path(name_or_path).expanduser()

@@ -21,9 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..paths import data_path
 from .model import MapSettings, PatrolMap
 
-REPO_MAPS_DIR = Path(__file__).resolve().parents[5] / "maps"
+BUILTIN_MAPS_DIR = data_path("maps")  # installed with the package (setup.py package_data)
 
 
 def make_grid() -> PatrolMap:
@@ -106,7 +107,7 @@ def _uniform_map(name, ids, pos, edges, settings, **extra) -> PatrolMap:
 GENERATORS = {"grid": make_grid, "lab": make_lab}
 
 
-def write_builtin(out_dir: Path = REPO_MAPS_DIR) -> list[Path]:
+def write_builtin(out_dir: Path = BUILTIN_MAPS_DIR) -> list[Path]:
     from .mapfile import save_map_folder
 
     out = []
@@ -117,5 +118,5 @@ def write_builtin(out_dir: Path = REPO_MAPS_DIR) -> list[Path]:
 
 
 if __name__ == "__main__":
-    for p in write_builtin(Path(sys.argv[1]) if len(sys.argv) > 1 else REPO_MAPS_DIR):
+    for p in write_builtin(Path(sys.argv[1]) if len(sys.argv) > 1 else BUILTIN_MAPS_DIR):
         print(p)

@@ -9,17 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from .. import messages as m
-
-# Team topics (global names under the team namespace) of each message type.
-TEAM_TOPICS: dict[type, str] = {
-    m.Visit: "visits",
-    m.Intention: "intentions",
-    m.IdlenessEstimate: "idleness",
-    m.TaskRequest: "task_requests",
-    m.TaskBid: "task_bids",
-}
-EVENTS_TOPIC = "/fleet/agent_events"
-METRICS_TOPIC = "/fleet/metrics"
+from ..topics import EVENTS_TOPIC, METRICS_TOPIC, TEAM_TOPICS  # noqa: F401 - re-exported
 
 
 def ros_types() -> dict[type, type]:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import yaml
 
-from .cli import CliError
+from ..errors import CliError
 
 # Compared keys and their tolerance: (absolute, relative); a key agrees if within either.
 TOLERANCES = {
@@ -54,10 +54,10 @@ def compare(a: dict, b: dict) -> list[tuple[str, object, object, bool]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .bag import BagError, replay
-    from .maps import MapError, load_map
-    from .results import ResultsWriter
-    from .run_cli import format_summary
+    from ..bag import BagError, replay
+    from ..maps import MapError, load_map
+    from ..results import ResultsWriter
+    from .run import format_summary
 
     bag = args.bag.expanduser().resolve()
     folder = bag.parent

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import inspect
 import math
-from dataclasses import dataclass, fields
+import re
+from dataclasses import MISSING, dataclass, fields
 from typing import Any
 
 
@@ -111,3 +113,21 @@ class MonitorParams:
     config_file: str = ""  # YAML merged into the results' config.yaml (written by tpuaf fleet)
     strategy: str = ""  # for config.yaml
     seed: int = 0  # for config.yaml
+
+
+def params_help(cls: type) -> str:
+    """One line per parameter of a params dataclass: name, type, default and the comment (or
+    `req` doc) written beside it in the source, so the docs cannot drift from the code."""
+    comments = {}
+    for line in inspect.getsource(cls).splitlines():
+        match = re.match(r"\s+(\w+): [^=]+=.*?#\s*(.*)$", line)
+        if match:
+            comments[match.group(1)] = match.group(2)
+    rows = []
+    for f in fields(cls):
+        default = f.default if f.default is not MISSING else f.default_factory()
+        kind = f.metadata.get("type", type(default)).__name__
+        doc = f.metadata.get("doc") or comments.get(f.name, "")
+        required = " (required)" if f.metadata.get("required") else ""
+        rows.append(f"  ~{f.name:<20} {kind:<6} {default!r:<14} {doc}{required}")
+    return "\n".join(rows)

@@ -19,7 +19,6 @@ from typing import Any
 
 import numpy as np
 
-from ..batch import DEFAULT_RETRY_S, STAY_S
 from ..navigation import (
     ControllerConfig,
     Event,
@@ -28,10 +27,8 @@ from ..navigation import (
     Navigator,
 )
 from ..policies import Policy, RobotContextBase
-
-START, GOAL, REACHED, FAILED, HEARTBEAT = 0, 1, 2, 3, 4  # = AgentEvent.msg constants
-EVENT_NAMES = {START: "START", GOAL: "GOAL", REACHED: "REACHED", FAILED: "FAILED",
-               HEARTBEAT: "HEARTBEAT"}
+from ..topics import FAILED, GOAL, HEARTBEAT, REACHED, START
+from .graph import DEFAULT_RETRY_S, STAY_S
 
 
 class AgentRuntime(RobotContextBase):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from .errors import CliError
+from ..errors import CliError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -55,7 +55,7 @@ def format_table(summaries: list[dict]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .maps import MapError, builtin_map_names, load_map, map_summary
+    from ..maps import MapError, builtin_map_names, load_map, map_summary
 
     names = args.maps or builtin_map_names()
     summaries = []

@@ -6,8 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from .errors import CliError
-from .run_cli import positive_float, positive_int
+from ..errors import CliError
+from .run import positive_float, positive_int
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -33,7 +33,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .sweep import SweepError, make_spec, run_sweep
+    from ..sweep import SweepError, make_spec, run_sweep
 
     if args.scheduler and args.workers:
         raise CliError("--workers applies to the local cluster only, not with --scheduler")

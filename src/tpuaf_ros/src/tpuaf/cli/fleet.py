@@ -22,12 +22,12 @@ from pathlib import Path
 
 import yaml
 
-from .cli import CliError
-from .run_cli import format_summary, parse_params, positive_float, positive_int
+from ..errors import CliError
+from ..paths import catkin_prefix
+from ..topics import METRICS_TOPIC
+from .run import format_summary, parse_params, positive_float, positive_int
 
-REPO = Path(__file__).resolve().parents[4]
-LAUNCH = REPO / "launch_scripts" / "fleet.launch"
-DEVEL_ENV = REPO / "devel" / "env.sh"
+LAUNCH = ("tpuaf_ros", "fleet.launch")  # found by roslaunch through the package
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -60,8 +60,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     """Write world.yaml, strategy_params.yaml and fleet_config.yaml; the roslaunch args."""
-    from .maps import MapError, builtin_map_names, load_map, start_vertices
-    from .policies import REGISTRY, ParameterError
+    from ..maps import MapError, builtin_map_names, load_map, start_vertices
+    from ..policies import REGISTRY, ParameterError
 
     try:
         patrol_map = load_map(args.map)
@@ -185,12 +185,15 @@ def wait_bag_closed(bag: Path, timeout_s: float = 30.0) -> bool:
 def run(args: argparse.Namespace) -> int:
     launch_args, config = prepare(args)
     out = args.out.expanduser().resolve()
-    cmd = ["roslaunch", "--wait", str(LAUNCH), *launch_args]
+    cmd = ["roslaunch", "--wait", *LAUNCH, *launch_args]
+    prefix = catkin_prefix()
+    if prefix is None:
+        raise CliError("tpuaf is not in a catkin devel or install space: build the workspace "
+                       "(bash launch_scripts/setup.sh)")
+    ros_env_sh = prefix / "env.sh"
     if args.prepare_only:
-        print(f"{DEVEL_ENV} " + " ".join(cmd))
+        print(f"{ros_env_sh} " + " ".join(cmd))
         return 0
-    if not DEVEL_ENV.is_file():
-        raise CliError(f"{DEVEL_ENV} not found: build the workspace (bash launch_scripts/setup.sh)")
     home = out / "ros_home"
     home.mkdir(exist_ok=True)
     port = free_port()
@@ -207,14 +210,14 @@ def run(args: argparse.Namespace) -> int:
     finished = False
     sim_elapsed = 0.0
     try:
-        core = start([str(DEVEL_ENV), "roscore", "-p", str(port)], env, home / "roscore.log")
+        core = start([str(ros_env_sh), "roscore", "-p", str(port)], env, home / "roscore.log")
         procs.append(core)
         deadline = time.monotonic() + 30
         while not master_up(port):
             if core.poll() is not None or time.monotonic() > deadline:
                 raise CliError(f"roscore did not start (log: {home / 'roscore.log'})")
             time.sleep(0.1)
-        launch = start([str(DEVEL_ENV), *cmd], env, out / "roslaunch.log")
+        launch = start([str(ros_env_sh), *cmd], env, out / "roslaunch.log")
         procs.append(launch)
         finished, sim_elapsed, wall_run = follow(args, env, launch, out)
     except KeyboardInterrupt:
@@ -271,7 +274,7 @@ def follow(args, env, launch, out) -> tuple[bool, float, float]:
             state["finished"] = True
 
     rospy.init_node("tpuaf_fleet_cli", anonymous=True, disable_signals=True)
-    rospy.Subscriber("/fleet/metrics", LiveMetrics, on_metrics, queue_size=10)
+    rospy.Subscriber(METRICS_TOPIC, LiveMetrics, on_metrics, queue_size=10)
     bar = tqdm(total=args.duration, unit="sim s", disable=args.quiet, desc=args.strategy,
                bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} sim s [{elapsed}<{remaining}]",
                file=sys.stderr)

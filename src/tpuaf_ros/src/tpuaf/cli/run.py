@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from .errors import CliError
+from ..errors import CliError
 
 
 def positive_int(text: str) -> int:
@@ -105,9 +105,9 @@ def format_summary(summary: dict) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .batch import BatchRun, ConfigError, RunConfig
-    from .maps import MapError, builtin_map_names, load_map
-    from .policies import REGISTRY, ParameterError
+    from ..maps import MapError, builtin_map_names, load_map
+    from ..policies import REGISTRY, ParameterError
+    from ..runtimes.graph import BatchRun, ConfigError, RunConfig
 
     if args.list:
         print("strategies:", ", ".join(REGISTRY.names()))
@@ -135,7 +135,7 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
     """Run with a progress bar, write the results folder, print the summary table."""
     from tqdm import tqdm
 
-    from .results import ResultsWriter
+    from ..results import ResultsWriter
 
     config = engine.config
     title = (

@@ -5,20 +5,20 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import __version__
+from .. import __version__
 
 # (name, module, help): modules define add_arguments(parser) and run(args) -> int.
 SUBCOMMANDS: list[tuple[str, str, str]] = [
-    ("run", "run_cli", "Run one batch experiment (no ROS) and print its metrics"),
-    ("maps", "maps_cli", "Show map statistics"),
-    ("compare", "compare_cli", "Sweep maps x strategies x N x seeds on Dask (resumable)"),
-    ("report", "report_cli", "Markdown report with figures and verdicts of a compare folder"),
-    ("fleet", "fleet_cli", "Run one headless ROS fleet experiment (simulator, agents, monitor, bag)"),
-    ("analyze", "analyze_cli", "Recompute a ROS run's metrics from its bag (no ROS needed)"),
+    ("run", "run", "Run one batch experiment (no ROS) and print its metrics"),
+    ("maps", "maps", "Show map statistics"),
+    ("compare", "compare", "Sweep maps x strategies x N x seeds on Dask (resumable)"),
+    ("report", "report", "Markdown report with figures and verdicts of a compare folder"),
+    ("fleet", "fleet", "Run one headless ROS fleet experiment (simulator, agents, monitor, bag)"),
+    ("analyze", "analyze", "Recompute a ROS run's metrics from its bag (no ROS needed)"),
 ]
 
 
-from .errors import CliError  # noqa: E402,F401 - re-exported for the subcommand modules
+from ..errors import CliError  # noqa: E402,F401 - re-exported for the subcommand modules
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -30,7 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     import importlib
 
     for name, module, help_text in SUBCOMMANDS:
-        mod = importlib.import_module(f"tpuaf.{module}")
+        mod = importlib.import_module(f"tpuaf.cli.{module}")
         p = sub.add_parser(name, help=help_text, description=help_text)
         mod.add_arguments(p)
         p.set_defaults(_handler=mod.run)

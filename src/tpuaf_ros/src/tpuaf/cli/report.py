@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .errors import CliError
+from ..errors import CliError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -19,7 +19,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .report import ReportError, write_report
+    from ..report import ReportError, write_report
 
     try:
         path = write_report(args.dir, out=args.out, paper=args.paper, title=args.title)

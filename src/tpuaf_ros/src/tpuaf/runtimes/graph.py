@@ -17,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
+from ..maps import load_map, start_vertices
+from ..metrics import RunRecorder
+from ..navigation import GraphRoute
+from ..policies import REGISTRY, Policy, RobotContextBase
 from .bus import TeamBus
-from .maps import load_map, start_vertices
-from .metrics import RunRecorder
-from .navigation import GraphRoute
-from .policies import REGISTRY, Policy, RobotContextBase
 
 _ARRIVE, _WAKE, _DELIVER = 0, 1, 2
 STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long, then visits it again
@@ -272,7 +272,7 @@ class BatchRun:
 
     def effective_config(self) -> dict:
         """Everything that determines this run, with defaults resolved (written to config.yaml)."""
-        from . import __version__
+        from .. import __version__
 
         settings = asdict(self.patrol_map.settings)
         return {

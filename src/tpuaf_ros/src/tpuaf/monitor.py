@@ -7,7 +7,7 @@ same two streams, in arrival order, and so compute the same metrics:
   time stamp (the simulator stamps all robots of one step alike); a group is processed when a
   pose `lag_s` newer arrives (robots missing from it keep their last position), so that the
   agent events stamped up to its time have arrived, whatever the interleaving of the streams.
-- `on_event(robot, kind, vertex, t)`: AgentEvent (tpuaf.ros.agent constants, vertex index).
+- `on_event(robot, kind, vertex, t)`: AgentEvent (tpuaf.topics constants, vertex index).
 
 Definitions (SPEC section 6):
 - the run starts at the first complete pose group at or after `start_after` [s]; every robot
@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from ..metrics import RunRecorder
-from .agent import GOAL
+from .metrics import RunRecorder
+from .topics import GOAL
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
 STAMP_EPS_S = 1e-3

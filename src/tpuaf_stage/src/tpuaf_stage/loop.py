@@ -12,8 +12,8 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
+from tpuaf.params import NodeParamError, parse
 
-from ..ros.params import NodeParamError, parse
 from .config import WorldConfig
 
 # A node parameter is unknown or has a bad value (the strict parser shared by all nodes).

@@ -1,0 +1,37 @@
+"""What every tpuaf rospy node shares: private parameters, `--help`, the one-line fatal error."""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Callable
+
+from ..params import params_help
+
+
+def private_params() -> dict:
+    """This node's private parameters {name: value} (first level below ~)."""
+    import rospy
+
+    prefix = rospy.get_name() + "/"
+    out = {}
+    for name in rospy.get_param_names():
+        if name.startswith(prefix):
+            key = name[len(prefix):].split("/", 1)[0]
+            out[key] = rospy.get_param("~" + key)
+    return out
+
+
+def yaw_of(q) -> float:
+    """Yaw [rad] of a geometry_msgs/Quaternion."""
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def run_node(name: str, summary: str, params_class: type, main: Callable[[], int]) -> int:
+    """`--help` / `-h` prints the node's parameters (no master needed); otherwise `main()`."""
+    argv = [a for a in sys.argv[1:] if not a.startswith("__") and ":=" not in a]
+    if "--help" in argv or "-h" in argv:
+        print(f"{name}: {summary}\n\nPrivate parameters (~name, type, default, meaning):")
+        print(params_help(params_class))
+        return 0
+    return int(main() or 0)

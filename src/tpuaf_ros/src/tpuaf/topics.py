@@ -1,0 +1,40 @@
+"""ROS topic names and message ids shared by the nodes, `tpuaf fleet` and bag analysis.
+
+Per-robot names are relative (resolved in the robot's namespace); global ones start with '/'.
+Team topics live under the team namespace (agent parameter ~team_ns, default /team).
+"""
+
+from __future__ import annotations
+
+from . import messages as m
+
+# Team topics (relative to the team namespace) of each message type.
+TEAM_TOPICS: dict[type, str] = {
+    m.Visit: "visits",
+    m.Intention: "intentions",
+    m.IdlenessEstimate: "idleness",
+    m.TaskRequest: "task_requests",
+    m.TaskBid: "task_bids",
+}
+DEFAULT_TEAM_NS = "/team"
+EVENTS_TOPIC = "/fleet/agent_events"  # tpuaf_ros/AgentEvent of every agent
+METRICS_TOPIC = "/fleet/metrics"  # tpuaf_ros/LiveMetrics of the monitor (1 Hz)
+START_TOPIC = "/fleet/start"  # std_msgs/Float64, latched: ROS time [s] of the run start
+CLOCK_TOPIC = "/clock"
+
+# Per robot (relative).
+CMD_VEL = "cmd_vel"
+ODOM = "odom"
+GROUND_TRUTH = "base_pose_ground_truth"
+SCAN = "base_scan"
+AMCL_POSE = "amcl_pose"
+STALLED = "stalled"
+
+# AgentEvent.event values (= the constants of AgentEvent.msg).
+START, GOAL, REACHED, FAILED, HEARTBEAT = 0, 1, 2, 3, 4
+EVENT_NAMES = {START: "START", GOAL: "GOAL", REACHED: "REACHED", FAILED: "FAILED",
+               HEARTBEAT: "HEARTBEAT"}
+
+
+def team_topic(team_ns: str, message_class: type) -> str:
+    return f"{team_ns.rstrip('/')}/{TEAM_TOPICS[message_class]}"
