@@ -23,7 +23,10 @@ START_TOPIC = "/fleet/start"  # std_msgs/Float64, latched: ROS time [s] of the r
 CLOCK_TOPIC = "/clock"
 
 # Per robot (relative).
-CMD_VEL = "cmd_vel"
+CMD_VEL = "cmd_vel"  # geometry_msgs/Twist (hardware, teleop, rehearsal)
+# geometry_msgs/TwistStamped: lock-step answer of an agent; header.stamp = the stamp of the odom
+# tick it answers (the simulator advances once every live agent has answered the latest tick).
+CMD_VEL_STAMPED = "cmd_vel_stamped"
 ODOM = "odom"
 GROUND_TRUTH = "base_pose_ground_truth"
 SCAN = "base_scan"
