@@ -16,13 +16,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .errors import TpuafError
 from .monitor import FleetMonitor
 from .topics import EVENTS_TOPIC, METRICS_TOPIC, START_TOPIC
 
 GT_TOPIC = re.compile(r"^/(?P<prefix>.*?)(?P<index>\d+)/base_pose_ground_truth$")
 
 
-class BagError(ValueError):
+class BagError(TpuafError):
     """The bag is missing, unreadable or lacks what the analysis needs."""
 
 

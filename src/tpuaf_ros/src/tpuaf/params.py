@@ -8,8 +8,10 @@ import re
 from dataclasses import MISSING, dataclass, fields
 from typing import Any
 
+from .errors import TpuafError
 
-class NodeParamError(ValueError):
+
+class NodeParamError(TpuafError):
     """An unknown or invalid node parameter; the message lists the valid ones."""
 
 

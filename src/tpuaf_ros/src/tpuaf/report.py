@@ -25,8 +25,10 @@ from typing import Any
 
 import numpy as np
 
+from .errors import TpuafError
 
-class ReportError(ValueError):
+
+class ReportError(TpuafError):
     """A report cannot be made (missing or malformed inputs); the message names the file."""
 
 

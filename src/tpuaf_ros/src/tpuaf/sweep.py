@@ -41,8 +41,10 @@ from typing import Any
 
 import numpy as np
 
+from .errors import TpuafError
 
-class SweepError(ValueError):
+
+class SweepError(TpuafError):
     """An invalid sweep (unknown map or strategy, inconsistent results folder)."""
 
 

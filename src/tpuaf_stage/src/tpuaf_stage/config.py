@@ -22,11 +22,12 @@ from typing import Any
 
 import numpy as np
 import tpuaf_core
+from tpuaf_core import TpuafError
 
 from .presets import LASER_PRESETS, ROBOT_PRESETS
 
 
-class WorldError(ValueError):
+class WorldError(TpuafError):
     """A world file is malformed; the message names the file and line."""
 
 

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .model import MapError, MapSettings, PatrolMap
+from ..errors import MapError
+from .model import MapSettings, PatrolMap
 from .occupancy import OccupancyGrid, corridors_from_graph, load_occupancy
 
 __all__ = [

@@ -29,7 +29,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .model import MapError, MapSettings, PatrolMap
+from ..errors import MapError
+from .model import MapSettings, PatrolMap
 from .occupancy import load_occupancy
 
 

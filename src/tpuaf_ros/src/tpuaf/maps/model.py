@@ -10,9 +10,8 @@ from typing import Any
 import numpy as np
 import tpuaf_core
 
-
-class MapError(ValueError):
-    """A map, graph or map settings file is malformed; the message names the file and line."""
+from ..errors import MapError
+from .occupancy import corridors_from_graph
 
 
 @dataclass
@@ -63,8 +62,6 @@ class PatrolMap:
     def occupancy_grid(self) -> Any:
         """The occupancy grid: the map's image, or corridors generated from the graph (cached)."""
         if self.occupancy is None:
-            from .occupancy import corridors_from_graph
-
             self.occupancy = corridors_from_graph(self)
         return self.occupancy
 

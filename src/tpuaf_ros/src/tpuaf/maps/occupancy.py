@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .model import MapError
+from ..errors import MapError
 
 
 @dataclass

@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .model import MapError, MapSettings, PatrolMap
+from ..errors import MapError
+from .model import MapSettings, PatrolMap
 from .occupancy import load_occupancy
 
 IMPORTED_SETTINGS = {

@@ -23,6 +23,8 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
+from ..errors import TpuafError
+
 
 class RobotContext(Protocol):
     """What a runtime hands to a policy. Times in seconds, lengths in metres."""
@@ -114,7 +116,7 @@ class RobotContextBase:
             ) from err
 
 
-class ParameterError(ValueError):
+class ParameterError(TpuafError):
     """A strategy parameter is unknown or invalid."""
 
 

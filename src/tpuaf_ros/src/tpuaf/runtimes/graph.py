@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import TpuafError
 from ..maps import load_map, start_vertices
 from ..metrics import RunRecorder
 from ..navigation import GraphRoute
@@ -28,7 +29,7 @@ STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long, then 
 DEFAULT_RETRY_S = 1.0  # [s] a policy that waits without asking for a wake-up is asked again after
 
 
-class ConfigError(ValueError):
+class ConfigError(TpuafError):
     """An invalid run configuration; the message names the field and the valid choices."""
 
 
