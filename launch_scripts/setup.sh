@@ -14,7 +14,7 @@ APT_PACKAGES=(
   build-essential cmake ros-core-dev catkin rosbash python3-rospy python3-rosbag python3-roslaunch
   python3-geometry-msgs python3-nav-msgs python3-sensor-msgs python3-tf2-ros python3-tf2-msgs
   python3-std-srvs python3-rosgraph-msgs python3-visualization-msgs python3-actionlib
-  python3-move-base-msgs libeigen3-dev libfcl-dev pybind11-dev python3-networkx python3-numpy
+  python3-move-base-msgs libeigen3-dev libfcl-dev libgtest-dev pybind11-dev python3-networkx python3-numpy
   python3-yaml python3-dev python3-venv python3-catkin-pkg
 )
 

@@ -9,4 +9,6 @@ source devel/setup.bash
 set -u
 export ROS_HOME="${ROS_HOME:-$ROOT/build/ros_home}" ROS_IP=127.0.0.1
 .venv/bin/python -m ruff check src tests benchmarks
+# C++ unit tests of the core (gtest through ctest).
+ctest --test-dir build --output-on-failure
 exec .venv/bin/python -m pytest "$@"

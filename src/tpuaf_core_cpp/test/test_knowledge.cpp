@@ -1,0 +1,73 @@
+// TpuafKnowledge: the shared set Q (visits, intentions) and stale-entry dropping.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "tpuaf_core/knowledge.hpp"
+
+namespace tpuaf {
+namespace {
+
+TpuafKnowledge three_vertices(double intention_timeout_s = 10.0, double silence_timeout_s = 30.0) {
+  return TpuafKnowledge(Eigen::VectorXd::Constant(3, 0.01), Eigen::VectorXd::Constant(3, 0.0), {},
+                        0.5, 4.0, intention_timeout_s, silence_timeout_s);
+}
+
+TEST(Knowledge, NewestVisitWinsAndOlderOnesAreIgnored) {
+  TpuafKnowledge k = three_vertices();
+  k.record_visit(1, 20.0);
+  k.record_visit(1, 10.0);
+  EXPECT_DOUBLE_EQ(k.last_visit()(1), 20.0);
+}
+
+TEST(Knowledge, EstimateGrowsSinceTheLastVisit) {
+  TpuafKnowledge k = three_vertices();
+  k.record_visit(0, 0.0);
+  const Eigen::VectorXd early = k.estimate(10.0);
+  const Eigen::VectorXd late = k.estimate(100.0);
+  EXPECT_GT(late(0), early(0));
+  EXPECT_GE(early(0), 0.0);
+}
+
+TEST(Knowledge, IntentionIsAnnouncedThenClearedByTheVisit) {
+  TpuafKnowledge k = three_vertices();
+  Intention in;
+  in.robot = 1;
+  in.from_vertex = 0;
+  in.vertex = 2;
+  in.expected_arrival_s = 15.0;
+  in.travel_time_s = 5.0;
+  in.sent_s = 10.0;
+  k.hear_intention(in, 10.0);
+  Eigen::VectorXd arrival, travel;
+  k.announced(arrival, travel);
+  EXPECT_DOUBLE_EQ(arrival(2), 15.0);
+  EXPECT_DOUBLE_EQ(travel(2), 5.0);
+  EXPECT_TRUE(std::isinf(arrival(1)));
+  k.hear_visit(1, 2, 15.0, 15.0);
+  k.announced(arrival, travel);
+  EXPECT_TRUE(std::isinf(arrival(2)));
+  EXPECT_DOUBLE_EQ(k.last_visit()(2), 15.0);
+}
+
+TEST(Knowledge, StaleIntentionsAreDropped) {
+  TpuafKnowledge k = three_vertices(10.0, 1000.0);
+  Intention in;
+  in.robot = 0;
+  in.vertex = 1;
+  in.expected_arrival_s = 5.0;
+  in.sent_s = 0.0;
+  k.hear_intention(in, 0.0);
+  k.drop_stale(14.0);
+  EXPECT_EQ(k.intentions().size(), 1u);
+  k.drop_stale(16.0);  // arrival passed by more than the 10 s timeout
+  EXPECT_TRUE(k.intentions().empty());
+}
+
+TEST(Knowledge, UnknownVertexIsRefused) {
+  TpuafKnowledge k = three_vertices();
+  EXPECT_THROW(k.record_visit(7, 1.0), std::exception);
+}
+
+}  // namespace
+}  // namespace tpuaf
