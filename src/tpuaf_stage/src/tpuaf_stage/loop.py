@@ -40,6 +40,7 @@ class NodeParams:
     #   that misses it is not waited for again until it replies
     start_timeout: float = 60.0  # [s of wall time] lockstep: wait at start until every robot's
     #   cmd_vel has a publisher (then go on without the missing ones)
+    wall_clock: bool = False  # hardware rehearsal: real-time pace, wall-clock stamps, no /clock
 
 
 PARAM_DOCS = {
@@ -58,12 +59,16 @@ PARAM_DOCS = {
     "lockstep_timeout": "[s, wall time] lockstep wait per scan for a robot's reply (default 1)",
     "start_timeout": "[s, wall time] lockstep: wait at start for every cmd_vel publisher "
                      "(default 60)",
+    "wall_clock": "hardware rehearsal: real-time pace, wall-clock stamps, no /clock "
+                  "(default false; agents run with use_sim_time false)",
 }
 
 
 def parse_node_params(values: dict[str, Any]) -> NodeParams:
     """NodeParams from {name: value} (private names without '~'); unknown names are refused."""
     p = parse(NodeParams, values, "tpuaf_stage")
+    if p.wall_clock:
+        p.real_time_factor = 1.0
     if not p.world:
         raise ParamError("~world (path of the world YAML file) is required")
     if not p.step > 0:
