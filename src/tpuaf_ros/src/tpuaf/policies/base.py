@@ -8,7 +8,8 @@ A runtime (batch engine, ROS agent node) owns one `Policy` per robot and calls i
   (the runtime drives the shortest path there; only the goal counts as a visit), or None to
   wait (the policy must then call `ctx.wake_at`);
 - `on_message(msg, ctx)` for every team message delivered to this robot (never its own);
-- `on_goal_failed(vertex, ctx)` when the navigator gives up on a goal; `decide` follows.
+- `on_goal_failed(vertex, ctx)` when the navigator gives up on a goal; `decide` follows;
+- `on_teammate_lost(robot, ctx)` when a teammate has gone silent (optional; default no-op).
 
 Policies talk to the team only through `ctx.send(message)`, with the typed messages of
 `tpuaf.messages`. They draw randomness only from `ctx.rng` (seeded per run and robot).
@@ -151,6 +152,10 @@ class Policy(ABC):
 
     def on_goal_failed(self, vertex: int, ctx: RobotContext) -> None:  # noqa: B027
         """The navigator gave up on `vertex`; `decide` is called next."""
+
+    def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:  # noqa: B027
+        """Teammate `robot` has gone silent (the runtime's liveness timeout): forget what it
+        announced (its intentions). It counts as heard again at its next message."""
 
 
 def resolve_parameters(

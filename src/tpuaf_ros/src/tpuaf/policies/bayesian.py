@@ -59,6 +59,9 @@ class _SharedIdleness(Policy):
             self.table.visit(message.vertex, message.time)
             self.intentions[message.robot] = int(message.next_vertex)
 
+    def on_teammate_lost(self, robot, ctx):
+        getattr(self, "intentions", {}).pop(robot, None)
+
     def intended_by_others(self, ctx) -> list[int]:
         return [v for r, v in self.intentions.items() if r != ctx.robot and v >= 0]
 

@@ -105,6 +105,9 @@ class Tpuaf(Policy):
         )
         return target
 
+    def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:
+        self.knowledge.forget_intention(robot)
+
     def on_message(self, message, ctx: RobotContext) -> None:
         kind = type(message)
         if kind is Visit:
