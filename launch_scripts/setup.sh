@@ -16,6 +16,8 @@ APT_PACKAGES=(
   python3-std-srvs python3-rosgraph-msgs python3-visualization-msgs python3-actionlib
   python3-move-base-msgs libeigen3-dev libfcl-dev libgtest-dev pybind11-dev python3-networkx python3-numpy
   python3-yaml python3-dev python3-venv python3-catkin-pkg
+  libroscpp-dev libgeometry-msgs-dev libnav-msgs-dev libsensor-msgs-dev libros-rosgraph-msgs-dev
+  libstd-msgs-dev libstd-srvs-dev libtf2-msgs-dev libyaml-cpp-dev
 )
 
 missing=()
@@ -48,7 +50,7 @@ if [ ! -f build/CMakeCache.txt ]; then
   log "configuring the catkin workspace"
   mkdir -p build
   cmake -S . -B build -DPYTHON_EXECUTABLE=/usr/bin/python3 -DCATKIN_DEVEL_PREFIX="$ROOT/devel" \
-    -DCMAKE_BUILD_TYPE=Release >"$STAMPS/cmake.log" 2>&1 || {
+    -DCMAKE_INSTALL_PREFIX="$ROOT/install" -DCMAKE_BUILD_TYPE=Release >"$STAMPS/cmake.log" 2>&1 || {
     tail -40 "$STAMPS/cmake.log" >&2
     log "cmake configure failed (full log: $STAMPS/cmake.log)"
     exit 1
