@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from .plain import plain
+
 # ---------------------------------------------------------------------------------------------
 # Pure functions
 
@@ -85,19 +87,6 @@ def worst_idleness(visits: Iterable[Sequence], n_vertices: int, end_time: float,
         worst = max(worst, float(time) - last[vertex])
         last[vertex] = float(time)
     return max(worst, float(end_time) - min(last))
-
-
-def _clean(value: Any) -> Any:
-    """JSON-safe: NaN/inf -> None, numpy scalars -> Python."""
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 # ---------------------------------------------------------------------------------------------
@@ -489,4 +478,4 @@ class RunRecorder:
             "sample_period_s": self.sample_period_s,
             "timeseries_rows": n_rows,
         }
-        return _clean(out)
+        return plain(out)
