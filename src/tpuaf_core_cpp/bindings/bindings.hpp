@@ -8,4 +8,5 @@ void bind_graph(pybind11::module_& m);
 void bind_utility(pybind11::module_& m);
 void bind_knowledge(pybind11::module_& m);
 void bind_world(pybind11::module_& m);
+void bind_engine(pybind11::module_& m);
 }  // namespace tpuaf::bindings

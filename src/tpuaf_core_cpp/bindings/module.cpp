@@ -9,4 +9,5 @@ PYBIND11_MODULE(_core, m) {
   tpuaf::bindings::bind_utility(m);
   tpuaf::bindings::bind_knowledge(m);
   tpuaf::bindings::bind_world(m);
+  tpuaf::bindings::bind_engine(m);
 }

@@ -1,0 +1,275 @@
+// Bindings of the graph runtime's event loop (tpuaf_core/engine.hpp); driven by
+// tpuaf.runtimes.native.
+#include <pybind11/eigen.h>
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+
+#include "bindings.hpp"
+#include "tpuaf_core/engine.hpp"
+
+namespace py = pybind11;
+
+namespace tpuaf {
+namespace {
+
+// A strategy written in Python: `team.start(robot)`, `team.decide(robot)` (int or None) and
+// `team.on_message(robot, message)` of a Python object, called with the GIL held.
+class PythonStrategy : public TeamStrategy {
+ public:
+  explicit PythonStrategy(py::object team)
+      : team_(std::move(team)),
+        start_(team_.attr("start")),
+        decide_(team_.attr("decide")),
+        on_message_(team_.attr("on_message")) {}
+  void start(GraphEngine&, int robot) override { start_(robot); }
+  int decide(GraphEngine&, int robot) override {
+    py::object goal = decide_(robot);
+    return goal.is_none() ? -1 : goal.cast<int>();
+  }
+  void on_message(GraphEngine&, int robot, const TeamMessage& message) override {
+    if (message.kind != TeamMessage::Kind::kOpaque || !message.opaque) {
+      throw std::invalid_argument("a Python strategy received a message of a C++ strategy");
+    }
+    on_message_(robot, *static_cast<py::object*>(message.opaque.get()));
+  }
+  bool is_native() const override { return false; }
+
+ private:
+  py::object team_, start_, decide_, on_message_;
+};
+
+std::shared_ptr<void> wrap(py::object message) {
+  // Deleted with the GIL held: Python strategies run the whole loop holding it.
+  return std::shared_ptr<void>(new py::object(std::move(message)),
+                               [](void* p) { delete static_cast<py::object*>(p); });
+}
+
+NumpyPcg64 pcg_from_state(py::dict state) {
+  // state: numpy's PCG64 bit_generator.state dict.
+  py::dict inner = state["state"];
+  py::int_ s = inner["state"], inc = inner["inc"];
+  py::int_ mask(0xffffffffffffffffULL);
+  py::object shift = py::int_(64);
+  auto part = [&](py::int_ v, bool high) {
+    py::object x = high ? v.attr("__rshift__")(shift) : v;
+    return x.attr("__and__")(mask).cast<std::uint64_t>();
+  };
+  return NumpyPcg64(part(s, true), part(s, false), part(inc, true), part(inc, false),
+                    state["has_uint32"].cast<int>() != 0, state["uinteger"].cast<std::uint32_t>());
+}
+
+}  // namespace
+}  // namespace tpuaf
+
+void tpuaf::bindings::bind_engine(py::module_& m) {
+  py::class_<NumpyPcg64>(m, "NumpyPcg64",
+                         "numpy's PCG64 stream in C++, seeded from a Generator's "
+                         "bit_generator.state (draws the same numbers as numpy).")
+      .def(py::init(&pcg_from_state), py::arg("state"))
+      .def("random", &NumpyPcg64::random, "Generator.random(): one double in [0, 1).")
+      .def("integers", &NumpyPcg64::integers, py::arg("n"), "Generator.integers(0, n).")
+      .def("next_uint64", &NumpyPcg64::next_uint64)
+      .def_property_readonly("state", [](const NumpyPcg64& g) {
+        std::uint64_t sh, sl, ih, il;
+        bool has;
+        std::uint32_t u;
+        g.get_state(sh, sl, ih, il, has, u);
+        py::int_ shift(64);
+        auto join = [&](std::uint64_t hi, std::uint64_t lo) {
+          return py::int_(hi).attr("__lshift__")(shift).attr("__or__")(py::int_(lo));
+        };
+        py::dict inner;
+        inner["state"] = join(sh, sl);
+        inner["inc"] = join(ih, il);
+        py::dict out;
+        out["bit_generator"] = "PCG64";
+        out["state"] = inner;
+        out["has_uint32"] = has ? 1 : 0;
+        out["uinteger"] = u;
+        return out;
+      });
+  m.def(
+      "numpy_mean",
+      [](const Eigen::VectorXd& a) {
+        return numpy_mean(a.data(), static_cast<std::size_t>(a.size()));
+      },
+      py::arg("values"), "Mean with numpy's pairwise summation (equal to np.mean bit for bit).");
+
+  py::class_<EngineConfig>(m, "EngineConfig", "Settings of one graph-runtime run (SI units).")
+      .def(py::init<>())
+      .def_readwrite("robots", &EngineConfig::robots)
+      .def_readwrite("duration_s", &EngineConfig::duration_s)
+      .def_readwrite("delay_s", &EngineConfig::delay_s)
+      .def_readwrite("loss", &EngineConfig::loss)
+      .def_readwrite("sample_period_s", &EngineConfig::sample_period_s)
+      .def_readwrite("nominal_speed_mps", &EngineConfig::nominal_speed_mps)
+      .def_readwrite("stay_s", &EngineConfig::stay_s)
+      .def_readwrite("retry_s", &EngineConfig::retry_s)
+      .def_readwrite("refractory_s", &EngineConfig::refractory_s)
+      .def_readwrite("max_substep_s", &EngineConfig::max_substep_s)
+      .def_readwrite("field_merge_s", &EngineConfig::field_merge_s)
+      .def_readwrite("interference_distance_m", &EngineConfig::interference_distance_m)
+      .def_readwrite("sensing_peak", &EngineConfig::sensing_peak)
+      .def_readwrite("sensing_radius_m", &EngineConfig::sensing_radius_m)
+      .def_readwrite("start_vertices", &EngineConfig::start_vertices);
+
+  py::class_<TeamStrategy>(m, "TeamStrategy", "A team's decision makers, one per robot.");
+  py::class_<PythonStrategy, TeamStrategy>(
+      m, "PythonStrategy",
+      "Calls team.start(robot), team.decide(robot) -> int | None, team.on_message(robot, msg).")
+      .def(py::init<py::object>(), py::arg("team"));
+  py::class_<TpuafStrategy, TeamStrategy>(m, "TpuafStrategy",
+                                          "TPUAF's decision path in C++ (tpuaf.policies.tpuaf).")
+      .def(py::init([](const TpuafKnowledge& knowledge, UtilityForm form, bool any_vertex,
+                       std::vector<NumpyPcg64> rngs) {
+             return std::make_unique<TpuafStrategy>(knowledge, form, any_vertex, std::move(rngs));
+           }),
+           py::arg("knowledge"), py::arg("form"), py::arg("any_vertex"), py::arg("rngs"))
+      .def("knowledge", &TpuafStrategy::knowledge, py::arg("robot"), py::return_value_policy::copy);
+
+  py::class_<GraphEngine>(m, "GraphEngine",
+                          "Event loop of the graph runtime (tpuaf.runtimes.native drives it).")
+      .def(py::init<const PatrolGraph&, Points, EngineConfig, UncertaintyField, NumpyPcg64>(),
+           py::arg("graph"), py::arg("positions"), py::arg("config"), py::arg("field"),
+           py::arg("bus_rng"), py::keep_alive<1, 2>())
+      .def("set_strategy", &GraphEngine::set_strategy, py::arg("strategy"), py::keep_alive<1, 2>())
+      .def(
+          "run",
+          [](GraphEngine& e, py::object progress, bool native) {
+            std::function<void(double)> call;
+            if (!progress.is_none()) {
+              call = [progress](double now) {
+                py::gil_scoped_acquire acquire;
+                progress(now);
+              };
+            }
+            if (native) {
+              py::gil_scoped_release release;
+              e.run(call);
+            } else {
+              e.run(call);
+            }
+          },
+          py::arg("progress") = py::none(), py::arg("release_gil") = false,
+          "Simulate to duration_s. release_gil only for C++ strategies.")
+      .def("finish", &GraphEngine::finish, "Bring the recorder to now (robots held still).")
+      .def_property_readonly("now", &GraphEngine::now)
+      .def_property_readonly("events", &GraphEngine::events)
+      .def("current_vertex", &GraphEngine::current_vertex, py::arg("robot"))
+      .def("start_vertex", &GraphEngine::start_vertex, py::arg("robot"))
+      .def("goal", &GraphEngine::goal, py::arg("robot"))
+      .def("travelled_m", &GraphEngine::travelled_m, py::arg("robot"))
+      .def("travel_time_s", &GraphEngine::travel_time_s, py::arg("robot"))
+      .def("average_speed", &GraphEngine::average_speed, py::arg("robot"))
+      .def(
+          "position",
+          [](const GraphEngine& e, int robot) {
+            double x, y;
+            e.position(robot, e.now(), x, y);
+            return py::make_tuple(x, y);
+          },
+          py::arg("robot"), "True position [m] of a robot now.")
+      .def(
+          "send",
+          [](GraphEngine& e, int robot, py::object message) {
+            TeamMessage m;
+            m.kind = TeamMessage::Kind::kOpaque;
+            m.opaque = wrap(std::move(message));
+            e.send(robot, std::move(m));
+          },
+          py::arg("robot"), py::arg("message"))
+      .def("wake_at", &GraphEngine::wake_at, py::arg("robot"), py::arg("time_s"))
+      .def("change_goal", &GraphEngine::change_goal, py::arg("robot"), py::arg("vertex"))
+      .def_property_readonly("bus_stats",
+                             [](const GraphEngine& e) {
+                               const BusStats& s = e.bus_stats();
+                               return py::make_tuple(s.sent, s.delivered, s.lost);
+                             })
+      // --- recorder ---
+      .def(
+          "visits",
+          [](const GraphEngine& e, std::size_t first) {
+            const auto& v = e.recorder().visits();
+            py::list out;
+            for (std::size_t k = first; k < v.size(); ++k) {
+              out.append(py::make_tuple(v[k].time_s, v[k].robot, v[k].vertex));
+            }
+            return out;
+          },
+          py::arg("first") = 0, "(time_s, robot, vertex) of the visits from index first on.")
+      .def(
+          "visit_idleness",
+          [](const GraphEngine& e, std::size_t first) {
+            const auto& v = e.recorder().visit_idleness();
+            return std::vector<double>(
+                v.begin() + static_cast<std::ptrdiff_t>(std::min(first, v.size())), v.end());
+          },
+          py::arg("first") = 0)
+      .def_property_readonly("visit_count",
+                             [](const GraphEngine& e) { return e.recorder().visits().size(); })
+      .def(
+          "timeseries",
+          [](const GraphEngine& e, std::size_t first) {
+            const auto& rows = e.recorder().timeseries();
+            py::list out;
+            for (std::size_t k = first; k < rows.size(); ++k) {
+              const SampleRow& r = rows[k];
+              py::dict d;
+              d["time_s"] = r.time_s;
+              d["idleness_ins_s"] = r.idleness_ins_s;
+              d["worst_idleness_s"] = r.worst_idleness_s;
+              d["uncertainty_mean"] = r.uncertainty_mean;
+              d["visits"] = r.visits;
+              d["interferences"] = r.interferences;
+              out.append(d);
+            }
+            return out;
+          },
+          py::arg("first") = 0)
+      .def_property_readonly("row_count",
+                             [](const GraphEngine& e) { return e.recorder().timeseries().size(); })
+      .def_property_readonly("interferences",
+                             [](const GraphEngine& e) {
+                               py::list out;
+                               for (const auto& r : e.recorder().interferences()) {
+                                 out.append(py::make_tuple(r.time_s, r.a, r.b));
+                               }
+                               return out;
+                             })
+      .def_property_readonly("interval_samples",
+                             [](const GraphEngine& e) {
+                               std::vector<double> out;
+                               for (const auto& times : e.recorder().vertex_times()) {
+                                 for (std::size_t k = 1; k < times.size(); ++k) {
+                                   out.push_back(times[k] - times[k - 1]);
+                                 }
+                               }
+                               return py::array_t<double>(static_cast<py::ssize_t>(out.size()),
+                                                          out.data());
+                             })
+      .def_property_readonly("visit_counts",
+                             [](const GraphEngine& e) {
+                               std::vector<long long> out;
+                               for (const auto& times : e.recorder().vertex_times()) {
+                                 out.push_back(static_cast<long long>(times.size()));
+                               }
+                               return out;
+                             })
+      .def(
+          "worst_idleness",
+          [](const GraphEngine& e, double end_s) { return e.recorder().worst_idleness(end_s); },
+          py::arg("end_s"))
+      .def_property_readonly(
+          "field_values",
+          [](const GraphEngine& e) { return Eigen::VectorXd(e.recorder().field_values()); })
+      .def_property_readonly("ins_sum", [](const GraphEngine& e) { return e.recorder().ins_sum(); })
+      .def_property_readonly("x_sum", [](const GraphEngine& e) { return e.recorder().x_sum(); })
+      .def_property_readonly("x_count", [](const GraphEngine& e) { return e.recorder().x_count(); })
+      .def_property_readonly("positions_time", [](const GraphEngine& e) -> py::object {
+        if (!e.recorder().has_positions()) return py::none();
+        return py::float_(e.recorder().positions_time());
+      });
+}

@@ -1,0 +1,306 @@
+// Event loop of the graph (batch) runtime: event queue, robot motion on graph edges, team bus
+// with delay and loss, and the ground-truth recorder (visits, 1 Hz samples, interference, X).
+//
+// It reproduces the Python graph runtime (tpuaf.runtimes.graph.BatchRun with
+// tpuaf.metrics.RunRecorder) operation for operation, so that a run gives the same numbers to
+// the last digit for the same seed: the random streams are numpy's PCG64 with numpy's
+// algorithms, and the means use numpy's pairwise summation. Times in seconds, lengths in metres,
+// vertices are graph indices.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <queue>
+#include <unordered_map>
+#include <vector>
+
+#include "tpuaf_core/graph.hpp"
+#include "tpuaf_core/knowledge.hpp"
+#include "tpuaf_core/uncertainty.hpp"
+
+namespace tpuaf {
+
+// numpy's PCG64 bit generator (XSL-RR 128/64) and the Generator methods the runtimes use.
+// Seeded from a numpy Generator's bit_generator.state, so both draw the same stream.
+class NumpyPcg64 {
+ public:
+  NumpyPcg64(std::uint64_t state_hi, std::uint64_t state_lo, std::uint64_t inc_hi,
+             std::uint64_t inc_lo, bool has_uint32 = false, std::uint32_t uinteger = 0);
+  std::uint64_t next_uint64();
+  std::uint32_t next_uint32();  // numpy's buffered half of a 64-bit draw
+  double random();              // Generator.random(): [0, 1), 53 bits
+  // Generator.integers(0, n) for 1 <= n <= 2^32 (Lemire's method on 32-bit draws, as numpy).
+  std::int64_t integers(std::int64_t n);
+  // (state_hi, state_lo, inc_hi, inc_lo, has_uint32, uinteger), to hand back to numpy.
+  void get_state(std::uint64_t& state_hi, std::uint64_t& state_lo, std::uint64_t& inc_hi,
+                 std::uint64_t& inc_lo, bool& has_uint32, std::uint32_t& uinteger) const;
+
+ private:
+  unsigned __int128 state_, inc_;
+  bool has_uint32_;
+  std::uint32_t uinteger_;
+};
+
+// np.sum of a contiguous double array bit for bit: pairwise summation over chunks of numpy's
+// 8192-element buffer, added in order.
+double numpy_pairwise_sum(const double* a, std::size_t n);
+double numpy_sum(const double* a, std::size_t n);
+inline double numpy_mean(const double* a, std::size_t n) {
+  return numpy_sum(a, n) / static_cast<double>(n);
+}
+
+// A team message (tpuaf.messages). `opaque` carries a message of a Python strategy unchanged.
+struct TeamMessage {
+  enum class Kind { kVisit, kIntention, kIdlenessEstimate, kOpaque };
+  Kind kind = Kind::kOpaque;
+  int robot = -1;
+  int vertex = -1;
+  double time_s = 0;
+  int next_vertex = -1;  // Visit, IdlenessEstimate
+  int from_vertex = -1;  // Intention
+  double expected_arrival_s = 0;
+  double travel_time_s = 0;
+  std::shared_ptr<const std::vector<double>> estimate;  // IdlenessEstimate E[v] [s]
+  std::shared_ptr<void> opaque;
+};
+
+class GraphEngine;
+
+// A team strategy: one decision maker per robot, called only at its decisions (the Policy
+// contract of tpuaf.policies.base). decide() returns the next goal vertex or -1 to wait.
+class TeamStrategy {
+ public:
+  virtual ~TeamStrategy() = default;
+  virtual void start(GraphEngine& engine, int robot) = 0;
+  virtual int decide(GraphEngine& engine, int robot) = 0;
+  virtual void on_message(GraphEngine& engine, int robot, const TeamMessage& message) = 0;
+  // True if the strategy never calls back into Python (the run may release the GIL).
+  virtual bool is_native() const { return true; }
+};
+
+struct EngineConfig {
+  int robots = 1;
+  double duration_s = 3600;
+  double delay_s = 0;  // team message delay [s]
+  double loss = 0;     // probability that one recipient loses one message
+  double sample_period_s = 1.0;
+  double nominal_speed_mps = 1.0;
+  double stay_s = 1.0;          // dwell when the goal is the current vertex [s]
+  double retry_s = 1.0;         // a waiting strategy without a wake-up decides again after [s]
+  double refractory_s = 10.0;   // interference episodes of a pair closer than this merge [s]
+  double max_substep_s = 0.25;  // ground-truth field substep [s]
+  double field_merge_s = 0.5;   // position updates closer than this merge into one field step
+  double interference_distance_m = 2.0;
+  double sensing_peak = 1.0;
+  double sensing_radius_m = 5.0;
+  std::vector<int> start_vertices;
+};
+
+struct VisitRecord {
+  double time_s;
+  int robot;
+  int vertex;
+};
+
+struct SampleRow {
+  double time_s, idleness_ins_s, worst_idleness_s, uncertainty_mean;
+  long long visits, interferences;
+};
+
+struct InterferenceRecord {
+  double time_s;
+  int a, b;
+};
+
+struct BusStats {
+  long long sent = 0, delivered = 0, lost = 0;
+};
+
+// Ground truth of one run (tpuaf.metrics.RunRecorder with ground truth, all robots alive).
+class GroundTruthRecorder {
+ public:
+  GroundTruthRecorder(const EngineConfig& config, UncertaintyField field);
+  void record_visit(int robot, int vertex, double time_s);
+  void record_positions(double time_s, const Points& positions);
+  void finish(double end_s);  // robots held at their last positions until end_s
+
+  const std::vector<VisitRecord>& visits() const { return visits_; }
+  const std::vector<double>& visit_idleness() const { return visit_idleness_; }
+  const std::vector<SampleRow>& timeseries() const { return rows_; }
+  const std::vector<InterferenceRecord>& interferences() const { return interferences_; }
+  const std::vector<std::vector<double>>& vertex_times() const { return vertex_times_; }
+  const Eigen::VectorXd& field_values() const { return field_.values(); }
+  double ins_sum() const { return ins_sum_; }
+  double x_sum() const { return x_sum_; }
+  long long x_count() const { return x_count_; }
+  bool has_positions() const { return has_pos_; }
+  double positions_time() const { return pos_time_; }
+  double worst_idleness(double end_s) const;
+
+ private:
+  void apply_pending(double t);
+  void apply_visit(double vt, int v);
+  void emit_row(double t, double x_mean);
+  void advance_field(double t0, double t1, const Points& p0, const Points& p1);
+  void step_field(double dt, const Points& pa, const Points& pb);
+  void interference(double t0, double t1, const Points& p0, const Points& p1, double step);
+  void rebuild_verlet(const Points& p, double reach);
+  long long interferences_until(double t) const;
+
+  int n_robots_, n_vertices_;
+  double period_, refractory_, max_substep_, field_merge_, dif2_, d_if_;
+  UncertaintyField field_;
+  Eigen::VectorXd peaks_, radii_;
+  double field_t_ = 0;
+  Points field_p_;
+  bool has_field_p_ = false;
+
+  std::vector<VisitRecord> visits_;
+  std::vector<double> visit_idleness_;
+  std::vector<std::vector<double>> vertex_times_;
+  std::deque<std::pair<double, int>> pending_;
+  Eigen::VectorXd sample_last_;
+  long long sample_visits_ = 0;
+  double sample_worst_ = 0;
+  double next_sample_;
+  long long sample_k_ = 1;
+  std::vector<SampleRow> rows_;
+  double ins_sum_ = 0, x_sum_ = 0;
+  long long x_count_ = 0;
+
+  bool has_pos_ = false;
+  double pos_time_ = 0;
+  Points pos_;
+  std::vector<std::uint64_t> close_;  // sorted pair keys i * n + j (i < j) within d_if
+  std::unordered_map<std::uint64_t, double> last_count_;  // pair -> last counted entry [s]
+  std::vector<InterferenceRecord> interferences_;
+  // Verlet list of candidate pairs, built through a spatial hash (see interference()).
+  static constexpr std::int64_t kCellStride = std::int64_t{1} << 32;
+  double verlet_skin_;
+  bool verlet_valid_ = false;
+  Points verlet_ref_;
+  double verlet_half_skin2_ = 0;
+  std::vector<std::uint64_t> verlet_pairs_;  // sorted keys i * n + j
+  std::vector<std::pair<std::int64_t, int>> cells_, sorted_cells_;
+  std::vector<std::uint64_t> close_end_;
+  std::vector<InterferenceRecord> fresh_;
+};
+
+class GraphEngine {
+ public:
+  // graph: the patrol graph (kept by reference, must outlive the engine); positions: vertex
+  // positions [m] used for motion; field: the ground-truth X field at its initial values;
+  // bus_rng: numpy default_rng([seed, 1]).
+  GraphEngine(const PatrolGraph& graph, Points positions, EngineConfig config,
+              UncertaintyField field, NumpyPcg64 bus_rng);
+
+  void set_strategy(TeamStrategy* strategy) { strategy_ = strategy; }
+  // Simulate until duration_s; progress(now) now and then (every 1/200 of the run).
+  void run(const std::function<void(double)>& progress = {});
+  void finish() { recorder_.finish(now_); }
+
+  // --- what a strategy's RobotContext offers ---
+  double now() const { return now_; }
+  int robots() const { return config_.robots; }
+  const PatrolGraph& graph() const { return graph_; }
+  const Points& vertex_positions() const { return positions_; }
+  const EngineConfig& config() const { return config_; }
+  int current_vertex(int robot) const { return robot_at(robot).current; }
+  int start_vertex(int robot) const { return robot_at(robot).start; }
+  int goal(int robot) const { return robot_at(robot).goal; }
+  double travelled_m(int robot) const { return robot_at(robot).travelled_m; }
+  double travel_time_s(int robot) const { return robot_at(robot).travel_time_s; }
+  // Vel(i) of Eq. 6 [m/s]: measured once the robot drove 1 s, nominal before.
+  double average_speed(int robot) const;
+  void position(int robot, double t, double& x, double& y) const;
+  void send(int robot, TeamMessage message);
+  void wake_at(int robot, double time_s);
+  void change_goal(int robot, int vertex);
+
+  const GroundTruthRecorder& recorder() const { return recorder_; }
+  const BusStats& bus_stats() const { return bus_; }
+  long long events() const { return events_; }
+
+ private:
+  struct Robot {
+    int current = 0, start = 0, goal = -1, redirect = -1;
+    std::vector<int> route;
+    std::size_t route_k = 0;
+    double travelled_m = 0, travel_time_s = 0;
+    bool wake_pending = false;
+    double p0x = 0, p0y = 0, vx = 0, vy = 0, t0 = 0, t1 = 0;  // current straight segment
+  };
+  struct Event {
+    double time;
+    int kind;
+    std::uint64_t seq;
+    int payload;  // robot, or delivery slot
+    bool operator>(const Event& o) const {
+      if (time != o.time) return time > o.time;
+      if (kind != o.kind) return kind > o.kind;
+      return seq > o.seq;
+    }
+  };
+  struct Delivery {
+    TeamMessage message;
+    int sender = -1;
+    bool all_but_sender = false;  // recipients = every robot but the sender
+    std::vector<int> recipients;
+  };
+
+  const Robot& robot_at(int robot) const;
+  void push(double time, int kind, int payload);
+  void deliver_ready();
+  void decide(int robot);
+  void plan_route(Robot& r, int goal);
+  void start_segment(int robot);
+  void arrive(int robot);
+  void record_positions(double t);
+  void positions(double t, Points& out) const;
+
+  const PatrolGraph& graph_;
+  Points positions_;
+  EngineConfig config_;
+  GroundTruthRecorder recorder_;
+  NumpyPcg64 bus_rng_;
+  TeamStrategy* strategy_ = nullptr;
+  std::vector<Robot> robots_;
+  double now_ = 0;
+  double last_positions_time_ = -1.0;
+  std::priority_queue<Event, std::vector<Event>, std::greater<Event>> events_queue_;
+  std::uint64_t seq_ = 0;
+  long long events_ = 0;
+  std::vector<Delivery> slots_;
+  std::vector<int> free_slots_;
+  std::deque<Delivery> ready_;
+  BusStats bus_;
+  Points scratch_;
+  std::vector<double> lost_scratch_;
+};
+
+// ------------------------------------------------------------------ C++ decision paths
+
+// TPUAF (tpuaf.policies.tpuaf.Tpuaf, and TpuafAnyVertex with any_vertex): every robot holds
+// a copy of `knowledge` (built as the Python policy builds it) and its own random stream
+// (numpy default_rng([seed, 2, robot])) for the tie-break.
+class TpuafStrategy : public TeamStrategy {
+ public:
+  TpuafStrategy(const TpuafKnowledge& knowledge, UtilityForm form, bool any_vertex,
+                std::vector<NumpyPcg64> rngs);
+  void start(GraphEngine& engine, int robot) override;
+  int decide(GraphEngine& engine, int robot) override;
+  void on_message(GraphEngine& engine, int robot, const TeamMessage& message) override;
+  const TpuafKnowledge& knowledge(int robot) const;
+
+ private:
+  TpuafKnowledge prototype_;
+  UtilityForm form_;
+  bool any_vertex_;
+  std::vector<NumpyPcg64> rngs_;
+  std::vector<TpuafKnowledge> knowledge_;
+  std::vector<int> candidates_;
+};
+
+}  // namespace tpuaf

@@ -1,0 +1,658 @@
+#include "tpuaf_core/engine.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace tpuaf {
+
+namespace {
+constexpr int kArrive = 0, kWake = 1, kDeliver = 2;  // event kinds, in the order ties resolve
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Python's max(a, b): a unless b > a (the same number for doubles without NaN).
+inline double py_max(double a, double b) { return b > a ? b : a; }
+}  // namespace
+
+// ------------------------------------------------------------------------------ NumpyPcg64
+
+NumpyPcg64::NumpyPcg64(std::uint64_t state_hi, std::uint64_t state_lo, std::uint64_t inc_hi,
+                       std::uint64_t inc_lo, bool has_uint32, std::uint32_t uinteger)
+    : state_((static_cast<unsigned __int128>(state_hi) << 64) | state_lo),
+      inc_((static_cast<unsigned __int128>(inc_hi) << 64) | inc_lo),
+      has_uint32_(has_uint32),
+      uinteger_(uinteger) {}
+
+std::uint64_t NumpyPcg64::next_uint64() {
+  // PCG XSL-RR 128/64 (numpy's PCG64): advance the LCG, then output from the new state.
+  const unsigned __int128 mult =
+      (static_cast<unsigned __int128>(0x2360ED051FC65DA4ULL) << 64) | 0x4385DF649FCCF645ULL;
+  state_ = state_ * mult + inc_;
+  const std::uint64_t hi = static_cast<std::uint64_t>(state_ >> 64);
+  const std::uint64_t lo = static_cast<std::uint64_t>(state_);
+  const std::uint64_t x = hi ^ lo;
+  const unsigned rot = static_cast<unsigned>(hi >> 58);
+  return (x >> rot) | (x << ((64u - rot) & 63u));
+}
+
+std::uint32_t NumpyPcg64::next_uint32() {
+  if (has_uint32_) {
+    has_uint32_ = false;
+    return uinteger_;
+  }
+  const std::uint64_t next = next_uint64();
+  has_uint32_ = true;
+  uinteger_ = static_cast<std::uint32_t>(next >> 32);
+  return static_cast<std::uint32_t>(next & 0xffffffffULL);
+}
+
+double NumpyPcg64::random() {
+  return static_cast<double>(next_uint64() >> 11) * (1.0 / 9007199254740992.0);
+}
+
+std::int64_t NumpyPcg64::integers(std::int64_t n) {
+  if (n < 1 || n > (std::int64_t{1} << 32)) {
+    throw std::invalid_argument("integers(0, n) needs 1 <= n <= 2^32, got " + std::to_string(n));
+  }
+  const std::uint64_t rng = static_cast<std::uint64_t>(n - 1);
+  if (rng == 0) return 0;
+  if (rng == 0xffffffffULL) return next_uint32();
+  // numpy's buffered_bounded_lemire_uint32
+  const std::uint32_t rng_excl = static_cast<std::uint32_t>(rng) + 1u;
+  std::uint64_t m = static_cast<std::uint64_t>(next_uint32()) * rng_excl;
+  std::uint32_t leftover = static_cast<std::uint32_t>(m & 0xffffffffULL);
+  if (leftover < rng_excl) {
+    const std::uint32_t threshold =
+        (std::numeric_limits<std::uint32_t>::max() - static_cast<std::uint32_t>(rng)) % rng_excl;
+    while (leftover < threshold) {
+      m = static_cast<std::uint64_t>(next_uint32()) * rng_excl;
+      leftover = static_cast<std::uint32_t>(m & 0xffffffffULL);
+    }
+  }
+  return static_cast<std::int64_t>(m >> 32);
+}
+
+void NumpyPcg64::get_state(std::uint64_t& state_hi, std::uint64_t& state_lo, std::uint64_t& inc_hi,
+                           std::uint64_t& inc_lo, bool& has_uint32, std::uint32_t& uinteger) const {
+  state_hi = static_cast<std::uint64_t>(state_ >> 64);
+  state_lo = static_cast<std::uint64_t>(state_);
+  inc_hi = static_cast<std::uint64_t>(inc_ >> 64);
+  inc_lo = static_cast<std::uint64_t>(inc_);
+  has_uint32 = has_uint32_;
+  uinteger = uinteger_;
+}
+
+double numpy_pairwise_sum(const double* a, std::size_t n) {
+  // numpy's DOUBLE_pairwise_sum: 8 accumulators up to 128 elements, halves above.
+  if (n < 8) {
+    double res = 0.;
+    for (std::size_t i = 0; i < n; ++i) res += a[i];
+    return res;
+  }
+  if (n <= 128) {
+    double r[8];
+    for (int j = 0; j < 8; ++j) r[j] = a[j];
+    std::size_t i = 8;
+    for (; i < n - (n % 8); i += 8) {
+      for (int j = 0; j < 8; ++j) r[j] += a[i + j];
+    }
+    double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+    for (; i < n; ++i) res += a[i];
+    return res;
+  }
+  std::size_t n2 = n / 2;
+  n2 -= n2 % 8;
+  return numpy_pairwise_sum(a, n2) + numpy_pairwise_sum(a + n2, n - n2);
+}
+
+double numpy_sum(const double* a, std::size_t n) {
+  constexpr std::size_t kBuffer = 8192;  // numpy's default ufunc buffer size
+  double res = 0.0;
+  for (std::size_t i = 0; i < n; i += kBuffer)
+    res += numpy_pairwise_sum(a + i, std::min(kBuffer, n - i));
+  return res;
+}
+
+// --------------------------------------------------------------------- GroundTruthRecorder
+
+GroundTruthRecorder::GroundTruthRecorder(const EngineConfig& config, UncertaintyField field)
+    : n_robots_(config.robots),
+      n_vertices_(field.size()),
+      period_(config.sample_period_s),
+      refractory_(config.refractory_s),
+      max_substep_(config.max_substep_s),
+      field_merge_(config.field_merge_s),
+      dif2_(config.interference_distance_m * config.interference_distance_m),
+      d_if_(config.interference_distance_m),
+      field_(std::move(field)),
+      peaks_(Eigen::VectorXd::Constant(config.robots, config.sensing_peak)),
+      radii_(Eigen::VectorXd::Constant(config.robots, config.sensing_radius_m)),
+      vertex_times_(static_cast<std::size_t>(n_vertices_)),
+      sample_last_(Eigen::VectorXd::Zero(n_vertices_)),
+      next_sample_(0.0 + config.sample_period_s) {
+  if (!(period_ > 0)) throw std::invalid_argument("sample period must be > 0 s");
+  verlet_skin_ = std::max(2.0 * d_if_, 1e-3);  // [m]
+}
+
+void GroundTruthRecorder::record_visit(int robot, int vertex, double time) {
+  if (vertex < 0 || vertex >= n_vertices_) {
+    throw std::out_of_range("vertex index " + std::to_string(vertex) + " out of range (map has " +
+                            std::to_string(n_vertices_) + ")");
+  }
+  auto& times = vertex_times_[static_cast<std::size_t>(vertex)];
+  double prev;
+  if (times.empty() || time >= times.back()) {
+    prev = times.empty() ? kNaN : times.back();
+    times.push_back(time);
+  } else {
+    auto it = std::upper_bound(times.begin(), times.end(), time);
+    prev = it == times.begin() ? kNaN : *(it - 1);
+    times.insert(it, time);
+  }
+  visit_idleness_.push_back(time - prev);
+  visits_.push_back({time, robot, vertex});
+  if (time <= next_sample_ - period_) {  // its row is already out
+    apply_visit(time, vertex);
+  } else if (pending_.empty() || time >= pending_.back().first) {
+    pending_.emplace_back(time, vertex);
+  } else {
+    auto it =
+        std::upper_bound(pending_.begin(), pending_.end(), time,
+                         [](double t, const std::pair<double, int>& p) { return t < p.first; });
+    pending_.insert(it, {time, vertex});
+  }
+}
+
+void GroundTruthRecorder::apply_pending(double t) {
+  while (!pending_.empty() && pending_.front().first <= t) {
+    const auto [vt, v] = pending_.front();
+    pending_.pop_front();
+    apply_visit(vt, v);
+  }
+}
+
+void GroundTruthRecorder::apply_visit(double vt, int v) {
+  sample_worst_ = py_max(sample_worst_, vt - sample_last_[v]);
+  sample_last_[v] = py_max(sample_last_[v], vt);
+  ++sample_visits_;
+}
+
+long long GroundTruthRecorder::interferences_until(double t) const {
+  auto it =
+      std::upper_bound(interferences_.begin(), interferences_.end(), t,
+                       [](double time, const InterferenceRecord& r) { return time < r.time_s; });
+  return static_cast<long long>(it - interferences_.begin());
+}
+
+void GroundTruthRecorder::emit_row(double t, double x_mean) {
+  apply_pending(t);
+  const double mean_last = numpy_mean(sample_last_.data(), static_cast<std::size_t>(n_vertices_));
+  const double ins = t - mean_last;
+  const double worst = py_max(sample_worst_, t - sample_last_.minCoeff());
+  ins_sum_ += ins;
+  if (!std::isnan(x_mean)) {
+    x_sum_ += x_mean;
+    ++x_count_;
+  }
+  rows_.push_back({t, ins, worst, x_mean, sample_visits_, interferences_until(t)});
+}
+
+void GroundTruthRecorder::record_positions(double t1, const Points& p1) {
+  if (p1.rows() != n_robots_) throw std::invalid_argument("need one position per robot");
+  if (!has_pos_) {
+    // Pairs already close at the start are not counted (they did not come close).
+    close_.clear();
+    for (int i = 0; i < n_robots_; ++i) {
+      for (int j = i + 1; j < n_robots_; ++j) {
+        const double dx = p1(i, 0) - p1(j, 0), dy = p1(i, 1) - p1(j, 1);
+        if (dx * dx + dy * dy <= dif2_) {
+          close_.push_back(static_cast<std::uint64_t>(i) * n_robots_ + j);
+        }
+      }
+    }
+    if (next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
+      advance_field(field_t_, t1, p1, p1);
+      field_t_ = t1;
+      field_p_ = p1;
+      has_field_p_ = true;
+    }
+  } else {
+    const double t0 = pos_time_;
+    if (t1 < t0) {
+      throw std::invalid_argument("positions at " + std::to_string(t1) +
+                                  " s are earlier than the previous ones");
+    }
+    const double step = (p1 - pos_).cwiseAbs().maxCoeff();
+    if (n_robots_ > 1) interference(t0, t1, pos_, p1, step);
+    if (next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
+      advance_field(field_t_, t1, has_field_p_ ? field_p_ : pos_, p1);
+      field_t_ = t1;
+      field_p_ = p1;
+      has_field_p_ = true;
+    }
+  }
+  pos_time_ = t1;
+  pos_ = p1;
+  has_pos_ = true;
+}
+
+void GroundTruthRecorder::interference(double t0, double t1, const Points& p0, const Points& p1,
+                                       double step) {
+  // Exact episode entries for linear motion p0 (t0) -> p1 (t1), as RunRecorder._interference.
+  // Candidate pairs come from a Verlet list (pairs within reach + skin when it was built, found
+  // through a spatial hash): a pair outside it stays farther than d_if until some robot has
+  // moved skin / 2 from where the list was built, which rebuilds it. So every pair that can
+  // come within d_if is examined, with the same arithmetic as the all-pairs Python code.
+  const double reach = d_if_ + 2.8285 * step;
+  const double reach2 = reach * reach;
+  const int n = n_robots_;
+  bool valid = verlet_valid_;
+  if (valid) {
+    for (int i = 0; i < n && valid; ++i) {
+      const double dx = p1(i, 0) - verlet_ref_(i, 0), dy = p1(i, 1) - verlet_ref_(i, 1);
+      valid = dx * dx + dy * dy <= verlet_half_skin2_;
+    }
+  }
+  if (!valid) rebuild_verlet(p1, reach);
+  close_end_.clear();
+  fresh_.clear();
+  const std::uint64_t un = static_cast<std::uint64_t>(n);
+  for (const std::uint64_t key : verlet_pairs_) {
+    const int i = static_cast<int>(key / un), j = static_cast<int>(key % un);
+    const double d1x = p1(i, 0) - p1(j, 0), d1y = p1(i, 1) - p1(j, 1);
+    const double c1 = d1x * d1x + d1y * d1y;
+    if (!(c1 <= reach2)) continue;  // not near
+    if (c1 <= dif2_) close_end_.push_back(key);
+    // A pair close at both ends is close throughout; it enters at most once per interval.
+    if (std::binary_search(close_.begin(), close_.end(), key)) continue;
+    const double x0 = p0(i, 0) - p0(j, 0), y0 = p0(i, 1) - p0(j, 1);
+    const double vx = d1x - x0, vy = d1y - y0;
+    const double a = vx * vx + vy * vy;
+    const double b = x0 * vx + y0 * vy;  // half the linear coefficient
+    const double c0 = x0 * x0 + y0 * y0;
+    double s_in;
+    if (c0 <= dif2_) {
+      s_in = 0.0;
+    } else {
+      const double s_star = a > 0 ? std::min(py_max(-b / a, 0.0), 1.0) : 0.0;
+      if (a * s_star * s_star + 2 * b * s_star + c0 > dif2_) continue;  // never within d_if
+      // smallest root of a s^2 + 2 b s + (c0 - d^2) = 0
+      s_in = (-b - std::sqrt(py_max(b * b - a * (c0 - dif2_), 0.0))) / a;
+    }
+    const double t_in = t0 + std::min(py_max(s_in, 0.0), 1.0) * (t1 - t0);
+    auto it = last_count_.find(key);
+    const double last = it == last_count_.end() ? -kInf : it->second;
+    if (t_in - last >= refractory_) {
+      last_count_[key] = t_in;
+      fresh_.push_back({t_in, i, j});
+    }
+  }
+  if (!fresh_.empty()) {
+    std::sort(fresh_.begin(), fresh_.end(),
+              [](const InterferenceRecord& x, const InterferenceRecord& y) {
+                if (x.time_s != y.time_s) return x.time_s < y.time_s;
+                if (x.a != y.a) return x.a < y.a;
+                return x.b < y.b;
+              });
+    interferences_.insert(interferences_.end(), fresh_.begin(), fresh_.end());
+  }
+  close_.swap(close_end_);  // sorted: the Verlet list is
+}
+
+void GroundTruthRecorder::rebuild_verlet(const Points& p, double reach) {
+  const int n = n_robots_;
+  const double skin = verlet_skin_;
+  const double radius = (reach + skin) * (1.0 + 1e-9);
+  const double radius2 = radius * radius;
+  double extent = 1.0;
+  for (int i = 0; i < n; ++i) extent = std::max({extent, std::abs(p(i, 0)), std::abs(p(i, 1))});
+  const double cell = std::max(radius, extent * 1e-6);
+  // Spatial hash: robots sorted by cell; each robot looks at its own and the 8 cells around.
+  cells_.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const auto cx = static_cast<std::int64_t>(std::floor(p(i, 0) / cell));
+    const auto cy = static_cast<std::int64_t>(std::floor(p(i, 1) / cell));
+    cells_[static_cast<std::size_t>(i)] = {cx * kCellStride + cy, i};
+  }
+  sorted_cells_ = cells_;
+  std::sort(sorted_cells_.begin(), sorted_cells_.end());
+  verlet_pairs_.clear();
+  const std::uint64_t un = static_cast<std::uint64_t>(n);
+  for (int i = 0; i < n; ++i) {
+    const std::int64_t key = cells_[static_cast<std::size_t>(i)].first;
+    for (std::int64_t dx = -1; dx <= 1; ++dx) {
+      for (std::int64_t dy = -1; dy <= 1; ++dy) {
+        const std::int64_t neighbour = key + dx * kCellStride + dy;
+        auto it = std::lower_bound(sorted_cells_.begin(), sorted_cells_.end(),
+                                   std::make_pair(neighbour, -1));
+        for (; it != sorted_cells_.end() && it->first == neighbour; ++it) {
+          const int j = it->second;
+          if (j <= i) continue;
+          const double ex = p(i, 0) - p(j, 0), ey = p(i, 1) - p(j, 1);
+          if (ex * ex + ey * ey <= radius2)
+            verlet_pairs_.push_back(static_cast<std::uint64_t>(i) * un + j);
+        }
+      }
+    }
+  }
+  std::sort(verlet_pairs_.begin(), verlet_pairs_.end());
+  verlet_ref_ = p;
+  const double half = 0.5 * skin * (1.0 - 1e-6);
+  verlet_half_skin2_ = half * half;
+  verlet_valid_ = true;
+}
+
+void GroundTruthRecorder::advance_field(double t0, double t1, const Points& p0, const Points& p1) {
+  double ta = t0;
+  Points pa = p0;
+  const double span = t1 - t0;
+  while (next_sample_ <= t1 + 1e-9) {
+    const double ts = next_sample_;
+    Points pb = span > 0 ? Points(p0 + (p1 - p0) * ((ts - t0) / span)) : p1;
+    step_field(ts - ta, pa, pb);
+    emit_row(ts, numpy_mean(field_.values().data(), static_cast<std::size_t>(n_vertices_)));
+    ++sample_k_;
+    next_sample_ = 0.0 + static_cast<double>(sample_k_) * period_;
+    ta = ts;
+    pa = pb;
+  }
+  if (t1 > ta) step_field(t1 - ta, pa, p1);
+}
+
+void GroundTruthRecorder::step_field(double dt, const Points& pa, const Points& pb) {
+  if (dt <= 0) return;
+  field_.advance_linear(dt, pa, pb, peaks_, radii_, max_substep_);
+}
+
+double GroundTruthRecorder::worst_idleness(double end_s) const {
+  double worst = 0.0;
+  for (const auto& times : vertex_times_) {
+    double prev = 0.0;
+    for (double t : times) {
+      worst = py_max(worst, t - prev);
+      prev = t;
+    }
+    worst = py_max(worst, end_s - prev);
+  }
+  return worst;
+}
+
+void GroundTruthRecorder::finish(double end_s) {
+  if (has_pos_ && end_s > pos_time_) {
+    const Points held = pos_;
+    record_positions(end_s, held);
+  }
+  if (has_pos_ && field_t_ < pos_time_) {  // a merged chunk still pending
+    advance_field(field_t_, pos_time_, field_p_, pos_);
+    field_t_ = pos_time_;
+    field_p_ = pos_;
+  }
+}
+
+// ----------------------------------------------------------------------------- GraphEngine
+
+GraphEngine::GraphEngine(const PatrolGraph& graph, Points positions, EngineConfig config,
+                         UncertaintyField field, NumpyPcg64 bus_rng)
+    : graph_(graph),
+      positions_(std::move(positions)),
+      config_(std::move(config)),
+      recorder_(config_, std::move(field)),
+      bus_rng_(bus_rng) {
+  const int n = config_.robots;
+  if (n < 1) throw std::invalid_argument("need at least one robot");
+  if (positions_.rows() != graph_.num_vertices()) {
+    throw std::invalid_argument("need one position per graph vertex");
+  }
+  if (static_cast<int>(config_.start_vertices.size()) != n) {
+    throw std::invalid_argument("need one start vertex per robot");
+  }
+  if (!(config_.delay_s >= 0) || !std::isfinite(config_.delay_s)) {
+    throw std::invalid_argument("message delay must be a finite number >= 0 s");
+  }
+  if (!(config_.loss >= 0 && config_.loss <= 1)) {
+    throw std::invalid_argument("message loss probability must be in [0, 1]");
+  }
+  if (!(config_.nominal_speed_mps > 0)) throw std::invalid_argument("nominal speed must be > 0");
+  robots_.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    Robot& r = robots_[static_cast<std::size_t>(i)];
+    const int v = config_.start_vertices[static_cast<std::size_t>(i)];
+    graph_.check_vertex(v);
+    r.current = r.start = v;
+    r.p0x = positions_(v, 0);
+    r.p0y = positions_(v, 1);
+  }
+  scratch_.resize(n, 2);
+}
+
+const GraphEngine::Robot& GraphEngine::robot_at(int robot) const {
+  if (robot < 0 || robot >= config_.robots) {
+    throw std::out_of_range("unknown robot " + std::to_string(robot) + " (team of " +
+                            std::to_string(config_.robots) + ")");
+  }
+  return robots_[static_cast<std::size_t>(robot)];
+}
+
+double GraphEngine::average_speed(int robot) const {
+  const Robot& r = robot_at(robot);
+  if (r.travel_time_s > 1.0 && r.travelled_m > 0) return r.travelled_m / r.travel_time_s;
+  return config_.nominal_speed_mps;
+}
+
+void GraphEngine::position(int robot, double t, double& x, double& y) const {
+  const Robot& r = robot_at(robot);
+  const double elapsed = std::min(py_max(t - r.t0, 0.0), r.t1 - r.t0);
+  x = r.p0x + r.vx * elapsed;
+  y = r.p0y + r.vy * elapsed;
+}
+
+void GraphEngine::positions(double t, Points& out) const {
+  for (std::size_t i = 0; i < robots_.size(); ++i) {
+    const Robot& r = robots_[i];
+    // numpy: minimum(maximum(t - t0, 0), t1 - t0), then p0 + v * elapsed
+    double elapsed = t - r.t0;
+    if (!(elapsed >= 0.0)) elapsed = 0.0;
+    const double span = r.t1 - r.t0;
+    if (!(elapsed <= span)) elapsed = span;
+    out(static_cast<Eigen::Index>(i), 0) = r.p0x + r.vx * elapsed;
+    out(static_cast<Eigen::Index>(i), 1) = r.p0y + r.vy * elapsed;
+  }
+}
+
+void GraphEngine::push(double time, int kind, int payload) {
+  ++seq_;
+  events_queue_.push({time, kind, seq_, payload});
+}
+
+void GraphEngine::send(int robot, TeamMessage message) {
+  robot_at(robot);
+  const int n = config_.robots;
+  ++bus_.sent;
+  Delivery d;
+  d.message = std::move(message);
+  d.sender = robot;
+  if (config_.loss > 0) {
+    // numpy: lost = rng.random(n) < loss, one draw per robot (the sender's too).
+    for (int i = 0; i < n; ++i) {
+      const bool lost = bus_rng_.random() < config_.loss;
+      if (i == robot) continue;
+      if (lost) {
+        ++bus_.lost;
+      } else {
+        d.recipients.push_back(i);
+      }
+    }
+  } else {
+    d.all_but_sender = true;
+  }
+  const bool empty = d.all_but_sender ? n <= 1 : d.recipients.empty();
+  if (empty) return;
+  if (config_.delay_s == 0) {
+    ready_.push_back(std::move(d));
+  } else {
+    int slot;
+    if (!free_slots_.empty()) {
+      slot = free_slots_.back();
+      free_slots_.pop_back();
+      slots_[static_cast<std::size_t>(slot)] = std::move(d);
+    } else {
+      slot = static_cast<int>(slots_.size());
+      slots_.push_back(std::move(d));
+    }
+    push(now_ + config_.delay_s, kDeliver, slot);
+  }
+}
+
+void GraphEngine::wake_at(int robot, double time_s) {
+  Robot& r = const_cast<Robot&>(robot_at(robot));
+  push(py_max(time_s, now_), kWake, robot);
+  r.wake_pending = true;
+}
+
+void GraphEngine::change_goal(int robot, int vertex) {
+  Robot& r = const_cast<Robot&>(robot_at(robot));
+  graph_.check_vertex(vertex);
+  r.redirect = vertex;
+}
+
+void GraphEngine::deliver_ready() {
+  while (!ready_.empty()) {
+    Delivery d = std::move(ready_.front());
+    ready_.pop_front();
+    if (d.all_but_sender) {
+      const int n = config_.robots;
+      for (int r = 0; r < n; ++r) {
+        if (r != d.sender) strategy_->on_message(*this, r, d.message);
+      }
+      bus_.delivered += n - 1;
+    } else {
+      for (int r : d.recipients) strategy_->on_message(*this, r, d.message);
+      bus_.delivered += static_cast<long long>(d.recipients.size());
+    }
+  }
+}
+
+void GraphEngine::plan_route(Robot& r, int goal) {
+  r.route_k = 0;
+  if (goal == r.current) {
+    r.route.assign(1, goal);
+  } else {
+    r.route = graph_.path(r.current, goal);
+    r.route.erase(r.route.begin());
+  }
+}
+
+void GraphEngine::decide(int robot) {
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  r.wake_pending = false;
+  const int goal = strategy_->decide(*this, robot);
+  r.redirect = -1;
+  if (goal < 0) {
+    r.goal = -1;
+    if (!r.wake_pending) wake_at(robot, now_ + config_.retry_s);
+    return;
+  }
+  graph_.check_vertex(goal);
+  r.goal = goal;
+  plan_route(r, goal);
+  start_segment(robot);
+}
+
+void GraphEngine::start_segment(int robot) {
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  const int here = r.current, next = r.route[r.route_k];
+  const double x0 = positions_(here, 0), y0 = positions_(here, 1);
+  const double x1 = positions_(next, 0), y1 = positions_(next, 1);
+  double duration;
+  if (next == here) {
+    duration = config_.stay_s;
+  } else {
+    const double length = graph_.edge_length(here, next);
+    duration = length / config_.nominal_speed_mps;
+    r.travelled_m += length;
+    r.travel_time_s += duration;
+  }
+  r.t0 = now_;
+  r.t1 = now_ + duration;
+  r.p0x = x0;
+  r.p0y = y0;
+  r.vx = (x1 - x0) / duration;  // [m/s] along the straight segment
+  r.vy = (y1 - y0) / duration;
+  push(r.t1, kArrive, robot);
+}
+
+void GraphEngine::arrive(int robot) {
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  const int vertex = r.route[r.route_k++];
+  r.current = vertex;
+  if (r.redirect >= 0 && r.goal >= 0) {
+    r.goal = r.redirect;
+    r.redirect = -1;
+    plan_route(r, r.goal);
+    if (vertex != r.goal) {
+      start_segment(robot);
+      return;
+    }
+  } else if (r.route_k < r.route.size()) {
+    start_segment(robot);  // pass-through vertex: not a visit
+    return;
+  }
+  recorder_.record_visit(robot, vertex, now_);
+  r.goal = -1;
+  decide(robot);
+}
+
+void GraphEngine::record_positions(double t) {
+  if (t > last_positions_time_) {
+    positions(t, scratch_);
+    recorder_.record_positions(t, scratch_);
+    last_positions_time_ = t;
+  }
+}
+
+void GraphEngine::run(const std::function<void(double)>& progress) {
+  if (strategy_ == nullptr) throw std::logic_error("no strategy set");
+  const double end = config_.duration_s;
+  const int n = config_.robots;
+  record_positions(0.0);
+  for (int i = 0; i < n; ++i) strategy_->start(*this, i);
+  for (int i = 0; i < n; ++i)
+    recorder_.record_visit(i, robots_[static_cast<std::size_t>(i)].current, 0.0);
+  deliver_ready();
+  for (int i = 0; i < n; ++i) {
+    decide(i);
+    deliver_ready();
+  }
+  double next_progress = 0.0;
+  while (!events_queue_.empty() && events_queue_.top().time <= end) {
+    const Event ev = events_queue_.top();
+    events_queue_.pop();
+    ++events_;
+    if (ev.time > now_) {
+      record_positions(ev.time);
+      now_ = ev.time;
+    }
+    if (ev.kind == kArrive) {
+      arrive(ev.payload);
+    } else if (ev.kind == kWake) {
+      if (robots_[static_cast<std::size_t>(ev.payload)].goal < 0) decide(ev.payload);
+    } else {
+      const auto slot = static_cast<std::size_t>(ev.payload);
+      ready_.push_back(std::move(slots_[slot]));
+      slots_[slot] = Delivery{};
+      free_slots_.push_back(ev.payload);
+    }
+    deliver_ready();
+    if (progress && now_ >= next_progress) {
+      progress(now_);
+      next_progress = now_ + end / 200.0;
+    }
+  }
+  record_positions(end);
+  now_ = end;
+  if (progress) progress(end);
+}
+
+}  // namespace tpuaf

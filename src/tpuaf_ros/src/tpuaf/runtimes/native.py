@@ -1,0 +1,401 @@
+"""Native graph runtime: the graph runtime's event loop in the C++ core (`tpuaf_core.GraphEngine`).
+
+It gives the same results, to the last digit, as the Python graph runtime
+(`tpuaf.runtimes.graph.BatchRun`) for the same configuration and seed: same event order, same
+motion, same bus (numpy's PCG64 stream reproduced in C++), same recorder arithmetic
+(tests/test_engine_golden.py). Two kinds of strategies:
+
+- a strategy with a C++ decision path (`NATIVE_STRATEGIES`: tpuaf, tpuaf_any) runs entirely in
+  C++ between start and finish (the GIL is released); its messages go straight to the C++
+  state of the other robots;
+- any other strategy stays the Python `Policy` it is, called back from C++ only at its
+  decisions and message deliveries, with a RobotContext like the Python runtime's.
+
+`NativeRun` has BatchRun's interface (config, patrol_map, now, recorder, run(progress),
+summary(), effective_config()). Select the runtime with `make_run(config, engine=...)`.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections.abc import Callable
+from dataclasses import asdict
+from typing import Any
+
+import numpy as np
+
+from ..maps import load_map, start_vertices
+from ..metrics import RunRecorder, complete_cycles, idleness_stats
+from ..plain import plain
+from ..policies import REGISTRY, Policy, RobotContextBase
+from .bus import BusStats
+from .graph import DEFAULT_RETRY_S, STAY_S, BatchRun, RunConfig
+
+ENGINES = ("auto", "native", "python")
+
+
+class EngineChoiceError(ValueError):
+    """`--engine native` asked for something the native engine does not support."""
+
+
+def _recorder_default(name: str) -> float:
+    """A RunRecorder keyword default (refractory_s, max_substep_s, field_merge_s)."""
+    return float(inspect.signature(RunRecorder).parameters[name].default)
+
+
+def _rng_stream(seed: int, *key: int):
+    import tpuaf_core
+
+    return tpuaf_core.NumpyPcg64(np.random.default_rng([seed, *key]).bit_generator.state)
+
+
+def _tpuaf_strategy(run: NativeRun, params: dict, any_vertex: bool):
+    import tpuaf_core
+
+    from ..policies.tpuaf import new_knowledge
+
+    knowledge = new_knowledge(
+        run.patrol_map, params["intention_timeout_s"], params["silence_timeout_s"]
+    )
+    form = (
+        tpuaf_core.UtilityForm.EQ14 if params["utility"] == "eq14" else tpuaf_core.UtilityForm.EQ13
+    )
+    rngs = [_rng_stream(run.seed, 2, i) for i in range(run.config.robots)]
+    return tpuaf_core.TpuafStrategy(knowledge, form, any_vertex, rngs)
+
+
+# Strategies with a C++ decision path: name -> builder(run, resolved params).
+NATIVE_STRATEGIES: dict[str, Callable[[NativeRun, dict], Any]] = {
+    "tpuaf": lambda run, params: _tpuaf_strategy(run, params, any_vertex=False),
+    "tpuaf_any": lambda run, params: _tpuaf_strategy(run, params, any_vertex=True),
+}
+
+
+def unsupported_options(config: RunConfig) -> list[str]:
+    """Options of `config` the native engine does not support yet (empty: it can run it)."""
+    missing = []
+    for name, what in (("fail", "robot deaths (--fail)"),
+                       ("fail_random", "random robot deaths (--fail-random)"),
+                       ("stall", "robot stalls (--stall)")):
+        if getattr(config, name, None):
+            missing.append(what)
+    return missing
+
+
+def make_run(config: RunConfig, patrol_map=None, engine: str = "auto"):
+    """The graph runtime for `config`: 'python' (BatchRun), 'native' (NativeRun, C++ loop) or
+    'auto' (native when the strategy has a C++ decision path and every option is supported).
+    Returns (run, reason): reason says why auto chose what it chose."""
+    if engine not in ENGINES:
+        raise EngineChoiceError(f"unknown engine '{engine}' (valid: {', '.join(ENGINES)})")
+    config.validate()
+    missing = unsupported_options(config)
+    if engine == "python":
+        return BatchRun(config, patrol_map), "python engine requested"
+    if engine == "native":
+        if missing:
+            raise EngineChoiceError(
+                f"the native engine does not support {', '.join(missing)}; use --engine python"
+            )
+        return NativeRun(config, patrol_map), "native engine requested"
+    if missing:
+        return BatchRun(config, patrol_map), (
+            f"python engine: the native engine does not support {', '.join(missing)} yet"
+        )
+    if config.strategy in NATIVE_STRATEGIES:
+        return NativeRun(config, patrol_map), "native engine, C++ decision path"
+    return BatchRun(config, patrol_map), (
+        f"python engine: strategy '{config.strategy}' has no C++ decision path"
+    )
+
+
+class _NativeRobot(RobotContextBase):
+    """The RobotContext a Python policy sees, backed by the C++ engine."""
+
+    def __init__(self, run: NativeRun, index: int, start_vertex: int, policy: Policy, rng):
+        self._engine = run._engine
+        self.robot = index
+        self.n_robots = run.config.robots
+        self.patrol_map = run.patrol_map
+        self.rng = rng
+        self.policy = policy
+        self._start_vertex = start_vertex
+        p = run.patrol_map.positions[start_vertex]
+        self._start_position = (float(p[0]), float(p[1]))
+
+    @property
+    def now(self) -> float:
+        return self._engine.now
+
+    @property
+    def current_vertex(self) -> int:
+        return self._engine.current_vertex(self.robot)
+
+    @property
+    def _current(self) -> int:
+        return self._engine.current_vertex(self.robot)
+
+    @property
+    def travelled_m(self) -> float:
+        return self._engine.travelled_m(self.robot)
+
+    @property
+    def travel_time_s(self) -> float:
+        return self._engine.travel_time_s(self.robot)
+
+    @property
+    def average_speed(self) -> float:
+        return self._engine.average_speed(self.robot)
+
+    @property
+    def position(self) -> tuple[float, float]:
+        return self._engine.position(self.robot)
+
+    def send(self, message) -> None:
+        self._engine.send(self.robot, message)
+
+    def wake_at(self, time: float) -> None:
+        self._engine.wake_at(self.robot, float(time))
+
+    def change_goal(self, vertex: int) -> None:
+        """Redirect a moving robot: it finishes its current edge, then heads to `vertex`."""
+        self._engine.change_goal(self.robot, self.checked_vertex(vertex))
+
+
+class _PythonTeam:
+    """The callbacks the C++ loop makes into Python policies (only at their decisions)."""
+
+    def __init__(self, robots: list[_NativeRobot]):
+        self.robots = robots
+
+    def start(self, i: int) -> None:
+        robot = self.robots[i]
+        robot.policy.start(robot)
+
+    def decide(self, i: int):
+        robot = self.robots[i]
+        return robot.call_decide(robot.policy)
+
+    def on_message(self, i: int, message) -> None:
+        robot = self.robots[i]
+        robot.policy.on_message(message, robot)
+
+
+class _Bus:
+    """BatchRun.bus look-alike: only the counters."""
+
+    def __init__(self, engine):
+        self._engine = engine
+
+    @property
+    def stats(self) -> BusStats:
+        sent, delivered, lost = self._engine.bus_stats
+        return BusStats(sent=sent, delivered=delivered, lost=lost)
+
+
+class NativeRecorder:
+    """RunRecorder's read side over the C++ recorder (what results.ResultsWriter reads)."""
+
+    def __init__(self, run: NativeRun):
+        self._engine = run._engine
+        self.patrol_map = run.patrol_map
+        self.n_robots = run.config.robots
+        self.n_vertices = int(run.patrol_map.num_vertices)
+        self.start_time = 0.0
+        self.sample_period_s = float(run.config.sample_period_s)
+        self.d_if = float(run.patrol_map.settings.interference_distance)
+        self._visits: list = []
+        self._idleness: list = []
+        self._rows: list = []
+
+    @property
+    def visits(self) -> list[tuple[float, int, int]]:
+        if len(self._visits) < self._engine.visit_count:
+            self._visits.extend(self._engine.visits(len(self._visits)))
+        return self._visits
+
+    @property
+    def visit_idleness(self) -> list[float]:
+        if len(self._idleness) < self._engine.visit_count:
+            self._idleness.extend(self._engine.visit_idleness(len(self._idleness)))
+        return self._idleness
+
+    @property
+    def timeseries(self) -> list[dict]:
+        if len(self._rows) < self._engine.row_count:
+            self._rows.extend(self._engine.timeseries(len(self._rows)))
+        return self._rows
+
+    @property
+    def interferences(self) -> list[tuple[float, int, int]]:
+        return self._engine.interferences
+
+    @property
+    def interval_samples(self) -> list[float]:
+        return self._engine.interval_samples.tolist()
+
+    @property
+    def visit_counts(self) -> list[int]:
+        return [int(c) for c in self._engine.visit_counts]
+
+    @property
+    def deaths(self) -> list:
+        return []
+
+    @property
+    def _pos_time(self) -> float | None:
+        return self._engine.positions_time
+
+    def worst_idleness(self, end_time: float) -> float:
+        return self._engine.worst_idleness(float(end_time))
+
+    def uncertainty(self) -> np.ndarray:
+        self._engine.finish()
+        return np.asarray(self._engine.field_values, dtype=float)
+
+    def summary(self, end_time: float) -> dict:
+        """RunRecorder.summary of the same run, key for key and digit for digit."""
+        engine = self._engine
+        engine.finish()
+        end_time = float(end_time)
+        duration = end_time - self.start_time
+        stats = idleness_stats(engine.interval_samples)
+        n_rows = engine.row_count
+        counts = self.visit_counts
+        ids = list(self.patrol_map.vertex_ids)
+        x_count = engine.x_count
+        n_inter = len(engine.interferences)
+        out = {
+            "map": self.patrol_map.name,
+            "n_robots": self.n_robots,
+            "n_vertices": self.n_vertices,
+            "start_time_s": self.start_time,
+            "duration_s": duration,
+            "idleness_avg_s": stats["avg"],
+            "idleness_std_s": stats["std"],
+            "idleness_min_s": stats["min"],
+            "idleness_max_s": stats["max"],
+            "idleness_samples": stats["count"],
+            "idleness_ins_mean_s": engine.ins_sum / n_rows if n_rows else math.nan,
+            "worst_idleness_s": engine.worst_idleness(end_time),
+            "uncertainty_mean": engine.x_sum / x_count if x_count else math.nan,
+            "uncertainty_final_mean": float(np.mean(engine.field_values)),
+            "interferences": n_inter,
+            "interference_rate_per_min": (n_inter / (duration / 60.0)
+                                          if duration > 0 else math.nan),
+            "interference_distance_m": self.d_if,
+            "visits": engine.visit_count,
+            "counted_visits": sum(max(c - 1, 0) for c in counts),
+            "visits_per_vertex": {str(v): c for v, c in zip(ids, counts, strict=True)},
+            "unvisited_vertices": int(sum(1 for c in counts if c == 0)),
+            "complete_cycles": complete_cycles(counts),
+            "deaths": 0,
+            "dead_robots": [],
+            "sample_period_s": self.sample_period_s,
+            "timeseries_rows": n_rows,
+        }
+        return plain(out)
+
+
+class NativeRun:
+    """One graph-runtime run on the C++ event loop; the interface of BatchRun."""
+
+    def __init__(self, config: RunConfig, patrol_map=None, *, native_policy: bool = True):
+        """native_policy=False runs even a strategy with a C++ path as its Python policy."""
+        import tpuaf_core
+
+        config.validate()
+        missing = unsupported_options(config)
+        if missing:
+            raise EngineChoiceError(f"the native engine does not support {', '.join(missing)}")
+        self.config = config
+        self.patrol_map = patrol_map if patrol_map is not None else load_map(config.map)
+        self.graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
+        s = self.patrol_map.settings
+        self.speed = float(s.nominal_speed)
+        self.seed = int(config.seed)
+        starts = [int(v) for v in start_vertices(self.patrol_map, config.robots)]
+        self.start_vertices = starts
+        ec = tpuaf_core.EngineConfig()
+        ec.robots = config.robots
+        ec.duration_s = float(config.duration_s)
+        ec.delay_s = float(config.delay_s)
+        ec.loss = float(config.loss)
+        ec.sample_period_s = float(config.sample_period_s)
+        ec.nominal_speed_mps = self.speed
+        ec.stay_s = STAY_S
+        ec.retry_s = DEFAULT_RETRY_S
+        ec.refractory_s = _recorder_default("refractory_s")
+        ec.max_substep_s = _recorder_default("max_substep_s")
+        ec.field_merge_s = _recorder_default("field_merge_s")
+        ec.interference_distance_m = float(s.interference_distance)
+        ec.sensing_peak = float(s.sensing_peak)
+        ec.sensing_radius_m = float(s.sensing_radius)
+        ec.start_vertices = starts
+        positions = np.asarray(self.patrol_map.positions, dtype=float)
+        field = tpuaf_core.UncertaintyField(
+            positions,
+            np.asarray(self.patrol_map.importance, dtype=float),
+            np.asarray(self.patrol_map.initial_uncertainty, dtype=float),
+            self.patrol_map.uncertainty_model(),
+        )
+        self._engine = tpuaf_core.GraphEngine(
+            self.graph, positions, ec, field, _rng_stream(self.seed, 1)
+        )
+        cls = REGISTRY.get(config.strategy)
+        self.policies = [cls(config.strategy_params) for _ in range(config.robots)]
+        self.params = dict(self.policies[0].params)  # resolved (ParameterError if invalid)
+        builder = NATIVE_STRATEGIES.get(config.strategy) if native_policy else None
+        self.native_policy = builder is not None
+        if builder is not None:
+            self._strategy = builder(self, self.params)
+            self.robots: list[_NativeRobot] = []
+        else:
+            self.robots = [
+                _NativeRobot(self, i, starts[i], self.policies[i],
+                             np.random.default_rng([self.seed, 2, i]))
+                for i in range(config.robots)
+            ]
+            self._strategy = tpuaf_core.PythonStrategy(_PythonTeam(self.robots))
+        self._engine.set_strategy(self._strategy)
+        self.recorder = NativeRecorder(self)
+        self.bus = _Bus(self._engine)
+
+    @property
+    def now(self) -> float:
+        return self._engine.now
+
+    @property
+    def events(self) -> int:
+        """Events processed by the loop (arrivals, wake-ups, deliveries)."""
+        return self._engine.events
+
+    def run(self, progress: Callable[[float], None] | None = None) -> dict:
+        """Simulate until duration_s. `progress(now)` is called now and then."""
+        self._engine.run(progress, release_gil=self.native_policy)
+        return self.summary()
+
+    def effective_config(self) -> dict:
+        """Everything that determines this run (as BatchRun's, plus the engine used)."""
+        from .. import __version__
+
+        return {
+            "runtime": getattr(BatchRun, "runtime", "graph"),
+            "engine": "native" + (" (C++ decision path)" if self.native_policy else ""),
+            "tpuaf_version": __version__,
+            **self.config.to_dict(),
+            "strategy_params": dict(self.params),
+            "map_name": self.patrol_map.name,
+            "map_source": str(self.patrol_map.source) if self.patrol_map.source else "built-in",
+            "map_settings": asdict(self.patrol_map.settings),
+            "start_vertices": [int(self.patrol_map.vertex_ids[v]) for v in self.start_vertices],
+            "faults": [],
+            "motion": "straight segments between vertices, edge length / nominal speed each",
+        }
+
+    def summary(self) -> dict:
+        summary = self.recorder.summary(self.now)
+        summary["messages"] = asdict(self.bus.stats)
+        summary["faults"] = []  # faults run on the Python engine (make_run falls back)
+        return summary
