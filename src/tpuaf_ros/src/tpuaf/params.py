@@ -81,10 +81,15 @@ class AgentParams:
     strategy: str = "tpuaf"  # strategy name from the registry
     strategy_params: dict = opt({}, dict)  # the strategy's parameters (checked by the strategy)
     seed: int = 0  # run seed (the robot's generator is seeded with [seed, 2, robot_index])
-    localization: str = "ground_truth"  # ground_truth | odom | amcl
-    initial_pose: list = opt([], list)  # [x m, y m, yaw rad] of the odom origin (odom only)
+    localization: str = "ground_truth"  # tf (hardware) | odom | ground_truth | amcl
+    initial_pose: list = opt([], list)  # [x m, y m, yaw rad] odom origin / initialpose
+    map_frame: str = "map"  # global frame of the patrol map (tf localisation)
+    base_frame: str = ""  # robot frame for tf localisation; '' = <namespace>/base_footprint
     robot_name: str = ""  # name in team messages; default: this node's namespace
     team_ns: str = "/team"  # namespace of the team topics
+    navigation: str = "builtin"  # builtin (laser local controller) | move_base (actionlib client)
+    move_base_action: str = "move_base"  # MoveBaseAction server name (relative to the namespace)
+    move_base_timeout: float = 60.0  # [s] without progress toward a move_base goal: goal failed
     max_linear_speed: float = 0.0  # [m/s]; 0 = the map's nominal speed
     max_angular_speed: float = 2.84  # [rad/s]
     robot_radius: float = 0.0  # [m]; 0 = the map's robot radius
@@ -94,9 +99,17 @@ class AgentParams:
     backoff_time: float = 1.5  # [s] reversing in a recovery
     max_retries: int = 2  # recoveries before the goal is reported failed
     waypoint_tolerance: float = 0.6  # [m] pass-through vertices
+    scan_beams: int = 180  # laser beams used by the controller at most (the scan is subsampled)
     heartbeat_period: float = 1.0  # [s] AgentEvent HEARTBEAT period
-    wait_for_start: bool = False  # wait for the monitor's /fleet/start (fleet runs)
-    epoch: float = -1.0  # [s] ROS time of run time 0; -1: 0 with sim time, else /tpuaf/epoch
+    lockstep: bool = False  # answer every pose tick with TwistStamped on cmd_vel_stamped
+    input_timeout: float = 2.0  # [s wall] pose, scan or clock not advancing this long: stop
+    teammate_timeout: float = 10.0  # [s] a teammate silent this long is lost (intentions dropped)
+    skew_warn: float = 1.0  # [s] warn when a teammate's clock is off by more than this
+    max_skew: float = 30.0  # [s] team messages farther than this from our clock are ignored
+    clock_offset: float = 0.0  # [s] added to this robot's wall clock (tests: injected skew)
+    wait_for_start: bool = False  # wait for the run start on /fleet/start (monitor-led runs)
+    start_wait: float = 2.0  # [s wall] wall clock: wait this long for /fleet/start, then announce it
+    epoch: float = -1.0  # [s] ROS time of run time 0; -1: 0 with sim time, else /fleet/start
 
 
 @dataclass

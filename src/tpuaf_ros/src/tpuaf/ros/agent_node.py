@@ -1,27 +1,36 @@
-"""patrol_agent: one robot's strategy and navigator on ROS 1 (thin adapter, see docs/FLEET.md).
+"""patrol_agent: one robot's strategy and navigator on ROS 1 (thin adapter, see docs/HARDWARE.md).
 
-In the robot's namespace: subscribes base_scan (sensor_msgs/LaserScan), its pose from
-base_pose_ground_truth or odom (nav_msgs/Odometry) or amcl_pose
-(geometry_msgs/PoseWithCovarianceStamped), the team topics (/team/*, typed tpuaf_ros messages)
-and /fleet/start; publishes cmd_vel (one per pose message), team messages on events and
-AgentEvent on /fleet/agent_events. Private parameters: tpuaf.params.AgentParams (strict).
+In the robot's namespace: subscribes its laser `base_scan` (remap to `scan` on a TurtleBot3) and
+its pose from /tf (map -> <ns>/base_footprint, any localiser; the hardware default), odom,
+base_pose_ground_truth or amcl_pose; the team topics (/team/*, typed tpuaf_ros messages), the
+agents' heartbeats (/fleet/agent_events) and the run start (/fleet/start, latched). Publishes
+cmd_vel (Twist, one per pose tick; TwistStamped on cmd_vel_stamped in lock-step; nothing with
+the move_base backend, which sends MoveBaseAction goals), team messages on events and AgentEvent
+on /fleet/agent_events. Works on the wall clock (hardware) and on /clock (simulation).
+Private parameters: tpuaf.params.AgentParams (strict; `patrol_agent --help`).
 """
 
 import math
 import threading
+import time
 import warnings
 
 import rospy
-from geometry_msgs.msg import PoseWithCovarianceStamped, Twist
+from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rospy.numpy_msg import numpy_msg
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64
+from tf2_msgs.msg import TFMessage
 
 from tpuaf_ros.msg import AgentEvent
 
+from .. import topics
+from ..frames import FrameChain
+from ..inbox import InboxConfig, TeamInbox
+from ..liveness import InputWatchdog, TeammateLiveness
 from ..maps import MapError, load_map, start_vertices
-from ..navigation import ControllerConfig, Scan, scan_points
+from ..navigation import ControllerConfig, GoalNavigator, Scan, scan_points
 from ..params import AgentParams, NodeParamError, parse
 from ..policies import REGISTRY, ParameterError
 from ..runtimes.agent import AgentRuntime
@@ -29,28 +38,55 @@ from . import convert
 from .node import private_params, run_node, yaw_of
 
 NODE = "patrol_agent"
+LOCALIZATIONS = ("tf", "odom", "ground_truth", "amcl")
+NAVIGATIONS = ("builtin", "move_base")
+WARN_PERIOD_S = 5.0  # [s wall] throttle of repeated warnings
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
 
 
+def check_params(p: AgentParams, sim: bool) -> None:
+    """Cross-parameter checks (one-line NodeParamError naming the problem)."""
+    if not 0 <= p.robot_index < p.robots:
+        raise NodeParamError(f"~robot_index {p.robot_index} not in 0..{p.robots - 1}")
+    if p.localization not in LOCALIZATIONS:
+        raise NodeParamError(f"~localization must be one of {', '.join(LOCALIZATIONS)}, got "
+                             f"{p.localization!r}")
+    if p.navigation not in NAVIGATIONS:
+        raise NodeParamError(f"~navigation must be builtin or move_base, got {p.navigation!r}")
+    if p.initial_pose and (len(p.initial_pose) != 3 or not all(
+            isinstance(v, (int, float)) and math.isfinite(v) for v in p.initial_pose)):
+        raise NodeParamError(f"~initial_pose must be [x, y, yaw], got {p.initial_pose}")
+    for name in ("input_timeout", "teammate_timeout", "skew_warn", "max_skew", "heartbeat_period",
+                 "move_base_timeout"):
+        if not getattr(p, name) > 0:
+            raise NodeParamError(f"~{name} must be > 0, got {getattr(p, name)}")
+    if p.start_wait < 0:
+        raise NodeParamError(f"~start_wait must be >= 0 s, got {p.start_wait}")
+    if p.scan_beams < 8:
+        raise NodeParamError(f"~scan_beams must be >= 8, got {p.scan_beams}")
+    if sim and p.clock_offset != 0.0:
+        raise NodeParamError("~clock_offset needs the wall clock (use_sim_time false)")
+    if p.lockstep and p.navigation == "move_base":
+        raise NodeParamError("~lockstep needs ~navigation builtin (move_base drives the robot)")
+
+
 class AgentNode:
-    def __init__(self, p, patrol_map):
+    def __init__(self, p: AgentParams, patrol_map, sim: bool):
         self.p = p
+        self.sim = sim
         self.lock = threading.Lock()
-        sim = bool(rospy.get_param("/use_sim_time", False))
-        epoch = p.epoch
-        if epoch < 0:
-            if sim:
-                epoch = 0.0
-            else:  # hardware: the team shares /tpuaf/epoch (the first agent sets it)
-                if not rospy.has_param("/tpuaf/epoch"):
-                    rospy.set_param("/tpuaf/epoch", math.floor(rospy.get_time()))
-                epoch = float(rospy.get_param("/tpuaf/epoch"))
-        self.epoch = epoch
         ns = rospy.get_namespace().strip("/")
         name = p.robot_name or ns or f"robot_{p.robot_index}"
         prefix = name[: -len(str(p.robot_index))] if name.endswith(str(p.robot_index)) else name + "_"
-        self.conv = convert.Converter(patrol_map, prefix=prefix, epoch=epoch)
         self.name = name
+        # Run time = ROS time (+ clock_offset on the wall clock) - epoch. Sim: epoch 0 and the
+        # start on /fleet/start; wall clock: the epoch IS the start announced on /fleet/start.
+        if p.epoch >= 0:
+            self.epoch = float(p.epoch)
+        else:
+            self.epoch = 0.0 if sim else None
+        self.conv = convert.Converter(patrol_map, prefix=prefix, epoch=self.epoch or 0.0)
+        self.names = [f"{prefix}{i}" for i in range(p.robots)]
         s = patrol_map.settings
         cfg = ControllerConfig(
             max_linear_speed=p.max_linear_speed or s.nominal_speed,
@@ -61,52 +97,98 @@ class AgentNode:
             retry_wait_s=0.5 + 0.5 * (p.robot_index % 4),  # staggered: breaks symmetric deadlocks
         )
         policy = REGISTRY.create(p.strategy, p.strategy_params)
+        self.inbox = TeamInbox(p.robots, patrol_map.num_vertices, p.robot_index, InboxConfig(
+            skew_warn_s=p.skew_warn, max_skew_s=p.max_skew, correct_skew=not sim))
+        self.liveness = TeammateLiveness(p.robots, p.robot_index, p.teammate_timeout)
+        pose_input = "tf " + p.map_frame if p.localization == "tf" else p.localization
+        # amcl_pose comes on change only: a robot at rest would look stale.
+        watched = ("scan", "clock") if p.localization == "amcl" else ("pose", "scan", "clock")
+        self.inputs = InputWatchdog(watched, p.input_timeout)
+        self.pose_input = pose_input
+        self.halted = True  # until pose, scan and clock are fresh
+        self._warned = {}  # key -> wall time of the last warning
+
         # Publishers.
-        self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=None, tcp_nodelay=True)
-        self.event_pub = rospy.Publisher(convert.EVENTS_TOPIC, AgentEvent, queue_size=None)
+        self.lockstep = p.lockstep
+        self.drives = p.navigation == "builtin"
+        if self.lockstep:
+            self.cmd_pub = rospy.Publisher(topics.CMD_VEL_STAMPED, TwistStamped, queue_size=None,
+                                           tcp_nodelay=True)
+            self.cmd = TwistStamped()
+            self.twist = self.cmd.twist
+        else:
+            self.cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=None,
+                                           tcp_nodelay=True)
+            self.cmd = self.twist = Twist()
+        self.event_pub = rospy.Publisher(topics.EVENTS_TOPIC, AgentEvent, queue_size=None)
+        self.start_pub = None
         self.team_pub = {}
         for cls, ros_cls in self.conv.types.items():
-            topic = f"{p.team_ns.rstrip('/')}/{convert.TEAM_TOPICS[cls]}"
-            self.team_pub[cls] = rospy.Publisher(topic, ros_cls, queue_size=None)
-        self.cmd = Twist()
+            self.team_pub[cls] = rospy.Publisher(topics.team_topic(p.team_ns, cls), ros_cls,
+                                                 queue_size=None)
         self.event = AgentEvent()
         self.event.robot = name
         self.event.robot_index = p.robot_index
         self.runtime = AgentRuntime(patrol_map, policy, p.robot_index, p.robots, p.seed,
                                     self.publish_team, self.publish_event, cfg,
                                     p.heartbeat_period, p.waypoint_tolerance)
-        if p.wait_for_start:
+        if p.navigation == "move_base":
+            from .move_base import MoveBaseClient
+
+            self.runtime.navigator = GoalNavigator(
+                MoveBaseClient(p.move_base_action, p.map_frame), self.runtime.goal_tolerance,
+                p.waypoint_tolerance, stuck_timeout_s=p.move_base_timeout)
+        if p.wait_for_start and sim:
             self.runtime.start_at = None
         self.points = None
         self._scan = None
+        self._stride = 1
         self.origin = None
         if p.localization == "odom":
             if p.initial_pose:
-                if len(p.initial_pose) != 3:
-                    raise NodeParamError(f"~initial_pose must be [x, y, yaw], got {p.initial_pose}")
                 self.origin = tuple(float(v) for v in p.initial_pose)
             else:
                 v = start_vertices(patrol_map, p.robots)[p.robot_index]
                 self.origin = (*map(float, patrol_map.positions[v]), 0.0)
+        elif p.initial_pose and p.localization in ("tf", "amcl"):
+            self._send_initial_pose(p.initial_pose)
+
         # Subscribers.
         for cls, ros_cls in self.conv.types.items():
-            topic = f"{p.team_ns.rstrip('/')}/{convert.TEAM_TOPICS[cls]}"
-            rospy.Subscriber(topic, ros_cls, self.on_team, queue_size=200)
-        rospy.Subscriber("/fleet/start", Float64, self.on_start, queue_size=1)
-        rospy.Subscriber("base_scan", numpy_msg(LaserScan), self.on_scan, queue_size=1,
+            rospy.Subscriber(topics.team_topic(p.team_ns, cls), ros_cls, self.on_team,
+                             queue_size=200)
+        rospy.Subscriber(topics.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=200)
+        rospy.Subscriber(topics.START_TOPIC, Float64, self.on_start, queue_size=10)
+        rospy.Subscriber(topics.SCAN, numpy_msg(LaserScan), self.on_scan, queue_size=1,
                          tcp_nodelay=True)
+        self.chain = None
         if p.localization == "ground_truth":
-            rospy.Subscriber("base_pose_ground_truth", Odometry, self.on_odom, queue_size=1,
+            rospy.Subscriber(topics.GROUND_TRUTH, Odometry, self.on_odom, queue_size=1,
                              tcp_nodelay=True)
         elif p.localization == "odom":
-            rospy.Subscriber("odom", Odometry, self.on_odom, queue_size=1, tcp_nodelay=True)
-        elif p.localization == "amcl":
-            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self.on_amcl, queue_size=1)
-            # amcl publishes on change only: control runs on the scans then.
-        else:
-            raise NodeParamError(f"~localization must be ground_truth, odom or amcl, got "
-                                 f"{p.localization!r}")
+            rospy.Subscriber(topics.ODOM, Odometry, self.on_odom, queue_size=1, tcp_nodelay=True)
+        elif p.localization == "tf":
+            base = p.base_frame or (f"{ns}/base_footprint" if ns else "base_footprint")
+            self.chain = FrameChain(p.map_frame, base)
+            rospy.Subscriber("/tf", TFMessage, self.on_tf, queue_size=5, tcp_nodelay=True)
+            rospy.Subscriber("/tf_static", TFMessage, self.on_tf, queue_size=5)
+        else:  # amcl publishes on change only: control runs on the scans then.
+            rospy.Subscriber(topics.AMCL_POSE, PoseWithCovarianceStamped, self.on_amcl,
+                             queue_size=1)
         self.control_on_scan = p.localization == "amcl"
+        self._t0_wall = time.monotonic()
+        self._thread = threading.Thread(target=self.supervise, daemon=True)
+        self._thread.start()
+
+    # --- time ---
+    def ros_now(self) -> float:
+        """[s] ROS time of this robot (wall clock + ~clock_offset, or /clock)."""
+        return rospy.get_time() + self.p.clock_offset
+
+    def run_time(self, stamp: float) -> float:
+        """Run time [s] of a tick: the message stamp on /clock, our own clock otherwise (the
+        pose may come from another computer whose clock differs)."""
+        return (stamp if self.sim else self.ros_now()) - self.epoch
 
     # --- outputs ---
     def publish_team(self, message):
@@ -114,29 +196,109 @@ class AgentNode:
 
     def publish_event(self, kind, vertex, from_vertex, t):
         e = self.event
-        e.stamp = convert.stamp(t, self.epoch)
+        e.stamp = convert.stamp(t, self.epoch or 0.0)
         e.event = kind
         e.vertex = self.conv.vid(vertex)
         e.from_vertex = self.conv.vid(from_vertex)
         self.event_pub.publish(e)
 
+    def stop_robot(self, stamp=None):
+        self.twist.linear.x = self.twist.angular.z = 0.0
+        if self.lockstep:
+            if stamp is None:
+                return  # lock-step answers ticks only
+            self.cmd.header.stamp = stamp
+        if self.drives:
+            self.cmd_pub.publish(self.cmd)
+
+    def _send_initial_pose(self, pose):
+        """Tell the localiser (amcl: `initialpose`) where the robot starts."""
+        pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
+        msg = PoseWithCovarianceStamped()
+        msg.header.frame_id = self.p.map_frame
+        msg.header.stamp = rospy.Time.now()
+        x, y, yaw = (float(v) for v in pose)
+        msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+        msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        msg.pose.covariance[0] = msg.pose.covariance[7] = 0.25 ** 2
+        msg.pose.covariance[35] = 0.2 ** 2
+        pub.publish(msg)
+        self._initial_pose_pub = pub
+
+    def warn(self, key, text, period=WARN_PERIOD_S):
+        now = time.monotonic()
+        if now - self._warned.get(key, -math.inf) >= period:
+            self._warned[key] = now
+            rospy.logwarn(f"{self.name}: {text}")
+
     # --- inputs ---
     def on_start(self, msg):
+        start = float(msg.data)
+        if not math.isfinite(start) or start < 0:
+            self.warn("start", f"ignored run start {msg.data!r} on {topics.START_TOPIC}")
+            return
         with self.lock:
-            self.runtime.start_at = msg.data - self.epoch
+            if self.sim or self.p.epoch >= 0:
+                self.runtime.start_at = start - self.epoch
+                return
+            if self.epoch is not None and start >= self.epoch - 1e-6:
+                return  # the team takes the earliest announcement
+            if self.epoch is not None:
+                rospy.loginfo(f"{self.name}: earlier run start {start:.3f} announced; run time "
+                              f"moves forward by {self.epoch - start:.3f} s")
+            self.epoch = self.conv.epoch = start
+        rospy.loginfo(f"{self.name}: run start (epoch) {start:.3f} s of ROS time")
+
+    def announce_start(self):
+        """Wall clock, nobody announced a start within ~start_wait: announce ours (latched)."""
+        start = float(math.floor(self.ros_now()))
+        self.start_pub = rospy.Publisher(topics.START_TOPIC, Float64, queue_size=1, latch=True)
+        with self.lock:
+            if self.epoch is not None:
+                return
+            self.epoch = self.conv.epoch = start
+        self.start_pub.publish(Float64(start))
+        rospy.loginfo(f"{self.name}: announced the run start {start:.3f} s on "
+                      f"{topics.START_TOPIC}")
 
     def on_team(self, msg):
-        if msg.robot_index == self.p.robot_index:
+        r = msg.robot_index
+        if r == self.p.robot_index:
             return  # our own broadcast
+        if self.epoch is None:
+            return
+        now = self.ros_now() - self.epoch
+        try:
+            message = self.conv.from_ros(msg)
+        except convert.MalformedMessage as err:
+            self.warn(("bad", r), f"ignored a team message from {msg.robot!r}: {err}")
+            return
         with self.lock:
-            self.runtime.on_message(self.conv.from_ros(msg))
+            message, why = self.inbox.accept(message, now)
+            if message is None:
+                self.warn(("bad", r), f"ignored a team message from {msg.robot!r}: {why}")
+                return
+            if self.liveness.heard(r, now):
+                rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
+            self.runtime.on_message(message)
+
+    def on_event(self, msg):
+        r = msg.robot_index
+        if r == self.p.robot_index or self.epoch is None or not 0 <= r < self.p.robots:
+            return
+        now = self.ros_now() - self.epoch
+        with self.lock:
+            self.inbox.observe(r, msg.stamp.to_sec() - self.epoch, now)
+            if self.liveness.heard(r, now):
+                rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
 
     def on_scan(self, msg):
+        self.inputs.fed("scan", msg.header.stamp.to_sec(), time.monotonic())
         with self.lock:
             self._scan = msg
             self.points = None
             if self.control_on_scan:
-                self.control(msg.header.stamp.to_sec() - self.epoch)
+                self.control(msg.header.stamp)
 
     def on_odom(self, msg):
         pose = msg.pose.pose
@@ -145,40 +307,157 @@ class AgentNode:
             ox, oy, oth = self.origin
             c, s = math.cos(oth), math.sin(oth)
             x, y, th = ox + c * x - s * y, oy + s * x + c * y, th + oth
-        t = msg.header.stamp.to_sec() - self.epoch
+        self.pose_tick(msg.header.stamp, x, y, th)
+
+    def on_tf(self, msg):
+        chain = self.chain
+        base_stamp = None
         with self.lock:
-            self.runtime.on_pose(t, x, y, th)
-            self.control(t)
+            for tf in msg.transforms:
+                tr = tf.transform
+                if chain.update(tf.header.frame_id, tf.child_frame_id, tr.translation.x,
+                                tr.translation.y, yaw_of(tr.rotation),
+                                tf.header.stamp.to_sec()) and tf.child_frame_id.lstrip(
+                                    "/") == chain.base:
+                    base_stamp = tf.header.stamp
+        if base_stamp is None:
+            return
+        pose = chain.pose()
+        if pose is None:
+            self.warn("tf", f"no tf chain {chain.root} -> {chain.base} yet (missing the parent "
+                      f"of {chain.missing()}): is the localiser running?")
+            return
+        self.pose_tick(base_stamp, pose[0], pose[1], pose[2])
 
     def on_amcl(self, msg):
         pose = msg.pose.pose
+        self.inputs.fed("pose", msg.header.stamp.to_sec(), time.monotonic())
+        if self.epoch is None:
+            return
         with self.lock:
-            self.runtime.on_pose(msg.header.stamp.to_sec() - self.epoch, pose.position.x,
+            self.runtime.on_pose(self.run_time(msg.header.stamp.to_sec()), pose.position.x,
                                  pose.position.y, yaw_of(pose.orientation))
 
-    def control(self, t):
+    def pose_tick(self, stamp, x, y, th):
+        """One control tick on a new pose (stamp: genpy Time of the pose)."""
+        sec = stamp.to_sec()
+        self.inputs.fed("pose", sec, time.monotonic())
+        with self.lock:
+            if self.epoch is None:
+                self.stop_robot(stamp)
+                return
+            t = self.run_time(sec)
+            self.runtime.on_pose(t, x, y, th)
+            self.control(stamp, t)
+
+    def control(self, stamp, t=None):
+        """Runtime tick at run time t [s] and the velocity command (caller holds the lock)."""
+        if self.epoch is None:
+            self.stop_robot(stamp)
+            return
+        if self.halted:
+            stale, _ = self.inputs.check(time.monotonic())
+            if stale:
+                self.stop_robot(stamp)
+                return
+            self.resume()
         if self.points is None and self._scan is not None:
             s = self._scan
-            self.points = scan_points(Scan(s.ranges, s.angle_min, s.angle_increment,
+            n = len(s.ranges)
+            k = max(1, -(-n // self.p.scan_beams))  # ceil: subsample to <= scan_beams beams
+            self.points = scan_points(Scan(s.ranges[::k], s.angle_min, s.angle_increment * k,
                                            s.range_min, s.range_max))
-        v, w = self.runtime.tick(t, self.points)
-        self.cmd.linear.x, self.cmd.angular.z = v, w
+        v, w = self.runtime.tick(self.run_time(stamp.to_sec()) if t is None else t, self.points)
+        if not self.drives:
+            return
+        self.twist.linear.x, self.twist.angular.z = v, w
+        if self.lockstep:
+            self.cmd.header.stamp = stamp
         self.cmd_pub.publish(self.cmd)
+
+    # --- supervision (own thread, wall clock) ---
+    def halt(self, stale):
+        self.halted = True
+        self.runtime.navigator.pause()
+        self.stop_robot()
+
+    def resume(self):
+        self.halted = False
+        if self.epoch is not None:
+            self.runtime.navigator.resume(self.run_time(self.ros_now()))
+        rospy.loginfo(f"{self.name}: pose, scan and clock advancing: driving")
+
+    def supervise(self):
+        """Input watchdog, run start, teammate liveness and skew warnings at 4 Hz of wall time."""
+        period = 0.25
+        last_clock = None
+        next_beat = 0.0
+        while not rospy.is_shutdown():
+            time.sleep(period)
+            wall = time.monotonic()
+            try:
+                t = self.ros_now()
+            except rospy.ROSException:
+                break
+            if last_clock is None or t > last_clock:
+                self.inputs.fed("clock", t, wall)
+                last_clock = t
+            stale, changed = self.inputs.check(wall)
+            with self.lock:
+                if stale and (changed or not self.halted):
+                    self.halt(stale)
+                elif stale:
+                    self.stop_robot()
+            if stale:
+                ages = ", ".join(f"{n} for {min(self.inputs.age(n, wall), 1e9):.1f} s" for n in stale)
+                src = {"pose": self.pose_input, "scan": topics.SCAN, "clock": "ROS time"}
+                self.warn("stale", f"robot stopped: not advancing: {ages} "
+                          f"({', '.join(src[n] for n in stale)}); resumes when they do")
+            if self.epoch is None:
+                if not self.p.wait_for_start and wall - self._t0_wall >= self.p.start_wait:
+                    self.announce_start()
+                else:
+                    if wall >= next_beat:  # "ready" for a monitor that announces the start
+                        next_beat = wall + self.p.heartbeat_period
+                        e = self.event
+                        e.stamp = rospy.Time.from_sec(max(t, 0.0))
+                        e.event, e.vertex, e.from_vertex = topics.HEARTBEAT, -1, -1
+                        self.event_pub.publish(e)
+                    self.warn("start", f"waiting for the run start on {topics.START_TOPIC}",
+                              period=30.0)
+                continue
+            now = t - self.epoch
+            with self.lock:
+                lost = self.liveness.check(now)
+                for r in lost:
+                    if self.runtime.started:
+                        self.runtime.policy.on_teammate_lost(r, self.runtime)
+                    rospy.logwarn(f"{self.name}: teammate {self.names[r]} silent for "
+                                  f"{self.liveness.silent_for(r, now):.1f} s: lost, its "
+                                  "intentions dropped")
+                skewed = self.inbox.skewed()
+            for r, offset in skewed.items():
+                self.warn(("skew", r), f"clock of {self.names[r]} is {offset:+.2f} s off ours "
+                          f"(from its message stamps; > {self.p.skew_warn:g} s): sync the "
+                          "robots' clocks (chrony, docs/HARDWARE.md); its times are corrected",
+                          period=30.0)
 
 
 def main():
     rospy.init_node(NODE)
     try:
         p = parse(AgentParams, private_params(), rospy.get_name())
+        sim = bool(rospy.get_param("/use_sim_time", False))
+        check_params(p, sim)
         patrol_map = load_map(p.map)
-        if not 0 <= p.robot_index < p.robots:
-            raise NodeParamError(f"~robot_index {p.robot_index} not in 0..{p.robots - 1}")
-        node = AgentNode(p, patrol_map)
+        node = AgentNode(p, patrol_map, sim)
     except (NodeParamError, MapError, ParameterError, KeyError) as err:
         rospy.logfatal(f"{rospy.get_name()}: {err}")
         return 2
     rospy.loginfo(f"{rospy.get_name()}: {p.strategy} robot {p.robot_index}/{p.robots} on "
-                  f"{patrol_map.name}, localisation {p.localization}, epoch {node.epoch}")
+                  f"{patrol_map.name}, localisation {node.pose_input}, navigation "
+                  f"{p.navigation}, {'sim time' if sim else 'wall clock'}, epoch "
+                  f"{'from ' + topics.START_TOPIC if node.epoch is None else node.epoch}")
     rospy.spin()
     return 0
 

@@ -9,7 +9,12 @@ from __future__ import annotations
 from typing import Any
 
 from .. import messages as m
+from ..maps import MapError
 from ..topics import EVENTS_TOPIC, METRICS_TOPIC, TEAM_TOPICS  # noqa: F401 - re-exported
+
+
+class MalformedMessage(ValueError):
+    """A team message that cannot be converted (unknown vertex id, wrong lengths)."""
 
 
 def ros_types() -> dict[type, type]:
@@ -71,7 +76,14 @@ class Converter:
         return out
 
     def from_ros(self, ros_msg: Any) -> Any:
-        """The tpuaf message of a ROS team message (type chosen by the ROS class name)."""
+        """The tpuaf message of a ROS team message (type chosen by the ROS class name); a
+        vertex id not on the map or an estimate of the wrong length is a MalformedMessage."""
+        try:
+            return self._from_ros(ros_msg)
+        except (MapError, ValueError, IndexError) as err:
+            raise MalformedMessage(str(err)) from None
+
+    def _from_ros(self, ros_msg: Any) -> Any:
         kind = type(ros_msg).__name__.rsplit("_", 1)[-1]  # rosbags names: tpuaf_ros__msg__Visit
         t = self.time(ros_msg.stamp)
         r = int(ros_msg.robot_index)
@@ -81,6 +93,9 @@ class Converter:
             return m.Intention(r, self.index(ros_msg.from_vertex), self.index(ros_msg.vertex),
                                float(ros_msg.expected_arrival), float(ros_msg.travel_time), t)
         if kind == "IdlenessEstimate":
+            if len(ros_msg.vertices) != len(self.ids):
+                raise ValueError(f"estimate of {len(ros_msg.vertices)} vertices (map has "
+                                 f"{len(self.ids)})")
             est = [0.0] * len(self.ids)
             for vid, value in zip(ros_msg.vertices, ros_msg.idleness, strict=True):
                 est[self.index(int(vid))] = float(value)

@@ -1,0 +1,155 @@
+"""Team messages from the bus, checked and put on our clock before a policy sees them (ROS-free).
+
+ROS 1 has no authentication: anything on the team topics reaches every agent. `TeamInbox.accept`
+refuses what cannot be true: an unknown robot (index outside 0..N-1, or our own index), vertices
+outside the map, non-finite numbers, negative travel times or bids, an estimate of the wrong
+length, and times farther than `max_skew_s` from our clock (far future or far past).
+
+Clock skew: each teammate's offset is estimated from its stamps as the median, over the last
+`window` messages, of (stamp - our time at receipt) (= its clock offset minus the transport
+delay). With `correct_skew` (wall clock; a shared /clock cannot skew) every time of the message
+is shifted by that offset, and a time still in our future is clamped to our now, so a robot whose
+clock runs ahead can no longer suppress our own visits. `skewed()` names the teammates whose
+offset exceeds `skew_warn_s` (the agent warns; docs/HARDWARE.md: chrony).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+from . import messages as m
+
+
+@dataclass
+class InboxConfig:
+    """Limits of the team message checks (units in the comments)."""
+
+    skew_warn_s: float = 1.0  # [s] a teammate clock offset above this is named in a warning
+    max_skew_s: float = 30.0  # [s] a message time farther than this from our clock is refused
+    max_horizon_s: float = 86400.0  # [s] an expected arrival later than this after sending is refused
+    window: int = 15  # messages per teammate in the median offset estimate
+    correct_skew: bool = True  # shift teammates' times by their estimated offset
+
+
+class SkewEstimator:
+    """Median lead (message time - receipt time [s]) of each robot over the last `window`."""
+
+    def __init__(self, window: int = 15):
+        self.window = int(window)
+        self._leads: dict[int, deque] = {}
+        self._offset: dict[int, float] = {}
+
+    def add(self, robot: int, lead_s: float) -> None:
+        q = self._leads.get(robot)
+        if q is None:
+            q = self._leads[robot] = deque(maxlen=self.window)
+        q.append(float(lead_s))
+        s = sorted(q)
+        k = len(s)
+        self._offset[robot] = s[k // 2] if k % 2 else 0.5 * (s[k // 2 - 1] + s[k // 2])
+
+    def offset(self, robot: int) -> float:
+        """[s] how far `robot`'s clock runs ahead of ours (0 until heard)."""
+        return self._offset.get(robot, 0.0)
+
+    def offsets(self) -> dict[int, float]:
+        return dict(self._offset)
+
+
+class TeamInbox:
+    """Checks and re-times team messages for robot `me` of a team of `n_robots` on a map of
+    `n_vertices` vertices; see the module docstring."""
+
+    def __init__(self, n_robots: int, n_vertices: int, me: int,
+                 config: InboxConfig | None = None):
+        self.n_robots = int(n_robots)
+        self.n_vertices = int(n_vertices)
+        self.me = int(me)
+        self.config = config or InboxConfig()
+        self.skew = SkewEstimator(self.config.window)
+        self.rejected = 0
+
+    # -- checks ---------------------------------------------------------------------------
+
+    def _vertex(self, v: Any, name: str, allow_none: bool = False) -> str | None:
+        if isinstance(v, bool) or not isinstance(v, int):
+            return f"{name} {v!r} is not an integer"
+        if allow_none and v == -1:
+            return None
+        if not 0 <= v < self.n_vertices:
+            return f"{name} {v} is outside the map (0..{self.n_vertices - 1})"
+        return None
+
+    def problem(self, msg: Any, now: float) -> str | None:
+        """Why `msg` cannot be true at our time `now` [s], or None. Does not learn the skew."""
+        r = getattr(msg, "robot", None)
+        if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < self.n_robots:
+            return f"unknown robot index {r!r} (team of {self.n_robots})"
+        if r == self.me:
+            return f"robot index {r} is ours"
+        t = getattr(msg, "time", None)
+        if not isinstance(t, (int, float)) or not math.isfinite(t):
+            return f"time {t!r} is not finite"
+        if abs(t - now) > self.config.max_skew_s:
+            return (f"time {t:.3f} s is {t - now:+.1f} s from our clock (beyond "
+                    f"{self.config.max_skew_s:g} s)")
+        kind = type(msg)
+        if kind is m.Visit:
+            return self._vertex(msg.vertex, "vertex") or self._vertex(
+                msg.next_vertex, "next vertex", allow_none=True)
+        if kind is m.Intention:
+            bad = self._vertex(msg.vertex, "vertex") or self._vertex(
+                msg.from_vertex, "from vertex", allow_none=True)
+            if bad:
+                return bad
+            for name in ("expected_arrival", "travel_time"):
+                if not math.isfinite(getattr(msg, name)):
+                    return f"{name} {getattr(msg, name)!r} is not finite"
+            if msg.travel_time < 0:
+                return f"travel time {msg.travel_time} s < 0"
+            if not -1.0 <= msg.expected_arrival - t <= self.config.max_horizon_s:
+                return f"expected arrival {msg.expected_arrival - t:+.1f} s after sending"
+            return None
+        if kind is m.IdlenessEstimate:
+            if len(msg.estimate) != self.n_vertices:
+                return f"estimate of {len(msg.estimate)} vertices (map has {self.n_vertices})"
+            if not all(math.isfinite(x) and x >= 0 for x in msg.estimate):
+                return "estimate has a negative or non-finite idleness"
+            return self._vertex(msg.next_vertex, "next vertex", allow_none=True)
+        if kind in (m.TaskRequest, m.TaskBid):
+            if not math.isfinite(msg.bid) or msg.bid < 0:
+                return f"bid {msg.bid!r} is negative or not finite"
+            return self._vertex(msg.vertex, "vertex")
+        return f"not a team message: {kind.__name__}"
+
+    # -- intake ---------------------------------------------------------------------------
+
+    def observe(self, robot: int, stamp_time: float, now: float) -> None:
+        """A stamp of `robot` (any message, e.g. a heartbeat) received at our time `now` [s]."""
+        if 0 <= robot < self.n_robots and robot != self.me and math.isfinite(stamp_time):
+            lead = stamp_time - now
+            if abs(lead) <= self.config.max_skew_s:
+                self.skew.add(robot, lead)
+
+    def accept(self, msg: Any, now: float) -> tuple[Any | None, str | None]:
+        """(message on our clock, None) or (None, the reason it is refused)."""
+        why = self.problem(msg, now)
+        if why is not None:
+            self.rejected += 1
+            return None, why
+        r = msg.robot
+        self.skew.add(r, msg.time - now)
+        shift = self.skew.offset(r) if self.config.correct_skew else 0.0
+        changes = {"time": min(msg.time - shift, now)}
+        if type(msg) is m.Intention:
+            changes["expected_arrival"] = msg.expected_arrival - shift
+        return dataclasses.replace(msg, **changes), None
+
+    def skewed(self) -> dict[int, float]:
+        """{robot: offset [s]} of the teammates whose clock offset exceeds skew_warn_s."""
+        lim = self.config.skew_warn_s
+        return {r: o for r, o in self.skew.offsets().items() if abs(o) > lim}
