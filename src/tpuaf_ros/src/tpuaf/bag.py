@@ -1,26 +1,67 @@
-"""Bag analysis with `rosbags` (no ROS installation needed): replays a fleet run's bag through
-the same `FleetMonitor` (and so the same RunRecorder) as the live monitor node.
+"""Bag analysis with `rosbags` (no ROS installation needed), of a `tpuaf fleet` bag or a plain
+`rosbag record` of a robot run.
 
-What it reads (fleet.launch records it): /<prefix><i>/base_pose_ground_truth
-(nav_msgs/Odometry), /fleet/agent_events (tpuaf_ros/AgentEvent), /fleet/start (std_msgs/Float64:
-the run's start [s]) and /fleet/metrics (tpuaf_ros/LiveMetrics: duration). Message types are
-taken from the definitions stored in the bag.
+Visits are the agents' own reports (docs: "one definition of a visit"): REACHED events on
+/fleet/agent_events when the bag has them, else the Visit team messages (/team/visits). They
+are replayed, with the robots' positions, through the same `FleetMonitor` (and so the same
+RunRecorder) as the live monitor node. Positions come from the best source the bag holds for
+every robot: ground truth (/<robot>/base_pose_ground_truth), tf (map -> <robot>/base_footprint
+on /tf and /tf_static), /<robot>/amcl_pose, /<robot>/odom; without any, visits and idleness are
+computed and X and interference are not (the notes say so). Liveness: the agents' heartbeats.
+
+Time: the analysed span is the bag's own (record times, shifted onto the message stamps' clock
+when the recorder ran on another one): it starts at /fleet/start (a fleet bag) or at the bag's
+beginning plus `start_offset_s`, and ends after `duration_s` or at the bag's end; a span outside
+the bag is refused. Memory: messages are streamed; state is per robot and per vertex, plus the
+recorder's rows (one per second of the analysed span).
+
+Entry points (pure functions of a file; every problem is a BagError naming it):
+`inspect(path)` -> BagInfo and `analyze(path, patrol_map, ...)` -> Analysis.
 """
 
 from __future__ import annotations
 
+import math
 import re
+import statistics
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from . import messages as team_messages
 from .errors import TpuafError
 from .monitor import FleetMonitor
-from .topics import EVENTS_TOPIC, METRICS_TOPIC, START_TOPIC
+from .poses import POSE_SOURCES, PoseSampler, TfTree2D, yaw_from_quaternion
+from .topics import (
+    AMCL_POSE,
+    DEFAULT_TEAM_NS,
+    EVENTS_TOPIC,
+    GROUND_TRUTH,
+    HEARTBEAT,
+    METRICS_TOPIC,
+    ODOM,
+    REACHED,
+    START_TOPIC,
+    TEAM_TOPICS,
+)
 
-GT_TOPIC = re.compile(r"^/(?P<prefix>.*?)(?P<index>\d+)/base_pose_ground_truth$")
+# /<robot name>/<kind>: a robot's pose topics; a name ends in its index (robot_0, tb3_1).
+POSE_TOPIC = re.compile(
+    rf"^/(?P<name>(?P<prefix>[^/]*?)(?P<index>\d+))/(?P<kind>{GROUND_TRUTH}|{AMCL_POSE}|{ODOM})$")
+POSE_KIND = {GROUND_TRUTH: "ground_truth", AMCL_POSE: "amcl", ODOM: "odom"}
+TF_TOPICS = ("/tf", "/tf_static")
+MAP_FRAME = "map"
+BASE_FRAME = "base_footprint"
+# Team topic basename -> message kind (the team namespace may differ from /team).
+TEAM_BASENAMES = {name: cls.__name__ for cls, name in TEAM_TOPICS.items()}
+VISITS_BASENAME = TEAM_TOPICS[team_messages.Visit]
+# [s] messages stamped this far outside the bag's span are ignored (garbled or foreign stamps).
+STAMP_MARGIN_S = 5.0
+# [s] a record-time/stamp offset larger than this is a recorder on another clock.
+CLOCK_OFFSET_S = 5.0
+NS = 1e-9
 
 
 class BagError(TpuafError):
@@ -30,13 +71,69 @@ class BagError(TpuafError):
 @dataclass
 class BagInfo:
     path: Path
-    robots: int
-    prefix: str
-    start_time: float | None  # from /fleet/start [s]
-    duration: float | None  # from /fleet/metrics [s]
+    start_s: float  # bag span on the messages' clock [s]
+    end_s: float
     topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
+    types: dict[str, str] = field(default_factory=dict)  # topic -> message type
+    robots: int = 0  # robots seen (max index + 1)
+    names: dict[int, str] = field(default_factory=dict)  # robot index -> name (robot_0)
+    prefix: str = "robot_"
+    fleet_start_s: float | None = None  # /fleet/start (a monitored run's start) [s]
+    fleet_duration_s: float | None = None  # /fleet/metrics duration [s]
     monitor_finished: bool = False
     monitor_final: dict | None = None
+    clock_offset_s: float = 0.0  # record time - stamp [s], when the recorder's clock differs
+    events: int = 0  # AgentEvent messages
+    reached_events: int = 0
+    visit_messages: int = 0  # Visit team messages
+    team_topics: dict[str, str] = field(default_factory=dict)  # topic -> Visit, Intention...
+    pose_topics: dict[str, dict[int, str]] = field(default_factory=dict)  # source -> i -> topic
+    tf_robots: set[int] = field(default_factory=set)  # robots whose tf chain reaches map
+    out_of_span: int = 0  # messages of an analysis ignored: stamped outside the bag's span
+
+    @property
+    def span_s(self) -> float:
+        return self.end_s - self.start_s
+
+    @property
+    def start_time(self) -> float | None:  # the monitored run's start (compatibility)
+        return self.fleet_start_s
+
+    @property
+    def duration(self) -> float | None:
+        return self.fleet_duration_s
+
+    def pose_sources(self, n: int) -> list[str]:
+        """Sources (best first) that give every robot 0..n-1 a pose."""
+        out = []
+        for source in POSE_SOURCES:
+            have = self.tf_robots if source == "tf" else set(self.pose_topics.get(source, {}))
+            if n and all(i in have for i in range(n)):
+                out.append(source)
+        return out
+
+
+@dataclass
+class Analysis:
+    summary: dict
+    recorder: Any  # the RunRecorder (results writer input)
+    info: BagInfo
+    robots: int
+    start_s: float  # analysed span [s], on the messages' clock
+    end_s: float
+    pose_source: str | None
+    visit_source: str  # "REACHED events" | "Visit team messages" | "none"
+    reports: int  # visit reports inside the span
+    liveness: bool  # deaths were detected from heartbeats
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def span_s(self) -> float:
+        return self.end_s - self.start_s
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading
 
 
 def _typestore(reader: Any):
@@ -52,108 +149,455 @@ def _typestore(reader: Any):
                 raise BagError(f"{reader.path}: cannot parse the definition of {conn.msgtype} "
                                f"({conn.topic}): {err}") from None
     if types:
-        store.register(types)
+        try:
+            store.register(types)
+        except Exception as err:  # noqa: BLE001 - a definition clashing with a known type
+            raise BagError(f"{reader.path}: message definitions do not fit the known types "
+                           f"({err})") from None
     return store
+
+
+def _damaged(path: Path, err: BaseException) -> BagError:
+    return BagError(f"{path}: not a readable ROS 1 bag ({type(err).__name__}: {err}); a bag cut "
+                    "short by a crash can often be repaired with `rosbag reindex`")
 
 
 @contextmanager
 def _open(path: Path) -> Iterator[Any]:
     """An open rosbags Reader; a damaged or foreign file is a BagError naming it."""
-    from rosbags.rosbag1 import Reader, ReaderError
+    from rosbags.rosbag1 import Reader
 
+    if not path.is_file():
+        raise BagError(f"{path}: bag not found")
     reader = Reader(path)
     try:
         reader.open()
-    except ReaderError as err:
-        raise BagError(
-            f"{path}: not a readable ROS 1 bag ({err}); a bag cut short by a crash can often be "
-            "repaired with `rosbag reindex`"
-        ) from None
+    except Exception as err:  # noqa: BLE001 - ReaderError and what a garbled header raises
+        raise _damaged(path, err) from None
     try:
         yield reader
     finally:
         reader.close()
 
 
+def _stream(path: Path, reader: Any, store: Any, connections: list) -> Iterator[tuple]:
+    """(connection, record time [s], message) in record order; a damaged chunk or message
+    is a BagError naming the bag (never a traceback)."""
+    if not connections:
+        return
+    it = reader.messages(connections=connections)
+    while True:
+        try:
+            conn, t_ns, raw = next(it)
+        except StopIteration:
+            return
+        except Exception as err:  # noqa: BLE001 - decompression, truncation, bad index
+            raise _damaged(path, err) from None
+        try:
+            msg = store.deserialize_ros1(raw, conn.msgtype)
+        except Exception as err:  # noqa: BLE001
+            raise BagError(f"{path}: message {t_ns * NS:.3f} s on {conn.topic} cannot be read "
+                           f"as {conn.msgtype} ({type(err).__name__}: {err})") from None
+        yield conn, t_ns * NS, msg
+
+
+def _stamp(msg: Any) -> float:
+    st = msg.header.stamp if hasattr(msg, "header") else msg.stamp
+    return st.sec + st.nanosec * NS
+
+
+def _team_kind(topic: str) -> str | None:
+    base = topic.rsplit("/", 1)[-1]
+    return TEAM_BASENAMES.get(base) if topic.count("/") >= 2 else None
+
+
+def _is_type(conn: Any, short: str) -> bool:
+    return conn.msgtype.replace("/msg/", "/") == short
+
+
 def inspect(path: str | Path) -> BagInfo:
-    """Robots, start and duration of a fleet bag (one pass over the small topics)."""
+    """What the bag holds for an analysis: its span, robots, team and pose topics (one pass
+    over the small topics, and over /tf until every robot's chain to map is known)."""
 
     path = Path(path)
-    if not path.is_file():
-        raise BagError(f"{path}: bag not found")
     with _open(path) as reader:
         store = _typestore(reader)
-        robots: dict[int, str] = {}
-        topics = {}
+        if reader.message_count == 0:
+            raise BagError(f"{path}: the bag holds no messages")
+        info = BagInfo(path, reader.start_time * NS, reader.end_time * NS)
+        small, tf_conns = [], []
         for conn in reader.connections:
-            topics[conn.topic] = topics.get(conn.topic, 0) + conn.msgcount
-            m = GT_TOPIC.match(conn.topic)
+            info.topics[conn.topic] = info.topics.get(conn.topic, 0) + conn.msgcount
+            info.types[conn.topic] = conn.msgtype
+            m = POSE_TOPIC.match(conn.topic)
             if m:
-                robots[int(m["index"])] = m["prefix"]
-        if not robots:
-            raise BagError(f"{path}: no /<prefix><i>/base_pose_ground_truth topic in the bag "
-                           f"(topics: {', '.join(sorted(topics)) or 'none'})")
-        prefixes = set(robots.values())
-        if len(prefixes) > 1:
-            raise BagError(f"{path}: ground truth under several prefixes: {sorted(prefixes)}")
-        info = BagInfo(path, max(robots) + 1, prefixes.pop(), None, None, topics)
-        small = [c for c in reader.connections if c.topic in (START_TOPIC, METRICS_TOPIC)]
-        for conn, _t, raw in reader.messages(connections=small):
-            msg = store.deserialize_ros1(raw, conn.msgtype)
+                kind = POSE_KIND[m["kind"]]
+                if _is_type(conn, "geometry_msgs/PoseWithCovarianceStamped" if kind == "amcl"
+                            else "nav_msgs/Odometry"):
+                    info.pose_topics.setdefault(kind, {})[int(m["index"])] = conn.topic
+                    info.names.setdefault(int(m["index"]), m["name"])
+            elif conn.topic in TF_TOPICS and _is_type(conn, "tf2_msgs/TFMessage"):
+                tf_conns.append(conn)
+            elif conn.topic in (START_TOPIC, METRICS_TOPIC, EVENTS_TOPIC):
+                small.append(conn)
+            elif _team_kind(conn.topic) and conn.msgtype.startswith("tpuaf_ros/"):
+                info.team_topics[conn.topic] = _team_kind(conn.topic)
+                small.append(conn)
+        offsets: list[float] = []
+        for conn, t_rec, msg in _stream(path, reader, store, small):
             if conn.topic == START_TOPIC:
-                info.start_time = float(msg.data)
-            else:
-                info.duration = float(msg.duration)
+                info.fleet_start_s = float(msg.data)
+            elif conn.topic == METRICS_TOPIC:
+                info.fleet_duration_s = float(msg.duration)
                 if msg.finished:
                     info.monitor_finished = True
                     info.monitor_final = {k: getattr(msg, k) for k in (
                         "elapsed", "visits", "idleness_avg", "interferences", "robots_alive")}
+            else:  # agent events and team messages: robots, names, clock
+                r = int(msg.robot_index)
+                if 0 <= r < 10_000:
+                    info.robots = max(info.robots, r + 1)
+                    if msg.robot:
+                        info.names.setdefault(r, str(msg.robot).strip("/"))
+                if conn.topic == EVENTS_TOPIC:
+                    info.events += 1
+                    info.reached_events += int(msg.event) == REACHED
+                elif info.team_topics[conn.topic] == "Visit":
+                    info.visit_messages += 1
+                if len(offsets) < 2001:
+                    offsets.append(t_rec - _stamp(msg))
+        if info.pose_topics:
+            info.robots = max(info.robots, max(max(d) for d in info.pose_topics.values()) + 1)
+        if offsets:
+            offset = statistics.median(offsets)
+            if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
+                info.clock_offset_s = offset
+                info.start_s -= offset
+                info.end_s -= offset
+        names = {r: info.names.get(r, f"{_prefix(info)}{r}") for r in range(info.robots)}
+        info.prefix = _prefix(info)
+        if tf_conns and names:
+            tree = TfTree2D()
+            wanted = {r: f"{n}/{BASE_FRAME}" for r, n in names.items()}
+            for _conn, _t, msg in _stream(path, reader, store, tf_conns):
+                _tf_update(tree, msg)
+                for r in [r for r, frame in wanted.items() if tree.lookup(MAP_FRAME, frame)]:
+                    info.tf_robots.add(r)
+                    del wanted[r]
+                if not wanted:
+                    break
     return info
 
 
-def replay(path: str | Path, patrol_map: Any, *, robots: int | None = None,
-           duration: float | None = None, start_time: float | None = None,
-           death_timeout_s: float = 5.0) -> tuple[FleetMonitor, BagInfo]:
-    """Feed the bag's ground truth and agent events, in bag order, to a FleetMonitor."""
+def _prefix(info: BagInfo) -> str:
+    for name in info.names.values():
+        m = re.match(r"^(.*?)\d+$", name)
+        if m:
+            return m.group(1)
+    return "robot_"
 
+
+def _tf_update(tree: TfTree2D, msg: Any) -> list[str]:
+    children = []
+    for tr in msg.transforms:
+        t, q = tr.transform.translation, tr.transform.rotation
+        tree.set(tr.header.frame_id, tr.child_frame_id, t.x, t.y,
+                 yaw_from_quaternion(q.x, q.y, q.z, q.w))
+        children.append(tr.child_frame_id)
+    return children
+
+
+# ---------------------------------------------------------------------------------------------
+# Analysis
+
+
+def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
+            start_offset_s: float | None = None, duration_s: float | None = None,
+            death_timeout_s: float | None = None, pose_source: str | None = None,
+            team_ns: str | None = None) -> Analysis:
+    """Metrics of the run in the bag (see the module docstring).
+
+    start_offset_s: the span starts this long after the bag's beginning (default: /fleet/start
+    when the bag has it, else the beginning); duration_s: its length (default: the monitored
+    run's duration when the bag holds all of it, else up to the bag's end); death_timeout_s:
+    heartbeat silence that makes a robot dead (default 5 s; off without heartbeats);
+    pose_source: ground_truth | tf | amcl | odom (default: the best one the bag has)."""
+
+    path = Path(path)
     info = inspect(path)
-    n = robots or info.robots
-    duration = duration if duration is not None else info.duration
-    if duration is None:
-        raise BagError(f"{path}: no /fleet/metrics in the bag: give the duration")
-    start = start_time if start_time is not None else info.start_time
-    if start is None:
-        raise BagError(f"{path}: no /fleet/start in the bag: give the start time")
-    monitor = FleetMonitor(patrol_map, n, duration, start_after=start,
-                           death_timeout_s=death_timeout_s)
-    with _open(Path(path)) as reader:
+    notes: list[str] = []
+    n = int(robots) if robots else info.robots
+    if n <= 0:
+        raise BagError(f"{path}: no robot found (no team messages, agent events or "
+                       f"/<robot>/odom, amcl_pose, base_pose_ground_truth topics); topics: "
+                       f"{', '.join(sorted(info.topics)) or 'none'}")
+    if info.robots > n:
+        notes.append(f"the bag has reports of {info.robots} robots; robots >= {n} ignored")
+    if info.clock_offset_s:
+        notes.append(f"the recorder's clock differs from the message stamps by "
+                     f"{info.clock_offset_s:+.1f} s: the span is taken on the stamps' clock")
+    start, end = _span(info, start_offset_s, duration_s)
+    if death_timeout_s is not None and not death_timeout_s > 0:
+        raise BagError(f"death timeout must be > 0 s, got {death_timeout_s:g}")
+
+    # Visits: REACHED events, else Visit team messages.
+    team = {t: k for t, k in info.team_topics.items()
+            if team_ns is None or t.startswith(team_ns.rstrip("/") + "/")}
+    visit_topics = [t for t, k in team.items() if k == "Visit"]
+    if info.reached_events:
+        visit_source = f"REACHED events ({EVENTS_TOPIC})"
+    elif info.visit_messages:
+        visit_source = f"Visit team messages ({', '.join(visit_topics)})"
+    else:
+        visit_source = "none"
+        notes.append(f"no visit reports: neither REACHED events on {EVENTS_TOPIC} nor Visit "
+                     f"messages on {DEFAULT_TEAM_NS}/{VISITS_BASENAME}: visits and idleness "
+                     "cannot be computed")
+    # Liveness: heartbeats (agent events); team messages only when a timeout is given.
+    liveness = info.events > 0 or death_timeout_s is not None
+    timeout = death_timeout_s if death_timeout_s is not None else 5.0
+    if not liveness:
+        timeout = math.inf
+        notes.append(f"deaths not detected: no agent heartbeats ({EVENTS_TOPIC}) in the bag "
+                     "(give --death-timeout to judge liveness from the team messages)")
+    elif not info.events:
+        notes.append(f"liveness judged from the team messages (no heartbeats on "
+                     f"{EVENTS_TOPIC}): a robot silent for {timeout:g} s is dead")
+
+    # Poses.
+    available = info.pose_sources(n)
+    if pose_source is not None:
+        if pose_source not in POSE_SOURCES:
+            raise BagError(f"pose source must be one of {', '.join(POSE_SOURCES)}, got "
+                           f"{pose_source!r}")
+        if pose_source not in available:
+            raise BagError(f"{path}: no {pose_source} poses for every robot 0..{n - 1} "
+                           f"(available: {', '.join(available) or 'none'})")
+        source = pose_source
+    else:
+        source = available[0] if available else None
+    if source is None:
+        notes.append(_missing_poses(info, n))
+    else:
+        notes.append(f"positions (X, interference) from {POSE_SOURCES[source]}")
+
+    with _open(path) as reader:
         store = _typestore(reader)
-        wanted, robot_of = [], {}
-        for conn in reader.connections:
-            m = GT_TOPIC.match(conn.topic)
-            if m and int(m["index"]) < n:
-                robot_of[conn.id] = int(m["index"])
-                wanted.append(conn)
-            elif conn.topic == EVENTS_TOPIC:
-                wanted.append(conn)
-        index_of = patrol_map.index_of
-        for conn, _t, raw in reader.messages(connections=wanted):
-            msg = store.deserialize_ros1(raw, conn.msgtype)
-            r = robot_of.get(conn.id)
-            if r is not None:
-                st = msg.header.stamp
-                p = msg.pose.pose.position
-                monitor.on_pose(r, st.sec + st.nanosec * 1e-9, p.x, p.y)
+        if source is None:
+            recorder, reports = _replay_reports(path, reader, store, info, patrol_map, n, start,
+                                                end, timeout, team, liveness)
+            monitor = None
+        else:
+            monitor, reports = _replay(path, reader, store, info, patrol_map, n, start, end,
+                                       timeout, team, source)
+            recorder = monitor.recorder
+    if info.out_of_span:
+        notes.append(f"{info.out_of_span} message(s) stamped outside the bag's span ignored")
+    if monitor is not None:
+        summary = monitor.summary()
+        start_used = monitor.start_time
+    else:
+        summary = recorder.summary(end)
+        start_used = start
+    end_used = start_used + summary["duration_s"]
+    if source is None:
+        for key in ("uncertainty_mean", "uncertainty_final_mean", "interferences",
+                    "interference_rate_per_min"):
+            summary[key] = None
+    return Analysis(summary, recorder, info, n, start_used, end_used, source, visit_source,
+                    reports, liveness, notes)
+
+
+def _missing_poses(info: BagInfo, n: int) -> str:
+    have = []
+    for source in POSE_SOURCES:
+        robots = info.tf_robots if source == "tf" else set(info.pose_topics.get(source, {}))
+        if robots:
+            have.append(f"{source} for robot(s) {sorted(robots)}")
+    names = ", ".join(info.names.get(r, f"{info.prefix}{r}") for r in range(n))
+    return ("X and interference not computed: no positions of every robot (" + names + ") in "
+            f"the bag; looked for tf {MAP_FRAME} -> <robot>/{BASE_FRAME}, /<robot>/"
+            f"{AMCL_POSE}, /<robot>/{ODOM}, /<robot>/{GROUND_TRUTH}"
+            + (f"; found only {'; '.join(have)}" if have else ""))
+
+
+def _span(info: BagInfo, start_offset_s: float | None, duration_s: float | None
+          ) -> tuple[float, float]:
+    """[start, end] [s] of the analysed span, inside the bag (else a BagError)."""
+    b0, b1 = info.start_s, info.end_s
+    where = f"{info.path}: the bag spans {info.span_s:.2f} s"
+    if start_offset_s is not None:
+        if not (math.isfinite(start_offset_s) and 0 <= start_offset_s < info.span_s):
+            raise BagError(f"{where}: --start {start_offset_s:g} s is outside it (give 0 <= "
+                           f"start < {info.span_s:.2f})")
+        start = b0 + start_offset_s
+    elif info.fleet_start_s is not None and b0 - STAMP_MARGIN_S <= info.fleet_start_s < b1:
+        start = max(info.fleet_start_s, b0)
+    else:
+        start = b0
+    left = b1 - start
+    if duration_s is not None:
+        if not (math.isfinite(duration_s) and duration_s > 0):
+            raise BagError(f"--duration must be a positive number of seconds, got "
+                           f"{duration_s:g}")
+        if duration_s > left + 1e-6:
+            raise BagError(f"{where}: --duration {duration_s:g} s from t = {start - b0:.2f} s "
+                           f"runs past its end ({left:.2f} s left)")
+        return start, start + duration_s
+    if info.fleet_duration_s and 0 < info.fleet_duration_s <= left:
+        return start, start + info.fleet_duration_s
+    return start, b1
+
+
+def _in_span(info: BagInfo, t: float) -> bool:
+    ok = info.start_s - STAMP_MARGIN_S <= t <= info.end_s + STAMP_MARGIN_S
+    if not ok:
+        info.out_of_span += 1
+    return ok
+
+
+def _vertex(patrol_map: Any, vid: int) -> int | None:
+    """Graph index of vertex id `vid` (-1 for none), None when the map has no such vertex."""
+    if vid < 0:
+        return -1
+    try:
+        return patrol_map.index_of(int(vid))
+    except (KeyError, IndexError, ValueError):
+        return None
+
+
+def _report_connections(reader: Any, info: BagInfo, team: dict[str, str]) -> list:
+    conns = []
+    for conn in reader.connections:
+        if info.events and conn.topic == EVENTS_TOPIC:
+            conns.append(conn)
+        elif conn.topic in team:
+            conns.append(conn)
+    return conns
+
+
+def _reports(info: BagInfo, patrol_map: Any, n: int, conn: Any, msg: Any, team: dict
+             ) -> tuple[int, int, int, float] | None:
+    """(robot, kind, vertex index, stamp) of an agent event or team message, or None when it
+    is out of range (unknown robot or vertex, stamp outside the bag)."""
+    r = int(msg.robot_index)
+    t = _stamp(msg)
+    if not 0 <= r < n or not _in_span(info, t):
+        return None
+    if conn.topic == EVENTS_TOPIC:
+        kind, vertex = int(msg.event), _vertex(patrol_map, int(msg.vertex))
+    elif team.get(conn.topic) == "Visit" and not info.reached_events:
+        kind, vertex = REACHED, _vertex(patrol_map, int(msg.vertex))
+    else:  # other team messages: signs of life only (heartbeats without agent events)
+        kind, vertex = HEARTBEAT, -1
+    if vertex is None:
+        return None
+    return r, kind, vertex, t
+
+
+def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team, source):
+    """Reports and poses, in bag order, through a FleetMonitor."""
+    monitor = FleetMonitor(patrol_map, n, end - start, start_after=start,
+                           death_timeout_s=timeout)
+    conns = _report_connections(reader, info, team)
+    robot_of: dict[int, int] = {}
+    if source == "tf":
+        conns += [c for c in reader.connections if c.topic in TF_TOPICS
+                  and _is_type(c, "tf2_msgs/TFMessage")]
+    else:
+        topics = {t: r for r, t in info.pose_topics[source].items() if r < n}
+        for c in reader.connections:
+            if c.topic in topics:
+                robot_of[c.id] = topics[c.topic]
+                conns.append(c)
+    sampler = None if source == "ground_truth" else PoseSampler(n)
+    tree = TfTree2D()
+    frames = {f"{info.names.get(r, f'{info.prefix}{r}')}/{BASE_FRAME}": r for r in range(n)}
+    reports = 0
+
+    def feed_ticks(flush=False):
+        for t, positions in sampler.ticks(flush):
+            for r in range(n):
+                monitor.on_pose(r, t, positions[r, 0], positions[r, 1])
+
+    for conn, _t_rec, msg in _stream(path, reader, store, conns):
+        if conn.topic in TF_TOPICS:
+            if not msg.transforms:
+                continue
+            t = max(_stamp(tr) for tr in msg.transforms)
+            _tf_update(tree, msg)
+            if not _in_span(info, t):
+                continue
+            for frame, r in frames.items():  # robots whose chain this message touched
+                pose = tree.lookup(MAP_FRAME, frame)
+                if pose is not None:
+                    sampler.add(r, t, pose[0], pose[1])
+            feed_ticks()
+        elif conn.id in robot_of:
+            t = _stamp(msg)
+            if not _in_span(info, t):
+                continue
+            p = msg.pose.pose.position
+            if sampler is None:
+                monitor.on_pose(robot_of[conn.id], t, p.x, p.y)
             else:
-                st = msg.stamp
-                v = -1 if msg.vertex < 0 else index_of(int(msg.vertex))
-                monitor.on_event(int(msg.robot_index), int(msg.event), v,
-                                 st.sec + st.nanosec * 1e-9)
-            if monitor.finished:
-                break
+                sampler.add(robot_of[conn.id], t, p.x, p.y)
+                feed_ticks()
+        else:
+            rep = _reports(info, patrol_map, n, conn, msg, team)
+            if rep is None:
+                continue
+            r, kind, vertex, t = rep
+            if kind == REACHED and start <= t <= end:
+                reports += 1
+            monitor.on_event(r, kind, vertex, t)
+        if monitor.finished:
+            break
+    if sampler is not None and not monitor.finished:
+        feed_ticks(flush=True)
     if not monitor.started:
-        raise BagError(f"{path}: the run never started in the bag (no complete set of poses "
-                       f"after t = {start:.2f} s)")
-    if not monitor.finished:
-        monitor.end(monitor.now)  # the bag ends early: metrics up to its last pose set
-    return monitor, info
+        raise BagError(f"{path}: no complete set of robot positions ({source}) between "
+                       f"t = {start - info.start_s:.2f} s and the bag's end")
+    if not monitor.finished:  # the bag ends within the span: metrics up to its last poses
+        monitor.duration_s = max(0.0, min(monitor.now, end) - monitor.start_time)
+        monitor.end(monitor.start_time + monitor.duration_s)
+    return monitor, reports
+
+
+def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeout, team,
+                    liveness):
+    """Reports only (no positions): visits and idleness straight into a RunRecorder."""
+    from .metrics import RunRecorder
+
+    recorder = RunRecorder(patrol_map, n, ground_truth=False, start_time=start)
+    heard = [start] * n  # last sign of life [s]
+    alive = [True] * n
+    reports = 0
+
+    def deaths_until(t):
+        for r in range(n):
+            if alive[r] and t - heard[r] > timeout:
+                alive[r] = False
+                recorder.record_robot_death(r, heard[r] + timeout)
+
+    for conn, _t, msg in _stream(path, reader, store, _report_connections(reader, info, team)):
+        rep = _reports(info, patrol_map, n, conn, msg, team)
+        if rep is None:
+            continue
+        r, kind, vertex, t = rep
+        if t > end:
+            break
+        if t < start:
+            continue
+        if liveness:
+            deaths_until(t)
+        if not alive[r]:
+            continue
+        heard[r] = max(heard[r], t)
+        if kind == REACHED and vertex >= 0:
+            recorder.record_visit(r, vertex, t)
+            reports += 1
+    if liveness:
+        deaths_until(end)
+    recorder.finish(end)
+    return recorder, reports

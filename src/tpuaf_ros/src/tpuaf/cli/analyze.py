@@ -1,8 +1,10 @@
-"""`tpuaf analyze RUN.bag`: recompute a fleet run's metrics from its bag (no ROS needed).
+"""`tpuaf analyze RUN.bag`: a ROS run's metrics from its bag (no ROS needed).
 
-Writes the same results folder as the monitor and batch (default: <bag folder>/analysis), and,
-when the monitor's summary.json lies beside the bag, compares the two (docs/FLEET.md states the
-tolerance).
+Reads a `tpuaf fleet` bag or a plain `rosbag record` of a robot run (team topics plus tf, odom or
+amcl_pose; no ground truth or monitor topics needed): visits and idleness from the agents' own
+reports, X from whatever positions the bag holds (tpuaf.bag says how). Writes the same results
+folder as the monitor and batch (default: <bag folder>/analysis), and, when the monitor's
+summary.json lies beside the bag, compares the two (docs/FLEET.md states the tolerance).
 """
 
 from __future__ import annotations
@@ -27,17 +29,31 @@ TOLERANCES = {
     "interferences": (1, 0.05),
     "deaths": (0, 0.0),
 }
+POSE_CHOICES = ("auto", "ground_truth", "tf", "amcl", "odom")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("bag", type=Path, help="the run's bag (run.bag of tpuaf fleet)")
+    p.add_argument("bag", type=Path, help="the run's bag (run.bag of tpuaf fleet, or any "
+                                          "rosbag record with the team topics)")
     p.add_argument("--map", default=None,
                    help="map name or path (default: from config.yaml beside the bag)")
     p.add_argument("--out", type=Path, default=None,
                    help="results folder (default: <bag folder>/analysis)")
-    p.add_argument("--duration", type=float, default=None, help="[s] (default: from the bag)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the results tpuaf wrote in an existing --out folder")
+    p.add_argument("--start", type=float, default=None,
+                   help="[s] start this long after the bag's beginning (default: the run's "
+                        "announced start, /fleet/start, else the beginning)")
+    p.add_argument("--duration", type=float, default=None,
+                   help="[s] length of the analysed span, within the bag (default: the "
+                        "monitored run's, else up to the bag's end)")
     p.add_argument("--death-timeout", type=float, default=None,
                    help="[s] silence that makes an agent dead (default: the run's, else 5)")
+    p.add_argument("--robots", type=int, default=None,
+                   help="team size (default: config.yaml, else the robots seen in the bag)")
+    p.add_argument("--poses", choices=POSE_CHOICES, default="auto",
+                   help="position source for X and interference (default: the best in the "
+                        "bag: ground truth, tf, amcl_pose, odom)")
 
 
 def compare(a: dict, b: dict) -> list[tuple[str, object, object, bool]]:
@@ -53,36 +69,81 @@ def compare(a: dict, b: dict) -> list[tuple[str, object, object, bool]]:
     return rows
 
 
+def check_options(args: argparse.Namespace) -> None:
+    """Refuse impossible numbers before reading anything (one line, exit 2)."""
+    if args.start is not None and not (math.isfinite(args.start) and args.start >= 0):
+        raise CliError(f"--start must be a finite number of seconds >= 0, got {args.start:g}")
+    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
+        raise CliError(f"--duration must be a finite number of seconds > 0, got "
+                       f"{args.duration:g}")
+    if args.death_timeout is not None and not (math.isfinite(args.death_timeout)
+                                               and args.death_timeout > 0):
+        raise CliError(f"--death-timeout must be a finite number of seconds > 0, got "
+                       f"{args.death_timeout:g}")
+    if args.robots is not None and args.robots < 1:
+        raise CliError(f"--robots must be >= 1, got {args.robots}")
+
+
 def run(args: argparse.Namespace) -> int:
-    from ..bag import BagError, replay
-    from ..maps import MapError, load_map
-    from ..results import ResultsWriter
+    from ..bag import BagError, analyze
+    from ..errors import TpuafError
+    from ..maps import load_map
+    from ..results import ResultsWriter, prepare_out_dir
     from .run import format_summary
 
+    check_options(args)
     bag = args.bag.expanduser().resolve()
+    if not bag.is_file():
+        raise CliError(f"{bag}: bag not found")
     folder = bag.parent
     config: dict = {}
     for name in ("config.yaml", "fleet_config.yaml"):
         if (folder / name).is_file():
-            config = yaml.safe_load((folder / name).read_text()) or {}
+            try:
+                config = yaml.safe_load((folder / name).read_text()) or {}
+            except (OSError, yaml.YAMLError) as err:
+                raise CliError(f"{folder / name}: unreadable ({err})") from None
+            if not isinstance(config, dict):
+                config = {}
             break
     map_ref = args.map or config.get("map")
     if not map_ref:
         raise CliError(f"no config.yaml beside {bag}: give --map")
+    robots = args.robots or (int(config["robots"]) if isinstance(config.get("robots"), int)
+                             else None)
+    timeout = args.death_timeout
+    if timeout is None and isinstance(config.get("death_timeout_s"), (int, float)):
+        timeout = float(config["death_timeout_s"])
+    out = (args.out or folder / "analysis").expanduser()
     try:
         patrol_map = load_map(map_ref)
-        timeout = args.death_timeout or float(config.get("death_timeout_s", 5.0))
-        monitor, info = replay(bag, patrol_map, duration=args.duration, death_timeout_s=timeout)
-    except (BagError, MapError) as err:
+        result = analyze(bag, patrol_map, robots=robots, start_offset_s=args.start,
+                         duration_s=args.duration, death_timeout_s=timeout,
+                         pose_source=None if args.poses == "auto" else args.poses)
+        out = prepare_out_dir(out, overwrite=args.overwrite)
+    except (BagError, TpuafError) as err:
         raise CliError(str(err)) from None
-    summary = monitor.summary()
-    out = args.out or folder / "analysis"
-    cfg = {**config, "analysis_of": str(bag), "runtime": "bag analysis (tpuaf analyze)",
-           "start_time_s": monitor.start_time}
+    summary = result.summary
+    info = result.info
+    summary["analysis"] = {
+        "bag": str(bag), "bag_span_s": info.span_s,
+        "analysed_from_s": result.start_s - info.start_s,
+        "analysed_to_s": result.end_s - info.start_s,
+        "visit_source": result.visit_source, "visit_reports": result.reports,
+        "pose_source": result.pose_source, "deaths_detected": result.liveness,
+        "notes": result.notes,
+    }
+    cfg = {**config, "map": map_ref, "robots": result.robots, "analysis_of": str(bag),
+           "runtime": "bag analysis (tpuaf analyze)", "start_time_s": result.start_s}
     writer = ResultsWriter(out, cfg)
-    writer.finish(summary, monitor.recorder, interrupted=not info.monitor_finished)
-    print(f"{bag}: {info.robots} robots, start {monitor.start_time:.2f} s, "
-          f"{summary['duration_s']:.0f} s analysed")
+    complete = info.monitor_finished or not config  # a plain bag: the span is all there is
+    writer.finish(summary, result.recorder, interrupted=not complete)
+    print(f"{bag}: {result.robots} robots; analysed {result.span_s:.1f} s of the bag's "
+          f"{info.span_s:.1f} s (from t = {result.start_s - info.start_s:.1f} s to "
+          f"{result.end_s - info.start_s:.1f} s)")
+    print(f"  visits from {result.visit_source}: {result.reports} reports in the span")
+    for note in result.notes:
+        print(f"  note: {note}")
     print(format_summary(summary))
     print(f"  deaths: {summary['deaths']} {summary['dead_robots']}")
     print(f"  results: {out}")

@@ -1,0 +1,134 @@
+"""Robot positions from localisation streams (ROS-free), for the monitor node and bag analysis.
+
+- `TfTree2D`: the latest planar transform of every tf edge (parent -> child); `lookup(root,
+  frame)` composes the chain up to `root` (e.g. map -> robot_0/odom -> robot_0/base_footprint).
+- `PoseSampler`: per-robot pose streams at their own stamps (tf, odom, amcl_pose: robots are
+  not stamped alike) -> pose groups at common tick times, as `FleetMonitor.on_pose` expects.
+  A tick's position of a robot is its latest pose stamped at or before the tick (sample and
+  hold); a tick is emitted once every robot has a pose and `lag_s` of newer data arrived.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Iterator
+
+import numpy as np
+
+# Localisation sources, best first, with what their X is worth (shown in the analysis notes).
+POSE_SOURCES = {
+    "ground_truth": "ground truth (exact)",
+    "tf": "tf map -> <robot>/base_footprint (the localiser's estimate: X as good as it)",
+    "amcl": "amcl_pose (localiser estimate, published on change only: positions held between "
+            "updates)",
+    "odom": "odom (dead reckoning, taken as the map frame: drift makes X approximate)",
+}
+
+
+def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def strip_frame(frame: str) -> str:
+    """tf frame ids compare without a leading '/' (tf2 convention)."""
+    return frame[1:] if frame.startswith("/") else frame
+
+
+class TfTree2D:
+    """Latest transform per child frame: child -> (parent, x m, y m, yaw rad)."""
+
+    MAX_DEPTH = 16  # a longer chain is a loop or not a robot's
+
+    def __init__(self) -> None:
+        self.edges: dict[str, tuple[str, float, float, float]] = {}
+
+    def set(self, parent: str, child: str, x: float, y: float, yaw: float) -> None:
+        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
+            return
+        self.edges[strip_frame(child)] = (strip_frame(parent), float(x), float(y), float(yaw))
+
+    def lookup(self, root: str, frame: str) -> tuple[float, float, float] | None:
+        """Pose of `frame` in `root` (x, y, yaw), or None when the chain does not reach root."""
+        root, frame = strip_frame(root), strip_frame(frame)
+        chain = []
+        for _ in range(self.MAX_DEPTH):
+            if frame == root:
+                break
+            edge = self.edges.get(frame)
+            if edge is None:
+                return None
+            chain.append(edge)
+            frame = edge[0]
+        else:
+            return None
+        x = y = yaw = 0.0
+        for _parent, ex, ey, eyaw in reversed(chain):  # root first
+            c, s = math.cos(yaw), math.sin(yaw)
+            x, y, yaw = x + c * ex - s * ey, y + s * ex + c * ey, yaw + eyaw
+        return x, y, yaw
+
+    def depends_on(self, frame: str) -> set[str]:
+        """The frames of `frame`'s chain (itself and its ancestors)."""
+        frame = strip_frame(frame)
+        out = set()
+        for _ in range(self.MAX_DEPTH):
+            out.add(frame)
+            edge = self.edges.get(frame)
+            if edge is None:
+                break
+            frame = edge[0]
+        return out
+
+
+class PoseSampler:
+    """Pose groups at ticks k * period_s [s] from per-robot poses at arbitrary stamps."""
+
+    def __init__(self, n_robots: int, period_s: float = 0.1, lag_s: float = 0.5):
+        if not period_s > 0:
+            raise ValueError(f"period_s must be > 0, got {period_s}")
+        self.n = int(n_robots)
+        self.period_s = float(period_s)
+        self.lag_s = float(lag_s)
+        self._held: list[tuple[float, float, float] | None] = [None] * self.n  # at last tick
+        self._queue: list[deque] = [deque() for _ in range(self.n)]  # newer poses, time order
+        self._newest = -math.inf
+        self._last_tick = -math.inf
+
+    def add(self, robot: int, t: float, x: float, y: float) -> None:
+        if not 0 <= robot < self.n or not (math.isfinite(t) and math.isfinite(x)
+                                           and math.isfinite(y)):
+            return
+        if t <= self._last_tick:
+            return  # its tick is out: too late
+        q = self._queue[robot]
+        q.append((float(t), float(x), float(y)))
+        if len(q) > 1 and q[-2][0] > t:
+            self._queue[robot] = deque(sorted(q))
+        self._newest = max(self._newest, float(t))
+
+    def _tick_at_or_after(self, t: float) -> float:
+        return math.ceil(t / self.period_s - 1e-9) * self.period_s
+
+    def ticks(self, flush: bool = False) -> Iterator[tuple[float, np.ndarray]]:
+        """(tick time, positions (n, 2)) of the ticks now complete, in time order. Only ticks
+        with new poses are emitted (a silent stretch is one linear step for the recorder), so
+        a stamp far ahead cannot flood the output."""
+        limit = self._newest if flush else self._newest - self.lag_s
+        while any(self._queue):
+            if self._last_tick == -math.inf:  # the first tick: every robot has a pose
+                if not all(self._queue):
+                    return
+                tick = self._tick_at_or_after(max(q[0][0] for q in self._queue))
+            else:
+                tick = self._tick_at_or_after(min(q[0][0] for q in self._queue if q))
+                tick = max(tick, self._last_tick + self.period_s)
+            if tick > limit:
+                return
+            positions = np.empty((self.n, 2))
+            for r, q in enumerate(self._queue):
+                while q and q[0][0] <= tick:
+                    self._held[r] = q.popleft()
+                positions[r] = self._held[r][1:]
+            self._last_tick = tick
+            yield tick, positions
