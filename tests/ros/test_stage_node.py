@@ -274,54 +274,113 @@ def test_unknown_parameter_is_refused(module_roscore, tmp_path):
     assert code != 0 and "~world" in text
 
 
-LOCKSTEP_PROBE = r'''
+LOCKSTEP_PROBE = r"""
 import json, sys, time
 import rospy
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import TwistStamped
+from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import LaserScan
+from std_msgs.msg import String
 
 N = int(sys.argv[1])
 rospy.init_node("agents", anonymous=True)
-clock = []
+clock, events = [], []
 rospy.Subscriber("/clock", Clock, lambda m: clock.append(m.clock.to_sec()), queue_size=10)
+rospy.Subscriber("/fleet/sim_events", String, lambda m: events.append(json.loads(m.data)),
+                 queue_size=100)
 stamps = {i: [] for i in range(N)}
 pubs = {}
-def on_scan(msg, i):
+silent = set()
+def on_odom(msg, i):
     stamps[i].append(msg.header.stamp.to_sec())
-    if i in pubs:
+    if i in pubs and i not in silent:
         time.sleep(0.002)  # a slow agent
-        pubs[i].publish(Twist())
+        answer = TwistStamped()
+        answer.header.stamp = msg.header.stamp  # the tick it answers
+        answer.twist.angular.z = 0.5
+        pubs[i].publish(answer)
 for i in range(N):
-    rospy.Subscriber(f"/robot_{i}/base_scan", LaserScan, on_scan, callback_args=i, queue_size=10)
+    rospy.Subscriber(f"/robot_{i}/odom", Odometry, on_odom, callback_args=i, queue_size=10)
 time.sleep(3.0)
 gate = sorted(set(clock))
 for i in range(N):
-    pubs[i] = rospy.Publisher(f"/robot_{i}/cmd_vel", Twist, queue_size=10)
+    pubs[i] = rospy.Publisher(f"/robot_{i}/cmd_vel_stamped", TwistStamped, queue_size=10)
 time.sleep(5.0)
+silent.add(N - 1)  # the last agent stops answering (alive, but hung)
+clock_at_silence = clock[-1]
+count_at_silence = {i: len(stamps[i]) for i in range(N)}
+time.sleep(4.0)
 print("RESULT " + json.dumps({"gate_clock": gate, "clock_end": clock[-1] if clock else None,
-                              "stamps": stamps}))
-'''
+                              "clock_at_silence": clock_at_silence,
+                              "count_at_silence": count_at_silence,
+                              "stamps": stamps, "events": events}))
+"""
 
 
-def test_lockstep_waits_for_every_agent(module_roscore, tmp_path):
+def test_lockstep_waits_for_every_agent_and_goes_on_without_a_silent_one(module_roscore,
+                                                                          tmp_path):
     ros = module_roscore
     world = write_world(tmp_path)
+    summary = tmp_path / "sim_summary.json"
     node = ros.start(["rosrun", "tpuaf_stage", "tpuaf_stage", f"_world:={world}",
-                      "_lockstep:=true", "_lockstep_timeout:=30.0", "_start_timeout:=600.0",
-                      "_cmd_vel_timeout:=1.0", "__name:=stage_lockstep"], name="stage_lockstep")
-    result = ros.run_python(LOCKSTEP_PROBE, timeout=120, args=[str(N)], name="lockstep_probe")
-    log = ros.output("stage_lockstep")
-    ros.stop(node)
+                      f"_odom_rate:={ODOM_RATE}", "_lockstep:=true", "_lockstep_timeout:=1.0",
+                      "_start_timeout:=600.0", "_cmd_vel_timeout:=1.0",
+                      f"_summary_file:={summary}", "__name:=stage_lockstep"],
+                     name="stage_lockstep")
+    try:
+        result = ros.run_python(LOCKSTEP_PROBE, timeout=120, args=[str(N)], name="lockstep_probe")
+        log = ros.output("stage_lockstep")
+    finally:
+        ros.stop(node)
     lines = [ln for ln in result.stdout.splitlines() if ln.startswith("RESULT ")]
     assert lines, f"probe failed:\n{result.stderr[-3000:]}\nnode:\n{log[-3000:]}"
     out = json.loads(lines[-1][7:])
-    # Before every robot's cmd_vel had a publisher the clock stood at the first step.
+    # Before every robot's cmd_vel_stamped had a publisher the clock stood at the first step.
     assert out["gate_clock"] == [pytest.approx(0.01)]
-    assert out["clock_end"] > 1.0
-    # Then no scan was skipped: each robot saw every scan, 1 / rate apart.
+    assert "every robot has a cmd_vel_stamped publisher" in log
+    # While all answered, no tick was skipped: each robot saw every odom tick, 1 / rate apart.
     for i in range(N):
-        s = np.array(out["stamps"][str(i)])
+        s = np.array(out["stamps"][str(i)][1:out["count_at_silence"][str(i)]])
         assert len(s) > 10
-        assert np.diff(s[1:]) == pytest.approx(1.0 / SCAN_RATE, abs=1e-6)
-    assert "every robot has a cmd_vel publisher" in log
+        assert np.diff(s) == pytest.approx(1.0 / ODOM_RATE, abs=1e-6)
+    # The silent agent was declared unresponsive once, and the run went on without it.
+    unresponsive = [e for e in out["events"] if e["event"] == "unresponsive"]
+    assert [e["robot"] for e in unresponsive] == [N - 1]
+    assert out["clock_end"] > out["clock_at_silence"] + 1.0
+    assert "robot_3" in log and "unresponsive" in log
+    # The node writes its summary on exit: the event is counted.
+    data = json.loads(summary.read_text())
+    assert data["unresponsive_events"] == 1 and data["unresponsive_per_robot"] == [0, 0, 0, 1]
+
+
+def test_wall_clock_mode_stamps_wall_time_without_clock(module_roscore, tmp_path):
+    ros = module_roscore
+    world = write_world(tmp_path)
+    node = ros.start(["rosrun", "tpuaf_stage", "tpuaf_stage", f"_world:={world}",
+                      "_wall_clock:=true", "__name:=stage_wall"], name="stage_wall")
+    probe = r"""
+import json, time
+import rospy, rosgraph
+from nav_msgs.msg import Odometry
+rospy.init_node("wall_probe", anonymous=True)
+got = []
+rospy.Subscriber("/robot_0/base_pose_ground_truth", Odometry,
+                 lambda m: got.append((m.header.stamp.to_sec(), time.time())), queue_size=100)
+time.sleep(4.0)
+topics = [t for t, _ in rospy.get_published_topics()]
+print("RESULT " + json.dumps({"got": got, "topics": topics}))
+"""
+    try:
+        result = ros.run_python(probe, timeout=60, name="wall_probe")
+    finally:
+        log = ros.output("stage_wall")
+        ros.stop(node)
+    lines = [ln for ln in result.stdout.splitlines() if ln.startswith("RESULT ")]
+    assert lines, f"probe failed:\n{result.stderr[-3000:]}\nnode:\n{log[-3000:]}"
+    out = json.loads(lines[-1][7:])
+    assert "/clock" not in out["topics"]
+    stamps = np.array([s for s, _ in out["got"]])
+    walls = np.array([w for _, w in out["got"]])
+    assert len(stamps) >= 15  # 10 Hz of real time for a few seconds
+    assert np.abs(stamps - walls).max() < 1.5  # wall-clock stamps, not simulated seconds
+    assert (stamps[-1] - stamps[0]) / (walls[-1] - walls[0]) == pytest.approx(1.0, abs=0.1)

@@ -806,7 +806,7 @@ void StageNode::status_line(double now) {
 }
 
 void StageNode::spin() {
-  if (p_.wall_clock) wall_epoch_ = ros::Time(std::floor(ros::WallTime::now().toSec()));
+  if (p_.wall_clock) wall_epoch_ = ros::Time(ros::WallTime::now().toSec() - p_.step);
   // One step at rest first: /clock is non-zero from start-up (rosbag waits for that).
   advance();
   publish_clock();
