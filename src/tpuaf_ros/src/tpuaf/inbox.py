@@ -8,7 +8,7 @@ length, and times farther than `max_skew_s` from our clock (far future or far pa
 Clock skew: each teammate's offset is estimated from its stamps as the median, over the last
 `window` messages, of (stamp - our time at receipt) (= its clock offset minus the transport
 delay). With `correct_skew` (wall clock; a shared /clock cannot skew) every time of the message
-is shifted by that offset, and a time still in our future is clamped to our now, so a robot whose
+is shifted by that offset (when above `deadband_s`), and a time still in our future is clamped to our now, so a robot whose
 clock runs ahead can no longer suppress our own visits. `skewed()` names the teammates whose
 offset exceeds `skew_warn_s` (the agent warns; docs/HARDWARE.md: chrony).
 """
@@ -33,6 +33,7 @@ class InboxConfig:
     max_horizon_s: float = 86400.0  # [s] an expected arrival later than this after sending is refused
     window: int = 15  # messages per teammate in the median offset estimate
     correct_skew: bool = True  # shift teammates' times by their estimated offset
+    deadband_s: float = 0.05  # [s] offsets below this (transport delay) are left alone
 
 
 class SkewEstimator:
@@ -144,6 +145,8 @@ class TeamInbox:
         r = msg.robot
         self.skew.add(r, msg.time - now)
         shift = self.skew.offset(r) if self.config.correct_skew else 0.0
+        if abs(shift) < self.config.deadband_s:
+            shift = 0.0
         changes = {"time": min(msg.time - shift, now)}
         if type(msg) is m.Intention:
             changes["expected_arrival"] = msg.expected_arrival - shift
