@@ -33,7 +33,7 @@ from typing import Any
 from . import messages as team_messages
 from .errors import TpuafError
 from .monitor import FleetMonitor
-from .poses import POSE_SOURCES, PoseSampler, TfTree2D, yaw_from_quaternion
+from .poses import POSE_SOURCES, PoseSampler, chain_pose, feed_chains, robot_chains
 from .topics import (
     AMCL_POSE,
     DEFAULT_TEAM_NS,
@@ -277,14 +277,12 @@ def inspect(path: str | Path) -> BagInfo:
         names = {r: info.names.get(r, f"{_prefix(info)}{r}") for r in range(info.robots)}
         info.prefix = _prefix(info)
         if tf_conns and names:
-            tree = TfTree2D()
-            wanted = {r: f"{n}/{BASE_FRAME}" for r, n in names.items()}
+            chains = robot_chains([names[r] for r in range(info.robots)], MAP_FRAME, BASE_FRAME)
             for _conn, _t, msg in _stream(path, reader, store, tf_conns):
-                _tf_update(tree, msg)
-                for r in [r for r, frame in wanted.items() if tree.lookup(MAP_FRAME, frame)]:
-                    info.tf_robots.add(r)
-                    del wanted[r]
-                if not wanted:
+                for r in feed_chains(chains, msg.transforms):
+                    if chains[r].pose() is not None:
+                        info.tf_robots.add(r)
+                if len(info.tf_robots) == len(chains):
                     break
     return info
 
@@ -295,16 +293,6 @@ def _prefix(info: BagInfo) -> str:
         if m:
             return m.group(1)
     return "robot_"
-
-
-def _tf_update(tree: TfTree2D, msg: Any) -> list[str]:
-    children = []
-    for tr in msg.transforms:
-        t, q = tr.transform.translation, tr.transform.rotation
-        tree.set(tr.header.frame_id, tr.child_frame_id, t.x, t.y,
-                 yaw_from_quaternion(q.x, q.y, q.z, q.w))
-        children.append(tr.child_frame_id)
-    return children
 
 
 # ---------------------------------------------------------------------------------------------
@@ -511,8 +499,8 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
                 robot_of[c.id] = topics[c.topic]
                 conns.append(c)
     sampler = None if source == "ground_truth" else PoseSampler(n)
-    tree = TfTree2D()
-    frames = {f"{info.names.get(r, f'{info.prefix}{r}')}/{BASE_FRAME}": r for r in range(n)}
+    chains = robot_chains([info.names.get(r, f"{info.prefix}{r}") for r in range(n)],
+                          MAP_FRAME, BASE_FRAME)
     reports = 0
 
     def feed_ticks(flush=False):
@@ -522,16 +510,10 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
 
     for conn, _t_rec, msg in _stream(path, reader, store, conns):
         if conn.topic in TF_TOPICS:
-            if not msg.transforms:
-                continue
-            t = max(_stamp(tr) for tr in msg.transforms)
-            _tf_update(tree, msg)
-            if not _in_span(info, t):
-                continue
-            for frame, r in frames.items():  # robots whose chain this message touched
-                pose = tree.lookup(MAP_FRAME, frame)
-                if pose is not None:
-                    sampler.add(r, t, pose[0], pose[1])
+            for r in feed_chains(chains, msg.transforms):
+                pose = chain_pose(chains[r])
+                if pose is not None and _in_span(info, pose[2]):
+                    sampler.add(r, pose[2], pose[0], pose[1])
             feed_ticks()
         elif conn.id in robot_of:
             t = _stamp(msg)

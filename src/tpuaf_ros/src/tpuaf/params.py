@@ -128,6 +128,11 @@ class MonitorParams:
     config_file: str = ""  # YAML merged into the results' config.yaml (written by tpuaf fleet)
     strategy: str = ""  # for config.yaml
     seed: int = 0  # for config.yaml
+    pose_source: str = "ground_truth"  # positions for X: ground_truth | tf | odom | amcl
+    map_frame: str = "map"  # tf: the global frame
+    base_frame: str = "base_footprint"  # tf: robot i's frame is <robot_prefix><i>/<base_frame>
+    announce_start: bool = True  # announce /fleet/start when all agents are ready; false: follow
+    #   the start the agents announce (hardware)
 
 
 def params_help(cls: type) -> str:

@@ -1,7 +1,7 @@
 """Robot positions from localisation streams (ROS-free), for the monitor node and bag analysis.
 
-- `TfTree2D`: the latest planar transform of every tf edge (parent -> child); `lookup(root,
-  frame)` composes the chain up to `root` (e.g. map -> robot_0/odom -> robot_0/base_footprint).
+- `robot_chains` / `feed_chains`: every robot's tf chain map -> <robot>/base_footprint (the
+  agents' own `tpuaf.frames.FrameChain`, one per robot).
 - `PoseSampler`: per-robot pose streams at their own stamps (tf, odom, amcl_pose: robots are
   not stamped alike) -> pose groups at common tick times, as `FleetMonitor.on_pose` expects.
   A tick's position of a robot is its latest pose stamped at or before the tick (sample and
@@ -30,55 +30,36 @@ def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-def strip_frame(frame: str) -> str:
-    """tf frame ids compare without a leading '/' (tf2 convention)."""
-    return frame[1:] if frame.startswith("/") else frame
+def robot_chains(names: list[str], root: str = "map", base: str = "base_footprint") -> list:
+    """One tf chain root -> <name>/<base> per robot (tpuaf.frames.FrameChain, as the agents')."""
+    from .frames import FrameChain
+
+    return [FrameChain(root, f"{name}/{base}") for name in names]
 
 
-class TfTree2D:
-    """Latest transform per child frame: child -> (parent, x m, y m, yaw rad)."""
+def chain_pose(chain) -> tuple[float, float, float] | None:
+    """(x m, y m, stamp s) of a chain's base in its root, stamped by the base's own link (the
+    moving one: a localiser's map -> odom may be older), or None while incomplete."""
+    pose = chain.pose()
+    if pose is None:
+        return None
+    link = chain.links.get(chain.base)
+    return pose[0], pose[1], (link[2] if link else pose[3])
 
-    MAX_DEPTH = 16  # a longer chain is a loop or not a robot's
 
-    def __init__(self) -> None:
-        self.edges: dict[str, tuple[str, float, float, float]] = {}
-
-    def set(self, parent: str, child: str, x: float, y: float, yaw: float) -> None:
-        if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(yaw)):
-            return
-        self.edges[strip_frame(child)] = (strip_frame(parent), float(x), float(y), float(yaw))
-
-    def lookup(self, root: str, frame: str) -> tuple[float, float, float] | None:
-        """Pose of `frame` in `root` (x, y, yaw), or None when the chain does not reach root."""
-        root, frame = strip_frame(root), strip_frame(frame)
-        chain = []
-        for _ in range(self.MAX_DEPTH):
-            if frame == root:
-                break
-            edge = self.edges.get(frame)
-            if edge is None:
-                return None
-            chain.append(edge)
-            frame = edge[0]
-        else:
-            return None
-        x = y = yaw = 0.0
-        for _parent, ex, ey, eyaw in reversed(chain):  # root first
-            c, s = math.cos(yaw), math.sin(yaw)
-            x, y, yaw = x + c * ex - s * ey, y + s * ex + c * ey, yaw + eyaw
-        return x, y, yaw
-
-    def depends_on(self, frame: str) -> set[str]:
-        """The frames of `frame`'s chain (itself and its ancestors)."""
-        frame = strip_frame(frame)
-        out = set()
-        for _ in range(self.MAX_DEPTH):
-            out.add(frame)
-            edge = self.edges.get(frame)
-            if edge is None:
-                break
-            frame = edge[0]
-        return out
+def feed_chains(chains: list, transforms) -> list[int]:
+    """Feed tf transforms (geometry_msgs/TransformStamped-like: header.frame_id, child_frame_id,
+    transform.translation/rotation) to every chain; the robots whose chain they touched."""
+    touched = set()
+    for tr in transforms:
+        t, q = tr.transform.translation, tr.transform.rotation
+        yaw = yaw_from_quaternion(q.x, q.y, q.z, q.w)
+        st = tr.header.stamp
+        stamp = st.to_sec() if hasattr(st, "to_sec") else st.sec + st.nanosec * 1e-9
+        for r, chain in enumerate(chains):
+            if chain.update(tr.header.frame_id, tr.child_frame_id, t.x, t.y, yaw, stamp):
+                touched.add(r)
+    return sorted(touched)
 
 
 class PoseSampler:

@@ -1,9 +1,14 @@
 """monitor: measures a ROS run with tpuaf.metrics (thin adapter, see docs/FLEET.md).
 
-Subscribes /<robot_prefix><i>/base_pose_ground_truth (nav_msgs/Odometry) for every robot and
-/fleet/agent_events (tpuaf_ros/AgentEvent). Publishes /fleet/start (std_msgs/Float64, latched:
-the run's start, ROS time [s]) once every agent is ready, /fleet/metrics (tpuaf_ros/LiveMetrics)
-at 1 Hz of run time and once more with finished = true after writing the results folder.
+Visits are the agents' own reports (REACHED on /fleet/agent_events, tpuaf_ros/AgentEvent, whose
+heartbeats also tell the living from the dead). Positions (X, interference) per ~pose_source:
+ground_truth /<robot_prefix><i>/base_pose_ground_truth (simulation), tf (hardware: /tf and
+/tf_static, map -> <robot_prefix><i>/base_footprint from any localiser), odom /<..><i>/odom or
+amcl /<..><i>/amcl_pose; poses at their own stamps are grouped on 0.1 s ticks (tpuaf.poses).
+Publishes /fleet/start (std_msgs/Float64, latched: the run's start, ROS time [s]) once every
+agent is ready (~announce_start false: follows the agents' announcement instead),
+/fleet/metrics (tpuaf_ros/LiveMetrics) at 1 Hz of run time and once more with finished = true
+after writing the results folder. Works on the wall clock (use_sim_time false) and on sim time.
 Private parameters: tpuaf.params.MonitorParams (strict).
 """
 
@@ -15,14 +20,18 @@ from pathlib import Path
 
 import rospy
 import yaml
+from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Float64
+from tf2_msgs.msg import TFMessage
 
 from tpuaf_ros.msg import AgentEvent, LiveMetrics
 
 from ..maps import MapError, load_map
 from ..monitor import FleetMonitor
 from ..params import MonitorParams, NodeParamError, parse
+from ..poses import POSE_SOURCES, PoseSampler, chain_pose, feed_chains, robot_chains
+from ..topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC
 from . import convert
 from .node import private_params, run_node
 
@@ -33,7 +42,8 @@ warnings.filterwarnings("ignore", message="The publisher should be created with 
 def run_config(p, patrol_map):
     config = {"runtime": "ros", "map": p.map, "map_name": patrol_map.name,
               "strategy": p.strategy, "robots": p.robots, "duration_s": p.duration,
-              "seed": p.seed, "death_timeout_s": p.death_timeout}
+              "seed": p.seed, "death_timeout_s": p.death_timeout,
+              "monitor_pose_source": POSE_SOURCES[p.pose_source]}
     if p.config_file:
         extra = yaml.safe_load(Path(p.config_file).read_text()) or {}
         config.update(extra)
@@ -49,7 +59,7 @@ class MonitorNode:
                                death_timeout_s=p.death_timeout)
         self.metrics_pub = rospy.Publisher(convert.METRICS_TOPIC, LiveMetrics, queue_size=10,
                                            latch=True)
-        self.start_pub = rospy.Publisher("/fleet/start", Float64, queue_size=1, latch=True)
+        self.start_pub = rospy.Publisher(START_TOPIC, Float64, queue_size=1, latch=True)
         self.msg = LiveMetrics()
         self.msg.duration = p.duration
         self.next_metrics = -math.inf
@@ -59,10 +69,22 @@ class MonitorNode:
         self.config = run_config(p, patrol_map)
         self.ready = [False] * p.robots
         self.ready_wall = None
+        self.names = [f"{p.robot_prefix}{i}" for i in range(p.robots)]
         rospy.Subscriber(convert.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=500)
-        for i in range(p.robots):
-            rospy.Subscriber(f"/{p.robot_prefix}{i}/base_pose_ground_truth", Odometry,
-                             self.on_pose, callback_args=i, queue_size=100, tcp_nodelay=True)
+        if not p.announce_start:
+            rospy.Subscriber(START_TOPIC, Float64, self.on_start, queue_size=10)
+        # Poses at their own stamps (all but ground truth) are grouped on ticks.
+        self.sampler = None if p.pose_source == "ground_truth" else PoseSampler(p.robots)
+        if p.pose_source == "tf":
+            self.chains = robot_chains(self.names, p.map_frame, p.base_frame)
+            rospy.Subscriber("/tf", TFMessage, self.on_tf, queue_size=100, tcp_nodelay=True)
+            rospy.Subscriber("/tf_static", TFMessage, self.on_tf, queue_size=10)
+        else:
+            topic, cls = {"ground_truth": (GROUND_TRUTH, Odometry), "odom": (ODOM, Odometry),
+                          "amcl": (AMCL_POSE, PoseWithCovarianceStamped)}[p.pose_source]
+            for i, name in enumerate(self.names):
+                rospy.Subscriber(f"/{name}/{topic}", cls, self.on_pose, callback_args=i,
+                                 queue_size=100, tcp_nodelay=True)
 
     def on_event(self, msg):
         with self.lock:
@@ -70,7 +92,8 @@ class MonitorNode:
             self.fm.on_event(r, msg.event, self.vertex_index(msg.vertex), msg.stamp.to_sec())
             if 0 <= r < len(self.ready):
                 self.ready[r] = True
-            if not self.announced and all(self.ready) and self.recorder_ready():
+            if (self.p.announce_start and not self.announced and all(self.ready)
+                    and self.recorder_ready()):
                 # Let every subscriber (agents, recorder) finish connecting before the start.
                 if self.ready_wall is None:
                     self.ready_wall = time.monotonic()
@@ -82,6 +105,21 @@ class MonitorNode:
                 self.announced = True
                 rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
                               f"{start:.2f} s for {self.p.duration:g} s")
+
+    def on_start(self, msg):
+        """~announce_start false: the run starts at the earliest start the agents announce."""
+        start = float(msg.data)
+        if not math.isfinite(start) or start < 0:
+            rospy.logwarn(f"{NODE}: ignored run start {msg.data!r} on {START_TOPIC}")
+            return
+        with self.lock:
+            if self.fm.started:
+                return
+            if not self.announced or start < self.fm.start_after:
+                self.fm.start_after = start
+                self.announced = True
+                rospy.loginfo(f"{NODE}: run starts at t = {start:.2f} s (announced on "
+                              f"{START_TOPIC}) for {self.p.duration:g} s")
 
     def vertex_index(self, vid):
         return -1 if vid < 0 else self.patrol_map.index_of(vid)
@@ -100,22 +138,39 @@ class MonitorNode:
         return False
 
     def on_pose(self, msg, i):
+        pos = msg.pose.pose.position
         with self.lock:
-            if self.done:
-                return
-            pos = msg.pose.pose.position
-            self.fm.on_pose(i, msg.header.stamp.to_sec(), pos.x, pos.y)
-            if not self.fm.started:
-                return
-            if self.writer is None:
-                self.open_results()
-            if self.fm.finished:
-                self.finish()
-            elif self.fm.now >= self.next_metrics:
-                self.publish_metrics()
-                self.next_metrics = self.fm.now + 1.0
-                if self.writer is not None:
-                    self.writer.sync(self.fm.recorder)
+            self.pose(i, msg.header.stamp.to_sec(), pos.x, pos.y)
+
+    def on_tf(self, msg):
+        with self.lock:
+            for r in feed_chains(self.chains, msg.transforms):
+                pose = chain_pose(self.chains[r])
+                if pose is not None:
+                    self.pose(r, pose[2], pose[0], pose[1])
+
+    def pose(self, i, t, x, y):
+        """Robot i at (x, y) [m] at ROS time t [s] (called with the lock held)."""
+        if self.done:
+            return
+        if self.sampler is None:
+            self.fm.on_pose(i, t, x, y)
+        else:
+            self.sampler.add(i, t, x, y)
+            for tick, positions in self.sampler.ticks():
+                for r in range(self.p.robots):
+                    self.fm.on_pose(r, tick, positions[r, 0], positions[r, 1])
+        if not self.fm.started:
+            return
+        if self.writer is None:
+            self.open_results()
+        if self.fm.finished:
+            self.finish()
+        elif self.fm.now >= self.next_metrics:
+            self.publish_metrics()
+            self.next_metrics = self.fm.now + 1.0
+            if self.writer is not None:
+                self.writer.sync(self.fm.recorder)
 
     def open_results(self):
         if self.p.out:
@@ -151,6 +206,13 @@ def main():
     rospy.init_node(NODE)
     try:
         p = parse(MonitorParams, private_params(), rospy.get_name())
+        if p.pose_source not in POSE_SOURCES:
+            raise NodeParamError(f"{rospy.get_name()}: ~pose_source must be one of "
+                                 f"{', '.join(POSE_SOURCES)}, got {p.pose_source!r}")
+        if p.robots < 1 or not p.duration > 0 or not p.death_timeout > 0:
+            raise NodeParamError(f"{rospy.get_name()}: ~robots >= 1, ~duration > 0 and "
+                                 f"~death_timeout > 0 needed, got {p.robots}, {p.duration:g}, "
+                                 f"{p.death_timeout:g}")
         patrol_map = load_map(p.map)
         node = MonitorNode(p, patrol_map)
     except (NodeParamError, MapError, OSError, yaml.YAMLError) as err:
