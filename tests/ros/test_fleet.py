@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-TPUAF = [str(REPO / ".venv" / "bin" / "python"), "-m", "tpuaf.cli"]
+TPUAF = [str(REPO / ".venv" / "bin" / "tpuaf")]
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -1,10 +1,16 @@
 """`tpuaf fleet`: one headless ROS experiment (simulator, N agents, monitor, rosbag) to completion.
 
 It starts its own roscore on a free port (ROS_HOME under the run folder, ROS_IP=127.0.0.1),
-runs launch_scripts/fleet.launch through the devel space, shows a progress bar in simulated time
-(from the monitor's /fleet/metrics), and stops only the processes it started, by PID: SIGINT to
-roslaunch (which stops its nodes; rosbag closes the bag), wait, then SIGTERM/SIGKILL; the same
+runs tpuaf_ros/fleet.launch through the devel or install space, shows a progress bar in simulated
+time (from the monitor's /fleet/metrics), and stops only the processes it started, by PID: SIGINT
+to roslaunch (which stops its nodes; rosbag closes the bag), wait, then SIGTERM/SIGKILL; the same
 on Ctrl-C. Then it checks the bag is closed and prints the monitor's summary.
+
+Stepping (docs/FLEET.md): lock-step by default (the roscpp simulator advances one control tick
+only once every live agent has answered the previous one; an agent silent for --lockstep-timeout
+wall seconds is unresponsive: its robot stops, the run goes on, the summary counts it), paced
+(`--no-lockstep --rtf X`) or free-running (`--no-lockstep --rtf 0`). Every option is checked
+before any ROS process starts (one-line error, exit code 2).
 """
 
 from __future__ import annotations
@@ -12,22 +18,72 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import math
 import os
+import re
 import signal
 import socket
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from ..errors import CliError
 from ..paths import catkin_prefix
 from ..topics import METRICS_TOPIC
-from .run import format_summary, parse_params, positive_float, positive_int
+from .run import format_summary, non_negative_float, parse_params, positive_float, positive_int
 
 LAUNCH = ("tpuaf_ros", "fleet.launch")  # found by roslaunch through the package
+PREFIX = "robot_"
+
+# --record NAMES: topic groups added to the bag (the default bag holds what analysis needs).
+RECORD_GROUPS = {
+    "scans": r"/{p}[0-9]+/base_scan",
+    "odom": r"/{p}[0-9]+/odom",
+    "tf": r"/tf|/tf_static",
+    "cmd_vel": r"/{p}[0-9]+/cmd_vel(_stamped)?",
+    "stalled": r"/{p}[0-9]+/stalled",
+    "agents": r"/team_agents/.*",
+}
+DEFAULT_RECORD = r"/clock|/fleet/.*|/team/.*|/{p}[0-9]+/base_pose_ground_truth"
+
+
+def fault_spec(text: str) -> tuple[int, float]:
+    """An argparse type: ROBOT@TIME (robot index >= 0, run time [s] >= 0)."""
+    robot, sep, when = text.partition("@")
+    try:
+        r, t = int(robot), float(when)
+    except ValueError:
+        r, t = -1, math.nan
+    if not sep or r < 0 or not math.isfinite(t) or t < 0:
+        raise argparse.ArgumentTypeError(f"expected ROBOT@TIME (robot index >= 0, run time "
+                                         f"[s] >= 0), got '{text}'")
+    return r, t
+
+
+def rtf_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a real-time factor >= 0, got '{text}'") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"expected a real-time factor >= 0 (0 = as fast as "
+                                         f"possible), got {text}")
+    return value
+
+
+def loss_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a probability in [0, 1], got '{text}'") from None
+    if not (math.isfinite(value) and 0 <= value <= 1):
+        raise argparse.ArgumentTypeError(f"expected a probability in [0, 1], got {text}")
+    return value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -40,13 +96,36 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, required=True, help="run folder (results, bag, logs)")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="strategy parameter (repeatable)")
-    p.add_argument("--rtf", type=float, default=10.0,
-                   help="pace the simulator at this real-time factor (default 10; 0 = as fast as "
-                        "possible, which outruns the Python agents: see docs/FLEET.md)")
-    p.add_argument("--robot", default="burger",
-                   help="simulated robot preset (burger, waffle_pi, patrolling_sim); its speed "
-                        "is raised to the map's nominal speed so that batch and fleet compare")
+    p.add_argument("--no-lockstep", dest="lockstep", action="store_false",
+                   help="do not step in lock-step with the agents (paced with --rtf X, or "
+                        "free-running with --rtf 0; results then depend on the machine's load)")
+    p.add_argument("--lockstep-timeout", type=positive_float, default=2.0,
+                   help="[s of wall time] an agent silent this long on a tick is unresponsive: "
+                        "its robot stops, the run goes on (default 2)")
+    p.add_argument("--rtf", type=rtf_float, default=None,
+                   help="pace the simulator at this real-time factor (0 = as fast as possible; "
+                        "default: 0 in lock-step, 10 without)")
+    p.add_argument("--robot", default="auto",
+                   help="simulated robot preset: burger, waffle_pi, patrolling_sim, or auto "
+                        "(default: a preset that drives the map's nominal speed, of the radius "
+                        "closest to the map's; e.g. the 0.33 m, 1 m/s patrolling_sim robot for "
+                        "1 m/s maps). A map speed above the preset's limit is capped at the "
+                        "limit, and said so; a robot is never made faster than its preset")
+    p.add_argument("--record", default="",
+                   help="more topics in the bag: comma-separated groups (" +
+                        ", ".join(RECORD_GROUPS) + ") or a topic regex (default: poses, events, "
+                        "team messages, /clock)")
     p.add_argument("--no-record", action="store_true", help="no rosbag")
+    p.add_argument("--fail", type=fault_spec, action="append", default=[], metavar="ROBOT@TIME",
+                   help="kill robot ROBOT's agent process at run time TIME [s] (repeatable)")
+    p.add_argument("--fail-random", type=int, default=0, metavar="K",
+                   help="kill K random agents at random run times (seeded)")
+    p.add_argument("--stall", type=fault_spec, action="append", default=[], metavar="ROBOT@TIME",
+                   help="robot ROBOT stops moving at run time TIME [s]; its agent goes on")
+    p.add_argument("--delay", type=non_negative_float, default=0.0,
+                   help="[s of sim time] team message delay, through a relay (as tpuaf run)")
+    p.add_argument("--loss", type=loss_float, default=0.0,
+                   help="team message loss probability per recipient, through a relay")
     p.add_argument("--timeout", type=positive_float, default=None,
                    help="wall-clock limit [s] (default: duration + 300)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -55,14 +134,115 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 # ---------------------------------------------------------------------------------------------
+# Options and the robot model
+
+
+@dataclass
+class RobotChoice:
+    preset: str
+    radius_m: float
+    speed_mps: float  # what the agents are told and the simulator allows
+    note: str  # '' or why the speed differs from the map's nominal speed
+
+
+def choose_robot(name: str, settings) -> RobotChoice:
+    """The robot preset for a map: never faster than the preset allows."""
+    from tpuaf_stage.presets import ROBOT_PRESETS
+
+    nominal = float(settings.nominal_speed)
+    if name == "auto":  # a preset that drives the map's speed, of the closest radius
+        able = [k for k, v in ROBOT_PRESETS.items() if v["max_linear_speed"] >= nominal - 1e-9]
+        name = min(able or ["burger"], key=lambda k: abs(ROBOT_PRESETS[k]["radius"] -
+                                                           settings.robot_radius))
+    if name not in ROBOT_PRESETS:
+        raise CliError(f"--robot: unknown robot preset '{name}' (known: auto, "
+                       f"{', '.join(sorted(ROBOT_PRESETS))})")
+    preset = ROBOT_PRESETS[name]
+    limit = float(preset["max_linear_speed"])
+    note = ""
+    speed = nominal
+    if nominal > limit + 1e-9:
+        speed = limit
+        note = (f"the map's nominal speed {nominal:g} m/s is above the {name} limit {limit:g} m/s: "
+                f"robots drive at {limit:g} m/s (compare with a run at that speed)")
+    return RobotChoice(name, float(preset["radius"]), speed, note)
+
+
+def record_regex(spec: str, prefix: str = PREFIX) -> str:
+    """The rosbag -e regex: the default topics plus --record groups or a regex."""
+    base = DEFAULT_RECORD.format(p=prefix)
+    spec = spec.strip()
+    if not spec:
+        return base
+    words = [w.strip() for w in spec.split(",") if w.strip()]
+    if words and all(re.fullmatch(r"[a-z_]+", w) for w in words):
+        unknown = [w for w in words if w not in RECORD_GROUPS and w != "all"]
+        if unknown:
+            raise CliError(f"--record: unknown group(s) {', '.join(unknown)} (known: all, "
+                           f"{', '.join(RECORD_GROUPS)}; or give a topic regex)")
+        groups = list(RECORD_GROUPS) if "all" in words else words
+        return "|".join([base] + [RECORD_GROUPS[g].format(p=prefix) for g in groups])
+    try:
+        re.compile(spec)
+    except re.error as err:
+        raise CliError(f"--record: not a topic regex: '{spec}' ({err})") from None
+    if "'" in spec:
+        raise CliError("--record: a regex may not contain a single quote")
+    return f"{base}|{spec}"
+
+
+def check_options(args: argparse.Namespace) -> None:
+    """Everything that can be checked before any ROS process starts (CliError, exit 2)."""
+    if args.seed < 0 or args.seed > 2**31 - 1:
+        raise CliError(f"--seed: expected an integer in 0 .. {2**31 - 1}, got {args.seed}")
+    if args.rtf is None:
+        args.rtf = 0.0 if args.lockstep else 10.0
+    if args.fail_random < 0 or args.fail_random > args.robots:
+        raise CliError(f"--fail-random: expected 0 .. {args.robots} robots, got "
+                       f"{args.fail_random}")
+    for option, items in (("--fail", args.fail), ("--stall", args.stall)):
+        for robot, when in items:
+            if robot >= args.robots:
+                raise CliError(f"{option} {robot}@{when:g}: robot index not in 0..{args.robots - 1}")
+            if when >= args.duration:
+                raise CliError(f"{option} {robot}@{when:g}: time is not within the run "
+                               f"(--duration {args.duration:g} s)")
+    robots = [r for r, _ in args.fail]
+    if len(set(robots)) != len(robots):
+        raise CliError("--fail: each robot can die once")
+    record_regex(args.record)
+
+
+def fault_plan(args: argparse.Namespace) -> list[dict]:
+    """Deaths and stalls in run-time order; --fail-random draws robots and times (seeded)."""
+    faults = [{"kind": "death", "robot": r, "time_s": t} for r, t in args.fail]
+    if args.fail_random:
+        rng = np.random.default_rng([int(args.seed), 7])
+        taken = {r for r, _ in args.fail}
+        free = [r for r in range(args.robots) if r not in taken]
+        k = min(args.fail_random, len(free))
+        for r in rng.choice(free, size=k, replace=False):
+            faults.append({"kind": "death", "robot": int(r),
+                           "time_s": float(rng.uniform(0.1, 0.9) * args.duration)})
+    faults += [{"kind": "stall", "robot": r, "time_s": t} for r, t in args.stall]
+    return sorted(faults, key=lambda f: (f["time_s"], f["robot"]))
+
+
+# ---------------------------------------------------------------------------------------------
 # Run folder
 
 
 def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
-    """Write world.yaml, strategy_params.yaml and fleet_config.yaml; the roslaunch args."""
+    """Write world.yaml (+ its resolved form for the simulator), strategy_params.yaml and
+    fleet_config.yaml; the roslaunch args."""
+    from tpuaf_stage.resolve import write_resolved
+
+    from tpuaf_stage.config import WorldError, parse_world
+
     from ..maps import MapError, builtin_map_names, load_map, start_vertices
     from ..policies import REGISTRY, ParameterError
 
+    check_options(args)
     try:
         patrol_map = load_map(args.map)
         cls = REGISTRY.get(args.strategy)
@@ -71,25 +251,32 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
         raise CliError(str(err)) from None
     except KeyError as err:
         raise CliError(err.args[0]) from None
+    robot = choose_robot(args.robot, patrol_map.settings)
+    faults = fault_plan(args)
     out = args.out.expanduser().resolve()
     out.mkdir(parents=True, exist_ok=True)
     map_ref = args.map if args.map in builtin_map_names() else str(Path(args.map).expanduser().resolve())
-    s = patrol_map.settings
     world = {
         "patrol_map": map_ref,
         "seed": int(args.seed),
-        "robot": {"preset": args.robot, "radius": float(s.robot_radius),
-                  "max_linear_speed": float(s.nominal_speed)},
+        # The preset as it is (radius and limits); only a slower map speed lowers the limit.
+        "robot": {"preset": robot.preset, "max_linear_speed": robot.speed_mps},
         "laser": {"preset": "lds01"},  # 5 Hz; control runs on the 10 Hz poses
         "robots": int(args.robots),
     }
-    (out / "world.yaml").write_text(yaml.safe_dump(world, sort_keys=False))
+    world_file = out / "world.yaml"
+    world_file.write_text(yaml.safe_dump(world, sort_keys=False))
+    try:
+        resolved = write_resolved(parse_world(world, world_file), out)
+    except WorldError as err:
+        raise CliError(str(err)) from None
     given = parse_params(args.param)
     strategy_file = ""
     if given:
         strategy_file = str(out / "strategy_params.yaml")
         Path(strategy_file).write_text(yaml.safe_dump(given, sort_keys=False))
     starts = start_vertices(patrol_map, args.robots)
+    relay = args.delay > 0 or args.loss > 0
     config = {
         "runtime": "ros",
         "map": map_ref,
@@ -101,17 +288,33 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
         "strategy_params": params,
         "start_vertices": [int(patrol_map.vertex_ids[v]) for v in starts],
         "simulator": {"world": world, "step_s": 0.01, "pose_rate_hz": 10.0,
-                      "real_time_factor": args.rtf},
+                      "real_time_factor": args.rtf, "lockstep": bool(args.lockstep),
+                      "lockstep_timeout_s": float(args.lockstep_timeout)},
+        "robot": {"preset": robot.preset, "radius_m": robot.radius_m,
+                  "max_linear_speed_mps": robot.speed_mps,
+                  "map_nominal_speed_mps": float(patrol_map.settings.nominal_speed),
+                  "note": robot.note},
+        "faults": faults,
+        "team_bus": {"delay_s": float(args.delay), "loss": float(args.loss),
+                     "relay": relay},
         "navigation_module": "tpuaf.navigation (GraphRoute + LocalController)",
         "bag": None if args.no_record else str(out / "run.bag"),
+        "record_regex": None if args.no_record else record_regex(args.record),
     }
     (out / "fleet_config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    stalls = ",".join(f"{f['robot']}@{f['time_s']:g}" for f in faults if f["kind"] == "stall")
     launch_args = [
         f"map:={map_ref}", f"strategy:={cls.name}", f"robots:={args.robots}",
         f"duration:={args.duration}", f"seed:={args.seed}",
         f"record:={'false' if args.no_record else 'true'}", f"out:={out}",
-        f"rtf:={args.rtf}", f"strategy_params:={strategy_file}",
+        f"world:={resolved}", f"rtf:={args.rtf}", f"strategy_params:={strategy_file}",
         f"config_file:={out / 'fleet_config.yaml'}",
+        f"lockstep:={'true' if args.lockstep else 'false'}",
+        f"lockstep_timeout:={args.lockstep_timeout}",
+        f"max_linear_speed:={robot.speed_mps}", f"robot_radius:={robot.radius_m}",
+        f"stall:={stalls}", f"sim_summary:={out / 'simulator.json'}",
+        f"record_regex:={config['record_regex'] or ''}",
+        f"relay:={'true' if relay else 'false'}", f"delay:={args.delay}", f"loss:={args.loss}",
     ]
     return launch_args, config
 
@@ -168,6 +371,20 @@ def master_up(port: int) -> bool:
         return False
 
 
+def node_pid(master_uri: str, node: str) -> int | None:
+    """PID of a node, asked from the node itself (its XML-RPC getPid) via the master."""
+    import xmlrpc.client
+
+    try:
+        code, _, uri = xmlrpc.client.ServerProxy(master_uri).lookupNode("/tpuaf_fleet", node)
+        if code != 1:
+            return None
+        code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/tpuaf_fleet")
+        return int(pid) if code == 1 else None
+    except (OSError, xmlrpc.client.Error, ValueError):
+        return None
+
+
 def wait_bag_closed(bag: Path, timeout_s: float = 30.0) -> bool:
     """True once run.bag exists and no run.bag.active remains (the recorder closed it)."""
     active = bag.with_name(bag.name + ".active")
@@ -177,6 +394,12 @@ def wait_bag_closed(bag: Path, timeout_s: float = 30.0) -> bool:
             return True
         time.sleep(0.2)
     return False
+
+
+def write_json_atomic(path: Path, data: dict) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps(data, indent=2))
+    os.replace(tmp, path)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -194,21 +417,29 @@ def run(args: argparse.Namespace) -> int:
     if args.prepare_only:
         print(f"{ros_env_sh} " + " ".join(cmd))
         return 0
+    if config["robot"]["note"]:
+        print(f"tpuaf fleet: note: {config['robot']['note']}", file=sys.stderr)
     home = out / "ros_home"
     home.mkdir(exist_ok=True)
     port = free_port()
     env = ros_env(port, home)
     procs: list[subprocess.Popen] = []
     summary_path = out / "summary.json"
-    with contextlib.suppress(FileNotFoundError):
-        summary_path.unlink()
+    sim_summary = out / "simulator.json"
+    for stale in (summary_path, sim_summary):
+        with contextlib.suppress(FileNotFoundError):
+            stale.unlink()
     # SIGTERM (e.g. from `timeout`) cleans up like Ctrl-C.
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
-    title = f"{config['strategy']} on {config['map_name']}, N = {args.robots}, {args.duration:g} s"
+    mode = ("lock-step" if args.lockstep else "paced" if args.rtf > 0 else "free-running")
+    title = (f"{config['strategy']} on {config['map_name']}, N = {args.robots}, "
+             f"{args.duration:g} s, {mode}")
     wall0 = time.monotonic()
     interrupted = False
     finished = False
     sim_elapsed = 0.0
+    wall_run = 0.0
+    deaths_done: list[dict] = []
     try:
         core = start([str(ros_env_sh), "roscore", "-p", str(port)], env, home / "roscore.log")
         procs.append(core)
@@ -219,7 +450,8 @@ def run(args: argparse.Namespace) -> int:
             time.sleep(0.1)
         launch = start([str(ros_env_sh), *cmd], env, out / "roslaunch.log")
         procs.append(launch)
-        finished, sim_elapsed, wall_run = follow(args, env, launch, out)
+        deaths = [f for f in config["faults"] if f["kind"] == "death"]
+        finished, sim_elapsed, wall_run = follow(args, env, launch, deaths, deaths_done)
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -234,6 +466,19 @@ def run(args: argparse.Namespace) -> int:
     summary = json.loads(summary_path.read_text())
     summary["wall_time_s"] = wall
     rtf = summary.get("duration_s", 0.0) / wall_run if finished and wall_run > 0 else None
+    summary["real_time_factor"] = rtf
+    summary["stepping"] = mode
+    sim = {}
+    if sim_summary.is_file():
+        with contextlib.suppress(ValueError):
+            sim = json.loads(sim_summary.read_text())
+    summary["unresponsive_events"] = int(sim.get("unresponsive_events", 0))
+    summary["unresponsive_per_robot"] = sim.get("unresponsive_per_robot", [])
+    summary["simulator_events"] = sim.get("events", [])
+    summary.setdefault("faults", config["faults"])
+    summary["fleet_deaths_injected"] = deaths_done
+    summary["robot_model"] = config["robot"]
+    write_json_atomic(summary_path, summary)
     state = "finished" if finished else ("interrupted" if interrupted else "stopped early")
     print(f"\n{title} ({state})")
     print(format_summary(summary))
@@ -241,20 +486,24 @@ def run(args: argparse.Namespace) -> int:
         print(f"  simulated {summary['duration_s']:,.0f} s in {wall_run:.1f} s wall from the start "
               f"({rtf:.1f}x real time); {wall:.1f} s wall in all")
     print(f"  deaths: {summary.get('deaths', 0)}")
+    if args.lockstep:
+        print(f"  lock-step: {summary['unresponsive_events']} unresponsive agent event(s)")
+    if config["robot"]["note"]:
+        print(f"  robot: {config['robot']['note']}")
     print(f"  results: {out}" + ("" if args.no_record else f"; bag: {bag}"
                                 + ("" if bag_ok else " (NOT closed)")))
-    with open(out / "fleet_timing.json", "w") as f:
-        json.dump({"wall_total_s": wall, "wall_run_s": wall_run if finished else None,
-                   "real_time_factor": rtf, "finished": finished,
-                   "sim_elapsed_s": sim_elapsed}, f, indent=2)
+    write_json_atomic(out / "fleet_timing.json",
+                      {"wall_total_s": wall, "wall_run_s": wall_run if finished else None,
+                       "real_time_factor": rtf, "finished": finished,
+                       "sim_elapsed_s": sim_elapsed})
     if interrupted:
         return 130
     return 0 if finished and bag_ok else 1
 
 
-def follow(args, env, launch, out) -> tuple[bool, float, float]:
-    """Follow /fleet/metrics with a progress bar until finished, roslaunch died or timeout.
-    Returns (finished, elapsed sim s, wall s from the run's start to its end)."""
+def follow(args, env, launch, deaths, deaths_done) -> tuple[bool, float, float]:
+    """Follow /fleet/metrics with a progress bar until finished, roslaunch died or timeout;
+    kill agents at their --fail times. Returns (finished, elapsed run s, wall s of the run)."""
     os.environ.update({k: env[k] for k in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME", "ROS_LOG_DIR")})
     import rospy
     from tqdm import tqdm
@@ -266,7 +515,7 @@ def follow(args, env, launch, out) -> tuple[bool, float, float]:
     def on_metrics(msg):
         now = time.monotonic()
         if state["t_first"] is None:
-            state["t_first"] = now - 0.0
+            state["t_first"] = now
             state["e_first"] = msg.elapsed
         state["elapsed"] = msg.elapsed
         state["t_last"] = now
@@ -279,6 +528,7 @@ def follow(args, env, launch, out) -> tuple[bool, float, float]:
                bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} sim s [{elapsed}<{remaining}]",
                file=sys.stderr)
     timeout = args.timeout if args.timeout else args.duration + 300.0
+    pending = list(deaths)
     t0 = time.monotonic()
     try:
         while not state["finished"]:
@@ -287,8 +537,18 @@ def follow(args, env, launch, out) -> tuple[bool, float, float]:
             if time.monotonic() - t0 > timeout:
                 print(f"tpuaf fleet: wall-clock limit of {timeout:g} s reached", file=sys.stderr)
                 break
+            while pending and state["t_first"] is not None and state["elapsed"] >= pending[0]["time_s"]:
+                fault = pending.pop(0)
+                node = f"/{PREFIX}{fault['robot']}/patrol_agent"
+                pid = node_pid(env["ROS_MASTER_URI"], node)
+                if pid is not None:
+                    with contextlib.suppress(ProcessLookupError):
+                        os.kill(pid, signal.SIGKILL)
+                deaths_done.append({**fault, "killed_at_s": state["elapsed"], "pid": pid})
+                bar.write(f"tpuaf fleet: killed {node} (pid {pid}) at run time "
+                          f"{state['elapsed']:.1f} s")
             bar.update(state["elapsed"] - bar.n)
-            time.sleep(0.2)
+            time.sleep(0.1)
         bar.update(state["elapsed"] - bar.n)
     finally:
         bar.close()
