@@ -10,7 +10,8 @@ edges (the same pair listed more than once, or with different costs each way) ar
 one edge with the shortest cost; each merge is recorded in `PatrolMap.notes`.
 
 Settings of imported maps (the files carry none): 1 m/s, r = 5 m, d_if = 2 m, goal tolerance
-0.4 m, robot radius 0.33 m (the reference simulator's robot), other values MapSettings defaults.
+0.4 m, robot radius 0.165 m (the reference simulator's robot is a 0.33 m disc: the simulator's
+patrolling_sim preset), other values MapSettings defaults.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ IMPORTED_SETTINGS = {
     "sensing_radius": 5.0,
     "interference_distance": 2.0,
     "goal_tolerance": 0.4,
-    "robot_radius": 0.33,
+    "robot_radius": 0.165,  # [m]: a 0.33 m diameter disc
 }
 
 
