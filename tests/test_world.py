@@ -335,17 +335,13 @@ def test_scan_all_needs_equal_beams():
     assert w.scan(1).shape == (20,)
 
 
-# --- world files, node parameters, stepping loop (tpuaf_stage, no ROS) ----------------------------
+# --- world files and their resolved form (tpuaf_stage, no ROS) ------------------------------------
 
 from pathlib import Path  # noqa: E402
 
-from tpuaf_stage import (  # noqa: E402
-    ParamError,
-    SimLoop,
-    WorldError,
-    load_world,
-    parse_node_params,
-)
+from tpuaf_stage.resolve import RESOLVED_KEY, write_resolved  # noqa: E402
+
+from tpuaf_stage import WorldError, load_world  # noqa: E402
 
 TEMPLATE = Path(__file__).resolve().parents[1] / "src/tpuaf_stage/config/world_template.yaml"
 
@@ -425,64 +421,46 @@ def test_imported_cumberland(shared_maps, tmp_path):
     assert scans.shape == (12, 360) and np.isfinite(scans).any()
 
 
-def test_node_params_are_strict():
-    p = parse_node_params({"world": "w.yaml", "odom_rate": 20, "lockstep": True})
-    assert p.odom_rate == 20.0 and p.lockstep and p.step == 0.01 and p.robot_prefix == "robot_"
-    with pytest.raises(ParamError, match=r"unknown parameter\(s\) ~odom_hz"):
-        parse_node_params({"world": "w.yaml", "odom_hz": 5})
-    with pytest.raises(ParamError, match="~world"):
-        parse_node_params({})
-    with pytest.raises(ParamError, match="~step"):
-        parse_node_params({"world": "w", "step": 0})
-    with pytest.raises(ParamError, match="~clock_rate"):
-        parse_node_params({"world": "w", "clock_rate": 200.0})
-    with pytest.raises(ParamError, match="~lockstep must be true or false"):
-        parse_node_params({"world": "w", "lockstep": "yes"})
-    with pytest.raises(ParamError, match="relative name"):
-        parse_node_params({"world": "w", "robot_prefix": "/tb3_"})
+def test_resolved_world_is_explicit(tmp_path):
+    """The C++ node reads only this form: every value explicit, the grid as a PGM."""
+    import yaml
 
-
-def sim_loop(tmp_path, **params):
     write_map(tmp_path)
-    (tmp_path / "w.yaml").write_text("map: m.yaml\nlaser: {rate: 10.0}\n"
-                                     "robots: [[1.0, 1.0], [4.0, 4.0]]\n")
-    return SimLoop(load_world(tmp_path / "w.yaml"),
-                   parse_node_params({"world": "w.yaml", **params}))
+    (tmp_path / "w.yaml").write_text("map: m.yaml\nseed: 4\nrobot: {preset: patrolling_sim}\n"
+                                     "laser: {beams: 181, fov: 3.14159, no_return: max}\n"
+                                     "robots: [[1.0, 1.0], [3.0, 3.0, 1.5]]\n")
+    cfg = load_world(tmp_path / "w.yaml")
+    path = write_resolved(cfg, tmp_path / "out")
+    doc = yaml.safe_load(path.read_text())
+    assert doc[RESOLVED_KEY] == 1 and doc["seed"] == 4
+    assert doc["robot"]["radius"] == 0.165 and doc["robot"]["max_linear_accel"] == math.inf
+    assert doc["laser"]["angle_min"] == pytest.approx(-3.14159 / 2)
+    assert doc["laser"]["angle_increment"] == pytest.approx(3.14159 / 180)
+    assert doc["laser"]["no_return_range"] == 3.5 and doc["laser"]["rate"] == 5.0
+    assert doc["robots"] == [[1.0, 1.0, 0.0], [3.0, 3.0, 1.5]]
+    assert doc["origin"] == [-1.0, -2.0] and (doc["width"], doc["height"]) == (100, 100)
+    pgm = (path.parent / doc["occupancy"]).read_bytes()
+    header = b"P5\n100 100\n255\n"
+    assert pgm.startswith(header)
+    pixels = np.frombuffer(pgm[len(header):], dtype=np.uint8).reshape(100, 100)[::-1]
+    assert np.array_equal(pixels == 0, cfg.occupied)  # image row 0 = top of the map
+    assert "'robots': 2" in doc["summary"]
 
 
-def test_loop_schedule_is_exact_in_sim_time(tmp_path):
-    loop = sim_loop(tmp_path, odom_rate=20.0, clock_rate=50.0)
-    ticks = [loop.advance() for _ in range(100)]  # 1 s
-    assert sum(t.odom for t in ticks) == 20 and sum(t.scan for t in ticks) == 10
-    assert sum(t.clock for t in ticks) == 50
-    assert [t.time_ns for t in ticks if t.scan][:2] == [100_000_000, 200_000_000]
-    assert loop.time == pytest.approx(1.0)
+def test_resolver_command_names_file_and_line(tmp_path):
+    import subprocess
+    import sys
 
-
-def test_watchdog_stops_only_the_stale_robot(tmp_path):
-    loop = sim_loop(tmp_path, cmd_vel_timeout=0.2)
-    for k in range(50):  # robot 0 gets a command every step, robot 1 only at the start
-        loop.command(0, 0.0, 1.0)
-        if k == 0:
-            loop.command(1, 0.0, 1.0)
-        loop.advance()
-    assert list(loop.stopped_by_watchdog) == [False, True]
-    v = loop.world.velocities()
-    assert v[0, 1] == pytest.approx(1.0) and v[1, 1] == 0.0
-    assert loop.wall_delay(0.1) == 0.0  # free-running
-    paced = sim_loop(tmp_path, real_time_factor=2.0)
-    for _ in range(100):
-        paced.advance()
-    assert paced.wall_delay(0.1) == pytest.approx(0.5 - 0.1)
-
-
-def test_lockstep_replies(tmp_path):
-    loop = sim_loop(tmp_path, lockstep=True)
-    marks = loop.reply_marks()
-    loop.command(0, 0.1, 0.0)
-    assert loop.wait_replies(marks, 0.05) == [1]  # robot 1 did not answer
-    marks = loop.reply_marks()
-    loop.command(0, 0.1, 0.0)
-    assert loop.wait_replies(marks, 5.0) == []  # robot 1 is not waited for any more
-    loop.command(1, 0.0, 0.0)
-    assert not loop.unresponsive.any()
+    write_map(tmp_path)
+    bad = tmp_path / "w.yaml"
+    bad.write_text("map: m.yaml\nrobots: [[1, 1]]\nlaser:\n  rnage_max: 4\n")
+    proc = subprocess.run([sys.executable, "-m", "tpuaf_stage.resolve", str(bad),
+                           str(tmp_path / "out")], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert f"{bad}:4: unknown key(s) rnage_max in laser" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    good = tmp_path / "g.yaml"
+    good.write_text("map: m.yaml\nrobots: [[1, 1]]\n")
+    proc = subprocess.run([sys.executable, "-m", "tpuaf_stage.resolve", str(good),
+                           str(tmp_path / "out")], capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stdout.strip().endswith("world.resolved.yaml")

@@ -1,20 +1,16 @@
-"""ROS-free logic of the tpuaf_stage simulator node: world files, presets, the stepping loop.
+"""ROS-free logic of the tpuaf_stage simulator: world files, presets, resolved world files.
 
-The node (src/tpuaf_stage/nodes/tpuaf_stage) only adapts these to ROS topics, tf and /clock.
+The roscpp node (src/tpuaf_stage/src/stage_node.cpp) reads resolved world files
+(tpuaf_stage.resolve); the Python physics runtime builds its world from tpuaf_stage.config.
 """
 
 from .config import LaserModel, RobotModel, WorldConfig, WorldError, load_world, parse_world
-from .loop import NodeParams, ParamError, SimLoop, parse_node_params
 
 __all__ = [
     "LaserModel",
-    "NodeParams",
-    "ParamError",
     "RobotModel",
-    "SimLoop",
     "WorldConfig",
     "WorldError",
     "load_world",
-    "parse_node_params",
     "parse_world",
 ]
