@@ -127,6 +127,7 @@ GroundTruthRecorder::GroundTruthRecorder(const EngineConfig& config, Uncertainty
       dif2_(config.interference_distance_m * config.interference_distance_m),
       d_if_(config.interference_distance_m),
       field_(std::move(field)),
+      values_(field_.values()),
       peaks_(Eigen::VectorXd::Constant(config.robots, config.sensing_peak)),
       radii_(Eigen::VectorXd::Constant(config.robots, config.sensing_radius_m)),
       vertex_times_(static_cast<std::size_t>(n_vertices_)),
@@ -134,6 +135,36 @@ GroundTruthRecorder::GroundTruthRecorder(const EngineConfig& config, Uncertainty
       next_sample_(0.0 + config.sample_period_s) {
   if (!(period_ > 0)) throw std::invalid_argument("sample period must be > 0 s");
   verlet_skin_ = std::max(2.0 * d_if_, 1e-3);  // [m]
+  // Target cells of one sensing radius over the targets' bounding box.
+  const auto& targets = field_.targets();
+  if (n_vertices_ > 0) {
+    target_x0_ = targets.col(0).minCoeff();
+    target_y0_ = targets.col(1).minCoeff();
+    const double width =
+        std::max(targets.col(0).maxCoeff() - target_x0_, targets.col(1).maxCoeff() - target_y0_);
+    target_cell_ = std::max(config.sensing_radius_m * (1.0 + 1e-9), width / 1024.0 + 1e-9);
+    target_nx_ =
+        static_cast<int>(std::floor((targets.col(0).maxCoeff() - target_x0_) / target_cell_)) + 1;
+    target_ny_ =
+        static_cast<int>(std::floor((targets.col(1).maxCoeff() - target_y0_) / target_cell_)) + 1;
+  }
+  std::vector<int> count(static_cast<std::size_t>(target_nx_) * target_ny_ + 1, 0);
+  std::vector<int> cell_of(static_cast<std::size_t>(n_vertices_));
+  for (int j = 0; j < n_vertices_; ++j) {
+    const int cx = std::min(
+        target_nx_ - 1, static_cast<int>(std::floor((targets(j, 0) - target_x0_) / target_cell_)));
+    const int cy = std::min(
+        target_ny_ - 1, static_cast<int>(std::floor((targets(j, 1) - target_y0_) / target_cell_)));
+    cell_of[static_cast<std::size_t>(j)] = cx * target_ny_ + cy;
+    ++count[static_cast<std::size_t>(cell_of[static_cast<std::size_t>(j)]) + 1];
+  }
+  for (std::size_t c = 1; c < count.size(); ++c) count[c] += count[c - 1];
+  target_start_ = count;
+  target_index_.assign(static_cast<std::size_t>(n_vertices_), 0);
+  for (int j = 0; j < n_vertices_; ++j) {
+    target_index_[static_cast<std::size_t>(
+        count[static_cast<std::size_t>(cell_of[static_cast<std::size_t>(j)])]++)] = j;
+  }
 }
 
 void GroundTruthRecorder::record_visit(int robot, int vertex, double time) {
@@ -352,7 +383,7 @@ void GroundTruthRecorder::advance_field(double t0, double t1, const Points& p0, 
     const double ts = next_sample_;
     Points pb = span > 0 ? Points(p0 + (p1 - p0) * ((ts - t0) / span)) : p1;
     step_field(ts - ta, pa, pb);
-    emit_row(ts, numpy_mean(field_.values().data(), static_cast<std::size_t>(n_vertices_)));
+    emit_row(ts, numpy_mean(values_.data(), static_cast<std::size_t>(n_vertices_)));
     ++sample_k_;
     next_sample_ = 0.0 + static_cast<double>(sample_k_) * period_;
     ta = ts;
@@ -363,7 +394,85 @@ void GroundTruthRecorder::advance_field(double t0, double t1, const Points& p0, 
 
 void GroundTruthRecorder::step_field(double dt, const Points& pa, const Points& pb) {
   if (dt <= 0) return;
-  field_.advance_linear(dt, pa, pb, peaks_, radii_, max_substep_);
+  advance_linear(dt, pa, pb);
+}
+
+void GroundTruthRecorder::coverage(const Points& start, const Points& end, double fraction,
+                                   Eigen::VectorXd& out) {
+  // total_perception (Eq. 1 summed over robots) at start + fraction (end - start), robot by
+  // robot in index order as there, over the targets within one cell of the robot only.
+  cover_at_ = start + fraction * (end - start);
+  out.setZero(n_vertices_);
+  const auto& targets = field_.targets();
+  for (Eigen::Index i = 0; i < cover_at_.rows(); ++i) {
+    const double r2 = radii_[i] * radii_[i];
+    const double scale = peaks_[i] / (r2 * r2);
+    const double qx = cover_at_(i, 0), qy = cover_at_(i, 1);
+    const double fx = std::floor((qx - target_x0_) / target_cell_);
+    const double fy = std::floor((qy - target_y0_) / target_cell_);
+    if (!(fx >= -1 && fx <= target_nx_ && fy >= -1 && fy <= target_ny_)) continue;  // far away
+    const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
+    for (int gx = std::max(cx - 1, 0); gx <= std::min(cx + 1, target_nx_ - 1); ++gx) {
+      for (int gy = std::max(cy - 1, 0); gy <= std::min(cy + 1, target_ny_ - 1); ++gy) {
+        const int c = gx * target_ny_ + gy;
+        for (int k = target_start_[c]; k < target_start_[c + 1]; ++k) {
+          const int j = target_index_[k];
+          const double dx = targets(j, 0) - qx;
+          const double dy = targets(j, 1) - qy;
+          const double s2 = dx * dx + dy * dy;
+          if (s2 <= r2) {
+            const double d = s2 - r2;
+            out[j] += scale * d * d;
+          }
+        }
+      }
+    }
+  }
+}
+
+void GroundTruthRecorder::advance_linear(double dt, const Points& start, const Points& end) {
+  // UncertaintyField::advance_linear, step for step (Simpson's rule per substep, exact
+  // constant-coverage solution), with the coverage through the target cells.
+  const int steps = std::max(1, static_cast<int>(std::ceil(dt / max_substep_)));
+  const double h = dt / steps;
+  const UncertaintyModel& model = field_.model();
+  const Eigen::VectorXd& importance = field_.importance();
+  const bool affine = model.is_affine();
+  const double a0 = model.growth_coefficients[0];
+  const double a1 = model.growth_coefficients.size() > 1 ? model.growth_coefficients[1] : 0.0;
+  coverage(start, end, 0.0, cover_left_);
+  for (int k = 0; k < steps; ++k) {
+    coverage(start, end, (k + 0.5) / steps, cover_mid_);
+    coverage(start, end, (k + 1.0) / steps, cover_right_);
+    // One exp pair per distinct rate: the uncovered targets of a uniform map share theirs.
+    double cached_rate = kNaN, growth = 0, offset = 0;
+    bool saturated = false;
+    for (Eigen::Index j = 0; j < values_.size(); ++j) {
+      const double mean = (cover_left_[j] + 4.0 * cover_mid_[j] + cover_right_[j]) / 6.0;
+      const double rate = importance[j] - mean;
+      if (!affine || !(h > 0)) {
+        values_[j] = model.evolve(values_[j], rate, h);
+        continue;
+      }
+      if (!(rate == cached_rate)) {  // UncertaintyModel::evolve, affine branch
+        cached_rate = rate;
+        const double z = a1 * rate * h;
+        saturated = z > 700;
+        if (!saturated) {
+          growth = std::exp(z);
+          const double ratio = std::abs(z) < 1e-12 ? 1.0 + 0.5 * z : std::expm1(z) / z;
+          offset = a0 * rate * h * ratio;
+        }
+      }
+      if (saturated) {
+        values_[j] = model.max_value;
+        continue;
+      }
+      const double x = values_[j] * growth + offset;
+      values_[j] = !(x > 0) ? 0.0 : std::min(x, model.max_value);
+    }
+    cover_left_.swap(cover_right_);
+  }
 }
 
 double GroundTruthRecorder::worst_idleness(double end_s) const {

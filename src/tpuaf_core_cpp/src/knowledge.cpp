@@ -1,6 +1,7 @@
 #include "tpuaf_core/knowledge.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -52,17 +53,20 @@ void TpuafKnowledge::record_visit(int vertex, double time_s) {
   anchor_time_[vertex] = time_s;
 }
 
+TpuafKnowledge::Slot* TpuafKnowledge::slot(int robot) {
+  if (robot < 0) throw std::out_of_range("robot index must be >= 0");
+  if (static_cast<std::size_t>(robot) >= slots_.size()) slots_.resize(robot + 1);
+  return &slots_[static_cast<std::size_t>(robot)];
+}
+
 void TpuafKnowledge::hear_visit(int robot, int vertex, double time_s, double now_s) {
   if (robot < 0) throw std::out_of_range("robot index must be >= 0");
-  if (static_cast<std::size_t>(robot) >= last_heard_s_.size()) last_heard_s_.resize(robot + 1, -kInf);
+  if (static_cast<std::size_t>(robot) >= last_heard_s_.size())
+    last_heard_s_.resize(robot + 1, -kInf);
   last_heard_s_[robot] = now_s;
   record_visit(vertex, time_s);
-  for (auto it = intentions_.begin(); it != intentions_.end(); ++it) {
-    if (it->robot == robot) {
-      if (it->vertex == vertex) intentions_.erase(it);
-      break;
-    }
-  }
+  Slot* s = slot(robot);
+  if (s->held && s->intention.vertex == vertex) s->held = false;
 }
 
 void TpuafKnowledge::hear_intention(const Intention& intention, double now_s) {
@@ -72,32 +76,41 @@ void TpuafKnowledge::hear_intention(const Intention& intention, double now_s) {
     last_heard_s_.resize(intention.robot + 1, -kInf);
   }
   last_heard_s_[intention.robot] = now_s;
-  for (Intention& held : intentions_) {
-    if (held.robot == intention.robot) {
-      if (intention.sent_s >= held.sent_s) held = intention;
-      return;
-    }
+  Slot* s = slot(intention.robot);
+  if (s->held) {
+    if (intention.sent_s >= s->intention.sent_s) s->intention = intention;
+    return;
   }
-  intentions_.push_back(intention);
+  *s = Slot{intention, next_order_++, true};
 }
 
 void TpuafKnowledge::forget_intention(int robot) {
-  intentions_.erase(std::remove_if(intentions_.begin(), intentions_.end(),
-                                   [robot](const Intention& i) { return i.robot == robot; }),
-                    intentions_.end());
+  if (robot >= 0 && static_cast<std::size_t>(robot) < slots_.size()) {
+    slots_[static_cast<std::size_t>(robot)].held = false;
+  }
 }
 
 void TpuafKnowledge::drop_stale(double now_s) {
-  intentions_.erase(
-      std::remove_if(intentions_.begin(), intentions_.end(),
-                     [&](const Intention& i) {
-                       const bool late = now_s - i.expected_arrival_s > intention_timeout_s_;
-                       const double heard = static_cast<std::size_t>(i.robot) < last_heard_s_.size()
-                                                ? last_heard_s_[i.robot]
-                                                : -kInf;
-                       return late || now_s - heard > silence_timeout_s_;
-                     }),
-      intentions_.end());
+  for (Slot& s : slots_) {
+    if (!s.held) continue;
+    const Intention& i = s.intention;
+    const bool late = now_s - i.expected_arrival_s > intention_timeout_s_;
+    const double heard =
+        static_cast<std::size_t>(i.robot) < last_heard_s_.size() ? last_heard_s_[i.robot] : -kInf;
+    if (late || now_s - heard > silence_timeout_s_) s.held = false;
+  }
+}
+
+std::vector<Intention> TpuafKnowledge::intentions() const {
+  std::vector<const Slot*> held;
+  for (const Slot& s : slots_) {
+    if (s.held) held.push_back(&s);
+  }
+  std::sort(held.begin(), held.end(),
+            [](const Slot* a, const Slot* b) { return a->order < b->order; });
+  std::vector<Intention> out;
+  for (const Slot* s : held) out.push_back(s->intention);
+  return out;
 }
 
 Eigen::VectorXd TpuafKnowledge::estimate(double now_s) const {
@@ -111,7 +124,7 @@ Eigen::VectorXd TpuafKnowledge::estimate(double now_s) const {
 void TpuafKnowledge::announced(Eigen::VectorXd& arrival_s, Eigen::VectorXd& travel_s) const {
   arrival_s = Eigen::VectorXd::Constant(size(), kInf);
   travel_s = Eigen::VectorXd::Zero(size());
-  for (const Intention& i : intentions_) {
+  for (const Intention& i : intentions()) {
     if (i.expected_arrival_s < arrival_s[i.vertex]) {
       arrival_s[i.vertex] = i.expected_arrival_s;
       travel_s[i.vertex] = i.travel_time_s;
@@ -126,6 +139,40 @@ UtilityResult TpuafKnowledge::utilities(const PatrolGraph& graph, double now_s, 
     throw std::invalid_argument("graph and knowledge disagree on the number of vertices");
   }
   drop_stale(now_s);
+  const int n = size();
+  check_vertex(current_vertex);
+  for (int j : candidates) check_vertex(j);
+  // The query holds only what tpuaf_utilities reads (the candidates' and the current vertex's
+  // entries); the vectors are lent to it and taken back, so a decision costs O(candidates +
+  // robots), not O(vertices).
+  if (scratch_estimate_.size() != n) {
+    scratch_estimate_ = Eigen::VectorXd::Zero(n);
+    scratch_arrival_ = Eigen::VectorXd::Constant(n, kInf);
+    scratch_travel_ = Eigen::VectorXd::Zero(n);
+  }
+  auto estimate_at = [&](int j) {
+    scratch_estimate_[j] =
+        model_.evolve(anchor_value_[j], importance_[j], std::max(0.0, now_s - anchor_time_[j]));
+  };
+  estimate_at(current_vertex);
+  for (int j : candidates) estimate_at(j);
+  // Earliest announced arrival per vertex; ties go to the intention heard first.
+  if (scratch_order_.size() != static_cast<std::size_t>(n)) scratch_order_.assign(n, 0);
+  std::vector<int> touched;
+  for (const Slot& s : slots_) {
+    if (!s.held) continue;
+    const int v = s.intention.vertex;
+    const double a = s.intention.expected_arrival_s;
+    const bool unset = std::isinf(scratch_arrival_[v]) && scratch_arrival_[v] > 0;
+    if (unset ? a < scratch_arrival_[v]
+              : (a < scratch_arrival_[v] ||
+                 (a == scratch_arrival_[v] && s.order < scratch_order_[v]))) {
+      if (unset) touched.push_back(v);
+      scratch_arrival_[v] = a;
+      scratch_travel_[v] = s.intention.travel_time_s;
+      scratch_order_[v] = s.order;
+    }
+  }
   UtilityQuery q;
   q.now_s = now_s;
   q.current_vertex = current_vertex;
@@ -133,9 +180,25 @@ UtilityResult TpuafKnowledge::utilities(const PatrolGraph& graph, double now_s, 
   q.speed_mps = speed_mps;
   q.use_path_length = use_path_length;
   q.form = form;
-  q.last_visit_s = last_visit_;
-  q.estimate = estimate(now_s);
-  announced(q.announced_arrival_s, q.announced_travel_s);
+  q.last_visit_s.swap(last_visit_);
+  q.estimate.swap(scratch_estimate_);
+  q.announced_arrival_s.swap(scratch_arrival_);
+  q.announced_travel_s.swap(scratch_travel_);
+  struct GiveBack {  // also when tpuaf_utilities throws
+    TpuafKnowledge& k;
+    UtilityQuery& q;
+    const std::vector<int>& touched;
+    ~GiveBack() {
+      k.last_visit_.swap(q.last_visit_s);
+      k.scratch_estimate_.swap(q.estimate);
+      k.scratch_arrival_.swap(q.announced_arrival_s);
+      k.scratch_travel_.swap(q.announced_travel_s);
+      for (int v : touched) {
+        k.scratch_arrival_[v] = kInf;
+        k.scratch_travel_[v] = 0.0;
+      }
+    }
+  } give_back{*this, q, touched};
   return tpuaf_utilities(graph, importance_, model_, q);
 }
 

@@ -131,7 +131,7 @@ class GroundTruthRecorder {
   const std::vector<SampleRow>& timeseries() const { return rows_; }
   const std::vector<InterferenceRecord>& interferences() const { return interferences_; }
   const std::vector<std::vector<double>>& vertex_times() const { return vertex_times_; }
-  const Eigen::VectorXd& field_values() const { return field_.values(); }
+  const Eigen::VectorXd& field_values() const { return values_; }
   double ins_sum() const { return ins_sum_; }
   double x_sum() const { return x_sum_; }
   long long x_count() const { return x_count_; }
@@ -151,7 +151,17 @@ class GroundTruthRecorder {
 
   int n_robots_, n_vertices_;
   double period_, refractory_, max_substep_, field_merge_, dif2_, d_if_;
-  UncertaintyField field_;
+  UncertaintyField field_;  // targets, importance and growth law of the ground truth
+  Eigen::VectorXd values_;  // ground-truth X_j
+  // Targets bucketed by cells of one sensing radius (the coverage of a robot only looks at
+  // the 3 x 3 cells around it); cell (cx, cy) -> targets, dense over the targets' box.
+  double target_cell_ = 1, target_x0_ = 0, target_y0_ = 0;
+  int target_nx_ = 1, target_ny_ = 1;
+  std::vector<int> target_start_, target_index_;
+  Eigen::VectorXd cover_left_, cover_mid_, cover_right_;
+  Points cover_at_;
+  void coverage(const Points& start, const Points& end, double fraction, Eigen::VectorXd& out);
+  void advance_linear(double dt, const Points& start, const Points& end);
   Eigen::VectorXd peaks_, radii_;
   double field_t_ = 0;
   Points field_p_;

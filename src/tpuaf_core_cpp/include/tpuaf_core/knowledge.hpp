@@ -2,6 +2,7 @@
 // announced intentions, with stale entries dropped, and its own estimate of every X_j.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "tpuaf_core/utility.hpp"
@@ -40,7 +41,8 @@ class TpuafKnowledge {
 
   Eigen::VectorXd estimate(double now_s) const;
   const Eigen::VectorXd& last_visit() const { return last_visit_; }
-  const std::vector<Intention>& intentions() const { return intentions_; }
+  // The held intentions, in the order they were first heard.
+  std::vector<Intention> intentions() const;
   // Earliest announced arrival per vertex (+inf: none) and that robot's travel time.
   void announced(Eigen::VectorXd& arrival_s, Eigen::VectorXd& travel_s) const;
   int size() const { return static_cast<int>(last_visit_.size()); }
@@ -55,8 +57,20 @@ class TpuafKnowledge {
   Eigen::VectorXd importance_, last_visit_, anchor_value_, anchor_time_;
   UncertaintyModel model_;
   double pass_coverage_, pass_time_s_, intention_timeout_s_, silence_timeout_s_;
-  std::vector<Intention> intentions_;  // at most one per robot
-  std::vector<double> last_heard_s_;   // per robot index, -inf when never heard
+  // At most one intention per robot, held in the robot's slot; `order` is when the slot was
+  // filled (ties of announced() go to the earlier one). O(1) per message, O(robots) per
+  // decision.
+  struct Slot {
+    Intention intention;
+    std::uint64_t order = 0;
+    bool held = false;
+  };
+  Slot* slot(int robot);
+  std::vector<Slot> slots_;
+  std::uint64_t next_order_ = 0;
+  std::vector<double> last_heard_s_;  // per robot index, -inf when never heard
+  Eigen::VectorXd scratch_estimate_, scratch_arrival_, scratch_travel_;
+  std::vector<std::uint64_t> scratch_order_;
 };
 
 }  // namespace tpuaf
