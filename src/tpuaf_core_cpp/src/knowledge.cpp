@@ -47,10 +47,24 @@ void TpuafKnowledge::record_visit(int vertex, double time_s) {
   check_vertex(vertex);
   last_visit_[vertex] = std::max(last_visit_[vertex], time_s);
   if (time_s < anchor_time_[vertex]) return;  // older than what the estimate already holds
+  VisitResult* shared = shared_visits_ ? &(*shared_visits_)[vertex] : nullptr;
+  if (shared != nullptr && shared->valid && shared->value_in == anchor_value_[vertex] &&
+      shared->time_in == anchor_time_[vertex] && shared->visit_time == time_s) {
+    anchor_value_[vertex] = shared->value_out;
+    anchor_time_[vertex] = time_s;
+    return;
+  }
   const double c = importance_[vertex];
   const double x = model_.evolve(anchor_value_[vertex], c, time_s - anchor_time_[vertex]);
-  anchor_value_[vertex] = model_.evolve(x, c - pass_coverage_, pass_time_s_);
+  const double value = model_.evolve(x, c - pass_coverage_, pass_time_s_);
+  if (shared != nullptr)
+    *shared = {anchor_value_[vertex], anchor_time_[vertex], time_s, value, true};
+  anchor_value_[vertex] = value;
   anchor_time_[vertex] = time_s;
+}
+
+void TpuafKnowledge::share_visit_results() {
+  shared_visits_ = std::make_shared<std::vector<VisitResult>>(static_cast<std::size_t>(size()));
 }
 
 TpuafKnowledge::Slot* TpuafKnowledge::slot(int robot) {

@@ -10,6 +10,7 @@ namespace tpuaf {
 TpuafStrategy::TpuafStrategy(const TpuafKnowledge& knowledge, UtilityForm form, bool any_vertex,
                              std::vector<NumpyPcg64> rngs)
     : prototype_(knowledge), form_(form), any_vertex_(any_vertex), rngs_(std::move(rngs)) {
+  prototype_.share_visit_results();  // the team hears the same visits: one Eq. 2 per visit
   knowledge_.assign(rngs_.size(), prototype_);
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "tpuaf_core/utility.hpp"
@@ -46,6 +47,10 @@ class TpuafKnowledge {
   // Earliest announced arrival per vertex (+inf: none) and that robot's travel time.
   void announced(Eigen::VectorXd& arrival_s, Eigen::VectorXd& travel_s) const;
   int size() const { return static_cast<int>(last_visit_.size()); }
+  // Copies made after this call share the results of record_visit: a robot applying a visit
+  // to the same estimate as another robot did (same value, time and visit time) takes that
+  // result instead of evaluating Eq. 2 again. Same numbers, one evaluation per team.
+  void share_visit_results();
 
   // Eq. 6-14 for `candidates` with this knowledge (stale entries dropped first).
   UtilityResult utilities(const PatrolGraph& graph, double now_s, int current_vertex,
@@ -66,6 +71,11 @@ class TpuafKnowledge {
     bool held = false;
   };
   Slot* slot(int robot);
+  struct VisitResult {
+    double value_in = 0, time_in = 0, visit_time = 0, value_out = 0;
+    bool valid = false;
+  };
+  std::shared_ptr<std::vector<VisitResult>> shared_visits_;
   std::vector<Slot> slots_;
   std::uint64_t next_order_ = 0;
   std::vector<double> last_heard_s_;  // per robot index, -inf when never heard
