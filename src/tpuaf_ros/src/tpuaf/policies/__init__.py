@@ -23,7 +23,7 @@ __all__ = [
 ]
 
 # Strategy modules register themselves on import.
-from . import tpuaf  # noqa: E402,F401
+from . import tpuaf, tpuaf_plus  # noqa: E402,F401
 
 # isort: split
 # Baselines of BASELINES.md (GBS/SEBS/CBLS, CGG/MSP, DTAG, DTAP, RAND/CR/HCR/HPCC).

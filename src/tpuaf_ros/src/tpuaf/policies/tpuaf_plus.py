@@ -1,0 +1,490 @@
+"""TPUAF+ (beyond the paper): a shared tour plan, online even spacing, and fault repair.
+
+Rule (docs/STRATEGIES.md has the why and the measurements):
+
+1. Plan. Every robot computes the same plan from the map and the team it believes alive
+   (deterministic, no messages): either the shortest closed walk found through all vertices
+   with all robots on it (`tours.cyclic_tour`), or a balanced partition with one closed walk
+   per part (`tours.partition_tours`), whichever has the lower predicted steady-state worst
+   idleness at nominal speed (`tours.walk_idleness`; a tie within 2 % goes to the lower
+   predicted mean X, TPUAF's uncertainty model integrated over the plan's visit gaps).
+2. Start. Each robot enters its walk at its start vertex (or drives to the part's nearest
+   vertex); from every robot's start vertex, all robots compute the same start schedule:
+   evenly spaced virtual slots along each walk, the rotation minimising the longest wait.
+   A robot ahead of its slot dwells at its entry vertex until the slot reaches it.
+3. Spacing. After that, on reaching each walk vertex a robot estimates where its walk mates
+   are (arc position from their latest timed message: departure vertex + departure time,
+   extrapolated at nominal speed; messages carry the sender's clock, so delay does not bias
+   them) and dwells `gain * (gap_behind - gap_ahead) / (2 v)` when the mate behind is farther
+   than the one ahead (a robot cannot speed up; the one ahead waits). Gaps converge to L / m.
+4. Dwelling. A dwelling robot re-visits its vertex every `dwell_revisit_s` (goal = its own
+   vertex: it is physically there) and re-announces its departure time (a heartbeat).
+5. Faults. A mate not heard from for `silence_timeout_s` is presumed dead; every survivor
+   then recomputes the plan for the survivors (step 1); the cycle closes the gap by step 3,
+   a partition is recomputed and each survivor drives to its new part. A presumed-dead robot
+   that speaks again rejoins. Stale information never blocks a vertex: nothing is reserved;
+   an old message only places a mate on its walk, and it expires with the silence timeout.
+6. Repair. While driving to a (new) part, the robot chooses among the neighbours on a
+   shortest path the one of maximal TPUAF utility (Eq. 13: X^ * I / dt), from the same shared
+   visit knowledge as TPUAF.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import tours
+from ..messages import Intention, Visit
+from .base import Parameter, Policy, RobotContext, register
+from .tpuaf import new_knowledge
+
+_EPS = 1e-6
+STAY_S = 1.0  # [s] the runtimes' dwell for a goal equal to the current vertex (runtimes.graph)
+
+
+def _positive(x) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool) and x > 0 and x < 1e9
+
+
+def _non_negative(x) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool) and 0 <= x < 1e9
+
+
+@dataclass(frozen=True)
+class Route:
+    """One closed walk of the plan and the robots that share it."""
+
+    walk: tuple[int, ...]  # vertex indices; consecutive entries adjacent, last -> first too
+    arc: tuple[float, ...]  # [m] arc position of each walk entry from walk[0]
+    length: float  # [m] L
+    robots: tuple[int, ...]  # robot indices on this walk, sorted
+
+
+@dataclass(frozen=True)
+class Plan:
+    kind: str  # "cycle" or "partition"
+    routes: tuple[Route, ...]
+    route_of: dict  # robot -> route index
+    worst_s: float  # predicted steady-state worst idleness [s]
+    # Start schedule (only for the full team): robot -> (entry walk index, departure time [s]).
+    schedule: dict
+
+
+def _route(graph, walk, robots) -> Route:
+    arc, s = [], 0.0
+    for i, v in enumerate(walk):
+        arc.append(s)
+        if len(walk) > 1:
+            s += graph.edge_length(v, walk[(i + 1) % len(walk)])
+    return Route(tuple(int(v) for v in walk), tuple(arc), float(s), tuple(sorted(robots)))
+
+
+def predicted_mean_uncertainty(patrol_map, walk, n_robots: int, speed: float) -> float:
+    """Mean over the walk's vertices of the steady-state time-mean X when `n_robots` evenly
+    spaced robots drive it at `speed` [m/s]: Eq. 2 integrated over each vertex's visit gaps,
+    one visit = one straight pass (as TPUAF's knowledge applies it)."""
+    graph = patrol_map.graph
+    info = tours.walk_idleness(graph, list(walk), n_robots, speed)
+    model = patrol_map.uncertainty_model()
+    s = patrol_map.settings
+    pass_c, pass_t = 8.0 * s.sensing_peak / 15.0, 2.0 * s.sensing_radius / s.nominal_speed
+    total = []
+    for v, gap in info["per_vertex_worst"].items():
+        c = float(patrol_map.importance[v])
+        x = 0.0
+        for _ in range(3):  # a few periods to approach the cycle's fixed point
+            x = model.evolve(model.evolve(x, c, gap), c - pass_c, pass_t)
+        samples = [model.evolve(x, c, gap * f) for f in (0.25, 0.5, 0.75, 1.0)]
+        total.append(float(np.mean(samples)))
+    return float(np.mean(total)) if total else 0.0
+
+
+def _entry_index(route: Route, vertex: int, dist) -> int:
+    """Walk index where a robot at `vertex` joins `route`: its nearest walk vertex (first
+    occurrence; ties to the lowest vertex index)."""
+    best = min(set(route.walk), key=lambda w: (dist[vertex, w], w))
+    return route.walk.index(best)
+
+
+def _schedule(route: Route, starts: dict, dist, speed: float) -> dict:
+    """Robot -> (entry index, departure time): evenly spaced virtual slots moving at `speed`,
+    each robot leaving its entry vertex when its slot passes; the rotation of slots that
+    minimises the longest wait (robots only wait, never drive faster)."""
+    robots = list(route.robots)
+    m, L = len(robots), route.length
+    entries = {r: _entry_index(route, starts[r], dist) for r in robots}
+    reach = {r: dist[starts[r], route.walk[entries[r]]] / speed for r in robots}  # [s]
+    if m == 1 or L <= 0:
+        return {r: (entries[r], reach[r]) for r in robots}
+    # virtual arc at t = 0 of a robot that never waits
+    virt = {r: (route.arc[entries[r]] - speed * reach[r]) % L for r in robots}
+    order = sorted(robots, key=lambda r: (virt[r], r))
+    best = None
+    for shift in range(m):
+        seq = [order[(shift + i) % m] for i in range(m)]
+        u = [virt[r] + (L if shift + i >= m else 0.0) for i, r in enumerate(seq)]
+        lead = [u[i] - i * L / m for i in range(m)]
+        phi0 = min(lead)
+        longest = max(lead) - phi0
+        if best is None or longest < best[0] - _EPS:
+            best = (longest, seq, [x - phi0 for x in lead])
+    _, seq, ahead = best
+    return {r: (entries[r], reach[r] + ahead[i] / speed) for i, r in enumerate(seq)}
+
+
+_PLANS: OrderedDict = OrderedDict()
+
+
+def make_plan(patrol_map, team: tuple[int, ...], all_starts: tuple[int, ...], mode: str) -> Plan:
+    """The plan for `team` (sorted robot indices believed alive); identical for every robot
+    (cached per map object). `all_starts`: every robot's start vertex (may be empty)."""
+    key = (id(patrol_map), team, all_starts, mode)
+    hit = _PLANS.get(key)
+    if hit is not None and hit[0] is patrol_map:
+        return hit[1]
+    plan = _make_plan(patrol_map, team, all_starts, mode)
+    _PLANS[key] = (patrol_map, plan)
+    while len(_PLANS) > 64:
+        _PLANS.popitem(last=False)
+    return plan
+
+
+def _make_plan(patrol_map, team, all_starts, mode) -> Plan:
+    graph = patrol_map.graph
+    speed = float(patrol_map.settings.nominal_speed)
+    dist = np.asarray(graph.distances)
+    m = len(team)
+    cyc = tours.cyclic_tour(patrol_map)
+    cyc_worst = tours.walk_idleness(graph, cyc.walk, m, speed)["worst"]
+    part = tours.partition_tours(patrol_map, m) if graph.num_vertices > 1 else None
+    part_worst = np.inf
+    if part is not None:
+        part_worst = max(
+            tours.walk_idleness(graph, t.walk, k, speed)["worst"]
+            for t, k in zip(part.tours, part.robots_per_part, strict=True)
+        )
+    kind = mode
+    if mode == "auto":
+        kind = "partition" if part_worst < cyc_worst - _EPS else "cycle"
+        if part is not None and abs(part_worst - cyc_worst) <= 0.02 * max(cyc_worst, _EPS):
+            x_cyc = predicted_mean_uncertainty(patrol_map, cyc.walk, m, speed)
+            x_part = np.mean([
+                predicted_mean_uncertainty(patrol_map, t.walk, k, speed) * len(p)
+                for t, k, p in zip(part.tours, part.robots_per_part, part.parts, strict=True)
+            ]) * len(part.parts) / graph.num_vertices
+            kind = "partition" if x_part < x_cyc else "cycle"
+    full = len(all_starts) == m and team == tuple(range(m))
+    if kind == "cycle" or part is None:
+        route = _route(graph, cyc.walk, team)
+        routes = (route,)
+        route_of = {r: 0 for r in team}
+        worst = cyc_worst
+    else:
+        slots = [p for p, k in enumerate(part.robots_per_part) for _ in range(k)]
+        if full:  # start: parts to robots by the least total distance from the start vertices
+            assignment = tours.assign_parts(part, list(all_starts), dist)
+        elif not all_starts:  # start vertices unknown: robot order
+            assignment = [slots[i % len(slots)] for i in range(m)]
+        else:  # survivors: from the full team's plan, so every survivor agrees
+            assignment = _assign_survivors(patrol_map, team, all_starts, part, slots, dist, mode)
+        route_of = {r: assignment[i] for i, r in enumerate(team)}
+        routes = tuple(
+            _route(graph, t.walk, [r for r in team if route_of[r] == p])
+            for p, t in enumerate(part.tours)
+        )
+        worst = part_worst
+    schedule = {}
+    if full:
+        starts = {r: int(all_starts[r]) for r in team}
+        for route in routes:
+            schedule.update(_schedule(route, starts, dist, speed))
+    return Plan(kind, routes, route_of, float(worst), schedule)
+
+
+def _assign_survivors(patrol_map, team, all_starts, part, slots, dist, mode) -> list[int]:
+    """Part per survivor (in `team` order): least total distance from each survivor's route in
+    the full team's plan to the part (every survivor computes the same from the map alone)."""
+    from scipy.optimize import linear_sum_assignment
+
+    n_all = len(all_starts) if all_starts else max(team) + 1
+    home = make_plan(patrol_map, tuple(range(n_all)), tuple(all_starts), mode)
+    cost = np.zeros((len(team), len(slots)))
+    for i, r in enumerate(team):
+        walk = list(home.routes[home.route_of[r]].walk) if r in home.route_of else [0]
+        for j, p in enumerate(slots):
+            cost[i, j] = dist[np.ix_(walk, part.parts[p])].min()
+    rows, cols = linear_sum_assignment(cost)
+    out = [0] * len(team)
+    for r, c in zip(rows, cols, strict=True):
+        out[r] = slots[c]
+    return out
+
+
+@register
+class TpuafPlus(Policy):
+    """TPUAF+: shared tour plan, even spacing from timed messages, re-plan on silence."""
+
+    name = "tpuaf_plus"
+    description = (
+        "TPUAF+ (beyond the paper): one shared cycle or partition (lower predicted idleness), "
+        "robots evenly spaced online from teammates' timed messages, re-planned when a robot "
+        "goes silent"
+    )
+    parameters = {
+        "plan": Parameter(
+            "auto",
+            "shared plan: 'auto' (lower predicted worst idleness), 'cycle' or 'partition'",
+            lambda v: v in ("auto", "cycle", "partition"),
+        ),
+        "gain": Parameter(
+            0.5,
+            "fraction of the gap difference (behind - ahead) / 2 dwelt per vertex, in (0, 1]",
+            lambda v: _positive(v) and v <= 1,
+        ),
+        "deadband_s": Parameter(
+            0.5, "no dwell below this [s] (keeps the spacing from chattering)", _non_negative
+        ),
+        "dwell_revisit_s": Parameter(
+            5.0, "a dwelling robot re-visits its vertex and re-announces every this [s]", _positive
+        ),
+        "silence_timeout_s": Parameter(
+            0.0,
+            "a mate silent this long [s] is presumed dead; 0 = auto: max(60 s, 8 x the longest "
+            "edge's travel time)",
+            _non_negative,
+        ),
+    }
+
+    # ------------------------------------------------------------------ set-up
+
+    def start(self, ctx: RobotContext) -> None:
+        pm = ctx.patrol_map
+        self.speed = float(pm.settings.nominal_speed)  # plan speed [m/s]
+        self.graph = pm.graph
+        self.dist = np.asarray(self.graph.distances)
+        from .cyclic import team_start_vertices
+
+        self.all_starts = tuple(team_start_vertices(ctx))
+        timeout = float(self.params["silence_timeout_s"])
+        if timeout <= 0:
+            longest = max((float(c) for _, _, c in self.graph.edges), default=0.0)
+            timeout = max(60.0, 8.0 * longest / self.speed)
+        self.silence_timeout_s = timeout
+        self.knowledge = new_knowledge(pm, 30.0, timeout)
+        self.alive = set(range(ctx.n_robots))
+        self.last_heard = {k: ctx.now for k in range(ctx.n_robots)}
+        # latest timed message per mate: (from vertex, to vertex, departure [s], sent [s])
+        self.heard: dict[int, tuple[int, int, float, float]] = {}
+        self.mate_arc: dict[int, float] = {}  # last estimated arc [m] (disambiguates walks)
+        self.hold_until: float | None = None  # planned departure while dwelling [s]
+        self.waking = False
+        self.last_announce = -np.inf
+        self.plan = None
+        self._install_plan(ctx, initial=True)
+
+    def _team(self, ctx) -> tuple[int, ...]:
+        return tuple(sorted(self.alive | {ctx.robot}))
+
+    def _install_plan(self, ctx, initial: bool = False) -> None:
+        old_route = self.route if self.plan is not None else None
+        self.plan = make_plan(
+            ctx.patrol_map, self._team(ctx), self.all_starts, self.params["plan"]
+        )
+        self.route = self.plan.routes[self.plan.route_of[ctx.robot]]
+        self.departure: float | None = None
+        if initial and ctx.robot in self.plan.schedule:
+            self.entry, self.departure = self.plan.schedule[ctx.robot]
+            self.idx = None
+        elif old_route is not None and old_route.walk == self.route.walk:
+            pass  # same walk (a cycle): keep my place on it
+        else:
+            self.entry = _entry_index(self.route, ctx.current_vertex, self.dist)
+            self.idx = None
+        self.hold_until = None
+
+    # ------------------------------------------------------------------ messages
+
+    def on_message(self, message, ctx: RobotContext) -> None:
+        kind = type(message)
+        if kind is Visit:
+            k = message.robot
+            self.knowledge.hear_visit(k, message.vertex, message.time, ctx.now)
+            self._heard_from(k, message.time)
+            if k not in self.heard or message.time > self.heard[k][3] + _EPS:
+                nxt = message.next_vertex if message.next_vertex >= 0 else message.vertex
+                self.heard[k] = (message.vertex, nxt, message.time, message.time)
+        elif kind is Intention:
+            k = message.robot
+            self._heard_from(k, message.time)
+            if k not in self.heard or message.time >= self.heard[k][3] - _EPS:
+                departure = message.expected_arrival - message.travel_time
+                self.heard[k] = (message.from_vertex, message.vertex, departure, message.time)
+
+    def _heard_from(self, k: int, sent: float) -> None:
+        self.last_heard[k] = max(self.last_heard.get(k, -np.inf), float(sent))
+
+    def _update_team(self, ctx) -> None:
+        """Mates silent for longer than the timeout leave the team; a mate heard again rejoins."""
+        now = ctx.now
+        alive = {
+            k for k in range(ctx.n_robots)
+            if k == ctx.robot or now - self.last_heard.get(k, -np.inf) <= self.silence_timeout_s
+        }
+        if alive != self.alive:
+            self.alive = alive
+            self._install_plan(ctx)
+
+    # ------------------------------------------------------------------ spacing
+
+    def _mate_arc(self, k: int, now: float) -> float | None:
+        """Estimated arc position [m] of mate k on my walk now, None when unknown/off it."""
+        info = self.heard.get(k)
+        route = self.route
+        if info is None:
+            return None
+        a, b, departure, _ = info
+        walk, n = route.walk, len(route.walk)
+        if a == b:
+            hits = [i for i in range(n) if walk[i] == a]
+        else:
+            hits = [i for i in range(n) if walk[i] == a and walk[(i + 1) % n] == b]
+        if not hits:
+            return None
+        moved = self.speed * max(0.0, now - departure)
+        prev = self.mate_arc.get(k)
+        if prev is None or len(hits) == 1:
+            i = hits[0]
+        else:
+            i = min(hits, key=lambda h: abs(((route.arc[h] + moved - prev) + route.length / 2)
+                                            % route.length - route.length / 2))
+        arc = (route.arc[i] + moved) % route.length
+        self.mate_arc[k] = arc
+        return arc
+
+    def spacing_wait(self, ctx, now: float) -> float:
+        """Dwell [s] at the current walk vertex: gain * (gap_behind - gap_ahead) / (2 v)."""
+        route = self.route
+        L = route.length
+        if L <= 0:
+            return 0.0
+        me = ctx.robot
+        here_arc = route.arc[self.idx]
+        ahead = behind = None
+        mates = [k for k in route.robots if k != me and k in self.alive]
+        for k in mates:
+            arc = self._mate_arc(k, now)
+            if arc is None:
+                continue
+            d = (arc - here_arc) % L
+            if d < _EPS or L - d < _EPS:  # together: the lower index is ahead
+                fwd, back = (0.0, L) if k < me else (L, 0.0)
+            else:
+                fwd, back = d, L - d
+            ahead = fwd if ahead is None else min(ahead, fwd)
+            behind = back if behind is None else min(behind, back)
+        if ahead is None:
+            return 0.0
+        wait = self.params["gain"] * (behind - ahead) / (2.0 * self.speed)
+        cap = L / (len(mates) + 1) / self.speed
+        return float(min(max(wait, 0.0), cap))
+
+    # ------------------------------------------------------------------ decisions
+
+    def _announce(self, ctx, here: int, nxt: int, departure: float, visit: bool) -> None:
+        now = ctx.now
+        travel = self.graph.edge_length(here, nxt) / self.speed if nxt != here else 0.0
+        if visit:
+            ctx.send(Visit(ctx.robot, here, now, nxt))
+        ctx.send(Intention(ctx.robot, here, nxt, departure + travel, travel, now))
+        self.last_announce = now
+
+    def _hold(self, ctx, here: int, waking: bool) -> int | None:
+        """While dwelling: re-visit `here` every dwell_revisit_s, depart at hold_until."""
+        now = ctx.now
+        remaining = self.hold_until - now
+        if remaining <= _EPS:
+            return None  # caller departs
+        if waking and remaining >= STAY_S - _EPS:
+            return here  # a re-visit; it ends STAY_S later
+        if remaining < STAY_S + 0.1:
+            nap = remaining
+        else:
+            nap = min(remaining - STAY_S, self.params["dwell_revisit_s"])
+        ctx.wake_at(now + nap)
+        return -1
+
+    def decide(self, ctx: RobotContext) -> int | None:
+        if getattr(self, "plan", None) is None:
+            self.start(ctx)
+        now, here = ctx.now, ctx.current_vertex
+        waking, self.waking = self.waking, False
+        if not waking:
+            self.knowledge.record_visit(here, now)
+        self._update_team(ctx)
+        route = self.route
+        if self.idx is not None and route.walk[self.idx] != here:  # off my walk: rejoin it
+            self.idx, self.hold_until = None, None
+            self.entry = _entry_index(route, here, self.dist)
+        if self.idx is None:  # driving to my walk
+            target = route.walk[self.entry]
+            if here != target:
+                hop = self._repair_hop(ctx, here, target)
+                self._announce(ctx, here, hop, now, visit=not waking)
+                return hop
+            self.idx = self.entry
+        if len(route.walk) == 1:  # a one-vertex part: stay, re-visiting it
+            if now - self.last_announce >= self.params["dwell_revisit_s"] - _EPS:
+                self._announce(ctx, here, here, now + STAY_S, visit=True)
+            return here
+        return self._step(ctx, waking)
+
+    def _step(self, ctx, waking: bool = False) -> int | None:
+        now, here = ctx.now, ctx.current_vertex
+        route = self.route
+        nxt_idx = (self.idx + 1) % len(route.walk)
+        nxt = route.walk[nxt_idx]
+        if self.hold_until is None:
+            if self.departure is not None:  # the start schedule
+                wait, self.departure = max(0.0, self.departure - now), None
+            else:
+                wait = self.spacing_wait(ctx, now)
+            if wait > self.params["deadband_s"]:
+                self.hold_until = now + wait
+                self._announce(ctx, here, nxt, self.hold_until, visit=True)
+        elif not waking:
+            self._announce(ctx, here, nxt, self.hold_until, visit=True)  # heartbeat
+        if self.hold_until is not None:
+            action = self._hold(ctx, here, waking)
+            if action == -1:
+                self.waking = True
+                return None
+            if action is not None:
+                return action
+            self.hold_until = None
+            self._announce(ctx, here, nxt, now, visit=False)
+        else:
+            self._announce(ctx, here, nxt, now, visit=True)
+        self.idx = nxt_idx
+        return nxt
+
+    def _repair_hop(self, ctx, here: int, target: int) -> int:
+        """Next vertex towards `target`: among neighbours on a shortest path, the one of
+        maximal TPUAF utility (Eq. 13), so that driving to a new part also repairs gaps."""
+        dist = self.dist
+        nbrs = sorted({int(w) for w in self.graph.neighbours(here) if int(w) != here})
+        best = dist[here, target]
+        on_path = [
+            w for w in nbrs
+            if abs(self.graph.edge_length(here, w) + dist[w, target] - best) <= 1e-6 * (1 + best)
+        ]
+        if len(on_path) <= 1:
+            return on_path[0] if on_path else min(nbrs, key=lambda w: (dist[w, target], w))
+        result = self.knowledge.utilities(self.graph, ctx.now, here, on_path, self.speed)
+        return on_path[int(np.argmax(result.utility))]
+
+    def on_goal_failed(self, vertex, ctx: RobotContext) -> None:
+        self.idx, self.hold_until = None, None
+        self.entry = _entry_index(self.route, ctx.current_vertex, self.dist)
