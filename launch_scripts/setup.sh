@@ -18,7 +18,7 @@ APT_PACKAGES=(
   python3-yaml python3-dev python3-venv python3-catkin-pkg
   libroscpp-dev libgeometry-msgs-dev libnav-msgs-dev libsensor-msgs-dev libros-rosgraph-msgs-dev
   libstd-msgs-dev libstd-srvs-dev libtf2-msgs-dev libyaml-cpp-dev
-  rviz xvfb x11-apps python3-pil  # RViz view, its headless test and screenshot (xwd)
+  rviz xvfb python3-pil  # RViz, its headless test (Xvfb) and screenshot (Pillow ImageGrab)
 )
 
 missing=()
