@@ -44,8 +44,17 @@ METRICS = [
     ("idleness_avg_s", "I_avg [s]", None, None),
 ]
 PAPER_STRATEGIES = ["gbs", "dtag", "dtap", "tpuaf"]  # the paper's comparison set
-ORDER = ["gbs", "sebs", "dtag", "dtap", "tpuaf"]
-PAPER_TABLE = {"cumberland": 2, "grid": 3}
+ORDER = ["gbs", "sebs", "cbls", "dtag", "dtap", "tpuaf", "tpuaf_plus", "tpuaf_any", "cgg", "msp",
+         "cr", "hcr", "hpcc", "rand"]
+PAPER_TABLE = {"cumberland": 2, "grid": 3, "lab": 4}
+NOMINAL = "nominal"  # tpuaf.sweep.NOMINAL: the fault-free graph runs
+# The fault scenarios of the canonical comparison (issue 13): a quarter of the team dies at half
+# the run, 30 % message loss, 5 s delay. Other scenarios appear in the degradation curves only.
+FAULT_SCENARIOS = ["deaths1of4", "loss0.3", "delay5"]
+FAULT_TITLES = {"deaths1of4": "a quarter of the team dies at half the run",
+                "loss0.3": "30 % message loss", "delay5": "5 s message delay"}
+PLUS = "tpuaf_plus"  # the strategy with the issue-13 targets
+TARGET_RATIO = 1.3  # issue 13: I_max within 1.3x of the best-known tour
 
 
 def _strategy_order(names) -> list[str]:
@@ -116,6 +125,19 @@ class Data:
     paper: dict[tuple[str, int, str, str], float]
     paper_path: Path | None
     sweep: dict[str, Any]
+    bounds: dict[tuple[str, int], dict[str, float]] = field(default_factory=dict)
+    bounds_path: Path | None = None
+
+    def subset(self, scenario: str) -> Data:
+        """The runs of one scenario (samples are kept for the nominal one only)."""
+        return Data([r for r in self.rows if r["scenario"] == scenario],
+                    [r for r in self.failed if r["scenario"] == scenario], self.reference,
+                    self.samples if scenario == NOMINAL else {}, self.paper, self.paper_path,
+                    self.sweep, self.bounds, self.bounds_path)
+
+    def scenarios(self) -> list[str]:
+        names = {r["scenario"] for r in self.rows}
+        return sorted(names, key=lambda s: (s != NOMINAL, s))
 
     def maps(self) -> list[str]:
         return _map_order(r["map"] for r in self.rows)
@@ -136,14 +158,32 @@ class Data:
                 if r["map"] == map_name and r["strategy"] == strategy and r["robots"] == n}
 
 
-def default_paper_path() -> Path | None:
-    """../shared/reference/paper_tables.csv beside the repository holding this package."""
+def default_paper_path(name: str = "paper_tables.csv") -> Path | None:
+    """../shared/reference/<name> beside the repository holding this package."""
     here = Path(__file__).resolve()
     for parent in here.parents:
         if (parent / ".git").exists() or (parent / "launch_scripts").is_dir():
-            candidate = parent.parent / "shared" / "reference" / "paper_tables.csv"
+            candidate = parent.parent / "shared" / "reference" / name
             return candidate if candidate.is_file() else None
     return None
+
+
+def load_bounds(path: Path | None) -> dict[tuple[str, int], dict[str, float]]:
+    """patrol_bounds.csv: per (map, N) the best-known tour's worst idleness and the bounds [s]."""
+    out: dict[tuple[str, int], dict[str, float]] = {}
+    if path is None or not Path(path).is_file():
+        return out
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        if "best_known_worst_idleness_s" not in (reader.fieldnames or []):
+            raise ReportError(f"{path}: not a bounds table (needs best_known_worst_idleness_s)")
+        for line, row in enumerate(reader, start=2):
+            try:
+                out[(row["map"], int(row["N"]))] = {
+                    k: float(v) for k, v in row.items() if k not in ("map", "N") and v}
+            except (KeyError, ValueError) as err:
+                raise ReportError(f"{path}:{line}: malformed row ({err})") from None
+    return out
 
 
 def load_paper(path: Path | None) -> dict[tuple[str, int, str, str], float]:
@@ -152,7 +192,7 @@ def load_paper(path: Path | None) -> dict[tuple[str, int, str, str], float]:
         return out
     with open(path, newline="") as f:
         for line, row in enumerate(csv.DictReader(f), start=2):
-            if row.get("table") not in ("2", "3") or not row.get("N"):
+            if row.get("table") not in ("2", "3", "4") or not row.get("N"):
                 continue
             try:
                 out[(row["map"], int(row["N"]), row["strategy"].lower(), row["metric"])] = float(
@@ -162,7 +202,7 @@ def load_paper(path: Path | None) -> dict[tuple[str, int, str, str], float]:
     return out
 
 
-def load(root: Path, paper: Path | None = None) -> Data:
+def load(root: Path, paper: Path | None = None, bounds: Path | None = None) -> Data:
     from .sweep import write_tables
 
     root = Path(root)
@@ -187,8 +227,13 @@ def load(root: Path, paper: Path | None = None) -> Data:
                 raise ReportError(f"{results}:{line}: {err}") from None
             for key, value in raw.items():
                 if key not in row:
-                    row[key] = value if key in ("status", "error", "map_source", "finished_at") \
-                        else _float(value)
+                    row[key] = value if key in ("status", "error", "map_source", "finished_at",
+                                                "scenario", "runtime") else _float(value)
+            row["scenario"] = row.get("scenario") or NOMINAL  # tables of older sweeps
+            row["runtime"] = row.get("runtime") or "graph"
+            for key in ("loss", "delay_s", "deaths"):
+                if not np.isfinite(row.get(key, math.nan)):
+                    row[key] = 0.0
             (rows if raw["status"] == "ok" else failed).append(row)
     if not rows:
         raise ReportError(f"{results}: no finished runs")
@@ -207,8 +252,10 @@ def load(root: Path, paper: Path | None = None) -> Data:
         with gzip.open(sample_path, "rt", newline="") as f:
             reader = csv.reader(f)
             next(reader, None)
-            for m, s, n, _seed, v in reader:
-                samples[(m, s, int(n))].append(float(v))
+            for fields in reader:  # map, strategy, robots, seed[, scenario], idleness_s
+                if len(fields) == 6 and fields[4] != NOMINAL:
+                    continue
+                samples[(fields[0], fields[1], int(fields[2]))].append(float(fields[-1]))
     sweep = {}
     if (root / "sweep.json").is_file():
         import json
@@ -220,17 +267,23 @@ def load(root: Path, paper: Path | None = None) -> Data:
     paper_path = paper if paper is not None else default_paper_path()
     if paper is not None and not Path(paper).is_file():
         raise ReportError(f"{paper}: no such file (the paper's figures)")
+    bounds_path = bounds if bounds is not None else default_paper_path("patrol_bounds.csv")
+    if bounds is not None and not Path(bounds).is_file():
+        raise ReportError(f"{bounds}: no such file (the best-known tours)")
     return Data(rows, failed, reference,
                 {k: np.asarray(v) for k, v in samples.items()},
                 load_paper(paper_path), paper_path if paper_path and Path(paper_path).is_file()
-                else None, sweep)
+                else None, sweep, load_bounds(bounds_path),
+                bounds_path if bounds_path and Path(bounds_path).is_file() else None)
 
 
 # ------------------------------------------------------------------------------- tables
 
 
-def metric_table(data: Data, map_name: str) -> str:
-    strategies = data.strategies(map_name)
+def metric_table(data: Data, map_name: str, strategies: list[str] | None = None) -> str:
+    """The paper's layout: per N and metric one row, one column per strategy, then the tours."""
+    present = data.strategies(map_name)
+    strategies = [s for s in (strategies or present) if s in present]
     has_paper = any(k[0] == map_name for k in data.paper)
     has_ref = any(k[0] == map_name for k in data.reference)
     head = ["N", "metric"] + [label(s) for s in strategies]
@@ -478,6 +531,425 @@ def _extra_note(data: Data, cases, col: str, extra: list[str]) -> str:
     return (" " + "; ".join(notes) + ".") if notes else ""
 
 
+# ------------------------------------------------------------------------------- all strategies
+
+ALL_METRICS = [m for m in METRICS]  # every table metric, one column each
+
+
+def _cell(st: Stat, best: float | None, paper: float | None = None) -> str:
+    if st.n == 0:
+        return ""
+    text = fmt(st.mean) + (f" ± {fmt(st.ci)}" if np.isfinite(st.ci) else "")
+    if best is not None and st.mean == best:
+        text = f"**{text}**"
+    if paper is not None:
+        text += f" [{fmt(paper)}]"
+    return text
+
+
+def strategy_table(data: Data, m: str, n: int) -> str:
+    """One (map, N): a row per strategy (every one that ran), a column per metric, then the
+    reference tours' analytic figures."""
+    strategies = data.strategies(m)
+    head = ["strategy"] + [name for _, name, _, _ in ALL_METRICS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    stats = {(s, col): data.stat(m, s, n, col) for s in strategies for col, *_ in ALL_METRICS}
+    best = {}
+    for col, *_ in ALL_METRICS:
+        means = [stats[(s, col)].mean for s in strategies if stats[(s, col)].n]
+        best[col] = min(means) if len(means) > 1 else None
+    for s in strategies:
+        if not any(stats[(s, col)].n for col, *_ in ALL_METRICS):
+            continue
+        cells = [_cell(stats[(s, col)], best[col],
+                       data.paper.get((m, n, s, key)) if key else None)
+                 for col, _, key, _ in ALL_METRICS]
+        lines.append("| " + " | ".join([label(s)] + cells) + " |")
+    ref = data.reference.get((m, n))
+    if ref:
+        for kind in ("cyclic", "partition"):
+            cells = [fmt(ref.get(f"{kind}_{rk}")) if rk else "–" for _, _, _, rk in ALL_METRICS]
+            lines.append("| " + " | ".join([f"{kind} tour (analytic)"] + cells) + " |")
+    return "\n".join(lines)
+
+
+def ratio_table(data: Data) -> tuple[str, list[str]]:
+    """Mean I_max / best-known tour's worst idleness (patrol_bounds.csv) per strategy and (map, N);
+    also the reference tours' analytic worst idleness. Returns (table, notes)."""
+    notes = []
+    cols = []
+    for m in data.maps():
+        if not any(k[0] == m for k in data.bounds):
+            notes.append(f"{m}: not in {data.bounds_path.name if data.bounds_path else 'the bounds'}"
+                         ", so no ratio")
+            continue
+        for n in data.robots(m):
+            b = data.bounds.get((m, n), {}).get("best_known_worst_idleness_s")
+            if b is None:
+                notes.append(f"{m} N={n}: no best-known tour in the bounds")
+            elif b <= 0:
+                notes.append(f"{m} N={n}: the best-known worst idleness is {b:g} s (at least one "
+                             "robot per vertex: every vertex can be guarded), so no ratio")
+            else:
+                cols.append((m, n, b))
+    if not cols:
+        return "", notes
+    head = ["strategy"] + [f"{m} N={n}" for m, n, _ in cols]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head),
+             "| best-known tour [s] | " + " | ".join(fmt(b) for *_, b in cols) + " |"]
+    for s in data.strategies():
+        cells = []
+        for m, n, b in cols:
+            st = data.stat(m, s, n, "idleness_max_s")
+            if not st.n:
+                cells.append("")
+                continue
+            r = st.mean / b
+            cells.append(f"**{r:.2f}**" if r <= TARGET_RATIO else f"{r:.2f}")
+        lines.append("| " + " | ".join([label(s)] + cells) + " |")
+    for kind in ("cyclic", "partition"):
+        cells = []
+        for m, n, b in cols:
+            ref = data.reference.get((m, n))
+            cells.append(f"{ref[f'{kind}_worst_idleness_s'] / b:.2f}" if ref else "")
+        lines.append("| " + " | ".join([f"{kind} tour (analytic)"] + cells) + " |")
+    return "\n".join(lines), notes
+
+
+def ratio_of(data: Data, m: str, s: str, n: int) -> float:
+    b = data.bounds.get((m, n), {}).get("best_known_worst_idleness_s")
+    st = data.stat(m, s, n, "idleness_max_s")
+    return st.mean / b if b and b > 0 and st.n else math.nan
+
+
+def losses_table(data: Data, metrics=(("idleness_max_s", "I_max"),
+                                       ("uncertainty_mean", "X"),
+                                       ("idleness_ins_mean_s", "I_ins"))) -> str | None:
+    """Per (map, N): TPUAF's mean and every strategy with a lower mean (ratio to TPUAF)."""
+    if "tpuaf" not in data.strategies():
+        return None
+    head = ["map", "N"] + [f"{name}: TPUAF → lower (× TPUAF)" for _, name in metrics]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for m in data.maps():
+        for n in data.robots(m):
+            cells = []
+            for col, _ in metrics:
+                t = data.stat(m, "tpuaf", n, col)
+                if not t.n:
+                    cells.append("")
+                    continue
+                better = []
+                for s in data.strategies(m):
+                    st = data.stat(m, s, n, col)
+                    if s != "tpuaf" and st.n and st.mean < t.mean:
+                        better.append((st.mean / t.mean if t.mean else math.nan, s,
+                                       _overlap(st, t)))
+                better.sort()
+                text = fmt(t.mean) + " → " + (", ".join(
+                    f"{label(s)} {r:.2f}" + ("~" if ov else "") for r, s, ov in better)
+                    if better else "none (TPUAF lowest)")
+                cells.append(text)
+            lines.append("| " + " | ".join([m, str(n)] + cells) + " |")
+    return "\n".join(lines)
+
+
+def loss_summary(data: Data) -> list[str]:
+    """Plain sentences: where TPUAF is not the lowest on I_max and X, and what beats it most."""
+    out = []
+    if "tpuaf" not in data.strategies():
+        return out
+    for col, name in (("idleness_max_s", "I_max"), ("uncertainty_mean", "X")):
+        cases = [(m, n) for m in data.maps() for n in data.robots(m) if n > 1
+                 and data.stat(m, "tpuaf", n, col).n]
+        lost, winners = [], defaultdict(int)
+        for m, n in cases:
+            t = data.stat(m, "tpuaf", n, col).mean
+            others = [(data.stat(m, s, n, col).mean, s) for s in data.strategies(m)
+                      if s != "tpuaf" and data.stat(m, s, n, col).n]
+            low = [(v, s) for v, s in others if v < t]
+            if low:
+                v, s = min(low)
+                lost.append(f"{m} N={n} ({label(s)} {fmt(v)} vs {fmt(t)}, {v / t:.2f}×)")
+                for _, s2 in low:
+                    winners[s2] += 1
+        if not cases:
+            continue
+        top = ", ".join(f"{label(s)} ({k})" for s, k in
+                        sorted(winners.items(), key=lambda x: (-x[1], x[0])))
+        out.append(f"- {name}: TPUAF is beaten in {len(lost)} of {len(cases)} (map, N ≥ 2) cases"
+                   + (f"; the best there: {'; '.join(lost)}. Strategies below TPUAF (number of "
+                      f"cases): {top}." if lost else "."))
+    return out
+
+
+def plus_targets(data: Data, faults: dict[str, Data]) -> list[str]:
+    """The issue-13 targets of tpuaf_plus, met or missed, with the margins."""
+    if PLUS not in data.strategies():
+        return [f"- {label(PLUS)} did not run in this comparison: its targets are not tested."]
+    out = []
+    cases = [(m, n) for m in data.maps() for n in (4, 8, 12) if n in data.robots(m)
+             and data.stat(m, PLUS, n, "idleness_max_s").n]
+    rs = [(m, n, ratio_of(data, m, PLUS, n)) for m, n in cases]
+    rs = [(m, n, r) for m, n, r in rs if np.isfinite(r)]
+    if rs:
+        miss = [f"{m} N={n} {r:.2f}×" for m, n, r in rs if r > TARGET_RATIO]
+        worst = max(rs, key=lambda x: x[2])
+        out.append(f"- I_max within {TARGET_RATIO}× of the best-known tour at N = 4, 8, 12 "
+                   f"(maps in the bounds): **{'met' if not miss else 'missed'}** in "
+                   f"{len(rs) - len(miss)} of {len(rs)} cases; worst {worst[0]} N={worst[1]} "
+                   f"{worst[2]:.2f}×" + (f"; missed: {', '.join(miss)}." if miss else "."))
+    x_cases, x_miss = 0, []
+    for m, n in cases:
+        p = data.stat(m, PLUS, n, "uncertainty_mean")
+        others = [(data.stat(m, s, n, "uncertainty_mean").mean, s) for s in data.strategies(m)
+                  if s != PLUS and data.stat(m, s, n, "uncertainty_mean").n]
+        if not p.n or not others:
+            continue
+        x_cases += 1
+        v, s = min(others)
+        if not p.mean < v:
+            x_miss.append(f"{m} N={n} ({label(s)} {fmt(v)} vs {fmt(p.mean)}, "
+                          f"+{100 * (p.mean / v - 1):.0f} %)")
+    if x_cases:
+        out.append(f"- mean X lower than every other strategy's (N = 4, 8, 12): "
+                   f"**{'met' if not x_miss else 'missed'}** in {x_cases - len(x_miss)} of "
+                   f"{x_cases} cases" + (f"; missed: {'; '.join(x_miss)}." if x_miss else "."))
+    for name, fd in faults.items():
+        if PLUS not in fd.strategies():
+            continue
+        total, miss = 0, []
+        for m in fd.maps():
+            for n in fd.robots(m):
+                for col, cname in (("idleness_max_s", "I_max"), ("uncertainty_mean", "X")):
+                    p = fd.stat(m, PLUS, n, col)
+                    others = [(fd.stat(m, s, n, col).mean, s) for s in fd.strategies(m)
+                              if s != PLUS and fd.stat(m, s, n, col).n]
+                    if not p.n or not others:
+                        continue
+                    total += 1
+                    v, s = min(others)
+                    if not p.mean < v:
+                        miss.append(f"{m} N={n} {cname} ({label(s)} {fmt(v)} vs {fmt(p.mean)})")
+        if total:
+            out.append(f"- under {FAULT_TITLES.get(name, name)}: better I_max and X than every "
+                       f"other strategy: **{'met' if not miss else 'missed'}** in "
+                       f"{total - len(miss)} of {total} (map, N, metric) cases"
+                       + (f"; missed: {'; '.join(miss)}." if miss else "."))
+    return out
+
+
+def fault_table(fd: Data, nominal: Data, col: str) -> str:
+    """One fault scenario, one metric: a row per strategy, a column per (map, N); in brackets the
+    ratio to the same strategy's fault-free mean."""
+    cols = [(m, n) for m in fd.maps() for n in fd.robots(m)]
+    head = ["strategy"] + [f"{m} N={n}" for m, n in cols]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    best = {}
+    for m, n in cols:
+        means = [fd.stat(m, s, n, col).mean for s in fd.strategies(m) if fd.stat(m, s, n, col).n]
+        best[(m, n)] = min(means) if len(means) > 1 else None
+    for s in fd.strategies():
+        cells = []
+        for m, n in cols:
+            st = fd.stat(m, s, n, col)
+            if not st.n:
+                cells.append("")
+                continue
+            text = fmt(st.mean)
+            if best[(m, n)] is not None and st.mean == best[(m, n)]:
+                text = f"**{text}**"
+            base = nominal.stat(m, s, n, col)
+            if base.n and base.mean > 0:
+                text += f" ({st.mean / base.mean:.2f}×)"
+            cells.append(text)
+        lines.append("| " + " | ".join([label(s)] + cells) + " |")
+    return "\n".join(lines)
+
+
+def recovery_table(fd: Data) -> str | None:
+    if not any(np.isfinite(r.get("recovery_time_s", math.nan))
+               or np.isfinite(r.get("worst_idleness_after_s", math.nan)) for r in fd.rows):
+        return None
+    cols = [(m, n) for m in fd.maps() for n in fd.robots(m)]
+    head = ["strategy"] + [f"{m} N={n}" for m, n in cols]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for s in fd.strategies():
+        cells = []
+        for m, n in cols:
+            rec = fd.stat(m, s, n, "recovery_time_s")
+            after = fd.stat(m, s, n, "worst_idleness_after_s")
+            ideal = fd.stat(m, s, n, "ideal_worst_idleness_survivors_s")
+            unrec = sum(r.get("unrecovered", 0) or 0 for r in fd.rows
+                        if r["map"] == m and r["strategy"] == s and r["robots"] == n
+                        and np.isfinite(r.get("unrecovered", math.nan)))
+            if not (rec.n or after.n):
+                cells.append("")
+                continue
+            cells.append(f"{fmt(rec.mean)} / {fmt(after.mean)} / {fmt(ideal.mean)}"
+                         + (f" ({unrec:.0f} never)" if unrec else ""))
+        lines.append("| " + " | ".join([label(s)] + cells) + " |")
+    return "\n".join(lines)
+
+
+# Degradation curves: the factor of a scenario row and its level.
+FACTORS = [("loss", "message loss probability", "loss"),
+           ("delay", "message delay [s]", "delay_s"),
+           ("deaths", "robots that die at half the run", "deaths")]
+
+
+def _factor_of(row: dict) -> tuple[str, float] | None:
+    """(factor, level) of a one-factor scenario; the nominal row is level 0 of every factor."""
+    active = [(f, float(row[c])) for f, _, c in FACTORS if row.get(c)]
+    if row["runtime"] != "graph" or len(active) > 1:
+        return None
+    return active[0] if active else ("base", 0.0)
+
+
+def degradation_points(data: Data, m: str, n: int, factor: str) -> dict[str, dict[float, list]]:
+    """strategy -> level -> rows, for one factor at one (map, N)."""
+    out: dict[str, dict[float, list]] = defaultdict(lambda: defaultdict(list))
+    for r in data.rows:
+        if r["map"] != m or r["robots"] != n:
+            continue
+        f = _factor_of(r)
+        if f is None or f[0] not in (factor, "base"):
+            continue
+        out[r["strategy"]][f[1]].append(r)
+    return out
+
+
+def degradation_cases(data: Data) -> list[tuple[str, int]]:
+    """(map, N) with at least two non-zero levels of some factor."""
+    cases = []
+    for m in data.maps():
+        for n in data.robots(m):
+            for factor, _, _ in FACTORS:
+                pts = degradation_points(data, m, n, factor)
+                levels = {lv for per in pts.values() for lv in per if lv}
+                if len(levels) >= 2:
+                    cases.append((m, n))
+                    break
+    return cases
+
+
+def degradation_figure(data: Data, m: str, n: int, path: Path) -> Path | None:
+    plt = _pyplot()
+
+    factors = []
+    for factor, xlabel, _ in FACTORS:
+        pts = degradation_points(data, m, n, factor)
+        if len({lv for per in pts.values() for lv in per if lv}) >= 2:
+            factors.append((factor, xlabel, pts))
+    if not factors:
+        return None
+    strategies = _strategy_order({s for _, _, pts in factors for s in pts})
+    colors = _colors(strategies)
+    fig, axes = plt.subplots(2, len(factors), figsize=(4.6 * len(factors), 7.2), squeeze=False)
+    for j, (_factor, xlabel, pts) in enumerate(factors):
+        for i, (col, name) in enumerate((("idleness_max_s", "I_max [s]"),
+                                         ("uncertainty_mean", "X (time mean)"))):
+            ax = axes[i][j]
+            for s in strategies:
+                per = pts.get(s)
+                if not per or len(per) < 2:
+                    continue
+                levels = sorted(per)
+                st = [stat(r[col] for r in per[lv]) for lv in levels]
+                ax.errorbar(levels, [t.mean for t in st],
+                            yerr=[t.ci if np.isfinite(t.ci) else 0 for t in st], marker="o",
+                            ms=3, capsize=2, color=colors[s], label=label(s))
+            ax.set_yscale("log")
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel(name)
+            ax.grid(alpha=0.3, which="both")
+    axes[0][0].legend(fontsize=7, ncol=2)
+    fig.suptitle(f"Degradation on {m}, N = {n} (one factor at a time; mean ± 95 % CI over seeds)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def degradation_table(data: Data, m: str, n: int, col: str = "idleness_max_s") -> str:
+    """The curves' numbers: a row per strategy, a column per (factor, level)."""
+    cols = []
+    for factor, _, _ in FACTORS:
+        pts = degradation_points(data, m, n, factor)
+        levels = sorted({lv for per in pts.values() for lv in per if lv})
+        if len(levels) >= 2:
+            cols += [(factor, lv) for lv in levels]
+    head = ["strategy", "no fault"] + [
+        f"{'loss ' + format(lv, 'g') if f == 'loss' else f + ' ' + format(lv, 'g')}"
+        for f, lv in cols]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for s in data.strategies(m):
+        base = degradation_points(data, m, n, "loss").get(s, {}).get(0.0, [])
+        cells = [fmt(stat(r[col] for r in base).mean) if base else ""]
+        for f, lv in cols:
+            rows = degradation_points(data, m, n, f).get(s, {}).get(lv, [])
+            cells.append(fmt(stat(r[col] for r in rows).mean) if rows else "")
+        if any(cells):
+            lines.append("| " + " | ".join([label(s)] + cells) + " |")
+    return "\n".join(lines)
+
+
+def monotone_note(data: Data, m: str, n: int, col: str = "idleness_max_s") -> str:
+    """Which curves are not roughly monotone (a later level more than 10 % below an earlier one)."""
+    bad = []
+    for factor, _, _ in FACTORS:
+        for s, per in degradation_points(data, m, n, factor).items():
+            levels = sorted(per)
+            if len([lv for lv in levels if lv]) < 2:
+                continue
+            means = [stat(r[col] for r in per[lv]).mean for lv in levels]
+            for k in range(1, len(means)):
+                if means[k] < 0.9 * max(means[:k]):
+                    bad.append(f"{label(s)} {factor} {levels[k]:g} ({fmt(means[k])} < "
+                               f"{fmt(max(means[:k]))})")
+                    break
+    return ("Not roughly monotone in I_max (a level more than 10 % below an earlier one): "
+            + "; ".join(bad) + ".") if bad else "Every curve is roughly monotone in I_max."
+
+
+def physics_table(data: Data, m: str) -> str:
+    """The physics runs of one map: a row per (strategy, N), the paper's Table 4 in brackets."""
+    head = ["strategy", "N"] + [name for _, name, _, _ in ALL_METRICS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for s in data.strategies(m):
+        for n in data.robots(m):
+            stats = [data.stat(m, s, n, col) for col, *_ in ALL_METRICS]
+            if not any(st.n for st in stats):
+                continue
+            cells = [_cell(st, None, data.paper.get((m, n, s, key)) if key else None)
+                     for st, (_, _, key, _) in zip(stats, ALL_METRICS, strict=True)]
+            lines.append("| " + " | ".join([label(s), str(n)] + cells) + " |")
+    return "\n".join(lines)
+
+
+def wall_time_lines(data: Data) -> list[str]:
+    """The sweeps' wall times (sweep.json history) and the runs' summed wall times."""
+    out = []
+    history = data.sweep.get("history") or []
+    if history:
+        total = sum(float(h.get("wall_time_s") or 0) for h in history)
+        ran = sum(int(h.get("ran") or 0) for h in history)
+        commits = sorted({str(h.get("commit")) for h in history if h.get("commit")})
+        out.append(f"- wall time of the sweeps into this folder: **{total:.0f} s** "
+                   f"({total / 60:.1f} min) for {ran} runs, in {len(history)} `tpuaf compare` "
+                   f"invocations (2-core machine shared with other jobs; commits: "
+                   f"{', '.join(commits) or 'unknown'})")
+    by_sc: dict[str, list[float]] = defaultdict(list)
+    for r in data.rows:
+        if np.isfinite(r.get("wall_time_s", math.nan)):
+            by_sc[r["scenario"]].append(r["wall_time_s"])
+    if by_sc:
+        parts = [f"{sc} {sum(v):.0f} s ({len(v)} runs)" for sc, v in
+                 sorted(by_sc.items(), key=lambda x: (x[0] != NOMINAL, x[0]))]
+        out.append("- run wall times summed (CPU-seconds of the workers, by scenario): "
+                   + ", ".join(parts))
+    return out
+
+
 # ------------------------------------------------------------------------------- figures
 
 
@@ -629,79 +1101,169 @@ def acceleration_figure(data: Data, path: Path) -> Path | None:
 
 
 def write_report(root: Path, out: Path | None = None, paper: Path | None = None,
-                 title: str | None = None) -> Path:
+                 title: str | None = None, bounds: Path | None = None) -> Path:
+    """report.md + figures/*.png of a compare folder; the nominal scenario carries the paper's
+    claims, the other scenarios the fault tables, degradation curves and physics runs."""
     root = Path(root)
-    data = load(root, paper)
+    everything = load(root, paper, bounds)
+    data = everything.subset(NOMINAL)
     out = Path(out) if out is not None else root
     figures = out / "figures"
     figures.mkdir(parents=True, exist_ok=True)
     rel = Path("figures")  # relative to report.md
+    scenarios = everything.scenarios()
+    physics = [sc for sc in scenarios
+               if any(r["runtime"] == "physics" for r in everything.subset(sc).rows)]
+    faults = {sc: everything.subset(sc) for sc in FAULT_SCENARIOS if sc in scenarios}
 
     md: list[str] = [f"# {title or 'Comparison report'}", ""]
-    durations = sorted({r["duration_s"] for r in data.rows if np.isfinite(r["duration_s"])})
-    seeds = sorted({r["seed"] for r in data.rows})
-    wall_runs = sum(r["wall_time_s"] for r in data.rows if np.isfinite(r["wall_time_s"]))
+    durations = sorted({r["duration_s"] for r in everything.rows if np.isfinite(r["duration_s"])})
+    seeds = sorted({r["seed"] for r in everything.rows})
     md += [f"Generated by `tpuaf report` on {time.strftime('%Y-%m-%d %H:%M')} from "
-           f"`{root.name}/results.csv`: {len(data.rows)} finished runs, {len(data.failed)} failed.",
-           "",
-           f"- maps: {', '.join(data.maps())}",
-           f"- strategies: {', '.join(label(s) for s in data.strategies())}",
-           f"- team sizes N: {', '.join(map(str, data.robots()))}",
-           f"- seeds: {', '.join(map(str, seeds))} ({len(seeds)} per configuration)",
-           f"- simulated duration per run: {', '.join(f'{d:g}' for d in durations)} s",
-           f"- batch runtime (no ROS); run wall times sum to {wall_runs:.0f} s"
-           + (f"; the last `tpuaf compare` took {data.sweep['wall_time_s']:.0f} s wall "
-              f"({data.sweep.get('ran', 0)} runs computed, {data.sweep.get('skipped', 0)} skipped)"
-              if data.sweep.get("wall_time_s") else ""),
-           ""]
+           f"`{root.name}/results.csv`: {len(everything.rows)} finished runs, "
+           f"{len(everything.failed)} failed.", ""]
+    if data.rows:
+        md += [f"- fault-free graph runs (nominal): maps {', '.join(data.maps())}; strategies "
+               f"{', '.join(label(s) for s in data.strategies())}; N = "
+               f"{', '.join(map(str, data.robots()))}; {len(data.rows)} runs"]
+    for sc in scenarios:
+        if sc == NOMINAL:
+            continue
+        d = everything.subset(sc)
+        md.append(f"- scenario `{sc}`: maps {', '.join(d.maps())}; strategies "
+                  f"{', '.join(label(s) for s in d.strategies())}; N = "
+                  f"{', '.join(map(str, d.robots()))}; {len(d.rows)} runs")
+    md += [f"- seeds: {', '.join(map(str, seeds))}",
+           f"- simulated duration per run: {', '.join(f'{d:g}' for d in durations)} s"]
+    md += wall_time_lines(everything) + [""]
 
-    md += ["## Verdicts (claims of SPEC section 8)", "",
-           "Computed from the means in the tables below (orderings of means over seeds; where the "
-           "95 % confidence intervals overlap, it is noted).", ""]
-    md += [v.line() for v in verdicts(data)] + [""]
+    if data.rows:
+        md += ["## Verdicts (claims of SPEC section 8)", "",
+               "Fault-free graph runs. Computed from the means in the tables below (orderings of "
+               "means over seeds; where the 95 % confidence intervals overlap, it is noted).", ""]
+        md += [v.line() for v in verdicts(data)] + [""]
 
-    md += ["## Tables", "",
-           "Mean ± 95 % CI half-width over seeds (Student t; ± 0 = the same value for every "
-           "seed: the strategy does not depend on the seed there); **bold** = lowest mean of "
-           "the row. "
-           + ("In brackets: the paper's figure (Tables 2 and 3; a different simulator and "
-              "navigation stack, so only orderings are comparable; the paper's X uses another "
-              "scale). " if data.paper else "")
-           + "The reference tours are analytic steady-state figures (tours.py): I_ins ↔ mean "
-             "over vertices of the time-average idleness, I_max ↔ worst idleness (I_avg, a mean "
-             "over visits, has no tour counterpart). I_std is the population std of interval idleness, the "
-             "column the paper labels I_G^avg.", ""]
-    for m in data.maps():
-        table = PAPER_TABLE.get(m)
-        md += [f"### {m}" + (f" (layout of the paper's Table {table})" if table else ""), "",
-               metric_table(data, m), ""]
+        md += ["## Where TPUAF loses, and to what", "",
+               "Every strategy that ran, fault-free (the verdicts above compare TPUAF with the "
+               "paper's rivals only).", ""]
+        md += loss_summary(data) + [""]
+        table = losses_table(data)
+        if table:
+            md += ["Per (map, N): TPUAF's mean, then every strategy with a lower mean and its "
+                   "ratio to TPUAF (~ = the 95 % CIs overlap).", "", table, ""]
 
-    md += ["## Figures", ""]
-    for m in data.maps():
-        p = box_figure(data, m, figures / f"box_{m}.png")
+        ratio, notes = ratio_table(data)
+        md += ["## Ratio to the best-known tour", "",
+               "Mean I_max (the largest interval between two visits of a vertex) divided by the "
+               "best-known tour's worst idleness (`best_known_worst_idleness_s` of "
+               f"{'`' + everything.bounds_path.name + '`' if everything.bounds_path else 'the bounds table'}"
+               f"); **bold** = within {TARGET_RATIO}× (issue 13's target). The last rows are our "
+               "reference tours (tours.py, analytic), on the same scale.", ""]
+        md += ([ratio, ""] if ratio else ["No map of this comparison is in the bounds table.", ""])
+        md += [f"- {n}" for n in notes] + ([""] if notes else [])
+
+        md += [f"## Targets of {label(PLUS)} (issue 13)", ""]
+        md += plus_targets(data, faults) + [""]
+
+    if faults:
+        md += ["## Fault scenarios", "",
+               "Each table: the mean over seeds, **bold** = lowest of the column; in brackets "
+               "the ratio to the same strategy's fault-free mean. Deaths: robots "
+               "floor(i N / K), i = 0..K-1, die at half the run (K = N/4, rounded down).", ""]
+        for sc, fd in faults.items():
+            md += [f"### {FAULT_TITLES.get(sc, sc)} (`{sc}`)", "", "**I_max [s]**", "",
+                   fault_table(fd, data, "idleness_max_s"), "", "**X (time mean)**", "",
+                   fault_table(fd, data, "uncertainty_mean"), ""]
+            rec = recovery_table(fd)
+            if rec:
+                md += ["**Recovery** (per cell: slowest time until every vertex was visited "
+                       "again after a death [s] / worst idleness after the deaths [s] / ideal "
+                       "worst idleness of the N - K survivors, reference tours [s])", "", rec, ""]
+            elif sc.startswith("deaths"):
+                md += ["(No recovery figures in these runs' summaries.)", ""]
+
+    cases = degradation_cases(everything)
+    if cases:
+        md += ["## Degradation curves", "",
+               "One factor at a time (message loss, delay, robot deaths at half the run), the "
+               "others at no fault; level 0 is the fault-free run.", ""]
+        for m, n in cases:
+            p = degradation_figure(everything, m, n, figures / f"degradation_{m}_N{n}.png")
+            if p:
+                md += [f"### {m}, N = {n}", "", f"![degradation, {m}, N = {n}]({rel / p.name})",
+                       "", "I_max [s] (means over seeds):", "",
+                       degradation_table(everything, m, n), "",
+                       "X (means over seeds):", "",
+                       degradation_table(everything, m, n, "uncertainty_mean"), "",
+                       monotone_note(everything, m, n), ""]
+
+    for sc in physics:
+        pd = everything.subset(sc)
+        md += [f"## Physics runtime (`{sc}`; the paper's physical experiment, Table 4)", "",
+               "Mean ± 95 % CI over seeds; in brackets the paper's figure (TurtleBot3 Burgers in "
+               "the lab; a different robot stack, so only orderings and trends compare).", ""]
+        for m in pd.maps():
+            md += [f"### {m}", "", physics_table(pd, m), ""]
+            ns = pd.robots(m)
+            if "tpuaf" in pd.strategies(m) and len(ns) >= 2:
+                means = [pd.stat(m, "tpuaf", n, "idleness_ins_mean_s").mean for n in ns]
+                xs = [pd.stat(m, "tpuaf", n, "uncertainty_mean").mean for n in ns]
+                falls = all(b < a for a, b in zip(means, means[1:], strict=False)) and \
+                    all(b < a for a, b in zip(xs, xs[1:], strict=False))
+                pv = Verdict("TPUAF's I_ins and X fall as N grows in the physics runs (as in the "
+                             "paper's Table 4)", "reproduced" if falls else "not reproduced",
+                             "I_ins " + " → ".join(fmt(v) for v in means) + "; X "
+                             + " → ".join(fmt(v) for v in xs) + f" (N = {', '.join(map(str, ns))}).")
+                md += [pv.line(), ""]
+
+    if data.rows:
+        md += ["## Tables", "",
+               "Mean ± 95 % CI half-width over seeds (Student t; ± 0 = the same value for every "
+               "seed: the strategy does not depend on the seed there); **bold** = lowest mean. "
+               + ("In brackets: the paper's figure (Tables 2 and 3; a different simulator and "
+                  "navigation stack, so only orderings are comparable; the paper's X uses another "
+                  "scale). " if data.paper else "")
+               + "The reference tours are analytic steady-state figures (tours.py): I_ins ↔ mean "
+                 "over vertices of the time-average idleness, I_max ↔ worst idleness (I_avg, a "
+                 "mean over visits, has no tour counterpart). I_std is the population std of "
+                 "interval idleness, the column the paper labels I_G^avg.", ""]
+        paper_set = PAPER_STRATEGIES + [PLUS]
+        for m in data.maps():
+            table = PAPER_TABLE.get(m)
+            if table and table != 4:
+                md += [f"### {m}: the paper's strategies (layout of the paper's Table {table})",
+                       "", metric_table(data, m, paper_set), ""]
+            for n in data.robots(m):
+                md += [f"### {m}, N = {n}: every strategy", "", strategy_table(data, m, n), ""]
+
+        md += ["## Figures", ""]
+        for m in data.maps():
+            p = box_figure(data, m, figures / f"box_{m}.png")
+            if p:
+                md += [f"### Interval idleness on {m} (paper Fig. 4)", "",
+                       f"![interval idleness box plots, {m}]({rel / p.name})", "",
+                       "Dashed: the best reference tour's worst idleness; dotted: the cyclic "
+                       "tour's mean interval between visits.", ""]
+        for m in data.maps():
+            p = metrics_figure(data, m, figures / f"metrics_{m}.png")
+            md += [f"### Metrics against N on {m}", "",
+                   f"![metrics against N, {m}]({rel / p.name})", ""]
+        md += ["### Acceleration ratio (paper Fig. 8)", ""]
+        p = acceleration_figure(data, figures / "acceleration.png")
         if p:
-            md += [f"### Interval idleness on {m} (paper Fig. 4)", "",
-                   f"![interval idleness box plots, {m}]({rel / p.name})", "",
-                   "Dashed: the best reference tour's worst idleness; dotted: the cyclic tour's "
-                   "mean interval between visits.", ""]
-    for m in data.maps():
-        p = metrics_figure(data, m, figures / f"metrics_{m}.png")
-        md += [f"### Metrics against N on {m}", "", f"![metrics against N, {m}]({rel / p.name})",
-               ""]
-    md += ["### Acceleration ratio (paper Fig. 8)", ""]
-    p = acceleration_figure(data, figures / "acceleration.png")
-    if p:
-        md += [f"![acceleration ratio]({rel / p.name})", "",
-               "a(N) = I_avg(1) / (N I_avg(N)) per seed (same map, strategy and seed), > 1 is "
-               "super-linear.", acceleration_table(data) or "", ""]
-    else:
-        md += ["Not available: the acceleration ratio needs N = 1 runs "
-               "(`tpuaf compare --robots 1 4 8 12 ...`).", ""]
+            md += [f"![acceleration ratio]({rel / p.name})", "",
+                   "a(N) = I_avg(1) / (N I_avg(N)) per seed (same map, strategy and seed), > 1 is "
+                   "super-linear.", acceleration_table(data) or "", ""]
+        else:
+            md += ["Not available: the acceleration ratio needs N = 1 runs "
+                   "(`tpuaf compare --robots 1 4 8 12 ...`).", ""]
 
-    if data.failed:
-        md += ["## Failed runs", "", "| map | strategy | N | seed | error |", "|---|---|---|---|---|"]
-        md += [f"| {r['map']} | {label(r['strategy'])} | {r['robots']} | {r['seed']} | "
-               f"{str(r.get('error', '')).replace('|', '/')} |" for r in data.failed]
+    if everything.failed:
+        md += ["## Failed runs", "",
+               "| map | strategy | N | scenario | seed | error |", "|---|---|---|---|---|---|"]
+        md += [f"| {r['map']} | {label(r['strategy'])} | {r['robots']} | {r['scenario']} | "
+               f"{r['seed']} | {str(r.get('error', '')).replace('|', '/')} |"
+               for r in everything.failed]
         md += [""]
     if not data.paper:
         md += ["(The paper's figures were not found, so they are not shown.)", ""]

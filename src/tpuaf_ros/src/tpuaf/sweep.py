@@ -1,10 +1,13 @@
-"""Experiment sweeps: the grid (map x strategy x N x seed) of batch runs, on Dask (ROS-free).
+"""Experiment sweeps: the grid (map x strategy x N x scenario x seed) of runs, on Dask (ROS-free).
 
-One task = one batch run, executed on a worker (`run_task`): it loads the map from its name or
-path (workers share the filesystem), runs `BatchRun` and returns the summary plus the interval
-idleness samples. The client writes each result as it arrives into
+A scenario is the fault setting of a run (message loss, delay, robot deaths) and its runtime
+(graph or physics): `nominal` is the fault-free graph run. One task = one run, executed on a
+worker (`run_task`): it loads the map from its name or path (workers share the filesystem), runs
+the runtime's engine and returns the summary plus the interval idleness samples. The client
+writes each result as it arrives into
 
-    DIR/runs/<map>/<strategy>/N<k>/seed<s>/
+    DIR/runs/<map>/<strategy>/N<k>/seed<s>/              the nominal scenario
+    DIR/runs/<map>/<strategy>/N<k>/<scenario>/seed<s>/   any other scenario, e.g. loss0.3
         config.json            the run's key and effective configuration
         idleness.txt.gz        interval idleness samples [s], one per line
         error.txt              only for a failed run (its traceback)
@@ -15,8 +18,11 @@ failed run (error.txt, no summary.json) is retried. The tidy tables are rebuilt 
 folders after every sweep:
 
     DIR/results.csv            one row per run folder (finished or failed)
-    DIR/samples.csv.gz         map, strategy, robots, seed, idleness_s: every interval sample
+    DIR/samples.csv.gz         map, strategy, robots, seed, scenario, idleness_s: every interval
+                               sample of the fault-free runs (nominal and other runtimes)
     DIR/reference.csv          reference tours (cyclic, partition) per (map, N), tours.py
+    DIR/sweep.json             the last sweep's grid and wall time, plus `history`: every sweep
+                               into this folder (its wall time, runs computed, git commit)
 """
 
 from __future__ import annotations
@@ -42,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from .errors import TpuafError
+from .plain import plain
 
 
 class SweepError(TpuafError):
@@ -50,15 +57,22 @@ class SweepError(TpuafError):
 
 # Columns of results.csv: the run key, its status, then the metrics of the summary.
 KEY_COLUMNS = ["map", "strategy", "robots", "seed", "duration_s"]
+# The scenario of a run: its name and what it sets (deaths = robots that die, at death_time_s).
+SCENARIO_COLUMNS = ["scenario", "runtime", "loss", "delay_s", "deaths", "death_time_s"]
 METRIC_COLUMNS = [
     "idleness_avg_s", "idleness_std_s", "idleness_min_s", "idleness_max_s", "idleness_samples",
     "idleness_ins_mean_s", "worst_idleness_s", "uncertainty_mean", "uncertainty_final_mean",
     "interferences", "interference_rate_per_min", "visits", "counted_visits",
     "complete_cycles", "unvisited_vertices",
 ]
-RESULT_COLUMNS = KEY_COLUMNS + ["status", "error"] + METRIC_COLUMNS + [
-    "wall_time_s", "finished_at", "map_source"]
-SAMPLE_COLUMNS = ["map", "strategy", "robots", "seed", "idleness_s"]
+# Recovery after deaths (summary "recovery", one entry per death; H-A's fault injection):
+# the slowest recovery, the worst idleness after a death, the N - 1 survivors' ideal, the dead
+# robots' intentions still honoured (sum) and the deaths never recovered from.
+RECOVERY_COLUMNS = ["recovery_time_s", "worst_idleness_after_s",
+                    "ideal_worst_idleness_survivors_s", "intentions_honoured", "unrecovered"]
+RESULT_COLUMNS = KEY_COLUMNS + SCENARIO_COLUMNS + ["status", "error"] + METRIC_COLUMNS + \
+    RECOVERY_COLUMNS + ["wall_time_s", "finished_at", "map_source"]
+SAMPLE_COLUMNS = ["map", "strategy", "robots", "seed", "scenario", "idleness_s"]
 REFERENCE_COLUMNS = [
     "map", "robots", "speed_mps",
     "cyclic_length_m", "cyclic_worst_idleness_s", "cyclic_avg_idleness_time_s",
@@ -77,15 +91,130 @@ class MapSpec:
     source: str  # built-in name or path, as given to load_map on the workers
 
 
+NOMINAL = "nominal"
+RUNTIMES = ("graph", "physics")  # graph: runtimes/graph.py (BatchRun); physics: runtimes/physics.py
+_FRACTION = re.compile(r"^(\d+)/(\d+)$")
+
+
+def _g(x: float) -> str:
+    return f"{x:g}"
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """What a run's conditions are, beyond map, strategy, N and seed.
+
+    deaths: "K" (K robots die) or "A/B" (floor(N A / B) robots die, e.g. "1/4" = a quarter of
+    the team); they die at death_time_s (None: half the run). The dying robots are spread over
+    the team: indices floor(i N / K), i = 0 .. K - 1 (the same for every seed)."""
+
+    loss: float = 0.0  # probability that one recipient loses one team message
+    delay_s: float = 0.0  # [s] team message delay
+    deaths: str = "0"
+    death_time_s: float | None = None
+    runtime: str = "graph"
+    duration_s: float | None = None  # None: the sweep's duration
+
+    @property
+    def name(self) -> str:
+        """Folder name and table label: 'nominal', or e.g. 'loss0.3', 'deaths1of4', 'physics'."""
+        parts = [] if self.runtime == "graph" else [self.runtime]
+        if self.loss:
+            parts.append(f"loss{_g(self.loss)}")
+        if self.delay_s:
+            parts.append(f"delay{_g(self.delay_s)}")
+        if self.deaths != "0":
+            parts.append("deaths" + self.deaths.replace("/", "of")
+                         + ("" if self.death_time_s is None else f"@{_g(self.death_time_s)}"))
+        return "-".join(parts) or NOMINAL
+
+    @property
+    def faulty(self) -> bool:
+        return bool(self.loss or self.delay_s or self.deaths != "0")
+
+    def death_count(self, robots: int) -> int:
+        m = _FRACTION.match(self.deaths)
+        if m:
+            return robots * int(m.group(1)) // int(m.group(2))
+        return int(self.deaths)
+
+    def applies(self, robots: int) -> bool:
+        """A death scenario needs at least one death and one survivor at this N."""
+        if self.deaths == "0":
+            return True
+        return 1 <= self.death_count(robots) <= robots - 1
+
+    def failures(self, robots: int, duration_s: float) -> list[tuple[int, float]]:
+        """(robot index, time [s]) of each death at this N."""
+        k = self.death_count(robots)
+        t = duration_s / 2.0 if self.death_time_s is None else float(self.death_time_s)
+        return [(i * robots // k, t) for i in range(k)] if k else []
+
+
+def parse_deaths(text: str) -> str:
+    """'K' or 'A/B' (normalised), else SweepError."""
+    text = str(text).strip()
+    m = _FRACTION.match(text)
+    if m:
+        a, b = int(m.group(1)), int(m.group(2))
+        if b == 0 or a > b:
+            raise SweepError(f"deaths '{text}': a fraction A/B of the team needs 0 <= A <= B, B > 0")
+        return "0" if a == 0 else f"{a}/{b}"
+    if text.isdigit():
+        return str(int(text))
+    raise SweepError(f"deaths '{text}': expected a number of robots (e.g. 2) or a fraction of "
+                     "the team (e.g. 1/4)")
+
+
+def make_scenarios(loss: Iterable[float] = (), delay_s: Iterable[float] = (),
+                   deaths: Iterable[str] = (), death_time_s: float | None = None,
+                   runtime: str = "graph", with_base: bool = True) -> list[Scenario]:
+    """The base scenario (no fault) and one scenario per value of each factor, the others at
+    their base value (one factor at a time: the degradation curves)."""
+    if runtime not in RUNTIMES:
+        raise SweepError(f"unknown runtime '{runtime}' (valid: {', '.join(RUNTIMES)})")
+    for p in loss:
+        if not 0.0 <= p <= 1.0:
+            raise SweepError(f"loss must be a probability in [0, 1], got {p}")
+    for d in delay_s:
+        if not (d >= 0 and math.isfinite(d)):
+            raise SweepError(f"delay must be a finite number of seconds >= 0, got {d}")
+    if death_time_s is not None and not (death_time_s >= 0 and math.isfinite(death_time_s)):
+        raise SweepError(f"death time must be a finite number of seconds >= 0, got {death_time_s}")
+    base = Scenario(runtime=runtime)
+    out = [base] if with_base else []
+    out += [Scenario(loss=float(p), runtime=runtime) for p in loss]
+    out += [Scenario(delay_s=float(d), runtime=runtime) for d in delay_s]
+    out += [Scenario(deaths=parse_deaths(k), death_time_s=death_time_s, runtime=runtime)
+            for k in deaths]
+    unique: list[Scenario] = []
+    for s in out:
+        if not s.faulty and s != base:
+            s = base
+        if s not in unique and (with_base or s.faulty):
+            unique.append(s)
+    if not unique:
+        raise SweepError("no scenario left: give a fault value other than 0, or keep the base")
+    return unique
+
+
 @dataclass(frozen=True)
 class RunKey:
     map: str  # map label
     strategy: str  # lower case registry name
     robots: int
     seed: int
+    scenario: str = NOMINAL  # Scenario.name
 
     def folder(self, root: Path) -> Path:
-        return Path(root) / "runs" / self.map / self.strategy / f"N{self.robots}" / f"seed{self.seed}"
+        base = Path(root) / "runs" / self.map / self.strategy / f"N{self.robots}"
+        if self.scenario != NOMINAL:
+            base = base / self.scenario
+        return base / f"seed{self.seed}"
+
+    def label(self) -> str:
+        extra = "" if self.scenario == NOMINAL else f"/{self.scenario}"
+        return f"{self.map}/{self.strategy}/N{self.robots}{extra}/seed{self.seed}"
 
 
 @dataclass
@@ -96,19 +225,35 @@ class SweepSpec:
     seeds: list[int]
     duration_s: float = 3600.0
     strategy_params: dict[str, dict[str, Any]] = field(default_factory=dict)  # per strategy
+    scenarios: list[Scenario] = field(default_factory=lambda: [Scenario()])
 
     def keys(self) -> list[RunKey]:
-        return [RunKey(m.label, s, n, seed) for m in self.maps for s in self.strategies
-                for n in self.robots for seed in self.seeds]
+        return [RunKey(m.label, s, n, seed, sc.name) for m in self.maps for s in self.strategies
+                for n in self.robots for sc in self.scenarios if sc.applies(n)
+                for seed in self.seeds]
 
     def source_of(self, label: str) -> str:
         return next(m.source for m in self.maps if m.label == label)
 
+    def scenario(self, name: str) -> Scenario:
+        return next(s for s in self.scenarios if s.name == name)
+
+    def duration_of(self, key: RunKey) -> float:
+        d = self.scenario(key.scenario).duration_s
+        return self.duration_s if d is None else float(d)
+
     def task(self, key: RunKey) -> dict[str, Any]:
         """Everything a worker needs for one run (plain data, picklable)."""
+        sc = self.scenario(key.scenario)
+        duration = self.duration_of(key)
+        failures = sc.failures(key.robots, duration)
         return {"map": key.map, "map_source": self.source_of(key.map), "strategy": key.strategy,
-                "robots": key.robots, "seed": key.seed, "duration_s": self.duration_s,
-                "strategy_params": dict(self.strategy_params.get(key.strategy, {}))}
+                "robots": key.robots, "seed": key.seed, "duration_s": duration,
+                "strategy_params": dict(self.strategy_params.get(key.strategy, {})),
+                "scenario": sc.name, "runtime": sc.runtime, "loss": sc.loss,
+                "delay_s": sc.delay_s, "deaths": len(failures),
+                "death_time_s": failures[0][1] if failures else None,
+                "failures": [list(f) for f in failures]}
 
 
 _LABEL_OK = re.compile(r"^[A-Za-z0-9_.+-]+$")
@@ -161,8 +306,9 @@ def resolve_strategies(names: Iterable[str]) -> list[str]:
 
 def make_spec(maps: Iterable[str], strategies: Iterable[str], robots: Iterable[int],
               seeds: int | Iterable[int], duration_s: float = 3600.0,
-              first_seed: int = 0) -> SweepSpec:
-    """A validated sweep; `seeds` is a count (seeds first_seed .. first_seed + count - 1) or a list."""
+              first_seed: int = 0, scenarios: Iterable[Scenario] | None = None) -> SweepSpec:
+    """A validated sweep; `seeds` is a count (seeds first_seed .. first_seed + count - 1) or a list.
+    `scenarios` (default: nominal only) come from `make_scenarios`."""
     robots = list(robots)
     for n in robots:
         if not (isinstance(n, int) and n >= 1):
@@ -179,26 +325,80 @@ def make_spec(maps: Iterable[str], strategies: Iterable[str], robots: Iterable[i
             raise SweepError("no seeds given")
     if not (duration_s > 0 and math.isfinite(duration_s)):
         raise SweepError(f"duration must be a finite number of seconds > 0, got {duration_s}")
-    return SweepSpec(resolve_maps(maps), resolve_strategies(strategies),
-                     sorted(set(robots)), sorted(set(seed_list)), float(duration_s))
+    scenarios = list(scenarios) if scenarios is not None else [Scenario()]
+    for sc in scenarios:
+        if sc.death_time_s is not None and sc.deaths != "0" and sc.death_time_s >= duration_s:
+            raise SweepError(f"scenario {sc.name}: robots die at {sc.death_time_s:g} s, not before "
+                             f"the end of the run ({duration_s:g} s)")
+    robots = sorted(set(robots))
+    for sc in scenarios:
+        if sc.deaths != "0" and not any(sc.applies(n) for n in robots):
+            raise SweepError(f"scenario {sc.name}: no team size in {robots} keeps a survivor "
+                             "with at least one death")
+    spec = SweepSpec(resolve_maps(maps), resolve_strategies(strategies),
+                     robots, sorted(set(seed_list)), float(duration_s), scenarios=scenarios)
+    if not spec.keys():
+        raise SweepError("the sweep has no runs")
+    return spec
 
 
 # ------------------------------------------------------------------------------- one run
 
 
+# RunConfig's field of robot deaths (H-A's fault injection, `tpuaf run --fail ROBOT@TIME`).
+FAIL_FIELD = "fail"
+
+
+def run_config(task: dict[str, Any]):
+    """The RunConfig of one task (scenario fields included); SweepError if this build lacks one."""
+    import dataclasses
+
+    from .runtimes.graph import RunConfig
+
+    fields = {f.name for f in dataclasses.fields(RunConfig)}
+    kwargs: dict[str, Any] = {
+        "map": task["map_source"], "strategy": task["strategy"], "robots": int(task["robots"]),
+        "duration_s": float(task["duration_s"]), "seed": int(task["seed"]),
+        "strategy_params": dict(task.get("strategy_params") or {}),
+        "delay_s": float(task.get("delay_s") or 0.0), "loss": float(task.get("loss") or 0.0)}
+    failures = task.get("failures") or []
+    if failures:
+        if FAIL_FIELD not in fields:
+            raise SweepError(f"robot deaths need fault injection: RunConfig has no "
+                             f"'{FAIL_FIELD}' field in this build")
+        kwargs[FAIL_FIELD] = [f"{int(r)}@{float(t):g}" for r, t in failures]
+    runtime = task.get("runtime") or "graph"
+    if "runtime" in fields:
+        kwargs["runtime"] = runtime
+    elif runtime != "graph":
+        raise SweepError(f"runtime '{runtime}': RunConfig has no 'runtime' field in this build")
+    return RunConfig(**kwargs)
+
+
+def make_engine(config, patrol_map, runtime: str = "graph"):
+    """The engine of a runtime: graph = BatchRun; physics = runtimes/physics.py (H-A)."""
+    if runtime == "graph":
+        from .runtimes.graph import BatchRun
+
+        return BatchRun(config, patrol_map)
+    if runtime == "physics":
+        try:
+            from .runtimes import physics
+        except ImportError as err:
+            raise SweepError(f"runtime 'physics' is not available in this build ({err})") from None
+        return physics.PhysicsRun(config, patrol_map)
+    raise SweepError(f"unknown runtime '{runtime}' (valid: {', '.join(RUNTIMES)})")
+
+
 def run_task(task: dict[str, Any]) -> dict[str, Any]:
-    """One batch run on a worker. Never raises: a failure comes back as `error` (traceback)."""
+    """One run on a worker. Never raises: a failure comes back as `error` (traceback)."""
     start = time.perf_counter()
     result: dict[str, Any] = {"task": task, "host": socket.gethostname(), "pid": os.getpid()}
     try:
         from .maps import load_map
-        from .runtimes.graph import BatchRun, RunConfig
 
-        config = RunConfig(map=task["map_source"], strategy=task["strategy"],
-                           robots=int(task["robots"]), duration_s=float(task["duration_s"]),
-                           seed=int(task["seed"]),
-                           strategy_params=dict(task.get("strategy_params") or {}))
-        engine = BatchRun(config, load_map(task["map_source"]))
+        config = run_config(task)
+        engine = make_engine(config, load_map(task["map_source"]), task.get("runtime") or "graph")
         summary = engine.run()
         result["config"] = engine.effective_config()
         result["summary"] = summary
@@ -219,29 +419,15 @@ def _atomic_write(path: Path, data: bytes) -> None:
     os.replace(tmp, path)
 
 
-def _plain(value: Any) -> Any:
-    """JSON-safe plain Python: numpy converted, NaN/inf -> None, anything else -> str."""
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if value is None or isinstance(value, (bool, int, float, str)):
-        return value
-    return str(value)
-
-
 def _json_bytes(obj: Any) -> bytes:
-    return (json.dumps(_plain(obj), indent=1, allow_nan=False) + "\n").encode()
+    return (json.dumps(plain(obj), indent=1, allow_nan=False) + "\n").encode()
 
 
 def write_run(root: Path, result: dict[str, Any]) -> Path:
     """Write one run's folder; summary.json last and atomically (it marks the run finished)."""
     task = result["task"]
-    key = RunKey(task["map"], task["strategy"], int(task["robots"]), int(task["seed"]))
+    key = RunKey(task["map"], task["strategy"], int(task["robots"]), int(task["seed"]),
+                 task.get("scenario") or NOMINAL)
     folder = key.folder(root)
     folder.mkdir(parents=True, exist_ok=True)
     summary_path = folder / "summary.json"
@@ -284,14 +470,19 @@ def finished(root: Path, key: RunKey) -> bool:
 
 
 def _run_folders(root: Path) -> list[Path]:
-    return sorted(p for p in (Path(root) / "runs").glob("*/*/N*/seed*") if p.is_dir())
+    runs = Path(root) / "runs"
+    found = list(runs.glob("*/*/N*/seed*")) + list(runs.glob("*/*/N*/*/seed*"))
+    return sorted(p for p in found if p.is_dir())
 
 
 def _key_of(folder: Path) -> RunKey:
     seed = folder.name.removeprefix("seed")
-    robots = folder.parent.name.removeprefix("N")
-    return RunKey(folder.parent.parent.parent.name, folder.parent.parent.name, int(robots),
-                  int(seed))
+    up = folder.parent
+    scenario = NOMINAL
+    if not (up.name.startswith("N") and up.name[1:].isdigit()):
+        scenario, up = up.name, up.parent
+    robots = up.name.removeprefix("N")
+    return RunKey(up.parent.parent.name, up.parent.name, int(robots), int(seed), scenario)
 
 
 def _load_json(path: Path) -> dict:
@@ -299,6 +490,30 @@ def _load_json(path: Path) -> dict:
         return json.loads(path.read_text())
     except (OSError, ValueError) as err:
         raise SweepError(f"{path}: unreadable ({err}); delete the file to recompute the run") from None
+
+
+def _scenario_fields(key: RunKey, task: dict[str, Any]) -> dict[str, Any]:
+    """The scenario columns of a run (tasks of older sweeps have none: nominal graph runs)."""
+    return {"scenario": key.scenario, "runtime": task.get("runtime") or "graph",
+            "loss": task.get("loss") or 0.0, "delay_s": task.get("delay_s") or 0.0,
+            "deaths": task.get("deaths") or 0, "death_time_s": task.get("death_time_s")}
+
+
+def _recovery_fields(summary: dict[str, Any]) -> dict[str, Any]:
+    entries = [e for e in (summary.get("recovery") or []) if isinstance(e, dict)]
+    if not entries:
+        return {}
+
+    def values(name):
+        return [float(e[name]) for e in entries if isinstance(e.get(name), (int, float))]
+
+    rec, after = values("recovery_time_s"), values("worst_idleness_after_s")
+    ideal, honoured = values("ideal_worst_idleness_survivors_s"), values("intentions_honoured")
+    return {"recovery_time_s": max(rec) if rec else None,
+            "worst_idleness_after_s": max(after) if after else None,
+            "ideal_worst_idleness_survivors_s": max(ideal) if ideal else None,
+            "intentions_honoured": sum(honoured) if honoured else None,
+            "unrecovered": len(entries) - len(rec)}
 
 
 def collect(root: Path) -> list[dict[str, Any]]:
@@ -312,16 +527,17 @@ def collect(root: Path) -> list[dict[str, Any]]:
             s = _load_json(summary_path)
             run = s.get("run", {})
             row = {**base, "duration_s": run.get("duration_s", s.get("duration_s")),
-                   "status": "ok", "error": ""}
+                   **_scenario_fields(key, run), "status": "ok", "error": ""}
             row.update({c: s.get(c) for c in METRIC_COLUMNS})
+            row.update(_recovery_fields(s))
             row.update({"wall_time_s": run.get("wall_time_s"), "finished_at": run.get("finished_at"),
                         "map_source": run.get("map_source")})
         elif (folder / "error.txt").is_file():
             meta = _load_json(folder / "config.json") if (folder / "config.json").is_file() else {}
             task = meta.get("task", {})
             first = (folder / "error.txt").read_text().strip().splitlines()
-            row = {**base, "duration_s": task.get("duration_s"), "status": "error",
-                   "error": first[0] if first else "error",
+            row = {**base, "duration_s": task.get("duration_s"), **_scenario_fields(key, task),
+                   "status": "error", "error": first[0] if first else "error",
                    "wall_time_s": meta.get("wall_time_s"), "map_source": task.get("map_source")}
         else:
             continue  # interrupted before anything was written
@@ -347,11 +563,11 @@ def write_tables(root: Path) -> tuple[Path, Path]:
     out = io.StringIO()
     out.write(",".join(SAMPLE_COLUMNS) + "\n")
     for row in rows:
-        if row["status"] != "ok":
-            continue
+        if row["status"] != "ok" or row["loss"] or row["delay_s"] or row["deaths"]:
+            continue  # the box plots show fault-free runs only
         samples = read_samples(RunKey(row["map"], row["strategy"], row["robots"],
-                                      row["seed"]).folder(root))
-        prefix = f"{row['map']},{row['strategy']},{row['robots']},{row['seed']},"
+                                      row["seed"], row["scenario"]).folder(root))
+        prefix = f"{row['map']},{row['strategy']},{row['robots']},{row['seed']},{row['scenario']},"
         out.writelines(f"{prefix}{v:.3f}\n" for v in samples)
     buf = io.BytesIO()
     with gzip.GzipFile(fileobj=buf, mode="wb", mtime=0) as gz:
@@ -430,10 +646,11 @@ def check_existing(root: Path, spec: SweepSpec) -> list[RunKey]:
             todo.append(key)
             continue
         run = _load_json(path).get("run", {})
-        if not math.isclose(float(run.get("duration_s", math.nan)), spec.duration_s):
+        duration = spec.duration_of(key)
+        if not math.isclose(float(run.get("duration_s", math.nan)), duration):
             raise SweepError(
                 f"{path.parent}: finished with duration {run.get('duration_s')} s, but this sweep "
-                f"asks for {spec.duration_s:g} s; use another --out folder (or delete that run)")
+                f"asks for {duration:g} s; use another --out folder (or delete that run)")
         source = run.get("map_source")
         if source is not None and source != spec.source_of(key.map):
             raise SweepError(
@@ -494,7 +711,7 @@ def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
     start = time.perf_counter()
     if todo:
         # The longest runs first (more robots), so the end of the sweep is not one long tail.
-        todo.sort(key=lambda k: (-k.robots, k.map, k.strategy, k.seed))
+        todo.sort(key=lambda k: (-k.robots, k.map, k.strategy, k.scenario, k.seed))
         cluster = client = None
         futures: dict = {}
         try:
@@ -513,8 +730,8 @@ def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
                                            local_directory=tempfile.gettempdir())
                 client = Client(cluster)
             futures = {client.submit(run_task, spec.task(k), pure=False,
-                                     key=f"run-{k.map}-{k.strategy}-N{k.robots}-s{k.seed}-"
-                                         f"{time.time_ns()}"): k
+                                     key=f"run-{k.map}-{k.strategy}-N{k.robots}-{k.scenario}-"
+                                         f"s{k.seed}-{time.time_ns()}"): k
                        for k in todo}
             bar = tqdm(total=len(todo), desc="compare", unit="run", disable=not progress,
                        file=sys.stderr)
@@ -530,14 +747,12 @@ def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
                     outcome.computed.append(key)
                     if result.get("error"):
                         outcome.failed += 1
-                        bar.write(f"run {key.map}/{key.strategy}/N{key.robots}/seed{key.seed} "
-                                  f"failed: {result['error'].splitlines()[0]}")
+                        bar.write(f"run {key.label()} failed: {result['error'].splitlines()[0]}")
                     else:
                         outcome.ran += 1
                     if on_result is not None:
                         on_result(key, result)
-                    bar.set_postfix_str(f"{key.map} {key.strategy} N={key.robots} s={key.seed}",
-                                        refresh=False)
+                    bar.set_postfix_str(key.label(), refresh=False)
                     bar.update(1)
             finally:
                 bar.close()
@@ -561,9 +776,40 @@ def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
     return outcome
 
 
+def _git_commit() -> str | None:
+    """The commit of the code that ran (with '+dirty' when files differ), None outside git."""
+    import subprocess
+
+    here = Path(__file__).resolve().parent
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, text=True,
+                              capture_output=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "."],
+                               cwd=here, text=True, capture_output=True, timeout=10).stdout
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head + ("+dirty" if dirty.strip() else "")
+
+
 def _finish(root: Path, spec: SweepSpec, outcome: SweepOutcome) -> None:
     write_tables(root)
+    path = Path(root) / "sweep.json"
+    history: list = []
+    if path.is_file():
+        try:
+            old = json.loads(path.read_text())
+            history = list(old.get("history") or [])
+        except (OSError, ValueError):
+            history = []
     record = {"maps": [asdict(m) for m in spec.maps], "strategies": spec.strategies,
               "robots": spec.robots, "seeds": spec.seeds, "duration_s": spec.duration_s,
+              "scenarios": [s.name for s in spec.scenarios],
               **{k: v for k, v in outcome.to_dict().items() if k != "computed"}}
-    _atomic_write(Path(root) / "sweep.json", _json_bytes(record))
+    entry = {k: record[k] for k in ("strategies", "robots", "scenarios", "total", "ran",
+                                    "skipped", "failed", "wall_time_s", "interrupted")}
+    entry.update(maps=[m.label for m in spec.maps], seeds=len(spec.seeds),
+                 finished_at=time.strftime("%Y-%m-%dT%H:%M:%S"), commit=_git_commit())
+    if outcome.ran or outcome.failed:
+        history.append(entry)
+    record["history"] = history
+    _atomic_write(path, _json_bytes(record))
