@@ -8,14 +8,20 @@
     info.csv, idleness.csv, timeresults.csv   patrolling_sim-compatible files (';' separated)
 
 Streamed files are flushed after every batch of rows, so an interrupted run leaves valid CSV
-files for what was simulated.
+files for what was simulated. The end files (summary.json, config.yaml, the patrolling_sim files)
+are written atomically: a temporary file beside them, then a rename, so that a reader (or a
+kill) never sees half a file. `.tpuaf-files` lists every file tpuaf wrote in the folder:
+`prepare_out_dir(..., overwrite=True)` removes those (and the known names below), nothing else.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import math
+import os
+import shutil
 import socket
 import time
 from collections.abc import Iterable, Mapping
@@ -26,7 +32,9 @@ from typing import Any
 import numpy as np
 import yaml
 
+from .errors import TpuafError
 from .metrics import TIMESERIES_COLUMNS
+from .plain import plain
 
 VISIT_COLUMNS = ["time_s", "robot", "vertex_id", "vertex_index", "interval_idleness_s"]
 # patrolling_sim monitor's files (monitor.cpp), same columns and separators.
@@ -41,23 +49,91 @@ PS_INFO_COLUMNS = ["map", "teamsize", "initial_positions", "goal_reached_wait_s"
                    "avg_visits_per_vertex", "complete_patrol_cycles"]
 
 
-def _plain(value: Any) -> Any:
-    """YAML/JSON-safe plain Python (numpy and paths converted, NaN -> None)."""
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, Path):
-        return str(value)
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if value is None or isinstance(value, (bool, int, float, str)):
-        return value
-    return str(value)
+MANIFEST = ".tpuaf-files"  # one relative path a line: what tpuaf wrote in this folder
+# Names tpuaf writes in a run folder (batch, fleet, analysis): cleared by --overwrite even when
+# the manifest is missing (folders written before it existed).
+PRODUCT_FILES = frozenset({
+    "config.yaml", "visits.csv", "timeseries.csv", "summary.json", "info.csv", "idleness.csv",
+    "timeresults.csv", "comparison.json", "summary.png", "world.yaml", "strategy_params.yaml",
+    "fleet_config.yaml", "fleet_timing.json", "roslaunch.log", "run.bag", "run.bag.active",
+    "ros_home", "analysis", MANIFEST,
+})
+
+
+class ResultsError(TpuafError):
+    """A results folder cannot be used (a file, unwritable, or holding earlier results)."""
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    """Write `text` to `path` through a temporary file in the same folder and a rename."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "w", newline="") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
+def record_written(out_dir: str | Path, *names: str) -> None:
+    """Add `names` (relative to `out_dir`) to the folder's manifest of files tpuaf wrote."""
+    manifest = Path(out_dir) / MANIFEST
+    known = set(manifest.read_text().split("\n")) if manifest.is_file() else set()
+    new = [n for n in names if n not in known]
+    if new:
+        with open(manifest, "a") as f:
+            f.write("".join(f"{n}\n" for n in new))
+
+
+def _written_by_tpuaf(out_dir: Path) -> list[Path]:
+    names = set(PRODUCT_FILES)
+    manifest = out_dir / MANIFEST
+    if manifest.is_file():
+        names.update(n for n in manifest.read_text().split("\n") if n)
+    root = out_dir.resolve()
+    paths = []
+    for name in sorted(names):
+        path = out_dir / name
+        # never outside the folder, whatever the manifest says
+        if (path.exists() or path.is_symlink()) and root in path.resolve().parents:
+            paths.append(path)
+    return paths
+
+
+def prepare_out_dir(out_dir: str | Path, overwrite: bool = False, option: str = "--out") -> Path:
+    """Check and create a results folder before a run starts.
+
+    Refused (ResultsError, naming the path): an existing file, a place that cannot be created
+    or written, and an existing non-empty folder unless `overwrite`; then the files tpuaf wrote
+    there (manifest + PRODUCT_FILES) are removed, and any other file is kept."""
+    out = Path(out_dir).expanduser()
+    if out.exists() and not out.is_dir():
+        raise ResultsError(f"{option} {out}: is an existing file, not a folder")
+    existing = sorted(out.iterdir()) if out.is_dir() else []
+    if existing and not overwrite:
+        raise ResultsError(
+            f"{option} {out}: folder exists and is not empty ({len(existing)} entries, e.g. "
+            f"{existing[0].name}): give --overwrite to replace the results tpuaf wrote there, "
+            "or choose a new folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".tpuaf-write-test.{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as err:
+        raise ResultsError(f"{option} {out}: cannot write there: "
+                           f"{err.strerror or err}") from None
+    if existing:
+        for path in _written_by_tpuaf(out):
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path)
+            else:
+                path.unlink()
+    return out
 
 
 def _num(value: Any) -> str:
@@ -86,12 +162,15 @@ class ResultsWriter:
     def __init__(self, out_dir: str | Path, config: Mapping[str, Any]):
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
-        self.config = _plain(dict(config))
+        self.config = plain(dict(config))
         self._wall_start = time.time()
         self._date = datetime.now().strftime("%Y%m%d_%H%M%S")
-        (self.out_dir / "config.yaml").write_text(
-            yaml.safe_dump(self.config, sort_keys=False, default_flow_style=False)
-        )
+        with contextlib.suppress(FileNotFoundError):  # an earlier run's: never mixed with ours
+            (self.out_dir / "summary.json").unlink()
+        record_written(self.out_dir, "config.yaml", "visits.csv", "timeseries.csv",
+                       "summary.json", "info.csv", "idleness.csv", "timeresults.csv")
+        atomic_write_text(self.out_dir / "config.yaml",
+                          yaml.safe_dump(self.config, sort_keys=False, default_flow_style=False))
         self._visits_f = open(self.out_dir / "visits.csv", "w", newline="")  # noqa: SIM115
         self._visits = csv.writer(self._visits_f)
         self._visits.writerow(VISIT_COLUMNS)
@@ -153,14 +232,15 @@ class ResultsWriter:
             if summary is None:
                 summary = recorder.summary(self._last_time(recorder))
                 self.sync(recorder)
-        summary = dict(_plain(summary or {}))
+        summary = dict(plain(summary or {}))
         summary["complete"] = not interrupted
         summary["real_duration_s"] = time.time() - self._wall_start
         self._visits_f.close()
         self._ts_f.close()
-        (self.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         if recorder is not None:
             self._write_patrolling_sim(summary, recorder, interrupted, timeresults_period_s)
+        # last: a summary.json means every other file is complete
+        atomic_write_text(self.out_dir / "summary.json", json.dumps(summary, indent=2) + "\n")
         self.finished = True
 
     @staticmethod
@@ -181,29 +261,29 @@ class ResultsWriter:
         def interferences_until(t: float) -> int:
             return int(np.searchsorted(inter_times, t, side="right"))
 
-        with open(self.out_dir / "idleness.csv", "w", newline="") as f:
-            f.write(";".join(PS_IDLENESS_HEADER) + "\n")
-            for (t, r, v), idl in zip(recorder.visits, recorder.visit_idleness, strict=True):
-                if math.isnan(idl):
-                    continue  # a vertex's first visit has no idleness (as in patrolling_sim)
-                f.write(f"{t - start:.1f};{r};{ids[v]};{idl:.1f};{interferences_until(t)}\n")
+        lines = [";".join(PS_IDLENESS_HEADER) + "\n"]
+        for (t, r, v), idl in zip(recorder.visits, recorder.visit_idleness, strict=True):
+            if math.isnan(idl):
+                continue  # a vertex's first visit has no idleness (as in patrolling_sim)
+            lines.append(f"{t - start:.1f};{r};{ids[v]};{idl:.1f};{interferences_until(t)}\n")
+        atomic_write_text(self.out_dir / "idleness.csv", "".join(lines))
 
         duration = float(summary.get("duration_s") or 0.0)
-        with open(self.out_dir / "timeresults.csv", "w", newline="") as f:
-            f.write(";".join(PS_TIMERESULTS_HEADER) + "\n")
-            samples = [(t, i) for (t, _, _), i in zip(recorder.visits, recorder.visit_idleness,
-                                                       strict=True) if not math.isnan(i)]
-            k = 1
-            while period_s > 0 and k * period_s <= duration + 1e-9:
-                tk = start + k * period_s
-                vals = np.array([i for t, i in samples if t <= tk])
-                if vals.size:
-                    row = (vals.min(), vals.mean(), vals.std(), vals.max())
-                else:
-                    row = (math.nan,) * 4
-                f.write(f"{k * period_s:.1f};" + ";".join(_f1(float(x)) for x in row)
-                        + f";{interferences_until(tk)}\n")
-                k += 1
+        lines = [";".join(PS_TIMERESULTS_HEADER) + "\n"]
+        samples = [(t, i) for (t, _, _), i in zip(recorder.visits, recorder.visit_idleness,
+                                                   strict=True) if not math.isnan(i)]
+        k = 1
+        while period_s > 0 and k * period_s <= duration + 1e-9:
+            tk = start + k * period_s
+            vals = np.array([i for t, i in samples if t <= tk])
+            if vals.size:
+                row = (vals.min(), vals.mean(), vals.std(), vals.max())
+            else:
+                row = (math.nan,) * 4
+            lines.append(f"{k * period_s:.1f};" + ";".join(_f1(float(x)) for x in row)
+                         + f";{interferences_until(tk)}\n")
+            k += 1
+        atomic_write_text(self.out_dir / "timeresults.csv", "".join(lines))
 
         cfg = self.config
         dead = bool(summary.get("deaths"))
@@ -237,8 +317,8 @@ class ResultsWriter:
             f"{counted / n:.1f}",
             str(int(summary.get("complete_cycles") or 0)),
         ]
-        with open(self.out_dir / "info.csv", "w", newline="") as f:
-            f.write(";".join(x.replace(";", ",") for x in info) + "\n")
+        atomic_write_text(self.out_dir / "info.csv",
+                          ";".join(x.replace(";", ",") for x in info) + "\n")
 
     def close(self) -> None:
         """Close the streams without writing the end files (prefer `finish`)."""
@@ -256,5 +336,6 @@ class ResultsWriter:
             else:
                 self.close()
                 summary = {"complete": False}
-                (self.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+                atomic_write_text(self.out_dir / "summary.json",
+                                  json.dumps(summary, indent=2) + "\n")
                 self.finished = True

@@ -18,11 +18,19 @@ SUBCOMMANDS: list[tuple[str, str, str]] = [
 ]
 
 
-from ..errors import CliError  # noqa: E402,F401 - re-exported for the subcommand modules
+from ..errors import CliError, TpuafError  # noqa: E402,F401 - re-exported for the subcommands
+from . import signals  # noqa: E402
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse, but a bad option is one line (no usage block) naming the option, exit code 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="tpuaf", description="Multi-robot continuous monitoring: TPUAF and baselines."
     )
     parser.add_argument("--version", action="version", version=f"tpuaf {__version__}")
@@ -44,13 +52,24 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args._handler(args) or 0)
-    except CliError as err:
-        print(f"tpuaf {args.command}: error: {err}", file=sys.stderr)
+        with signals.stop_signals():
+            try:
+                return int(args._handler(args) or 0)
+            except KeyboardInterrupt:
+                print(f"tpuaf {args.command}: interrupted", file=sys.stderr)
+                return signals.exit_code()
+    except TpuafError as err:  # every user error: one line, no traceback
+        print(f"tpuaf {args.command}: error: {one_line(err)}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"tpuaf {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except OSError as err:  # e.g. an unwritable results folder or a full disk
+        where = f"{err.filename}: " if err.filename else ""
+        print(f"tpuaf {args.command}: error: {where}{err.strerror or err}", file=sys.stderr)
+        return 2
+
+
+def one_line(err: Exception) -> str:
+    """The error's message on one line (continuation lines joined with '; ')."""
+    return "; ".join(line.strip() for line in str(err).splitlines() if line.strip())
 
 
 if __name__ == "__main__":

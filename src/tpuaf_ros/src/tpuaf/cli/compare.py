@@ -7,7 +7,14 @@ import sys
 from pathlib import Path
 
 from ..errors import CliError
-from .run import positive_float, positive_int
+from .run import (
+    MAX_SEED,
+    non_negative_float,
+    positive_float,
+    positive_int,
+    probability,
+    seed_int,
+)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -21,7 +28,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="simulated seconds per run")
     p.add_argument("--seeds", type=positive_int, default=5,
                    help="number of seeds per configuration (seeds first-seed .. first-seed + n - 1)")
-    p.add_argument("--first-seed", type=int, default=0, help="first seed")
+    p.add_argument("--first-seed", type=seed_int, default=0, help="first seed")
     p.add_argument("--out", type=Path, required=True,
                    help="results folder; finished runs in it are skipped (resumable)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -30,22 +37,52 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--workers", type=positive_int, default=None,
                    help="local cluster worker processes (default: one per core)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    faults = p.add_argument_group(
+        "scenarios", "each value adds one scenario, the other factors at their base (no fault): "
+                     "the degradation curves; the fault-free runs are always included")
+    faults.add_argument("--loss", nargs="+", type=probability, default=[], metavar="P",
+                        help="message loss probabilities, e.g. 0.1 0.3 0.5 0.7 0.9")
+    faults.add_argument("--delay", nargs="+", type=non_negative_float, default=[], metavar="S",
+                        help="team message delays [s], e.g. 1 5 10 30")
+    faults.add_argument("--deaths", nargs="+", default=[], metavar="K",
+                        help="robots that die: a count (runs with K >= N are skipped) or a "
+                             "fraction of the team, e.g. 1/4 (rounded down)")
+    faults.add_argument("--death-time", type=non_negative_float, default=None, metavar="S",
+                        help="when they die [s of run time] (default: half the run)")
+    faults.add_argument("--runtime", choices=["graph", "physics"], default="graph",
+                        help="graph (event-driven, default) or physics (robots with dynamics)")
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..sweep import SweepError, make_spec, run_sweep
+    from ..sweep import SweepError, make_scenarios, make_spec, run_sweep
 
     if args.scheduler and args.workers:
         raise CliError("--workers applies to the local cluster only, not with --scheduler")
+    if args.out.exists() and not args.out.is_dir():
+        raise CliError(f"--out {args.out}: is an existing file, not a folder")
+    if args.first_seed + args.seeds - 1 > MAX_SEED:
+        raise CliError(f"--first-seed {args.first_seed} + --seeds {args.seeds} exceeds the "
+                       f"largest seed {MAX_SEED}")
     try:
+        scenarios = make_scenarios(args.loss, args.delay, args.deaths, args.death_time,
+                                   runtime=args.runtime)
         spec = make_spec(args.maps, args.strategies, args.robots, args.seeds,
-                         duration_s=args.duration, first_seed=args.first_seed)
+                         duration_s=args.duration, first_seed=args.first_seed,
+                         scenarios=scenarios)
     except SweepError as err:
         raise CliError(str(err)) from None
+    try:  # a sweep folder is resumed, so it may exist: only check that it can be written
+        args.out.mkdir(parents=True, exist_ok=True)
+        probe = args.out / ".tpuaf-write-test"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as err:
+        raise CliError(f"--out {args.out}: cannot write there: {err.strerror or err}") from None
     total = len(spec.keys())
     print(f"sweep: {len(spec.maps)} maps ({', '.join(m.label for m in spec.maps)}) x "
           f"{len(spec.strategies)} strategies ({', '.join(spec.strategies)}) x "
-          f"N = {' '.join(map(str, spec.robots))} x {len(spec.seeds)} seeds, "
+          f"N = {' '.join(map(str, spec.robots))} x {len(spec.seeds)} seeds x "
+          f"{len(spec.scenarios)} scenarios ({', '.join(sc.name for sc in spec.scenarios)}), "
           f"{spec.duration_s:g} s each = {total} runs -> {args.out}", file=sys.stderr)
     try:
         outcome = run_sweep(spec, args.out, scheduler=args.scheduler, workers=args.workers,

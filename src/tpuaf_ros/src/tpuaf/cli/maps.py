@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 from ..errors import CliError
 
@@ -17,6 +18,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "file (default: all built-in maps)",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    parser.add_argument("--allow-occupied-vertices", action="store_true",
+                        help="a vertex outside the image's free space is a warning, not an error")
 
 
 COLUMNS = [
@@ -61,12 +64,16 @@ def run(args: argparse.Namespace) -> int:
     summaries = []
     for name in names:
         try:
-            pm = load_map(name)
+            pm = load_map(name, allow_occupied_vertices=args.allow_occupied_vertices)
         except MapError as err:
             raise CliError(str(err)) from None
         summary = map_summary(pm)
         if pm.notes:
             summary["notes"] = list(pm.notes)
+        if pm.warnings:
+            summary["warnings"] = list(pm.warnings)
+        for warning in pm.warnings:
+            print(f"tpuaf maps: warning ({pm.name}): {warning}", file=sys.stderr)
         summaries.append(summary)
     if args.json:
         print(json.dumps(summaries, indent=2))

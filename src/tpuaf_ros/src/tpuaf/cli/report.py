@@ -21,6 +21,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..report import ReportError, write_report
 
+    if not args.dir.is_dir():
+        raise CliError(f"{args.dir}: not a folder (give a folder written by `tpuaf compare`)")
+    if args.out is not None and args.out.exists() and not args.out.is_dir():
+        raise CliError(f"--out {args.out}: is an existing file, not a folder")
+
     try:
         path = write_report(args.dir, out=args.out, paper=args.paper, title=args.title)
     except ReportError as err:

@@ -36,21 +36,54 @@ def _finite_float(condition, wanted: str):
     return parse
 
 
+MAX_SEED = 2**31 - 1  # seeds travel as ROS parameters (XML-RPC int32) in fleets
+
+
+def seed_int(text: str) -> int:
+    """An argparse type: a seed 0 .. 2^31 - 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer seed >= 0, got '{text}'") from None
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"expected a seed in 0 .. {MAX_SEED}, got {value}")
+    return value
+
+
 positive_float = _finite_float(lambda v: v > 0, "a finite number > 0")
 non_negative_float = _finite_float(lambda v: v >= 0, "a finite number >= 0")
 probability = _finite_float(lambda v: 0 <= v <= 1, "a probability in [0, 1]")
 
 
-def parse_params(items: list[str]) -> dict:
-    """`key=value` pairs; values parsed as YAML scalars (numbers, booleans, strings)."""
+def parse_param_value(raw: str):
+    """A `--param` value: a YAML scalar (number, boolean, string); words that YAML leaves as
+    strings but Python reads as numbers ('nan', 'inf', '1e3') become floats, so that the
+    strategy's check refuses them as numbers, not as strings."""
     import yaml
 
+    try:
+        value = yaml.safe_load(raw)
+    except yaml.YAMLError:
+        value = raw
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            pass
+    return value
+
+
+def parse_params(items: list[str]) -> dict:
+    """`key=value` pairs (see parse_param_value); a repeated key is refused."""
     params = {}
     for item in items:
         key, sep, raw = item.partition("=")
+        key = key.strip()
         if not sep or not key:
             raise CliError(f"--param expects key=value, got '{item}'")
-        params[key.strip()] = yaml.safe_load(raw)
+        if key in params:
+            raise CliError(f"--param {key} is given twice")
+        params[key] = parse_param_value(raw)
     return params
 
 
@@ -61,8 +94,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--strategy", default="tpuaf", help="strategy name, any case (see --list)")
     p.add_argument("--robots", type=positive_int, default=4, help="team size N")
     p.add_argument("--duration", type=positive_float, default=3600.0, help="simulated seconds")
-    p.add_argument("--seed", type=int, default=0, help="random seed (runs are deterministic)")
+    p.add_argument("--seed", type=seed_int, default=0,
+                   help=f"random seed 0 .. {MAX_SEED} (runs are deterministic)")
     p.add_argument("--out", type=Path, default=None, help="results folder (default: none written)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="reuse a non-empty --out: remove the files tpuaf wrote there first")
+    p.add_argument("--allow-occupied-vertices", action="store_true",
+                   help="a vertex outside the image's free space is a warning, not an error")
     p.add_argument("--delay", type=non_negative_float, default=0.0, help="team message delay [s]")
     p.add_argument("--loss", type=probability, default=0.0, help="message loss probability")
     p.add_argument(
@@ -124,10 +162,16 @@ def run(args: argparse.Namespace) -> int:
         strategy_params=parse_params(args.param),
     )
     try:
-        patrol_map = load_map(args.map)
+        patrol_map = load_map(args.map, allow_occupied_vertices=args.allow_occupied_vertices)
         engine = BatchRun(config, patrol_map)
     except (MapError, ConfigError, ParameterError) as err:
         raise CliError(str(err)) from None
+    for warning in patrol_map.warnings:
+        print(f"tpuaf run: warning: {warning}", file=sys.stderr)
+    if args.out is not None:
+        from ..results import prepare_out_dir
+
+        args.out = prepare_out_dir(args.out, overwrite=args.overwrite)
     return execute(engine, args.out, quiet=args.quiet)
 
 
@@ -136,6 +180,7 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
     from tqdm import tqdm
 
     from ..results import ResultsWriter
+    from . import signals
 
     config = engine.config
     title = (
@@ -169,7 +214,8 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
     wall = time.perf_counter() - wall
     summary["wall_time_s"] = wall
     if writer is not None:
-        writer.finish(summary, engine.recorder, interrupted=interrupted)
+        with signals.shielded():  # a second signal must not cut the end files
+            writer.finish(summary, engine.recorder, interrupted=interrupted)
     print(f"\n{title}{' (interrupted)' if interrupted else ''}")
     print(format_summary(summary))
     print(
@@ -177,4 +223,4 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
     )
     if out:
         print(f"  results: {out}")
-    return 130 if interrupted else 0
+    return signals.exit_code() if interrupted else 0

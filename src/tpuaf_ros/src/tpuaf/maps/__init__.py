@@ -30,11 +30,12 @@ def builtin_map_names() -> list[str]:
     return sorted(GENERATORS)
 
 
-def load_map(name_or_path: str | Path) -> PatrolMap:
+def load_map(name_or_path: str | Path, allow_occupied_vertices: bool = False) -> PatrolMap:
     """A built-in map by name (`grid`, `lab`), or a path: a folder of ours (with map.yaml), a
     patrolling_sim folder (with a .graph file) or a .graph file. Every map is checked
     (connected graph, valid lengths) and comes with an occupancy grid (from its image, or
-    corridors generated from the graph)."""
+    corridors generated from the graph), and its geometry is checked (tpuaf.maps.geometry:
+    vertices on free cells, unless `allow_occupied_vertices`; doubts in `warnings`)."""
     from .builtin import BUILTIN_MAPS_DIR, GENERATORS
     from .mapfile import load_map_folder
     from .patrolling_sim import load_patrolling_sim
@@ -64,8 +65,12 @@ def load_map(name_or_path: str | Path) -> PatrolMap:
                 "otherwise give the path of a map folder (map.yaml), a patrolling_sim folder "
                 "or a .graph file"
             )
+    from .geometry import check_coordinates, check_geometry
+
     pm.graph  # noqa: B018 - validate now
+    check_coordinates(pm)  # before a grid is generated from them
     pm.occupancy_grid()
+    check_geometry(pm, allow_occupied_vertices)
     return pm
 
 

@@ -143,6 +143,10 @@ def _parse_settings(path: Path, node: Any) -> MapSettings:
                     len(ids) != team or not all(isinstance(v, int) for v in ids):
                 raise MapError(f"{_at(path, ids if isinstance(ids, list) else iv)}: "
                                f"initial_vertices[{team!r}] must list {team!r} vertex ids")
+            dup = sorted({v for v in ids if ids.count(v) > 1})
+            if dup:
+                raise MapError(f"{_at(path, ids)}: initial_vertices[{team}] starts several robots "
+                               f"at vertex {', '.join(map(str, dup))}")
             s.initial_vertices[team] = list(ids)
     if "initial_poses" in node:
         ip = node["initial_poses"]

@@ -58,6 +58,7 @@ class PatrolMap:
     bounds: tuple[float, float, float, float] | None = None
     description: str = ""
     notes: list[str] = field(default_factory=list)  # import remarks (e.g. parallel edges dropped)
+    warnings: list[str] = field(default_factory=list)  # geometry doubts (tpuaf.maps.geometry)
 
     def occupancy_grid(self) -> Any:
         """The occupancy grid: the map's image, or corridors generated from the graph (cached)."""

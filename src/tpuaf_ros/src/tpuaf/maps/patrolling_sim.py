@@ -275,11 +275,14 @@ def load_patrolling_sim(path: str | Path) -> PatrolMap:
         yaml_file, image_fallbacks=(folder / f"{name}.pgm", folder / f"{name}.png")
     )
     notes = list(g["notes"])
+    warnings = []
     if (occ.width, occ.height) != (g["width_px"], g["height_px"]):
-        notes.append(
-            f"graph header says {g['width_px']}x{g['height_px']} px, image is "
-            f"{occ.width}x{occ.height} px"
-        )
+        text = (f"graph header says {g['width_px']}x{g['height_px']} px, image is "
+                f"{occ.width}x{occ.height} px")
+        if g["width_px"] > occ.width or g["height_px"] > occ.height:
+            warnings.append(f"{graph_file}: the graph is larger than its image: {text}")
+        else:
+            notes.append(text)
     settings = MapSettings(**IMPORTED_SETTINGS)
     for candidate in (folder / "initial_poses.txt", folder.parent / "initial_poses.txt"):
         if candidate.is_file():
@@ -300,6 +303,7 @@ def load_patrolling_sim(path: str | Path) -> PatrolMap:
         occupancy=occ,
         description=f"patrolling_sim map '{name}' imported from {folder}",
         notes=notes,
+        warnings=warnings,
     )
     pm.graph  # noqa: B018 - validates connectivity now, with the file named in the error
     return pm

@@ -17,6 +17,7 @@ Policies talk to the team only through `ctx.send(message)`, with the typed messa
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -170,14 +171,35 @@ def resolve_parameters(
         )
     values = {key: p.default for key, p in spec.items()}
     for key, value in given.items():
-        check = spec[key].check
-        if check is not None and not check(value):
+        if not _value_fits(spec[key], value):
             raise ParameterError(
                 f"invalid value {value!r} for parameter '{key}' of strategy '{strategy}': "
                 f"{spec[key].doc}"
             )
         values[key] = value
     return values
+
+
+def _value_fits(parameter: Parameter, value: Any) -> bool:
+    """The value has the default's kind (a boolean for a boolean, a number for a number; NaN and
+    infinities only where the default is one) and passes the check; a check that raises (e.g.
+    TypeError on a string) means 'no'."""
+    default = parameter.default
+    if value is None:
+        return default is None  # null keeps an automatic default ("None = derived")
+    if isinstance(default, bool) != isinstance(value, bool):
+        return False
+    if isinstance(value, float) and not math.isfinite(value):
+        return isinstance(default, float) and not math.isfinite(default)
+    if isinstance(default, (int, float)) and not isinstance(default, bool) and \
+            not isinstance(value, (int, float)):
+        return False
+    if parameter.check is None:
+        return True
+    try:
+        return bool(parameter.check(value))
+    except Exception:  # noqa: BLE001 - any failure of a check is a refused value
+        return False
 
 
 @dataclass
