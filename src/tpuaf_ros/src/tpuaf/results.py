@@ -56,7 +56,8 @@ PRODUCT_FILES = frozenset({
     "config.yaml", "visits.csv", "timeseries.csv", "summary.json", "info.csv", "idleness.csv",
     "timeresults.csv", "comparison.json", "summary.png", "world.yaml", "strategy_params.yaml",
     "fleet_config.yaml", "fleet_timing.json", "roslaunch.log", "run.bag", "run.bag.active",
-    "ros_home", "analysis", MANIFEST,
+    "simulator.json", "world.resolved.yaml", "world.occupancy.pgm", "plots", "ros_home",
+    "analysis", MANIFEST,
 })
 
 

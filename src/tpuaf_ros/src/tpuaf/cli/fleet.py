@@ -94,6 +94,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="simulated run time [s] (default 600)")
     p.add_argument("--seed", type=int, default=0, help="random seed")
     p.add_argument("--out", type=Path, required=True, help="run folder (results, bag, logs)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="reuse a non-empty --out: remove the files tpuaf wrote there first")
+    p.add_argument("--allow-occupied-vertices", action="store_true",
+                   help="a vertex outside the image's free space is a warning, not an error")
     p.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
                    help="strategy parameter (repeatable)")
     p.add_argument("--no-lockstep", dest="lockstep", action="store_false",
@@ -244,7 +248,7 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
 
     check_options(args)
     try:
-        patrol_map = load_map(args.map)
+        patrol_map = load_map(args.map, allow_occupied_vertices=args.allow_occupied_vertices)
         cls = REGISTRY.get(args.strategy)
         params = cls(parse_params(args.param)).params
     except (MapError, ParameterError) as err:
@@ -253,8 +257,10 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
         raise CliError(err.args[0]) from None
     robot = choose_robot(args.robot, patrol_map.settings)
     faults = fault_plan(args)
+    from ..results import prepare_out_dir
+
+    prepare_out_dir(args.out, overwrite=args.overwrite)  # a file, unwritable, earlier results
     out = args.out.expanduser().resolve()
-    out.mkdir(parents=True, exist_ok=True)
     map_ref = args.map if args.map in builtin_map_names() else str(Path(args.map).expanduser().resolve())
     world = {
         "patrol_map": map_ref,
@@ -429,8 +435,7 @@ def run(args: argparse.Namespace) -> int:
     for stale in (summary_path, sim_summary):
         with contextlib.suppress(FileNotFoundError):
             stale.unlink()
-    # SIGTERM (e.g. from `timeout`) cleans up like Ctrl-C.
-    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    # SIGTERM and SIGHUP (e.g. from `timeout`) clean up like Ctrl-C: tpuaf.cli.signals
     mode = ("lock-step" if args.lockstep else "paced" if args.rtf > 0 else "free-running")
     title = (f"{config['strategy']} on {config['map_name']}, N = {args.robots}, "
              f"{args.duration:g} s, {mode}")
@@ -497,7 +502,9 @@ def run(args: argparse.Namespace) -> int:
                        "real_time_factor": rtf, "finished": finished,
                        "sim_elapsed_s": sim_elapsed})
     if interrupted:
-        return 130
+        from . import signals
+
+        return signals.exit_code()
     return 0 if finished and bag_ok else 1
 
 
