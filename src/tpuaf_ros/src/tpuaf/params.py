@@ -6,7 +6,7 @@ import inspect
 import math
 import re
 from dataclasses import MISSING, dataclass, fields
-from typing import Any
+from typing import Any, ClassVar
 
 from .errors import TpuafError
 
@@ -47,11 +47,22 @@ def parse(cls: type, values: dict[str, Any], node: str) -> Any:
         elif kind is list:
             if not isinstance(value, list):
                 raise NodeParamError(f"{node}: ~{name} must be a list, got {value!r}")
+        _check_range(cls, node, name, value)
         setattr(out, name, value)
     for f in fields(cls):
         if f.metadata.get("required") and getattr(out, f.name) in (None, "", -1):
             raise NodeParamError(f"{node}: ~{f.name} is required ({f.metadata.get('doc', '')})")
     return out
+
+
+def _check_range(cls: type, node: str, name: str, value: Any) -> None:
+    """`cls.ranges[name]` = (">" or ">=", bound): a number on the wrong side is refused."""
+    limit = getattr(cls, "ranges", {}).get(name)
+    if limit is None or isinstance(value, bool) or not isinstance(value, (int, float)):
+        return
+    op, bound = limit
+    if not (value > bound if op == ">" else value >= bound):
+        raise NodeParamError(f"{node}: ~{name} must be {op} {bound:g}, got {value!r}")
 
 
 def req(default: Any, doc: str, kind: type | None = None):
@@ -111,6 +122,17 @@ class AgentParams:
     start_wait: float = 2.0  # [s wall] wall clock: wait this long for /fleet/start, then announce it
     epoch: float = -1.0  # [s] ROS time of run time 0; -1: 0 with sim time, else /fleet/start
 
+    # Numeric limits checked by `parse` (not fields): name -> (">" or ">=", bound).
+    ranges: ClassVar[dict[str, tuple[str, float]]] = {
+        "robot_index": (">=", 0), "robots": (">=", 1), "seed": (">=", 0),
+        "move_base_timeout": (">", 0), "max_linear_speed": (">=", 0),
+        "max_angular_speed": (">", 0), "robot_radius": (">=", 0), "safety_margin": (">=", 0),
+        "plan_margin": (">=", 0), "stuck_timeout": (">", 0), "backoff_time": (">=", 0),
+        "max_retries": (">=", 0), "waypoint_tolerance": (">", 0), "scan_beams": (">=", 1),
+        "heartbeat_period": (">", 0), "input_timeout": (">", 0), "teammate_timeout": (">", 0),
+        "skew_warn": (">=", 0), "max_skew": (">", 0), "start_wait": (">=", 0),
+    }
+
 
 @dataclass
 class MonitorParams:
@@ -133,6 +155,12 @@ class MonitorParams:
     base_frame: str = "base_footprint"  # tf: robot i's frame is <robot_prefix><i>/<base_frame>
     announce_start: bool = True  # announce /fleet/start when all agents are ready; false: follow
     #   the start the agents announce (hardware)
+
+    # Numeric limits checked by `parse` (not fields): name -> (">" or ">=", bound).
+    ranges: ClassVar[dict[str, tuple[str, float]]] = {
+        "robots": (">=", 1), "duration": (">", 0), "death_timeout": (">", 0),
+        "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0),
+    }
 
 
 def params_help(cls: type) -> str:
