@@ -11,6 +11,7 @@ Private parameters: tpuaf.params.AgentParams (strict; `patrol_agent --help`).
 """
 
 import math
+import re
 import threading
 import time
 import warnings
@@ -42,6 +43,11 @@ LOCALIZATIONS = ("tf", "odom", "ground_truth", "amcl")
 NAVIGATIONS = ("builtin", "move_base")
 WARN_PERIOD_S = 5.0  # [s wall] throttle of repeated warnings
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
+
+
+def _shape(reason: str) -> str:
+    """A reason without its numbers (the throttle key of its warning)."""
+    return re.sub(r"[-+0-9.e]+", "#", reason)
 
 
 def check_params(p: AgentParams, sim: bool) -> None:
@@ -111,15 +117,17 @@ class AgentNode:
         # Publishers.
         self.lockstep = p.lockstep
         self.drives = p.navigation == "builtin"
+        self.cmd_pub = None  # move_base drives: no velocity publisher at all
         if self.lockstep:
             self.cmd_pub = rospy.Publisher(topics.CMD_VEL_STAMPED, TwistStamped, queue_size=None,
                                            tcp_nodelay=True)
             self.cmd = TwistStamped()
             self.twist = self.cmd.twist
         else:
-            self.cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=None,
-                                           tcp_nodelay=True)
             self.cmd = self.twist = Twist()
+            if self.drives:
+                self.cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=None,
+                                               tcp_nodelay=True)
         self.event_pub = rospy.Publisher(topics.EVENTS_TOPIC, AgentEvent, queue_size=None)
         self.start_pub = None
         self.team_pub = {}
@@ -271,12 +279,14 @@ class AgentNode:
         try:
             message = self.conv.from_ros(msg)
         except convert.MalformedMessage as err:
-            self.warn(("bad", r), f"ignored a team message from {msg.robot!r}: {err}")
+            self.warn(("bad", r, _shape(str(err))),
+                      f"ignored a team message from {msg.robot!r}: {err}")
             return
         with self.lock:
             message, why = self.inbox.accept(message, now)
             if message is None:
-                self.warn(("bad", r), f"ignored a team message from {msg.robot!r}: {why}")
+                self.warn(("bad", r, _shape(why)),
+                          f"ignored a team message from {msg.robot!r}: {why}")
                 return
             if self.liveness.heard(r, now):
                 rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
@@ -423,8 +433,9 @@ class AgentNode:
                         e.stamp = rospy.Time.from_sec(max(t, 0.0))
                         e.event, e.vertex, e.from_vertex = topics.HEARTBEAT, -1, -1
                         self.event_pub.publish(e)
-                    self.warn("start", f"waiting for the run start on {topics.START_TOPIC}",
-                              period=30.0)
+                    if self.p.wait_for_start:
+                        self.warn("start", f"waiting for the run start on {topics.START_TOPIC}",
+                                  period=30.0)
                 continue
             now = t - self.epoch
             with self.lock:
@@ -435,7 +446,8 @@ class AgentNode:
                     rospy.logwarn(f"{self.name}: teammate {self.names[r]} silent for "
                                   f"{self.liveness.silent_for(r, now):.1f} s: lost, its "
                                   "intentions dropped")
-                skewed = self.inbox.skewed()
+                skewed = {r: o for r, o in self.inbox.skewed().items()
+                          if r not in self.liveness.lost}
             for r, offset in skewed.items():
                 self.warn(("skew", r), f"clock of {self.names[r]} is {offset:+.2f} s off ours "
                           f"(from its message stamps; > {self.p.skew_warn:g} s): sync the "

@@ -1,0 +1,218 @@
+"""The hardware path rehearsed on this machine: the simulator in wall-clock mode (tpuaf_stage
+~wall_clock: real-time pace, wall-clock stamps, no /clock; /use_sim_time unset = false), TurtleBot3
+Burgers named tb3_<i> with their laser on `scan`, one `roslaunch tpuaf_ros robot.launch` per robot
+with the hardware defaults (tf localisation, built-in navigator, run start on /fleet/start).
+
+- two Burgers on lab and on grid (in parallel) keep visiting for 120 s of wall time;
+- clock skew (0.5 s: silent and harmless; 3 s: named in a warning), malformed team messages
+  (ignored with a reason), one robot stopped (the others detect it and drop its intentions);
+- the move_base backend against a test action server (tests/ros/move_base_mock.py: move_base is
+  not packaged here, so a mock drives the simulated robot).
+About 3.5 minutes of wall time in all."""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import re
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from .conftest import VENV_PYTHON, ros_master
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+HERE = Path(__file__).resolve().parent
+START, GOAL, REACHED, FAILED, HEARTBEAT = 0, 1, 2, 3, 4
+
+
+def start_world(ros, patrol_map: str, robots: int, speed: float = 0.22):
+    world = {"patrol_map": patrol_map, "seed": 0,
+             "robot": {"preset": "burger", "max_linear_speed": speed},
+             "laser": {"preset": "lds01"}, "robots": robots}
+    path = ros.home / "world.yaml"
+    path.write_text(yaml.safe_dump(world))
+    ros.start(["rosrun", "tpuaf_stage", "tpuaf_stage", f"_world:={path}", "_wall_clock:=true",
+               "_robot_prefix:=tb3_", "_scan_topic:=scan", "_status_period:=0"], name="stage")
+    # The agents' events with their wall-clock receipt time (CSV; plain rostopic).
+    ros.start(["rostopic", "echo", "-p", "/fleet/agent_events"], name="events")
+
+
+def start_robot(ros, patrol_map: str, robots: int, index: int, *args: str, speed: float = 0.22):
+    return ros.start(["roslaunch", "tpuaf_ros", "robot.launch", f"map:={patrol_map}",
+                      f"robots:={robots}", f"index:={index}", "prefix:=tb3_", "scan_topic:=scan",
+                      f"max_linear_speed:={speed}", "output:=screen", *args], name=f"tb3_{index}")
+
+
+def events(ros) -> list[tuple[float, int, int, int]]:
+    """(wall receipt time [s], robot index, event, vertex id) of every AgentEvent so far."""
+    path = ros.home / "events.out"
+    rows = []
+    with contextlib.suppress(FileNotFoundError), path.open() as f:
+        for row in csv.DictReader(f):
+            try:
+                rows.append((int(row["%time"]) * 1e-9, int(row["field.robot_index"]),
+                             int(row["field.event"]), int(row["field.vertex"])))
+            except (KeyError, ValueError, TypeError):
+                continue  # a line being written
+    return rows
+
+
+def wait_started(ros, robots: int, timeout: float = 60.0) -> float:
+    """Wall time when every robot has sent START."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        started = {r for _, r, e, _ in events(ros) if e == START}
+        if len(started) == robots:
+            return time.time()
+        time.sleep(0.5)
+    raise AssertionError(f"not every robot started within {timeout} s: {started}\n"
+                         + "\n".join(ros.output(f"tb3_{i}")[-2000:] for i in range(robots)))
+
+
+def reached(rows, robot, after=0.0):
+    return [(t, v) for t, r, e, v in rows if r == robot and e == REACHED and t >= after]
+
+
+def max_gap(times: list[float]) -> float:
+    return max((b - a for a, b in zip(times, times[1:], strict=False)), default=0.0)
+
+
+# --- 120 s rehearsal, lab and grid in parallel ----------------------------------------------
+
+
+RUN_S = 120.0
+
+
+def test_two_burgers_keep_visiting_on_the_wall_clock(tmp_path):
+    maps = ("lab", "grid")
+    with contextlib.ExitStack() as stack:
+        envs = {m: stack.enter_context(ros_master(tmp_path / m)) for m in maps}
+        for m, ros in envs.items():
+            start_world(ros, m, 2)
+            # What a user records for `tpuaf analyze` (docs/HARDWARE.md): no ground truth.
+            ros.start(["rosbag", "record", "-O", str(ros.home / "run.bag"), "/tf", "/tf_static",
+                       "/team/visits", "/team/intentions", "/team/idleness",
+                       "/team/task_requests", "/team/task_bids", "/fleet/agent_events",
+                       "/fleet/start", "/tb3_0/odom", "/tb3_1/odom"], name="rosbag")
+            for i in range(2):
+                start_robot(ros, m, 2, i)
+        t0 = {m: wait_started(ros, 2) for m, ros in envs.items()}
+        time.sleep(RUN_S - (time.time() - max(t0.values())))
+        rows = {m: events(ros) for m, ros in envs.items()}
+        logs = {m: [ros.output(f"tb3_{i}") for i in range(2)] for m, ros in envs.items()}
+        topics = {m: ros.run_python(
+            "import rospy, rosgraph; m = rosgraph.Master('/t');"
+            "print(sorted(t for t, _ in m.getPublishedTopics('')))").stdout for m, ros in envs.items()}
+        for ros in envs.values():
+            ros.stop_all()
+    for m in maps:
+        start = t0[m]
+        for i in range(2):
+            visits = reached(rows[m], i, start)
+            beats = [t for t, r, e, _ in rows[m] if r == i and t >= start]
+            assert len(visits) >= (6 if m == "lab" else 3), (m, i, visits, logs[m][i][-3000:])
+            # Still visiting in the last third of the run; heartbeats never stopped.
+            assert visits[-1][0] > start + 0.6 * RUN_S, (m, i, visits)
+            assert max_gap(beats) < 3.0, (m, i, max_gap(beats))
+            assert beats[-1] > start + RUN_S - 5.0
+            log = logs[m][i]
+            assert "localisation tf map" in log and "wall clock" in log
+            assert "robot stopped" not in log, log[-3000:]
+        assert "/clock" not in topics[m]
+        bag = tmp_path / m / "run.bag"
+        assert bag.is_file() and bag.stat().st_size > 10_000
+
+
+# --- skew, malformed messages, a robot stopped -----------------------------------------------
+
+
+MALFORMED = r"""
+import math, sys, time, rospy, genpy
+from tpuaf_ros.msg import Visit, Intention, IdlenessEstimate
+rospy.init_node("intruder")
+pv = rospy.Publisher("/team/visits", Visit, queue_size=10)
+pi = rospy.Publisher("/team/intentions", Intention, queue_size=10)
+pe = rospy.Publisher("/team/idleness", IdlenessEstimate, queue_size=10)
+time.sleep(2.0)
+now = rospy.Time.now()
+def visit(robot, index, vertex, stamp):
+    m = Visit(); m.robot, m.robot_index, m.vertex, m.next_vertex, m.stamp = robot, index, vertex, -1, stamp
+    return m
+for _ in range(3):
+    pv.publish(visit("tb3_9", 9, 1, now))                         # unknown robot
+    pv.publish(visit("tb3_1", 1, 999, now))                       # vertex not on the map
+    pv.publish(visit("tb3_1", 1, 1, now + genpy.Duration(1e6)))   # far future
+    i = Intention(); i.robot, i.robot_index, i.from_vertex, i.vertex = "tb3_1", 1, 1, 2
+    i.stamp, i.expected_arrival, i.travel_time = now, math.nan, 3.0
+    pi.publish(i)                                                 # non-finite arrival
+    e = IdlenessEstimate(); e.robot, e.robot_index, e.stamp = "tb3_1", 1, now
+    e.vertices, e.idleness, e.next_vertex = [1, 2], [0.0, 1.0], -1
+    pe.publish(e)                                                 # wrong length
+    time.sleep(0.3)
+print("sent")
+"""
+
+
+def test_skew_malformed_messages_and_a_stopped_robot(tmp_path):
+    # grid at 1 m/s: room for three robots, a visit every ~6 s (the test is not about Burgers).
+    with ros_master(tmp_path / "ros") as ros:
+        start_world(ros, "grid", 3, speed=1.0)
+        start_robot(ros, "grid", 3, 0, speed=1.0)
+        start_robot(ros, "grid", 3, 1, "clock_offset:=0.5", speed=1.0)
+        victim = start_robot(ros, "grid", 3, 2, "clock_offset:=3.0", speed=1.0)
+        wait_started(ros, 3)
+        time.sleep(12.0)
+        out = ros.run_python(MALFORMED, timeout=30, name="intruder")
+        assert "sent" in out.stdout, out.stderr
+        stop_t = time.time()
+        ros.stop(victim)
+        time.sleep(20.0)  # teammate_timeout 10 s + margin
+        rows = events(ros)
+        logs = [ros.output(f"tb3_{i}") for i in range(2)]
+    log0, log1 = logs
+    # Skew: 3 s is named (by both), 0.5 s is not.
+    assert re.search(r"clock of tb3_2 is \+(2\.9|3\.0)\d s off ours", log0), log0[-3000:]
+    assert "clock of tb3_1" not in log0
+    assert "clock of tb3_2" in log1 and "clock of tb3_0" not in log1
+    # Malformed messages: ignored, each with its reason; nobody crashed.
+    for why in ("unknown robot index 9", "has no vertex 999", "from our clock",
+                "expected_arrival nan is not finite", "estimate of 2 vertices"):
+        assert why in log0, (why, log0[-3000:])
+    # The stopped robot is detected by both others, which keep visiting.
+    for i, log in enumerate(logs):
+        assert re.search(r"teammate tb3_2 silent for 1\d\.\d s: lost, its intentions dropped", log), log
+        assert len(reached(rows, i, stop_t + 2.0)) >= 2, (i, reached(rows, i))
+        assert "Traceback" not in log
+    # Robots 1 (0.5 s ahead) and 2 (3 s ahead) visited before; their visits were accepted.
+    assert reached(rows, 1) and reached(rows, 2, 0.0)
+    assert "ignored a team message from 'tb3_2'" not in log0
+
+
+# --- move_base backend -----------------------------------------------------------------------
+
+
+def test_move_base_backend_reaches_vertices_through_the_action_server(tmp_path):
+    with ros_master(tmp_path / "ros") as ros:
+        start_world(ros, "lab", 1)
+        ros.start([str(VENV_PYTHON), str(HERE / "move_base_mock.py"), "__ns:=tb3_0"],
+                  name="move_base")
+        start_robot(ros, "lab", 1, 0, "navigation:=move_base")
+        start = wait_started(ros, 1)
+        time.sleep(30.0)
+        rows = events(ros)
+        pubs = ros.run_python(
+            "import rosgraph; m = rosgraph.Master('/t'); pubs, _, _ = m.getSystemState();"
+            "print([n for t, n in pubs if t == '/tb3_0/cmd_vel'])").stdout
+        log = ros.output("tb3_0")
+        goals = ros.output("move_base")
+    visits = reached(rows, 0, start)
+    assert len(visits) >= 3, (visits, log[-3000:], goals[-2000:])
+    sent = re.findall(r"GOAL \d+ map ", goals)
+    assert len(sent) >= len(visits), goals
+    assert "navigation move_base" in log
+    # The agent publishes no velocity: only the planner (here the mock) drives.
+    assert "['/tb3_0/move_base']" in pubs, pubs
