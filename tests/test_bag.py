@@ -61,7 +61,8 @@ class PlainBag:
         pos = np.asarray(self.patrol_map.positions, dtype=float)
         route = self.routes[r]
         t = self.t0 + 0.5
-        knots, arrivals = [(self.t0, *pos[route[0]])], []
+        # the agent's START: the start vertex's first visit (a Visit message too)
+        knots, arrivals = [(self.t0, *pos[route[0]])], [(self.t0 + 0.25, route[0])]
         for a, b in zip(route, route[1:], strict=False):
             knots.append((t, *pos[a]))
             t += float(np.hypot(*(pos[b] - pos[a]))) / self.speed
@@ -105,10 +106,10 @@ class PlainBag:
                     items.append((t + 0.01, "/team/intentions", T["tpuaf_ros/msg/Intention"](
                         stamp=stamp(t + 0.01), robot=name, robot_index=r, from_vertex=ids[v],
                         vertex=ids[nxt], expected_arrival=t + 5.0, travel_time=5.0)))
-                if self.events:
+                if self.events:  # START (0) for the start vertex, then REACHED (2)
                     items.append((t, "/fleet/agent_events", T["tpuaf_ros/msg/AgentEvent"](
-                        stamp=stamp(t), robot=name, robot_index=r, event=2, vertex=ids[v],
-                        from_vertex=-1)))
+                        stamp=stamp(t), robot=name, robot_index=r, event=0 if k == 0 else 2,
+                        vertex=ids[v], from_vertex=-1)))
             if self.events:
                 for t in np.arange(self.t0, end, 1.0):
                     if not silent(r, t):
@@ -186,19 +187,19 @@ def plain_bag(tmp_path, name="run.bag", **kw) -> PlainBag:
     return spec
 
 
-@pytest.mark.parametrize("poses", ["tf", "odom", "amcl", "none"])
-def test_visits_equal_the_reports_whatever_the_pose_source(tmp_path, poses):
-    spec = plain_bag(tmp_path, poses=poses)
+@pytest.mark.parametrize("poses, events", [("tf", False), ("odom", False), ("amcl", False),
+                                           ("none", False), ("tf", True), ("none", True)])
+def test_visits_equal_the_reports_whatever_the_pose_source(tmp_path, poses, events):
+    spec = plain_bag(tmp_path, poses=poses, events=events)
     result = analyze(tmp_path / "run.bag", GRID)
     s = result.summary
     reported = len(spec.visits)
-    assert reported == 18
+    assert reported == 20  # 2 starts + 18 arrivals
     assert result.reports == reported
-    # Visits are the reports (a robot standing on a vertex at the start adds a first visit).
-    assert reported <= s["visits"] <= reported + 2
+    assert s["visits"] == reported  # the visits are the reports, robot by robot
     by_robot = [sum(1 for _, r, _ in spec.visits if r == k) for k in (0, 1)]
     recorded = [sum(1 for _, r, _ in result.recorder.visits if r == k) for k in (0, 1)]
-    assert all(b <= c <= b + 1 for b, c in zip(by_robot, recorded, strict=True))
+    assert recorded == by_robot
     assert s["idleness_avg_s"] > 0 and s["deaths"] == 0
     if poses == "none":
         assert result.pose_source is None and s["uncertainty_mean"] is None
@@ -207,7 +208,9 @@ def test_visits_equal_the_reports_whatever_the_pose_source(tmp_path, poses):
         assert result.pose_source == poses
         assert 0 < s["uncertainty_mean"] < 1
         assert any(poses.replace("amcl", "amcl_pose") in n for n in result.notes)
-    assert any("deaths not detected" in n for n in result.notes)
+    assert result.liveness == events
+    assert any("deaths not detected" in n for n in result.notes) != events
+    assert ("REACHED events" in result.visit_source) == events
 
 
 def test_tf_chain_is_composed_and_span_is_the_bags(tmp_path):

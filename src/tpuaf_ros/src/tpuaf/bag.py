@@ -1,8 +1,9 @@
 """Bag analysis with `rosbags` (no ROS installation needed), of a `tpuaf fleet` bag or a plain
 `rosbag record` of a robot run.
 
-Visits are the agents' own reports (docs: "one definition of a visit"): REACHED events on
-/fleet/agent_events when the bag has them, else the Visit team messages (/team/visits). They
+Visits are the agents' own reports (docs: "one definition of a visit"): START (the start
+vertex's first visit) and REACHED events on /fleet/agent_events when the bag has them, else the
+Visit team messages (/team/visits: a robot's first is its START). They
 are replayed, with the robots' positions, through the same `FleetMonitor` (and so the same
 RunRecorder) as the live monitor node. Positions come from the best source the bag holds for
 every robot: ground truth (/<robot>/base_pose_ground_truth), tf (map -> <robot>/base_footprint
@@ -43,6 +44,7 @@ from .topics import (
     METRICS_TOPIC,
     ODOM,
     REACHED,
+    START,
     START_TOPIC,
     TEAM_TOPICS,
 )
@@ -261,7 +263,7 @@ def inspect(path: str | Path) -> BagInfo:
                         info.names.setdefault(r, str(msg.robot).strip("/"))
                 if conn.topic == EVENTS_TOPIC:
                     info.events += 1
-                    info.reached_events += int(msg.event) == REACHED
+                    info.reached_events += int(msg.event) == REACHED  # visits reported
                 elif info.team_topics[conn.topic] == "Visit":
                     info.visit_messages += 1
                 if len(offsets) < 2001:
@@ -333,7 +335,7 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
             if team_ns is None or t.startswith(team_ns.rstrip("/") + "/")}
     visit_topics = [t for t, k in team.items() if k == "Visit"]
     if info.reached_events:
-        visit_source = f"REACHED events ({EVENTS_TOPIC})"
+        visit_source = f"START and REACHED events ({EVENTS_TOPIC})"
     elif info.visit_messages:
         visit_source = f"Visit team messages ({', '.join(visit_topics)})"
     else:
@@ -464,23 +466,39 @@ def _report_connections(reader: Any, info: BagInfo, team: dict[str, str]) -> lis
     return conns
 
 
-def _reports(info: BagInfo, patrol_map: Any, n: int, conn: Any, msg: Any, team: dict
-             ) -> tuple[int, int, int, float] | None:
-    """(robot, kind, vertex index, stamp) of an agent event or team message, or None when it
-    is out of range (unknown robot or vertex, stamp outside the bag)."""
-    r = int(msg.robot_index)
-    t = _stamp(msg)
-    if not 0 <= r < n or not _in_span(info, t):
-        return None
-    if conn.topic == EVENTS_TOPIC:
-        kind, vertex = int(msg.event), _vertex(patrol_map, int(msg.vertex))
-    elif team.get(conn.topic) == "Visit" and not info.reached_events:
-        kind, vertex = REACHED, _vertex(patrol_map, int(msg.vertex))
-    else:  # other team messages: signs of life only (heartbeats without agent events)
-        kind, vertex = HEARTBEAT, -1
-    if vertex is None:
-        return None
-    return r, kind, vertex, t
+class _Reports:
+    """Agent events and team messages -> (robot, kind, vertex index, stamp), or None when out of
+    range (unknown robot or vertex, stamp outside the bag). Without agent events, a robot's
+    first Visit message is its START (the start vertex's first visit), later ones REACHED, as
+    the agents send them; other team messages are signs of life (HEARTBEAT)."""
+
+    def __init__(self, info: BagInfo, patrol_map: Any, n: int, team: dict[str, str]):
+        self.info, self.map, self.n, self.team = info, patrol_map, n, team
+        self.use_visits = not info.reached_events
+        self.started = [False] * n
+
+    def __call__(self, conn: Any, msg: Any) -> tuple[int, int, int, float] | None:
+        r = int(msg.robot_index)
+        t = _stamp(msg)
+        if not 0 <= r < self.n or not _in_span(self.info, t):
+            return None
+        if conn.topic == EVENTS_TOPIC:
+            kind, vertex = int(msg.event), _vertex(self.map, int(msg.vertex))
+        elif self.use_visits and self.team.get(conn.topic) == "Visit":
+            kind = REACHED if self.started[r] else START
+            vertex = _vertex(self.map, int(msg.vertex))
+            if vertex is not None:
+                self.started[r] = True
+        else:
+            kind, vertex = HEARTBEAT, -1
+        if vertex is None:
+            return None
+        return r, kind, vertex, t
+
+
+def is_visit(kind: int, vertex: int) -> bool:
+    """START (the start vertex's first visit) and REACHED are the agents' visit reports."""
+    return kind in (START, REACHED) and vertex >= 0
 
 
 def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team, source):
@@ -502,11 +520,20 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     chains = robot_chains([info.names.get(r, f"{info.prefix}{r}") for r in range(n)],
                           MAP_FRAME, BASE_FRAME)
     reports = 0
+    report_of = _Reports(info, patrol_map, n, team)
+
+    last = [None] * n  # last position fed per robot, and the newest pose stamp
+    newest = [-math.inf]
+
+    def feed(r, t, x, y):
+        monitor.on_pose(r, t, x, y)
+        last[r] = (x, y)
+        newest[0] = max(newest[0], t)
 
     def feed_ticks(flush=False):
         for t, positions in sampler.ticks(flush):
             for r in range(n):
-                monitor.on_pose(r, t, positions[r, 0], positions[r, 1])
+                feed(r, t, positions[r, 0], positions[r, 1])
 
     for conn, _t_rec, msg in _stream(path, reader, store, conns):
         if conn.topic in TF_TOPICS:
@@ -521,22 +548,27 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
                 continue
             p = msg.pose.pose.position
             if sampler is None:
-                monitor.on_pose(robot_of[conn.id], t, p.x, p.y)
+                feed(robot_of[conn.id], t, p.x, p.y)
             else:
                 sampler.add(robot_of[conn.id], t, p.x, p.y)
                 feed_ticks()
         else:
-            rep = _reports(info, patrol_map, n, conn, msg, team)
+            rep = report_of(conn, msg)
             if rep is None:
                 continue
             r, kind, vertex, t = rep
-            if kind == REACHED and start <= t <= end:
+            if is_visit(kind, vertex) and start <= t <= end:
                 reports += 1
             monitor.on_event(r, kind, vertex, t)
         if monitor.finished:
             break
     if sampler is not None and not monitor.finished:
         feed_ticks(flush=True)
+    if not monitor.finished and all(p is not None for p in last):
+        # The monitor processes poses lag_s behind the newest: one group that much later
+        # (the robots where they were last seen) brings it to the bag's last poses.
+        for r in range(n):
+            monitor.on_pose(r, newest[0] + monitor.lag_s + 1e-3, *last[r])
     if not monitor.started:
         raise BagError(f"{path}: no complete set of robot positions ({source}) between "
                        f"t = {start - info.start_s:.2f} s and the bag's end")
@@ -555,6 +587,7 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
     heard = [start] * n  # last sign of life [s]
     alive = [True] * n
     reports = 0
+    report_of = _Reports(info, patrol_map, n, team)
 
     def deaths_until(t):
         for r in range(n):
@@ -563,7 +596,7 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
                 recorder.record_robot_death(r, heard[r] + timeout)
 
     for conn, _t, msg in _stream(path, reader, store, _report_connections(reader, info, team)):
-        rep = _reports(info, patrol_map, n, conn, msg, team)
+        rep = report_of(conn, msg)
         if rep is None:
             continue
         r, kind, vertex, t = rep
@@ -576,7 +609,7 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
         if not alive[r]:
             continue
         heard[r] = max(heard[r], t)
-        if kind == REACHED and vertex >= 0:
+        if is_visit(kind, vertex):
             recorder.record_visit(r, vertex, t)
             reports += 1
     if liveness:
