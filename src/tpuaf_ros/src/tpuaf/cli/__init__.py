@@ -15,6 +15,7 @@ SUBCOMMANDS: list[tuple[str, str, str]] = [
     ("report", "report", "Markdown report with figures and verdicts of a compare folder"),
     ("fleet", "fleet", "Run one headless ROS fleet experiment (simulator, agents, monitor, bag)"),
     ("analyze", "analyze", "Recompute a ROS run's metrics from its bag (no ROS needed)"),
+    ("render", "render", "Animate a run's robots over the map (GIF/MP4), vertices by idleness or X"),
 ]
 
 

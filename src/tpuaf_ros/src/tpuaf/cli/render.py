@@ -1,0 +1,54 @@
+"""`tpuaf render RUN_FOLDER`: an animation (GIF, or MP4 with ffmpeg) of the robots moving over
+the map, vertices coloured by idleness or by X; and the folder's summary.png again."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..errors import CliError
+from .run import positive_float, positive_int
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("folder", type=Path,
+                   help="a results folder of `tpuaf run --out` or `tpuaf fleet --out` "
+                        "(config.yaml, visits.csv, timeseries.csv; positions.csv if recorded)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="animation file, .gif (Pillow) or .mp4 (needs ffmpeg) "
+                        "(default: FOLDER/animation.gif)")
+    frames = p.add_mutually_exclusive_group()
+    frames.add_argument("--frames", type=positive_int, default=None,
+                        help="number of frames, evenly spread over the run (default 200)")
+    frames.add_argument("--step", type=positive_float, default=None, metavar="S",
+                        help="simulated seconds between frames (instead of --frames)")
+    p.add_argument("--fps", type=positive_float, default=10.0, help="frames per second")
+    p.add_argument("--color", choices=["idleness", "uncertainty"], default="idleness",
+                   help="vertex colour: idleness (time since the last visit) or X (ground truth)")
+    p.add_argument("--dpi", type=positive_int, default=80, help="resolution (dots per inch)")
+    p.add_argument("--summary", action="store_true",
+                   help="also (re)write FOLDER/summary.png")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..plots import render, summary_png
+
+    folder = args.folder
+    if not folder.is_dir():
+        raise CliError(f"{folder}: no such results folder")
+    for name in ("config.yaml", "visits.csv", "timeseries.csv"):
+        if not (folder / name).is_file():
+            raise CliError(f"{folder}: no {name} (not a results folder of `tpuaf run --out`)")
+    if args.out is not None and args.out.suffix.lower() not in (".gif", ".mp4"):
+        raise CliError(f"--out {args.out}: the animation is a .gif or an .mp4 file")
+    if args.frames is not None and args.frames > 5000:
+        raise CliError(f"--frames {args.frames}: at most 5000 frames")
+    try:
+        if args.summary:
+            print(f"summary: {summary_png(folder)}")
+        path, count = render(folder, args.out, frames=args.frames, step_s=args.step,
+                             fps=args.fps, color=args.color, dpi=args.dpi)
+    except (ValueError, KeyError, OSError) as err:
+        raise CliError(f"{folder}: {err}") from None
+    print(f"animation: {path} ({count} frames at {args.fps:g} fps)")
+    return 0
