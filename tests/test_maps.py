@@ -407,3 +407,96 @@ def test_maps_cli(capsys):
     assert "0.1313" in out and "25.8 x 25.8" in out and "3.0 x 2.6" in out
     assert main(["maps", "nowhere"]) == 2
     assert "unknown map" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------------------------
+# geometry checks (issue 12): where vertices lie, edge lengths, start vertices
+
+GRID_DIR = Path(__file__).resolve().parents[1] / "src" / "tpuaf_ros" / "src" / "tpuaf" / "data" \
+    / "maps" / "grid"
+
+
+def grid_copy(tmp_path: Path, old: str | None = None, new: str | None = None,
+              file: str = "graph.yaml") -> Path:
+    """The built-in grid folder (with its occupancy image), one text replaced in `file`."""
+    folder = tmp_path / "mygrid"
+    shutil.copytree(GRID_DIR, folder)
+    if old is not None:
+        path = folder / file
+        text = path.read_text()
+        assert old in text
+        path.write_text(text.replace(old, new, 1))
+    return folder
+
+
+def test_vertex_far_away_is_refused(tmp_path):
+    msg = error_of(grid_copy(tmp_path, "{id: 3, x: 1.425, y: 7.125}", "{id: 3, x: 1.0e+12, y: 7.125}"))
+    assert "vertex 3" in msg and "1e+12" in msg and "mygrid" in msg
+
+
+def test_vertex_far_away_without_image_is_refused_before_a_grid_is_built(tmp_path):
+    folder = grid_copy(tmp_path, "occupancy: occupancy.yaml\n", "", file="map.yaml")
+    text = (folder / "map.yaml").read_text().replace("bounds: [0.0, 0.0, 25.8, 25.8]  # [m]\n", "")
+    (folder / "map.yaml").write_text(text)
+    graph = folder / "graph.yaml"
+    graph.write_text(graph.read_text().replace("{id: 4, x: 1.425, y: 1.425}",
+                                               "{id: 4, x: 1.425, y: -1.0e+12}"))
+    msg = error_of(folder)
+    assert "vertex 4" in msg and "beyond" in msg
+
+
+def test_vertex_on_an_occupied_cell_is_refused_or_warned(tmp_path):
+    # (4.275, 4.275) m lies between the corridors of the grid: a wall
+    folder = grid_copy(tmp_path, "{id: 8, x: 7.125, y: 7.125}", "{id: 8, x: 4.275, y: 4.275}")
+    msg = error_of(folder)
+    assert "occupied" in msg and "8 (4.275, 4.275)" in msg and "--allow-occupied-vertices" in msg
+    pm = load_map(folder, allow_occupied_vertices=True)
+    assert any("occupied" in w for w in pm.warnings)
+
+
+def test_vertex_outside_the_image_is_refused(tmp_path):
+    folder = grid_copy(tmp_path, "{id: 24, x: 24.225, y: 1.425}", "{id: 24, x: 24.225, y: -3.0}")
+    msg = error_of(folder)
+    assert "outside the occupancy image" in msg and "24 (24.225, -3)" in msg
+
+
+def test_edge_shorter_than_the_straight_line_warns(tmp_path):
+    pm = load_map(grid_copy(tmp_path, "  - [0, 1]\n", "  - [0, 1, 2.0]\n"))
+    assert any("shorter than the straight line" in w and "0-1 (2 m < 5.7 m)" in w
+               for w in pm.warnings), pm.warnings
+
+
+def test_graph_larger_than_its_image_warns(tmp_path):
+    graph = GOOD_GRAPH.replace("3\n40\n20\n", "3\n80\n20\n", 1)  # header: 80 px, image: 40
+    pm = load_map(ps_folder(tmp_path, graph=graph))
+    assert any("larger than its image" in w for w in pm.warnings), pm.warnings
+
+
+def test_duplicate_start_vertices_are_refused(tmp_path):
+    folder = grid_copy(tmp_path, "  default_initial_uncertainty: 1.0  # X0_j\n",
+                       "  default_initial_uncertainty: 1.0  # X0_j\n"
+                       "  initial_vertices: {3: [0, 5, 0]}\n", file="map.yaml")
+    msg = error_of(folder)
+    assert re.search(r"map\.yaml:\d+: initial_vertices\[3\] starts several robots at vertex 0",
+                     msg), msg
+
+
+def test_duplicate_start_poses_are_refused(tmp_path):
+    folder = ps_folder(tmp_path)
+    (folder / "initial_poses.txt").write_text("[InitialPoses]\ntiny_2 = [2.5, 2.5, 2.5, 2.5]\n")
+    msg = error_of(folder)
+    assert "start robots 0 and 1 at the same pose" in msg
+
+
+def test_geometry_cli_flag_and_one_line(tmp_path, capsys):
+    from tpuaf.cli import main
+
+    folder = grid_copy(tmp_path, "{id: 8, x: 7.125, y: 7.125}", "{id: 8, x: 4.275, y: 4.275}")
+    assert main(["maps", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "occupied" in err
+    assert main(["maps", "--allow-occupied-vertices", str(folder)]) == 0
+    assert "warning" in capsys.readouterr().err
+    assert main(["run", "--map", str(folder), "--duration", "5", "--quiet",
+                 "--allow-occupied-vertices"]) == 0
+    assert "warning" in capsys.readouterr().err

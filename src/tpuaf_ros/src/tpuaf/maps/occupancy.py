@@ -7,6 +7,7 @@ x in [origin_x + col * res, origin_x + (col + 1) * res), likewise y with row.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -232,6 +233,9 @@ def default_corridor_width(patrol_map: Any) -> float:
     return float(max(6.0 * s.robot_radius, 2.0 * s.goal_tolerance + 2.0 * s.robot_radius))
 
 
+MAX_GENERATED_CELLS = 4.0e7  # cells of a generated grid (bool: 40 MB), e.g. 316 m square at 5 cm
+
+
 def corridors_from_graph(
     patrol_map: Any,
     corridor_width_m: float | None = None,
@@ -259,8 +263,19 @@ def corridors_from_graph(
     else:
         lo = np.array(bounds[:2], dtype=float)
         hi = np.array(bounds[2:], dtype=float)
-    cols = max(1, int(round((hi[0] - lo[0]) / res)))
-    rows = max(1, int(round((hi[1] - lo[1]) / res)))
+    span = hi - lo
+    cells = float(span[0] / res) * float(span[1] / res)
+    coarse = math.sqrt(float(span[0]) * float(span[1]) / MAX_GENERATED_CELLS)
+    if not cells <= MAX_GENERATED_CELLS and not resolution_m and coarse <= width / 4.0:
+        res = coarse  # a large map: coarser cells, still 4 across a corridor
+        cells = float(span[0] / res) * float(span[1] / res)
+    if not cells <= MAX_GENERATED_CELLS * 1.0001:
+        where = f"map '{patrol_map.name}'" if hasattr(patrol_map, "name") else "map"
+        raise MapError(f"{where}: spans {span[0]:g} x {span[1]:g} m; corridors generated at "
+                       f"{res:g} m would need {cells:.3g} cells (at most "
+                       f"{MAX_GENERATED_CELLS:.0e}): give an occupancy image or smaller bounds")
+    cols = max(1, int(round(span[0] / res)))
+    rows = max(1, int(round(span[1] / res)))
     xs = lo[0] + (np.arange(cols) + 0.5) * res
     ys = lo[1] + (np.arange(rows) + 0.5) * res
     half2 = (width / 2.0) ** 2
