@@ -372,3 +372,28 @@ def test_utility_errors():
         core.tpuaf_utilities(**{**args, "estimate": np.ones(2)})
     with pytest.raises(IndexError, match="unknown vertex index 9"):
         core.tpuaf_utilities(**{**args, "current_vertex": 9})
+
+
+# --- the one shortest-path search (tpuaf_core.dijkstra) -------------------------------------------
+
+
+def test_dijkstra_is_the_graph_s_own_search():
+    pos = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    g = core.PatrolGraph(pos, [(0, 1, 1.0), (1, 2, 1.0), (2, 3, 1.0), (3, 0, 1.0), (0, 2, 5.0)])
+    tails, heads, weights = [], [], []
+    for u, v, length in g.edges:
+        tails += [u, v]
+        heads += [v, u]
+        weights += [length, length]
+    dist, parent, source = core.dijkstra(4, tails, heads, weights, [0])
+    assert dist == pytest.approx(list(g.distances[0]))
+    assert parent[0] == -1 and source == [0, 0, 0, 0]
+    # The graph's path 0 -> 2 follows the same parents.
+    assert g.path(0, 2) == [0, parent[2], 2]
+
+
+def test_dijkstra_refuses_negative_weights_and_unknown_vertices():
+    with pytest.raises(ValueError, match="weights must be >= 0"):
+        core.dijkstra(2, [0], [1], [-1.0], [0])
+    with pytest.raises(IndexError):
+        core.dijkstra(2, [5], [1], [1.0], [0])

@@ -6,6 +6,7 @@
 
 #include "bindings.hpp"
 #include "tpuaf_core/graph.hpp"
+#include "tpuaf_core/shortest_path.hpp"
 
 namespace py = pybind11;
 
@@ -57,4 +58,42 @@ void tpuaf::bindings::bind_graph(py::module_& m) {
            "Vertices of a shortest path, both ends included.")
       .def("hops", &PatrolGraph::hops, py::arg("u"), py::arg("v"))
       .def_property_readonly("hop_matrix", &PatrolGraph::hop_matrix);
+
+  m.def(
+      "dijkstra",
+      [](int num_vertices, const std::vector<int>& tails, const std::vector<int>& heads,
+         const std::vector<double>& weights, const std::vector<int>& sources, double tolerance,
+         const std::vector<bool>& allowed, int stop_at) {
+        if (num_vertices < 0) throw py::value_error("dijkstra: num_vertices must be >= 0");
+        if (tails.size() != heads.size() || tails.size() != weights.size()) {
+          throw py::value_error("dijkstra: tails, heads and weights differ in length");
+        }
+        ArcLists arcs(num_vertices);
+        for (std::size_t k = 0; k < tails.size(); ++k) {
+          const int u = tails[k];
+          if (u < 0 || u >= num_vertices) {
+            throw py::index_error("dijkstra: arc from unknown vertex " + std::to_string(u));
+          }
+          if (!(weights[k] >= 0.0)) {
+            throw py::value_error("dijkstra: arc weights must be >= 0, got " +
+                                  std::to_string(weights[k]));
+          }
+          arcs[u].push_back({heads[k], weights[k]});
+        }
+        std::vector<char> mask(allowed.begin(), allowed.end());
+        ShortestPathTree tree;
+        {
+          py::gil_scoped_release release;
+          tree = dijkstra(arcs, sources, tolerance, mask, stop_at);
+        }
+        return std::make_tuple(tree.distance, tree.parent, tree.source);
+      },
+      py::arg("num_vertices"), py::arg("tails"), py::arg("heads"), py::arg("weights"),
+      py::arg("sources"), py::arg("tolerance") = 0.0, py::arg("allowed") = std::vector<bool>{},
+      py::arg("stop_at") = -1,
+      "The project's one shortest-path search (Dijkstra) over directed arcs tails[k] -> heads[k] "
+      "with weights[k] >= 0, from `sources`. Settling order (distance, source index, vertex); a "
+      "vertex is relabelled when a path is shorter than its label + tolerance. `allowed` masks "
+      "the vertices it may enter (empty: all); stops once `stop_at` is settled. Returns "
+      "(distance, parent, source index) lists (inf / -1 / -1 when unreachable).");
 }

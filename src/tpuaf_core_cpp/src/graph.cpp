@@ -1,5 +1,7 @@
 #include "tpuaf_core/graph.hpp"
 
+#include "tpuaf_core/shortest_path.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -91,26 +93,16 @@ PatrolGraph::PatrolGraph(const Points& positions, const std::vector<Edge>& edges
   dist_ = Eigen::MatrixXd::Constant(n, n, kInf);
   next_hop_ = Eigen::MatrixXi::Constant(n, n, -1);
   hops_ = Eigen::MatrixXi::Constant(n, n, -1);
-  using Item = std::pair<double, int>;
-  for (int s = 0; s < n; ++s) {
-    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
-    std::vector<int> parent(n, -1);
-    dist_(s, s) = 0;
-    queue.push({0.0, s});
-    while (!queue.empty()) {
-      auto [d, u] = queue.top();
-      queue.pop();
-      if (d > dist_(s, u)) continue;
-      for (std::size_t k = 0; k < adjacency_[u].size(); ++k) {
-        const int w = adjacency_[u][k];
-        const double nd = d + adjacency_length_[u][k];
-        if (nd < dist_(s, w)) {
-          dist_(s, w) = nd;
-          parent[w] = u;
-          queue.push({nd, w});
-        }
-      }
+  ArcLists arcs(n);
+  for (int u = 0; u < n; ++u) {
+    for (std::size_t k = 0; k < adjacency_[u].size(); ++k) {
+      arcs[u].push_back({adjacency_[u][k], adjacency_length_[u][k]});
     }
+  }
+  for (int s = 0; s < n; ++s) {
+    const ShortestPathTree tree = dijkstra(arcs, {s});
+    const std::vector<int>& parent = tree.parent;
+    for (int t = 0; t < n; ++t) dist_(s, t) = tree.distance[t];
     for (int t = 0; t < n; ++t) {
       if (t == s) continue;
       if (parent[t] < 0) {

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "tpuaf_core/graph.hpp"
+#include "tpuaf_core/shortest_path.hpp"
 
 namespace tpuaf {
 namespace {
@@ -61,6 +62,42 @@ TEST(Graph, SelfLoopAndNonPositiveLengthAreRefused) {
   EXPECT_THROW(PatrolGraph(p, {{0, 1, 0.0}}), std::invalid_argument);
   EXPECT_THROW(PatrolGraph(p, {{0, 2, 1.0}}), std::exception);
 }
+
+}  // namespace
+}  // namespace tpuaf
+
+namespace tpuaf {
+namespace {
+
+// A path 0 - 1 - 2 - 3 with unit arcs both ways.
+ArcLists path4() {
+  ArcLists arcs(4);
+  for (int u = 0; u < 3; ++u) {
+    arcs[u].push_back({u + 1, 1.0});
+    arcs[u + 1].push_back({u, 1.0});
+  }
+  return arcs;
+}
+
+TEST(Dijkstra, MultiSourceSplitsAtTheMiddleAndTiesGoToTheFirstSource) {
+  ShortestPathTree tree = dijkstra(path4(), {0, 3}, 1e-9);
+  EXPECT_EQ(tree.source, (std::vector<int>{0, 0, 1, 1}));
+  ArcLists arcs(3);  // 0 - 1 - 2: vertex 1 is equidistant from both sources
+  arcs[0] = {{1, 1.0}};
+  arcs[2] = {{1, 1.0}};
+  EXPECT_EQ(dijkstra(arcs, {2, 0}, 1e-9).source[1], 0);  // the source listed first wins
+}
+
+TEST(Dijkstra, AllowedMaskAndEarlyStop) {
+  ShortestPathTree blocked = dijkstra(path4(), {0}, 0.0, {1, 1, 0, 1});
+  EXPECT_TRUE(std::isinf(blocked.distance[3]));
+  EXPECT_EQ(blocked.parent[3], -1);
+  ShortestPathTree stopped = dijkstra(path4(), {0}, 0.0, {}, 1);
+  EXPECT_DOUBLE_EQ(stopped.distance[1], 1.0);
+  EXPECT_EQ(stopped.source[2], -1);  // never settled
+}
+
+TEST(Dijkstra, UnknownSourceIsRefused) { EXPECT_THROW(dijkstra(path4(), {9}), std::out_of_range); }
 
 }  // namespace
 }  // namespace tpuaf

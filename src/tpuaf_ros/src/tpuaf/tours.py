@@ -16,12 +16,12 @@ Visits of one vertex at the same instant (two robots) count once.
 
 from __future__ import annotations
 
-import heapq
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import tpuaf_core
 
 _EPS = 1e-9
 
@@ -162,25 +162,24 @@ def _adjacency(graph: Any) -> dict[int, dict[int, float]]:
     return adj
 
 
-def _dijkstra(
-    adj: dict[int, dict[int, float]], source: int, allowed: set[int]
-) -> tuple[dict, dict]:
-    dist = {source: 0.0}
-    prev: dict[int, int] = {}
-    heap = [(0.0, source)]
-    while heap:
-        d, u = heapq.heappop(heap)
-        if d > dist[u]:
-            continue
-        for w, c in adj[u].items():
-            if w not in allowed:
-                continue
-            nd = d + c
-            if nd < dist.get(w, np.inf) - _EPS:
-                dist[w] = nd
-                prev[w] = u
-                heapq.heappush(heap, (nd, w))
-    return dist, prev
+def _arcs(adj: dict[int, dict[int, float]]) -> tuple[list[int], list[int], list[float]]:
+    """Directed arcs (tails, heads, lengths [m]) of an adjacency, for tpuaf_core.dijkstra."""
+    tails, heads, weights = [], [], []
+    for u, nbrs in adj.items():
+        for w, c in nbrs.items():
+            tails.append(u)
+            heads.append(w)
+            weights.append(c)
+    return tails, heads, weights
+
+
+def _dijkstra(arcs, n: int, source: int, allowed: set[int]) -> tuple[dict, dict]:
+    """Shortest paths from `source` inside `allowed` (the core's search): reached vertices'
+    distances [m] and parents."""
+    mask = [v in allowed for v in range(n)]
+    dist, parent, _ = tpuaf_core.dijkstra(n, *arcs, [source], -_EPS, mask)
+    reached = {v: d for v, d in enumerate(dist) if d < np.inf}
+    return reached, {v: p for v, p in enumerate(parent) if p >= 0}
 
 
 def closed_walk(
@@ -196,8 +195,9 @@ def closed_walk(
     k = len(vertices)
     dist = np.zeros((k, k))
     prevs = []
+    arcs = _arcs(adj)
     for a, va in enumerate(vertices):
-        d, prev = _dijkstra(adj, va, allowed)
+        d, prev = _dijkstra(arcs, graph.num_vertices, va, allowed)
         if len(d) < k:
             raise ValueError(f"vertex set {vertices} is not connected")
         dist[a] = [d[vb] for vb in vertices]
@@ -309,23 +309,10 @@ def cyclic_tour(patrol_map: Any) -> Tour:
 
 
 def _voronoi(adj, seeds: list[int], n: int) -> list[int]:
-    """Multi-source Dijkstra: each vertex to its nearest seed (parts come out connected)."""
-    owner = [-1] * n
-    dist = [np.inf] * n
-    heap = []
-    for p, s in enumerate(seeds):
-        dist[s] = 0.0
-        heapq.heappush(heap, (0.0, p, s))
-    while heap:
-        d, p, u = heapq.heappop(heap)
-        if owner[u] != -1:
-            continue
-        owner[u] = p
-        for w, c in adj[u].items():
-            if owner[w] == -1 and d + c < dist[w] + _EPS:
-                dist[w] = d + c
-                heapq.heappush(heap, (d + c, p, w))
-    return owner
+    """Multi-source search (the core's): each vertex to its nearest seed (parts come out
+    connected); nearly equal paths compete, the settling order (distance, seed) decides."""
+    _, _, owner = tpuaf_core.dijkstra(n, *_arcs(adj), list(seeds), _EPS)
+    return list(owner)
 
 
 def _connected(adj, vertices: set[int]) -> bool:

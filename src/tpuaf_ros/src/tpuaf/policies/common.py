@@ -6,6 +6,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import tpuaf_core
 
 TIE_TOL = 1e-9  # scores within this are a tie (broken at random with ctx.rng)
 IDLE_RETRY_S = 1.0  # [s] a robot with nowhere to go asks to decide again after this
@@ -46,31 +47,21 @@ class IdlenessTable:
 
 
 def dijkstra_path(adjacency: dict[int, list[int]], weight, source: int, target: int) -> list[int]:
-    """Path source..target (both included) minimising sum weight(u, w) >= 0; ties by vertex index."""
-    import heapq
-
-    dist = {source: 0.0}
-    prev: dict[int, int] = {}
-    heap = [(0.0, source)]
-    done: set[int] = set()
-    while heap:
-        d, u = heapq.heappop(heap)
-        if u in done:
-            continue
-        done.add(u)
-        if u == target:
-            break
-        for w in adjacency[u]:
-            nd = d + weight(u, w)
-            if nd < dist.get(w, np.inf) - 1e-12:
-                dist[w] = nd
-                prev[w] = u
-                heapq.heappush(heap, (nd, w))
-    if target not in dist:
+    """Path source..target (both included) minimising sum weight(u, w) >= 0 (the core's search;
+    ties by settling order); [source] when the target cannot be reached."""
+    tails, heads, weights = [], [], []
+    for u, nbrs in adjacency.items():
+        for w in nbrs:
+            tails.append(u)
+            heads.append(w)
+            weights.append(float(weight(u, w)))
+    n = max(max(adjacency, default=0), max(heads, default=0), source, target) + 1
+    dist, parent, _ = tpuaf_core.dijkstra(n, tails, heads, weights, [source], -1e-12, [], target)
+    if not dist[target] < np.inf:
         return [source]
     path = [target]
     while path[-1] != source:
-        path.append(prev[path[-1]])
+        path.append(parent[path[-1]])
     return path[::-1]
 
 
