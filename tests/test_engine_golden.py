@@ -29,7 +29,21 @@ CASES = [
     ("cumberland", "gbs", 12, 600, 0.5, 0.1),
     ("grid", "dtag", 12, 600, 0.7, 0.1),
     ("grid", "tpuaf_any", 4, 600, 0.0, 0.0),
+    ("cumberland", "dtag", 4, 900, 0.0, 0.0),
+    ("grid", "gbs", 1, 600, 0.0, 0.0),
 ]
+
+
+@pytest.mark.parametrize(("strategy", "robots", "delay", "loss"),
+                         [("cgg", 4, 0.5, 0.2), ("dtap", 6, 0.0, 0.1), ("tpuaf", 5, 1.0, 0.1)])
+def test_python_policies_called_back_from_cpp_equal_the_python_runtime(maps, strategy, robots,
+                                                                       delay, loss):
+    python, sp, native, sn = _pair(
+        maps["grid"], native_policy=False, map="grid", strategy=strategy, robots=robots,
+        duration_s=600, seed=9, delay_s=delay, loss=loss,
+    )
+    assert not native.native_policy
+    _assert_same(python, sp, native, sn)
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +75,7 @@ def test_native_engine_equals_python_runtime(maps, map_name, strategy, robots, d
         maps[map_name], map=map_name, strategy=strategy, robots=robots, duration_s=duration,
         seed=robots + 3, delay_s=delay, loss=loss,
     )
-    assert native.native_policy == (strategy in ("tpuaf", "tpuaf_any"))
+    assert native.native_policy  # every case runs its C++ decision path
     _assert_same(python, sp, native, sn)
     assert sp["visits"] > 50 * robots ** 0.5
     if loss > 0:
@@ -101,6 +115,8 @@ def test_results_folders_have_equal_summary_json(maps, tmp_path):
 def test_auto_engine_selection(maps):
     run, why = make_run(RunConfig(map="grid", strategy="tpuaf", robots=2), maps["grid"])
     assert isinstance(run, NativeRun) and "native" in why
+    run, why = make_run(RunConfig(map="grid", strategy="dtag", robots=2), maps["grid"])
+    assert isinstance(run, NativeRun) and run.native_policy
     run, why = make_run(RunConfig(map="grid", strategy="cgg", robots=2), maps["grid"])
     assert isinstance(run, BatchRun) and "no C++ decision path" in why
     run, _ = make_run(RunConfig(map="grid", strategy="cgg", robots=2), maps["grid"], "native")

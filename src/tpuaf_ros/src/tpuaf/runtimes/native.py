@@ -5,9 +5,11 @@ It gives the same results, to the last digit, as the Python graph runtime
 motion, same bus (numpy's PCG64 stream reproduced in C++), same recorder arithmetic
 (tests/test_engine_golden.py). Two kinds of strategies:
 
-- a strategy with a C++ decision path (`NATIVE_STRATEGIES`: tpuaf, tpuaf_any) runs entirely in
-  C++ between start and finish (the GIL is released); its messages go straight to the C++
-  state of the other robots;
+- a strategy with a C++ decision path (`NATIVE_STRATEGIES`: tpuaf, tpuaf_any, gbs, dtag) runs
+  entirely in C++ between start and finish (the GIL is released); its messages go straight to
+  the C++ state of the other robots. GBS's exp is the C library's where numpy's differs by up
+  to 1 ulp; its decisions compare probabilities with a 1e-9 tolerance, so runs agree unless
+  one lands within 1 ulp of that threshold (the golden test checks several configurations);
 - any other strategy stays the Python `Policy` it is, called back from C++ only at its
   decisions and message deliveries, with a RobotContext like the Python runtime's.
 
@@ -65,11 +67,58 @@ def _tpuaf_strategy(run: NativeRun, params: dict, any_vertex: bool):
     return tpuaf_core.TpuafStrategy(knowledge, form, any_vertex, rngs)
 
 
-# Strategies with a C++ decision path: name -> builder(run, resolved params).
-NATIVE_STRATEGIES: dict[str, Callable[[NativeRun, dict], Any]] = {
-    "tpuaf": lambda run, params: _tpuaf_strategy(run, params, any_vertex=False),
-    "tpuaf_any": lambda run, params: _tpuaf_strategy(run, params, any_vertex=True),
+def _gbs_strategy(run: NativeRun, params: dict):
+    import types
+
+    import tpuaf_core
+
+    # G2 and edge_min resolved exactly as GreedyBayesian.start does (per-map table by N).
+    policy = run.policies[0]
+    ctx = types.SimpleNamespace(patrol_map=run.patrol_map, n_robots=run.config.robots)
+    g2, edge_min = policy.defaults(ctx)
+    g2 = float(params["g2"]) if params["g2"] is not None else g2
+    edge_min = float(params["edge_min"]) if params["edge_min"] is not None else edge_min
+    rngs = [_rng_stream(run.seed, 2, i) for i in range(run.config.robots)]
+    return tpuaf_core.GbsStrategy(float(params["g1"]), g2, edge_min, rngs)
+
+
+def _dtag_strategy(run: NativeRun, params: dict):
+    import tpuaf_core
+
+    pos = np.asarray(run.patrol_map.positions, dtype=float)
+    origin_distance = []
+    for v in run.start_vertices:  # DTAG's origin term, with numpy's hypot as the policy
+        origin = np.asarray((float(pos[v][0]), float(pos[v][1])), dtype=float)
+        origin_distance.append(np.hypot(*(pos - origin).T).tolist())
+    rngs = [_rng_stream(run.seed, 2, i) for i in range(run.config.robots)]
+    return tpuaf_core.DtagStrategy(
+        float(params["initial_estimate"]), float(params["w_idleness"]),
+        float(params["w_path"]), float(params["w_origin"]), origin_distance, rngs,
+    )
+
+
+# Strategies with a C++ decision path: name -> (Python class it mirrors, builder(run, params)).
+NATIVE_STRATEGIES: dict[str, tuple[str, Callable[[NativeRun, dict], Any]]] = {
+    "tpuaf": ("Tpuaf", lambda run, params: _tpuaf_strategy(run, params, any_vertex=False)),
+    "tpuaf_any": ("TpuafAnyVertex",
+                  lambda run, params: _tpuaf_strategy(run, params, any_vertex=True)),
+    "gbs": ("GreedyBayesian", _gbs_strategy),
+    "dtag": ("DynamicTaskAssignmentGreedy", _dtag_strategy),
 }
+
+
+def native_builder(strategy: str):
+    """The C++ strategy builder of `strategy`, or None. Only when the registered class is the
+    one the C++ path mirrors (a replaced or renamed class runs as Python)."""
+    entry = NATIVE_STRATEGIES.get(strategy)
+    if entry is None:
+        return None
+    mirrored, builder = entry
+    try:
+        cls = REGISTRY.get(strategy)
+    except KeyError:
+        return None
+    return builder if cls.__name__ == mirrored else None
 
 
 def unsupported_options(config: RunConfig) -> list[str]:
@@ -103,7 +152,7 @@ def make_run(config: RunConfig, patrol_map=None, engine: str = "auto"):
         return BatchRun(config, patrol_map), (
             f"python engine: the native engine does not support {', '.join(missing)} yet"
         )
-    if config.strategy in NATIVE_STRATEGIES:
+    if native_builder(config.strategy) is not None:
         return NativeRun(config, patrol_map), "native engine, C++ decision path"
     return BatchRun(config, patrol_map), (
         f"python engine: strategy '{config.strategy}' has no C++ decision path"
@@ -346,7 +395,7 @@ class NativeRun:
         cls = REGISTRY.get(config.strategy)
         self.policies = [cls(config.strategy_params) for _ in range(config.robots)]
         self.params = dict(self.policies[0].params)  # resolved (ParameterError if invalid)
-        builder = NATIVE_STRATEGIES.get(config.strategy) if native_policy else None
+        builder = native_builder(config.strategy) if native_policy else None
         self.native_policy = builder is not None
         if builder is not None:
             self._strategy = builder(self, self.params)
