@@ -383,6 +383,8 @@ class StageNode {
     gone_.assign(n_, false);
     stalled_fault_.assign(n_, false);
     unresponsive_count_.assign(n_, 0);
+    unwaited_ticks_.assign(n_, 0);
+    answers_.assign(n_, 0);
     for (int i = 0; i < n_; ++i) ns_.push_back(p.robot_prefix + std::to_string(i));
     advertise();
   }
@@ -438,6 +440,9 @@ class StageNode {
   std::vector<ros::Time> answered_;   // stamp of the latest lock-step answer
   std::vector<bool> ever_answered_, unresponsive_, gone_, stalled_fault_;
   std::vector<int> unresponsive_count_;
+  std::vector<std::int64_t> unwaited_ticks_;
+  std::vector<std::int64_t>
+      answers_;  // lock-step answers received  // lock-step ticks without an agent to wait for
   std::vector<std::string> events_json_;
   int stale_ = 0;
 
@@ -550,6 +555,7 @@ void StageNode::on_cmd_stamped(int i, const geometry_msgs::TwistStamped::ConstPt
   commands_[i] = {msg->twist.linear.x, msg->twist.angular.z};
   last_command_[i] = sim_time();
   if (msg->header.stamp > answered_[i]) answered_[i] = msg->header.stamp;
+  ++answers_[i];
   ever_answered_[i] = true;
   if (unresponsive_[i]) {
     unresponsive_[i] = false;
@@ -587,15 +593,19 @@ void StageNode::event(const std::string& kind, int i, const std::string& detail)
 void StageNode::write_summary() const {
   if (p_.summary_file.empty()) return;
   int total = 0;
-  std::ostringstream per;
+  std::ostringstream per, unwaited, answers;
   for (int i = 0; i < n_; ++i) {
     total += unresponsive_count_[i];
     per << (i ? ", " : "") << unresponsive_count_[i];
+    unwaited << (i ? ", " : "") << unwaited_ticks_[i];
+    answers << (i ? ", " : "") << answers_[i];
   }
   std::ostringstream o;
   o << "{\n  \"lockstep\": " << (p_.lockstep ? "true" : "false")
     << ",\n  \"sim_time_s\": " << pyfloat(sim_time()) << ",\n  \"unresponsive_events\": " << total
-    << ",\n  \"unresponsive_per_robot\": [" << per.str() << "],\n  \"events\": [";
+    << ",\n  \"unresponsive_per_robot\": [" << per.str() << "],\n  \"answers_per_robot\": ["
+    << answers.str() << "],\n  \"ticks_without_agent_per_robot\": [" << unwaited.str()
+    << "],\n  \"events\": [";
   for (std::size_t k = 0; k < events_json_.size(); ++k) {
     o << (k ? ",\n    " : "\n    ") << events_json_[k];
   }
@@ -761,6 +771,7 @@ void StageNode::wait_answers() {
         event("back", i, "its agent is back");
       }
       pending[i] = live && !unresponsive_[i] && answered_[i] < tick;
+      unwaited_ticks_[i] += !live;
       any |= pending[i];
       any_new |= pending[i] && !ever_answered_[i];
     }
