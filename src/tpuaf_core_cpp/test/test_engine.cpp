@@ -1,0 +1,162 @@
+// The graph runtime's event loop (engine.hpp): numpy-compatible streams and sums, motion,
+// dwell and retry timing, the bus (delay, loss), visits and interference episodes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "tpuaf_core/engine.hpp"
+
+namespace tpuaf {
+namespace {
+
+// numpy.random.default_rng([3, 1]).bit_generator.state
+NumpyPcg64 numpy_3_1() {
+  return NumpyPcg64(0x5965f3094fb76bc0ULL, 0xdb1c9d97f130a0d4ULL, 0xe7a1a505a2178266ULL,
+                    0xb8a537f40efcf881ULL);
+}
+
+TEST(Engine, Pcg64DrawsNumpysStream) {
+  NumpyPcg64 g = numpy_3_1();
+  EXPECT_EQ(g.random(), 0.25325307785026463);
+  EXPECT_EQ(g.random(), 0.40719719128199483);
+  EXPECT_EQ(g.integers(7), 5);
+  EXPECT_EQ(g.integers(7), 2);
+  EXPECT_EQ(g.random(), 0.4274453739986771);
+  EXPECT_THROW(g.integers(0), std::invalid_argument);
+}
+
+TEST(Engine, PairwiseSumIsExactOnIntegersAndSplitsLikeNumpy) {
+  std::vector<double> a(20000);
+  for (std::size_t i = 0; i < a.size(); ++i) a[i] = static_cast<double>(i % 97);
+  double exact = 0;
+  for (double x : a) exact += x;
+  EXPECT_EQ(numpy_sum(a.data(), a.size()), exact);  // small integers: every order is exact
+  const double tiny[3] = {1.0, 1e-16, 1e-16};
+  EXPECT_EQ(numpy_pairwise_sum(tiny, 3), (1.0 + 1e-16) + 1e-16);  // < 8: left to right
+}
+
+// Four vertices on a line 0 - 1 - 2 - 3, 10 m apart; robots walk back and forth.
+PatrolGraph line_graph() {
+  Points p(4, 2);
+  p << 0, 0, 10, 0, 20, 0, 30, 0;
+  return PatrolGraph(p, {{0, 1, NAN}, {1, 2, NAN}, {2, 3, NAN}});
+}
+
+UncertaintyField field_of(const PatrolGraph& g) {
+  return UncertaintyField(g.positions(), Eigen::VectorXd::Constant(g.num_vertices(), 0.01),
+                          Eigen::VectorXd::Ones(g.num_vertices()));
+}
+
+// A scripted strategy: each robot's goals in turn (-1 = wait), messages counted.
+class Script : public TeamStrategy {
+ public:
+  std::vector<std::vector<int>> goals;
+  std::vector<std::size_t> k;
+  std::vector<std::vector<double>> decide_times, heard_times;
+  bool talk = false;
+  void start(GraphEngine& e, int) override {
+    k.resize(static_cast<std::size_t>(e.robots()));
+    decide_times.resize(k.size());
+    heard_times.resize(k.size());
+  }
+  int decide(GraphEngine& e, int robot) override {
+    const auto r = static_cast<std::size_t>(robot);
+    decide_times[r].push_back(e.now());
+    if (talk) {
+      TeamMessage m;
+      m.kind = TeamMessage::Kind::kVisit;
+      m.robot = robot;
+      e.send(robot, m);
+    }
+    return k[r] < goals[r].size() ? goals[r][k[r]++] : -1;
+  }
+  void on_message(GraphEngine& e, int robot, const TeamMessage&) override {
+    heard_times[static_cast<std::size_t>(robot)].push_back(e.now());
+  }
+};
+
+EngineConfig config(int robots, double duration_s, std::vector<int> starts) {
+  EngineConfig c;
+  c.robots = robots;
+  c.duration_s = duration_s;
+  c.nominal_speed_mps = 2.0;
+  c.start_vertices = std::move(starts);
+  return c;
+}
+
+TEST(Engine, DrivesEdgesAtNominalSpeedDwellsAndRetries) {
+  const PatrolGraph g = line_graph();
+  GraphEngine engine(g, g.positions(), config(1, 40.0, {0}), field_of(g), numpy_3_1());
+  Script s;
+  s.goals = {{3, 3, -1}};  // 30 m at 2 m/s, then a dwell (goal = here), then waiting
+  engine.set_strategy(&s);
+  engine.run();
+  const auto& visits = engine.recorder().visits();
+  ASSERT_EQ(visits.size(), 3u);  // the start vertex, then 3 at 15 s, again at 16 s
+  EXPECT_EQ(visits[1].vertex, 3);
+  EXPECT_DOUBLE_EQ(visits[1].time_s, 15.0);  // pass-through vertices 1, 2 are no visits
+  EXPECT_DOUBLE_EQ(visits[2].time_s, 16.0);  // STAY_S = 1 s
+  // Waiting without a wake-up: asked again every retry_s = 1 s.
+  const auto& t = s.decide_times[0];
+  ASSERT_GE(t.size(), 5u);
+  EXPECT_DOUBLE_EQ(t[3] - t[2], 1.0);
+  EXPECT_DOUBLE_EQ(engine.travelled_m(0), 30.0);
+  EXPECT_DOUBLE_EQ(engine.average_speed(0), 2.0);
+  EXPECT_EQ(engine.recorder().timeseries().size(), 40u);  // 1 Hz rows t = 1..40 s
+}
+
+TEST(Engine, BusDelaysAndLosesMessages) {
+  const PatrolGraph g = line_graph();
+  EngineConfig c = config(3, 30.0, {0, 1, 2});
+  c.delay_s = 2.5;
+  GraphEngine engine(g, g.positions(), c, field_of(g), numpy_3_1());
+  Script s;
+  s.goals = {{1}, {2}, {3}};
+  s.talk = true;
+  engine.set_strategy(&s);
+  engine.run();
+  // Robot 0 decided at 0 s and at its arrival at 5 s; the others hear both 2.5 s later.
+  ASSERT_GE(s.heard_times[1].size(), 2u);
+  EXPECT_DOUBLE_EQ(s.heard_times[1][0], 2.5);
+  long long heard = 0;
+  for (const auto& h : s.heard_times) {
+    heard += static_cast<long long>(h.size());
+    for (double t : h) EXPECT_GE(t, 2.5);
+  }
+  EXPECT_EQ(engine.bus_stats().delivered, heard);
+  // Every message reaches the 2 others, except those still in flight at the end (sent in the
+  // last 2.5 s: the waiting robots ask again every second).
+  EXPECT_LT(engine.bus_stats().delivered, 2 * engine.bus_stats().sent);
+  EXPECT_GE(engine.bus_stats().delivered, 2 * (engine.bus_stats().sent - 3 * 3));
+  EXPECT_EQ(engine.bus_stats().lost, 0);
+
+  c.loss = 1.0;
+  GraphEngine lossy(g, g.positions(), c, field_of(g), numpy_3_1());
+  Script quiet;
+  quiet.goals = {{1}, {2}, {3}};
+  quiet.talk = true;
+  lossy.set_strategy(&quiet);
+  lossy.run();
+  EXPECT_EQ(lossy.bus_stats().delivered, 0);
+  EXPECT_EQ(lossy.bus_stats().lost, 2 * lossy.bus_stats().sent);
+}
+
+TEST(Engine, InterferenceEntryIsTheExactCrossingTime) {
+  const PatrolGraph g = line_graph();
+  EngineConfig c = config(2, 30.0, {0, 3});
+  c.interference_distance_m = 2.0;
+  GraphEngine engine(g, g.positions(), c, field_of(g), numpy_3_1());
+  Script s;
+  s.goals = {{3}, {0}};  // head-on along the line, 2 m/s each: 30 m apart at t = 0
+  engine.set_strategy(&s);
+  engine.run();
+  const auto& episodes = engine.recorder().interferences();
+  ASSERT_EQ(episodes.size(), 1u);                             // they pass each other once
+  EXPECT_NEAR(episodes[0].time_s, (30.0 - 2.0) / 4.0, 1e-9);  // 2 m apart at 7 s
+  EXPECT_EQ(episodes[0].a, 0);
+  EXPECT_EQ(episodes[0].b, 1);
+}
+
+}  // namespace
+}  // namespace tpuaf
