@@ -306,3 +306,76 @@ def test_change_goal_redirects_a_driving_agent(grid):
     assert visited[:2] == [0, 10]  # the start, then the new goal; 4 was never reached first
     with pytest.raises(IndexError, match="unknown vertex index 99"):
         agent.change_goal(99)
+
+
+# --- TurtleBot3 Burgers on lab (issue 11: a Burger must not wedge for good) ------------------
+
+STALL_PATH_M = 0.3  # [m] driven (path length) that ends a stall
+
+
+def burgers_on_lab(duration_s: float, n: int = 2, seed: int = 0):
+    """n Burger agents (TPUAF, built-in navigator) on lab in the simulator's own world (the
+    tpuaf_stage world file: Burger disc, speeds and accelerations, LDS-01 at 5 Hz with noise and
+    its mounting offset), poses and control at 10 Hz; each robot's arrival times [s]."""
+    from tpuaf_stage.config import parse_world
+
+    pm = load_map("lab")
+    cfg = parse_world({"patrol_map": "lab", "seed": seed, "robot": {"preset": "burger"},
+                       "laser": {"preset": "lds01"}, "robots": n})
+    w = cfg.build()
+    laser = cfg.laser
+    outbox, arrivals = [], [[0.0] for _ in range(n)]
+    # Stall: the longest time [s] a robot neither arrived anywhere nor drove STALL_PATH_M.
+    stall = [0.0] * n
+    anchor = [(0.0, 0.0)] * n  # (time, path length) since when it has been standing
+    path = [0.0] * n
+    last_xy = [None] * n
+    agents = []
+    for i in range(n):
+        def event(kind, v, f, t, i=i):
+            if kind == 2:  # REACHED
+                arrivals[i].append(t)
+                anchor[i] = (t, path[i])
+        ctl = ControllerConfig(max_linear_speed=0.22, robot_radius=0.105,
+                               retry_wait_s=0.5 + 0.5 * i)
+        agents.append(AgentRuntime(pm, REGISTRY.create("tpuaf"), i, n, seed, outbox.append, event,
+                                   ctl))
+    t, k, points = 0.0, 0, [None] * n
+    while t < duration_s:
+        poses = w.poses()
+        if k % 2 == 0:  # 5 Hz scans
+            scans = w.scan_all()
+            points = [scan_points(Scan(scans[i], laser.first_angle, laser.angle_increment,
+                                       laser.range_min, laser.range_max)) for i in range(n)]
+        for i, a in enumerate(agents):
+            x, y = poses[i][0], poses[i][1]
+            if last_xy[i] is not None:
+                path[i] += math.hypot(x - last_xy[i][0], y - last_xy[i][1])
+            last_xy[i] = (x, y)
+            if path[i] - anchor[i][1] >= STALL_PATH_M:
+                anchor[i] = (t, path[i])
+            stall[i] = max(stall[i], t - anchor[i][0])
+            a.on_pose(t, *poses[i])
+            v, om = a.tick(t, points[i])
+            w.set_command(i, v, om)
+            while outbox:
+                msg = outbox.pop(0)
+                for b in agents:
+                    if b.robot != msg.robot:
+                        b.on_message(msg)
+        for _ in range(10):
+            w.step(0.01)
+        t, k = round(t + 0.1, 6), k + 1
+    for i in range(n):
+        arrivals[i].append(t)
+    return arrivals, stall, agents
+
+
+def test_two_burgers_on_lab_never_stall_for_30_s():
+    """15 simulated minutes: recoveries get every Burger unstuck (before the snug headings of
+    the controller, both wedged for good within 90 s: 14 and 10 visits)."""
+    arrivals, stall, agents = burgers_on_lab(900.0)
+    for i, times in enumerate(arrivals):
+        assert stall[i] < 30.0, (i, stall[i])
+        assert float(np.diff(times).max()) < 60.0, (i, times)  # no goal takes a minute
+        assert len(times) - 2 >= 120  # > 1 visit per 7.5 s

@@ -158,6 +158,7 @@ class ControllerConfig:
                                  f", got {value!r}")
 
 
+SNUG_MARGIN_M = 0.01  # [m] clearance of the last-resort (slow) headings
 _NON_NEGATIVE = ("keep_right", "retry_wait_s", "max_retries", "safety_margin", "plan_margin")
 
 
@@ -308,26 +309,34 @@ class LocalController:
     def _drive(self, dist: float, bearing: float, points: np.ndarray | None) -> Command:
         c = self.config
         need = min(dist, c.lookahead)
-        margins = (c.safety_margin, c.plan_margin)
+        # Snug: the bare disc plus 1 cm. A robot already closer to a wall beside it than the
+        # safety margin (a narrow aisle, a Burger 7 cm off its centre) may still drive along
+        # it, slowly, instead of turning in place for good.
+        margins = (c.safety_margin, c.plan_margin, min(c.safety_margin, SNUG_MARGIN_M))
         # Fast path: the straight line to the target is open with the plan margin.
-        safe, wide = self._free(points, np.array([bearing]), margins)
+        safe, wide, _ = self._free(points, np.array([bearing]), margins)
         if wide[0] >= need:
             return self._command(bearing, float(safe[0]))
         headings = np.append(self._headings, bearing)
-        safe, wide = self._free(points, headings, margins)
+        safe, wide, snug = self._free(points, headings, margins)
         rel = wrap_angle_array(headings - bearing)
         # Passing on the left of the target direction (heading > bearing) costs keep_right.
         cost = np.abs(rel) + c.keep_right * (rel > 1e-9)
         # Only headings within 90 degrees of the target direction make progress.
         forward = np.abs(rel) <= 0.5 * math.pi + 1e-9
+        room = safe
         ok = (wide >= need) & forward
         if not ok.any():
             ok = (safe >= need) & forward
         if not ok.any():  # step aside: any direction with a little room
             ok = safe >= min(need, 0.5)
+        if not ok.any():
+            ok, room = (snug >= need) & forward, 0.5 * snug
+        if not ok.any():
+            ok, room = snug >= min(need, 0.5), 0.5 * snug
         if ok.any():
             k = int(np.argmin(np.where(ok, cost, np.inf)))
-            return self._command(float(headings[k]), float(safe[k]))
+            return self._command(float(headings[k]), float(room[k]))
         k = int(np.argmax(safe - 0.1 * np.abs(rel)))  # the most open direction: turn there
         w = max(-c.max_angular_speed, min(c.max_angular_speed, c.heading_gain * headings[k]))
         return Command(0.0, float(w), Status.DRIVING)
