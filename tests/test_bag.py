@@ -337,3 +337,23 @@ def test_memory_stays_bounded_on_a_long_bag(tmp_path):
     assert n_msgs > 9_000
     # measured: 4 MB for 9,400 messages (230 s), 8 MB for 37,700 (920 s)
     assert peak < 25e6, f"peak {peak / 1e6:.1f} MB for {n_msgs} messages"
+
+
+def test_pose_sampler_groups_robots_on_ticks_and_a_far_stamp_cannot_flood():
+    from tpuaf.poses import PoseSampler
+
+    s = PoseSampler(2, period_s=0.1, lag_s=0.5)
+    ticks = []
+    poses = sorted([(10.0 + k / 30, 0, float(k), 0.0) for k in range(60)]  # 30 Hz
+                   + [(10.02 + k / 20, 1, 0.0, float(k)) for k in range(40)])  # 20 Hz, phase
+    for t, r, x, y in poses:  # in time order, as in a bag
+        s.add(r, t, x, y)
+        ticks += list(s.ticks())
+    times = [t for t, _ in ticks]
+    assert times == sorted(times) and len(set(times)) == len(times)
+    assert times[0] >= 10.02 and all(abs(t * 10 - round(t * 10)) < 1e-6 for t in times)
+    for t, p in ticks:  # sample and hold: the latest pose at or before the tick
+        assert p[0, 0] == int(np.floor((t - 10.0) * 30 + 1e-6))
+        assert p[1, 1] == int(np.floor((t - 10.02) * 20 + 1e-6))
+    s.add(0, 1e9, 0.0, 0.0)
+    assert len(list(s.ticks(flush=True))) < 20  # the remaining data, not 1e10 ticks
