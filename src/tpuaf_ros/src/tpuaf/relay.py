@@ -1,0 +1,56 @@
+"""Team-message relay of the ROS fleet (ROS-free): the batch TeamBus model between agents.
+
+Agent i talks on its own team namespace (/team_agents/<prefix>i); the relay node hands each
+message it hears from agent s to this model, which decides, as the batch runtime's TeamBus
+(tpuaf.runtimes.bus: each recipient independently loses a message with probability `loss`, the
+others get it `delay_s` seconds of run time later), who receives it and when. The node delivers
+what `due(now)` returns on the recipients' namespaces and mirrors every original message on
+/team (monitor, bag) unaltered.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+from typing import Any
+
+import numpy as np
+
+from .runtimes.bus import BusStats, TeamBus
+
+
+class RelayModel:
+    def __init__(self, n_robots: int, delay_s: float, loss: float, seed: int):
+        # The batch runtime seeds its bus with [seed, 1]; the relay with its own stream.
+        self.bus = TeamBus(n_robots, delay_s, loss, np.random.default_rng([int(seed), 1, 7]))
+        self._queue: list = []  # (due time [s], order, message, recipients)
+        self._order = itertools.count()
+
+    @property
+    def stats(self) -> BusStats:
+        return self.bus.stats
+
+    def submit(self, sender: int, message: Any, now: float) -> None:
+        """A message robot `sender` broadcast at run time `now` [s]."""
+        if not 0 <= sender < self.bus.n_robots:
+            return  # not one of the team (a malformed or foreign message)
+
+        def schedule(when, msg, recipients):
+            heapq.heappush(self._queue, (when, next(self._order), msg, recipients))
+
+        self.bus.send(sender, message, now, schedule)
+
+    def due(self, now: float) -> list[tuple[int, Any]]:
+        """(recipient, message) pairs to deliver at run time `now`, in sending order."""
+        out = []
+        while self.bus.ready:
+            msg, recipients = self.bus.ready.popleft()
+            out += [(r, msg) for r in recipients]
+        while self._queue and self._queue[0][0] <= now + 1e-9:
+            _, _, msg, recipients = heapq.heappop(self._queue)
+            out += [(r, msg) for r in recipients]
+        self.bus.stats.delivered += len(out)
+        return out
+
+    def pending(self) -> int:
+        return len(self._queue)
