@@ -114,11 +114,14 @@ class Scenario:
     death_time_s: float | None = None
     runtime: str = "graph"
     duration_s: float | None = None  # None: the sweep's duration
+    robot: str | None = None  # physics runtime: robot preset (None: the runtime's default)
 
     @property
     def name(self) -> str:
         """Folder name and table label: 'nominal', or e.g. 'loss0.3', 'deaths1of4', 'physics'."""
         parts = [] if self.runtime == "graph" else [self.runtime]
+        if self.robot:
+            parts.append(self.robot)
         if self.loss:
             parts.append(f"loss{_g(self.loss)}")
         if self.delay_s:
@@ -159,7 +162,8 @@ def parse_deaths(text: str) -> str:
         a, b = int(m.group(1)), int(m.group(2))
         if b == 0 or a > b:
             raise SweepError(f"deaths '{text}': a fraction A/B of the team needs 0 <= A <= B, B > 0")
-        return "0" if a == 0 else f"{a}/{b}"
+        g = math.gcd(a, b)  # 2/8 = 1/4: the same scenario, the same folder
+        return "0" if a == 0 else f"{a // g}/{b // g}"
     if text.isdigit():
         return str(int(text))
     raise SweepError(f"deaths '{text}': expected a number of robots (e.g. 2) or a fraction of "
@@ -168,7 +172,8 @@ def parse_deaths(text: str) -> str:
 
 def make_scenarios(loss: Iterable[float] = (), delay_s: Iterable[float] = (),
                    deaths: Iterable[str] = (), death_time_s: float | None = None,
-                   runtime: str = "graph", with_base: bool = True) -> list[Scenario]:
+                   runtime: str = "graph", with_base: bool = True,
+                   robot: str | None = None) -> list[Scenario]:
     """The base scenario (no fault) and one scenario per value of each factor, the others at
     their base value (one factor at a time: the degradation curves)."""
     if runtime not in RUNTIMES:
@@ -181,12 +186,14 @@ def make_scenarios(loss: Iterable[float] = (), delay_s: Iterable[float] = (),
             raise SweepError(f"delay must be a finite number of seconds >= 0, got {d}")
     if death_time_s is not None and not (death_time_s >= 0 and math.isfinite(death_time_s)):
         raise SweepError(f"death time must be a finite number of seconds >= 0, got {death_time_s}")
-    base = Scenario(runtime=runtime)
+    if robot is not None and runtime != "physics":
+        raise SweepError("a robot preset (--robot) needs the physics runtime (--runtime physics)")
+    base = Scenario(runtime=runtime, robot=robot)
     out = [base] if with_base else []
-    out += [Scenario(loss=float(p), runtime=runtime) for p in loss]
-    out += [Scenario(delay_s=float(d), runtime=runtime) for d in delay_s]
-    out += [Scenario(deaths=parse_deaths(k), death_time_s=death_time_s, runtime=runtime)
-            for k in deaths]
+    out += [Scenario(loss=float(p), runtime=runtime, robot=robot) for p in loss]
+    out += [Scenario(delay_s=float(d), runtime=runtime, robot=robot) for d in delay_s]
+    out += [Scenario(deaths=parse_deaths(k), death_time_s=death_time_s, runtime=runtime,
+                     robot=robot) for k in deaths]
     unique: list[Scenario] = []
     for s in out:
         if not s.faulty and s != base:
@@ -250,7 +257,7 @@ class SweepSpec:
         return {"map": key.map, "map_source": self.source_of(key.map), "strategy": key.strategy,
                 "robots": key.robots, "seed": key.seed, "duration_s": duration,
                 "strategy_params": dict(self.strategy_params.get(key.strategy, {})),
-                "scenario": sc.name, "runtime": sc.runtime, "loss": sc.loss,
+                "scenario": sc.name, "runtime": sc.runtime, "robot": sc.robot, "loss": sc.loss,
                 "delay_s": sc.delay_s, "deaths": len(failures),
                 "death_time_s": failures[0][1] if failures else None,
                 "failures": [list(f) for f in failures]}
@@ -350,12 +357,21 @@ FAIL_FIELD = "fail"
 
 
 def run_config(task: dict[str, Any]):
-    """The RunConfig of one task (scenario fields included); SweepError if this build lacks one."""
+    """The RunConfig (PhysicsConfig for the physics runtime) of one task, scenario included;
+    SweepError if this build lacks a field the scenario needs."""
     import dataclasses
 
-    from .runtimes.graph import RunConfig
-
-    fields = {f.name for f in dataclasses.fields(RunConfig)}
+    runtime = task.get("runtime") or "graph"
+    if runtime == "physics":
+        try:
+            from .runtimes.physics import PhysicsConfig as Config
+        except ImportError as err:
+            raise SweepError(f"runtime 'physics' is not available in this build ({err})") from None
+    elif runtime == "graph":
+        from .runtimes.graph import RunConfig as Config
+    else:
+        raise SweepError(f"unknown runtime '{runtime}' (valid: {', '.join(RUNTIMES)})")
+    fields = {f.name for f in dataclasses.fields(Config)}
     kwargs: dict[str, Any] = {
         "map": task["map_source"], "strategy": task["strategy"], "robots": int(task["robots"]),
         "duration_s": float(task["duration_s"]), "seed": int(task["seed"]),
@@ -367,26 +383,23 @@ def run_config(task: dict[str, Any]):
             raise SweepError(f"robot deaths need fault injection: RunConfig has no "
                              f"'{FAIL_FIELD}' field in this build")
         kwargs[FAIL_FIELD] = [f"{int(r)}@{float(t):g}" for r, t in failures]
-    runtime = task.get("runtime") or "graph"
-    if "runtime" in fields:
-        kwargs["runtime"] = runtime
-    elif runtime != "graph":
-        raise SweepError(f"runtime '{runtime}': RunConfig has no 'runtime' field in this build")
-    return RunConfig(**kwargs)
+    if task.get("robot"):
+        if "robot" not in fields:
+            raise SweepError("a robot preset needs the physics runtime")
+        kwargs["robot"] = task["robot"]
+    return Config(**kwargs)
 
 
 def make_engine(config, patrol_map, runtime: str = "graph"):
-    """The engine of a runtime: graph = BatchRun; physics = runtimes/physics.py (H-A)."""
+    """The engine of a runtime: graph = BatchRun; physics = runtimes/physics.py PhysicsRun."""
     if runtime == "graph":
         from .runtimes.graph import BatchRun
 
         return BatchRun(config, patrol_map)
     if runtime == "physics":
-        try:
-            from .runtimes import physics
-        except ImportError as err:
-            raise SweepError(f"runtime 'physics' is not available in this build ({err})") from None
-        return physics.PhysicsRun(config, patrol_map)
+        from .runtimes.physics import PhysicsRun
+
+        return PhysicsRun(config, patrol_map)
     raise SweepError(f"unknown runtime '{runtime}' (valid: {', '.join(RUNTIMES)})")
 
 
