@@ -232,7 +232,7 @@ def test_report_of_the_tiny_sweep(tiny, tmp_path):
     verdict_lines = [line for line in text.splitlines() if line.startswith("- ") and (
         "reproduced**" in line or "*not tested*" in line)]
     assert len(verdict_lines) == 5
-    assert "### grid (layout of the paper's Table 3)" in text
+    assert "### grid: the paper's strategies (layout of the paper's Table 3)" in text
     assert "| 2 | I_max [s] |" in text
 
 

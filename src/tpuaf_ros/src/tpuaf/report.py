@@ -1204,6 +1204,10 @@ def write_report(root: Path, out: Path | None = None, paper: Path | None = None,
                "the lab; a different robot stack, so only orderings and trends compare).", ""]
         for m in pd.maps():
             md += [f"### {m}", "", physics_table(pd, m), ""]
+            if not any(k[0] == m for k in everything.bounds):
+                md += [f"{m}: not in "
+                       f"{everything.bounds_path.name if everything.bounds_path else 'the bounds'}"
+                       ", so no ratio to a best-known tour.", ""]
             ns = pd.robots(m)
             if "tpuaf" in pd.strategies(m) and len(ns) >= 2:
                 means = [pd.stat(m, "tpuaf", n, "idleness_ins_mean_s").mean for n in ns]
