@@ -240,6 +240,9 @@ class ResultsWriter:
         self._ts_f.close()
         if recorder is not None:
             self._write_patrolling_sim(summary, recorder, interrupted, timeresults_period_s)
+            from .plots import write_summary_png  # never raises: a note when it cannot draw
+
+            write_summary_png(self.out_dir, recorder.patrol_map, summary)
         # last: a summary.json means every other file is complete
         atomic_write_text(self.out_dir / "summary.json", json.dumps(summary, indent=2) + "\n")
         self.finished = True

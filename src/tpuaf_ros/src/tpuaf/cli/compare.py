@@ -51,6 +51,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         help="when they die [s of run time] (default: half the run)")
     faults.add_argument("--runtime", choices=["graph", "physics"], default="graph",
                         help="graph (event-driven, default) or physics (robots with dynamics)")
+    faults.add_argument("--robot", default=None, metavar="PRESET",
+                        help="physics runtime: robot preset (burger, waffle_pi, patrolling_sim, "
+                             "auto) as in `tpuaf run --robot`")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -65,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
                        f"largest seed {MAX_SEED}")
     try:
         scenarios = make_scenarios(args.loss, args.delay, args.deaths, args.death_time,
-                                   runtime=args.runtime)
+                                   runtime=args.runtime, robot=args.robot)
         spec = make_spec(args.maps, args.strategies, args.robots, args.seeds,
                          duration_s=args.duration, first_seed=args.first_seed,
                          scenarios=scenarios)
