@@ -50,5 +50,9 @@ def run(args: argparse.Namespace) -> int:
                              fps=args.fps, color=args.color, dpi=args.dpi)
     except (ValueError, KeyError, OSError) as err:
         raise CliError(f"{folder}: {err}") from None
+    if path.resolve().parent == folder.resolve():  # `--overwrite` of the folder clears it
+        from ..results import record_written
+
+        record_written(folder, path.name)
     print(f"animation: {path} ({count} frames at {args.fps:g} fps)")
     return 0
