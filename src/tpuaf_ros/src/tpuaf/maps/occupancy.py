@@ -145,8 +145,9 @@ _MAP_SERVER_KEYS = {"image", "resolution", "origin", "negate", "occupied_thresh"
 
 
 def _number(path: Path, key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise MapError(f"{path}: '{key}' must be a number, got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+            not math.isfinite(value):
+        raise MapError(f"{path}: '{key}' must be a finite number, got {value!r}")
     return float(value)
 
 
@@ -171,7 +172,7 @@ def load_occupancy(yaml_path: str | Path, image_fallbacks: tuple[Path, ...] = ()
         raise MapError(f"{path}{where}: invalid YAML: {getattr(err, 'problem', err)}") from None
     if not isinstance(doc, dict):
         raise MapError(f"{path}: expected a map_server YAML mapping")
-    unknown = sorted(set(doc) - _MAP_SERVER_KEYS)
+    unknown = sorted(str(k) for k in set(doc) - _MAP_SERVER_KEYS)
     if unknown:
         raise MapError(f"{path}: unknown key(s) {', '.join(map(str, unknown))} "
                        f"(valid: {', '.join(sorted(_MAP_SERVER_KEYS))})")
