@@ -184,7 +184,7 @@ def _number(path, node, key, value, *, lo=None, positive=False, allow_inf=False)
 
 def _with_preset(path, node, presets: dict, default: str, what: str) -> tuple[str, dict]:
     name = node.get("preset", default)
-    if name not in presets:
+    if not isinstance(name, str) or name not in presets:
         raise WorldError(f"{_where(path, node)}: unknown {what} preset {name!r} "
                          f"(known: {', '.join(sorted(presets))})")
     values = dict(presets[name])

@@ -27,7 +27,7 @@ class ArgumentParser(argparse.ArgumentParser):
     """argparse, but a bad option is one line (no usage block) naming the option, exit code 2."""
 
     def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -68,9 +68,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
-def one_line(err: Exception) -> str:
-    """The error's message on one line (continuation lines joined with '; ')."""
-    return "; ".join(line.strip() for line in str(err).splitlines() if line.strip())
+def one_line(err: Exception | str) -> str:
+    """The error's message on one line: continuation lines joined with '; ', other control
+    characters (e.g. from a garbled file or option) escaped."""
+    text = "; ".join(line.strip() for line in str(err).splitlines() if line.strip())
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 if __name__ == "__main__":
