@@ -4,6 +4,18 @@ Each robot keeps the shared set Q (latest known visit of every vertex, announced
 the others, stale entries dropped) and its own estimate of every target's uncertainty X_j,
 grown with the model of Eq. 2 and cut at every known visit. That bookkeeping and the utility
 evaluation live in the C++ core (`tpuaf_core.TpuafKnowledge`); this class only decides.
+
+Late messages and platoons (issue 12, "delay hurts more than total loss"): robots that reach a
+vertex at the same time decide from the same knowledge, and with delayed messages neither hears
+the other's intention before deciding, so both pick the same neighbour, arrive together again,
+and travel as one platoon for the rest of the run (k robots patrolling like one; with no
+messages at all their knowledge differs and they split). Reservations were never the problem:
+an announced arrival that has passed counts as the visit it was, and stale ones expire. The fix
+(`colocation`, default on): a robot that knows a teammate reached its vertex within the measured
+message latency, and has not heard that teammate's next decision, lets the lower-indexed one
+decide first: it computes that teammate's choice with the same utility and counts it as an
+announced intention before choosing. Teammates whose late visits show they followed the same
+vertices at the same times ("shadows") are treated the same way until a message shows they split.
 """
 
 from __future__ import annotations
@@ -56,6 +68,12 @@ class Tpuaf(Policy):
         "silence_timeout_s": Parameter(
             120.0, "drop the intention of a robot not heard from for this long [s]", _positive
         ),
+        "colocation": Parameter(
+            True,
+            "resolve robots that arrive together before late messages tell (true) or not, "
+            "the paper's rule as such (false; platoons form under delay)",
+            lambda v: isinstance(v, bool) or v in (0, 1, "true", "false"),
+        ),
     }
 
     def start(self, ctx: RobotContext) -> None:
@@ -70,6 +88,10 @@ class Tpuaf(Policy):
             else tpuaf_core.UtilityForm.EQ13
         )
         self.last_utilities = None  # the last decision's UtilityResult, for inspection
+        self.colocation = self.params["colocation"] in (True, 1, "true")
+        self.latency_s = 0.0  # [s] largest message latency seen (receive time - send time)
+        self.my_visits: dict[int, list[tuple[float, int]]] = {}  # vertex -> [(time, next)]
+        self.shadows: set[int] = set()  # teammates seen following my vertices at my times
 
     def candidates(self, ctx: RobotContext) -> list[int]:
         graph = ctx.patrol_map.graph
@@ -86,6 +108,10 @@ class Tpuaf(Policy):
         if not candidates:  # a one-vertex graph: stay
             ctx.send(Visit(ctx.robot, here, now, here))
             return here
+        if self.colocation and self.latency_s > 0:  # no late messages: nothing to resolve
+            for mate in self.colocated(ctx):  # lower-indexed teammates here decide first
+                if mate < ctx.robot:
+                    self._presume_choice(ctx, mate, candidates)
         result = knowledge.utilities(
             ctx.patrol_map.graph, now, here, candidates, ctx.average_speed, self.form,
             self.any_vertex,
@@ -96,6 +122,9 @@ class Tpuaf(Policy):
         best = np.flatnonzero(utility >= top - 1e-12 * max(1.0, abs(top)))
         k = int(best[0]) if len(best) == 1 else int(ctx.rng.choice(best))  # seeded tie-break
         target = candidates[k]
+        mine = self.my_visits.setdefault(here, [])
+        mine.append((now, target))
+        del mine[:-4]
         ctx.send(Visit(ctx.robot, here, now, target))
         ctx.send(
             Intention(
@@ -105,13 +134,54 @@ class Tpuaf(Policy):
         )
         return target
 
+    def colocated(self, ctx: RobotContext) -> list[int]:
+        """Teammates that reached my vertex within the message latency of now and whose next
+        decision I have not heard (their intention for it still held), and my shadows."""
+        now, here = ctx.now, ctx.current_vertex
+        window = self.latency_s + 1e-6
+        mates = {
+            robot for robot, _, vertex, arrival, _, _ in self.knowledge.intentions
+            if robot != ctx.robot and vertex == here and now - window <= arrival <= now + 1e-6
+        }
+        return sorted(mates | (self.shadows - {ctx.robot}))
+
+    def _presume_choice(self, ctx: RobotContext, mate: int, candidates: list[int]) -> None:
+        """Count teammate `mate`'s presumed choice here (argmax of the same utility, lowest
+        index on ties) as its announced intention."""
+        now, here = ctx.now, ctx.current_vertex
+        result = self.knowledge.utilities(
+            ctx.patrol_map.graph, now, here, candidates, ctx.average_speed, self.form,
+            self.any_vertex,
+        )
+        k = int(np.argmax(result.utility))
+        self.knowledge.hear_intention(
+            mate, here, candidates[k], float(result.arrival_s[k]),
+            float(result.travel_time_s[k]), now, now,
+        )
+
+    def _track_shadow(self, message: Visit) -> None:
+        """A teammate's visit at (about) my own visit of that vertex, followed by the same next
+        vertex, makes it my shadow; any other visit of it ends that."""
+        tol = max(1.0, 0.1 * self.latency_s)
+        same = [nxt for t, nxt in self.my_visits.get(message.vertex, ())
+                if abs(t - message.time) <= tol]
+        if same and message.next_vertex in same:
+            self.shadows.add(message.robot)
+        else:
+            self.shadows.discard(message.robot)
+
     def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:
         self.knowledge.forget_intention(robot)
+        self.shadows.discard(robot)
 
     def on_message(self, message, ctx: RobotContext) -> None:
         kind = type(message)
+        if kind in (Visit, Intention):
+            self.latency_s = max(self.latency_s, ctx.now - message.time)
         if kind is Visit:
             self.knowledge.hear_visit(message.robot, message.vertex, message.time, ctx.now)
+            if self.colocation:
+                self._track_shadow(message)
         elif kind is Intention:
             self.knowledge.hear_intention(
                 message.robot, message.from_vertex, message.vertex, message.expected_arrival,
