@@ -15,6 +15,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--paper", type=Path, default=None,
                    help="the paper's figures (default: ../shared/reference/paper_tables.csv "
                         "beside the repository, skipped if absent)")
+    p.add_argument("--bounds", type=Path, default=None,
+                   help="best-known tours per map and N (default: ../shared/reference/"
+                        "patrol_bounds.csv beside the repository, skipped if absent)")
     p.add_argument("--title", default=None, help="report title")
 
 
@@ -27,7 +30,8 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"--out {args.out}: is an existing file, not a folder")
 
     try:
-        path = write_report(args.dir, out=args.out, paper=args.paper, title=args.title)
+        path = write_report(args.dir, out=args.out, paper=args.paper, title=args.title,
+                            bounds=args.bounds)
     except ReportError as err:
         raise CliError(str(err)) from None
     print(f"report: {path}")
