@@ -9,15 +9,7 @@ import numpy as np
 import pytest
 import tpuaf_core
 from tpuaf.maps import MapSettings, PatrolMap, load_map
-from tpuaf.metrics import (
-    RunRecorder,
-    acceleration_ratio,
-    complete_cycles,
-    idleness_stats,
-    interval_idleness,
-    visits_per_vertex,
-    worst_idleness,
-)
+from tpuaf.metrics import RunRecorder, acceleration_ratio, complete_cycles, idleness_stats
 
 
 def line_map(d_if: float = 2.0) -> PatrolMap:
@@ -38,19 +30,43 @@ LOG = [(0, 0, 0), (2, 1, 2), (5, 0, 1), (10, 0, 0), (14, 1, 2), (15, 0, 1), (22,
 # interval idleness by hand: v0 10, 12; v2 12; v1 10 (in visit order: 10, 12, 10, 12)
 
 
-def test_pure_functions_on_hand_log():
-    samples = interval_idleness(LOG, 3)
-    assert samples == [10.0, 12.0, 10.0, 12.0]
-    stats = idleness_stats(samples)
+def test_shared_helpers_and_recorder_on_hand_log():
+    """The one implementation (RunRecorder) on a hand-computed log; the pure helpers it shares
+    with the reports."""
+    rec = RunRecorder(line_map(), 2, ground_truth=False)
+    for t, r, v in LOG:
+        rec.record_visit(r, v, t)
+    assert sorted(rec.interval_samples) == [10.0, 10.0, 12.0, 12.0]
+    stats = idleness_stats(rec.interval_samples)
     assert stats == {"avg": 11.0, "std": 1.0, "min": 10.0, "max": 12.0, "count": 4}
-    counts = visits_per_vertex(LOG, 3)
-    assert counts == [3, 2, 2]
-    assert complete_cycles(counts) == 1
+    assert rec.visit_counts == [3, 2, 2]
+    assert complete_cycles(rec.visit_counts) == 1
     assert complete_cycles([3, 0, 2]) == 0
     # Worst: v2 waits 12 s (2 -> 14); v1 first visit at 5 counts from 0; end 25: v2 11 s.
-    assert worst_idleness(LOG, 3, end_time=25) == 12.0
-    assert worst_idleness(LOG, 3, end_time=40) == 40 - 14
+    assert rec.worst_idleness(25) == 12.0
+    assert rec.worst_idleness(40) == 40 - 14
     assert math.isnan(idleness_stats([])["avg"])
+
+
+def test_recovery_on_a_hand_log():
+    """Death of robot 1 at t = 6 on the 3-vertex line: every vertex is visited again by 15
+    (v1 at 15 is the last); worst idleness after: v2 waits 2 -> 14 (12 s); robot 1 had
+    announced v0 (at 2, after its last visit at 2), which robot 0 visits at 10."""
+    rec = RunRecorder(line_map(), 2, ground_truth=False)
+    log = [(0, 0, 0), (2, 1, 2), (5, 0, 1), (10, 0, 0), (14, 0, 2), (15, 0, 1)]
+    for t, r, v in log:
+        rec.record_visit(r, v, t)
+    rec.record_announcement(1, 0, 2.0)
+    rec.record_announcement(1, 1, 1.0)  # before its last visit: spent
+    rec.record_robot_death(1, 6.0)
+    (r,) = rec.summary(20.0)["recovery"]
+    assert r["robot"] == 1 and r["survivors"] == 1
+    assert r["recovery_time_s"] == 15.0 - 6.0
+    assert r["worst_idleness_after_s"] == 12.0
+    assert r["intentions"] == [10] and r["intentions_honoured"] == 1
+    assert r["intention_delays_s"] == [4.0]
+    assert r["ideal_worst_idleness_survivors_s"] == pytest.approx(40.0)  # 20 m there and back
+    assert r["window_end_s"] == 20.0
 
 
 def test_acceleration_ratio():

@@ -1,7 +1,8 @@
 """Run metrics (SPEC section 6), shared by the batch engine, the ROS monitor and bag analysis.
 
-Pure functions work on a visit log; `RunRecorder` accumulates a run live. Times in seconds of
-the run clock, positions in metres, vertices are graph indices.
+`RunRecorder` accumulates a run live; the graph and physics runtimes, the fleet monitor and bag
+analysis all feed one (their visits are the robots' REACHED events: arrival at the goal vertex).
+Times in seconds of the run clock, positions in metres, vertices are graph indices.
 
 Conventions (chosen where the SPEC is silent):
 - a visit's interval idleness is the time since the previous visit of its vertex by any robot;
@@ -24,7 +25,7 @@ import bisect
 import itertools
 import math
 from collections import deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -33,19 +34,6 @@ from .plain import plain
 
 # ---------------------------------------------------------------------------------------------
 # Pure functions
-
-
-def interval_idleness(visits: Iterable[Sequence], n_vertices: int) -> list[float]:
-    """Interval idleness samples [s] of a visit log of (time, robot, vertex) rows in time order.
-
-    The first visit of each vertex only starts its clock and yields no sample."""
-    last = [math.nan] * n_vertices
-    out: list[float] = []
-    for time, _robot, vertex in visits:
-        if not math.isnan(last[vertex]):
-            out.append(float(time) - last[vertex])
-        last[vertex] = float(time)
-    return out
 
 
 def idleness_stats(samples: Sequence[float]) -> dict[str, float]:
@@ -65,28 +53,9 @@ def acceleration_ratio(i_avg_1: float, i_avg_n: float, n: int) -> float:
     return float(i_avg_1) / (n * float(i_avg_n))
 
 
-def visits_per_vertex(visits: Iterable[Sequence], n_vertices: int) -> list[int]:
-    counts = [0] * n_vertices
-    for _t, _r, vertex in visits:
-        counts[vertex] += 1
-    return counts
-
-
 def complete_cycles(visit_counts: Sequence[int]) -> int:
     """min over vertices of counted visits (visits after the first)."""
     return int(min(max(c - 1, 0) for c in visit_counts)) if len(visit_counts) else 0
-
-
-def worst_idleness(visits: Iterable[Sequence], n_vertices: int, end_time: float,
-                   start_time: float = 0.0) -> float:
-    """max over vertices and time of (t - last visit) up to end_time; never-visited vertices
-    counted from start_time."""
-    last = [float(start_time)] * n_vertices
-    worst = 0.0
-    for time, _robot, vertex in visits:
-        worst = max(worst, float(time) - last[vertex])
-        last[vertex] = float(time)
-    return max(worst, float(end_time) - min(last))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -154,6 +123,9 @@ class RunRecorder:
         self._pos: np.ndarray | None = None
         self._alive = np.ones(self.n_robots, dtype=bool)
         self.deaths: list[tuple[float, int]] = []
+        self.stalls: list[tuple[float, int]] = []
+        # Destinations robots announced in their team messages: (time, robot, vertex).
+        self.announcements: list[tuple[float, int, int]] = []
         self._shape = (self.n_robots, 2)
         self._all_alive = True
         iu, ju = np.triu_indices(self.n_robots, k=1)
@@ -391,6 +363,77 @@ class RunRecorder:
             self._all_alive = False
             self.deaths.append((float(time), int(robot)))
 
+    def record_robot_stall(self, robot: int, time: float) -> None:
+        """Robot `robot` stopped moving at `time` [s] (it still senses and talks)."""
+        self.stalls.append((float(time), int(robot)))
+
+    def record_announcement(self, robot: int, vertex: int, time: float) -> None:
+        """Robot `robot` announced at `time` [s] that it heads to `vertex` (graph index)."""
+        self.announcements.append((float(time), int(robot), int(vertex)))
+
+    # -- recovery after deaths --------------------------------------------------------------
+
+    def recovery(self, end_time: float) -> list[dict]:
+        """Per death (time order), up to `end_time` [s]:
+
+        - recovery_time_s: time from the death until every vertex has been visited again
+          (None if some vertex was not by the end);
+        - worst_idleness_after_s: the worst idleness (t - last visit, any vertex) at any time t
+          from the death to the next death or the end (time before the death counts);
+        - ideal_worst_idleness_survivors_s: the reference tours' best worst idleness (cyclic
+          or partition, tpuaf.tours) for the survivors on this map at its nominal speed;
+        - intentions: the vertices the dead robot had announced as its next destination in
+          the team messages it sent since its last visit (what its teammates may count on it
+          for); intentions_honoured: how many of them a teammate visited after the death,
+          intention_delays_s: after how long (None: never)."""
+        from .tours import reference_tours
+
+        end_time = float(end_time)
+        ids = list(self.patrol_map.vertex_ids)
+        speed = float(self.patrol_map.settings.nominal_speed)
+        deaths = sorted(d for d in self.deaths if d[0] <= end_time)
+        out = []
+        for k, (td, robot) in enumerate(deaths):
+            until = deaths[k + 1][0] if k + 1 < len(deaths) else end_time
+            survivors = self.n_robots - (k + 1)
+            ideal = (reference_tours(self.patrol_map, survivors, speed)["best_worst_idleness_s"]
+                     if survivors > 0 else math.nan)
+            first_after, worst = [], 0.0
+            for times in self._vertex_times:
+                j = bisect.bisect_right(times, td)
+                first_after.append(times[j] if j < len(times) and times[j] <= end_time
+                                   else math.inf)
+                prev = times[j - 1] if j else self.start_time
+                for t in times[j:]:
+                    if t > until:
+                        break
+                    worst = max(worst, t - prev)
+                    prev = t
+                worst = max(worst, until - prev)
+            recovered = max(first_after) if first_after else td
+            last_own = max((t for t, r, _ in self.visits if r == robot and t <= td),
+                           default=self.start_time)
+            intentions = sorted({v for t, r, v in self.announcements
+                                 if r == robot and last_own <= t <= td})
+            delays = []
+            for v in intentions:
+                later = [t for t, r, vv in self.visits if vv == v and r != robot and td < t]
+                delays.append(min(later) - td if later else math.nan)
+            out.append({
+                "robot": robot,
+                "time_s": td,
+                "survivors": survivors,
+                "recovery_time_s": recovered - td if math.isfinite(recovered) else math.nan,
+                "worst_idleness_after_s": worst,
+                "window_end_s": until,
+                "ideal_worst_idleness_survivors_s": ideal,
+                "worst_idleness_ratio": worst / ideal if ideal > 0 else math.nan,
+                "intentions": [int(ids[v]) for v in intentions],
+                "intentions_honoured": sum(1 for d in delays if d == d),
+                "intention_delays_s": delays,
+            })
+        return out
+
     # -- results --------------------------------------------------------------------------
 
     @property
@@ -475,6 +518,8 @@ class RunRecorder:
             "complete_cycles": complete_cycles(counts),
             "deaths": len(self.deaths),
             "dead_robots": [r for _, r in self.deaths],
+            **({"stalled_robots": [r for _, r in self.stalls]} if self.stalls else {}),
+            **({"recovery": self.recovery(end_time)} if self.deaths else {}),
             "sample_period_s": self.sample_period_s,
             "timeseries_rows": n_rows,
         }

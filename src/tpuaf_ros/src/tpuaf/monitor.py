@@ -10,10 +10,11 @@ same two streams, in arrival order, and so compute the same metrics:
 - `on_event(robot, kind, vertex, t)`: AgentEvent (tpuaf.topics constants, vertex index).
 
 Definitions (SPEC section 6):
-- the run starts at the first complete pose group at or after `start_after` [s]; every robot
-  standing within goal tolerance of a vertex then makes a first visit of it (as batch does);
-- a visit is the first ground-truth pose stamped after a GOAL event (later by > 1 ms) within the
-  goal tolerance of that goal vertex; the goal is then spent;
+- the run starts at the first complete pose group at or after `start_after` [s];
+- a visit is a REACHED event (the agent's arrival at its goal vertex within the goal tolerance:
+  the one definition of a visit of every runtime), at its stamp; a START event is the robot's
+  first visit of its start vertex (at the run start if stamped before it), as in the graph
+  runtime; ground truth gives only positions (uncertainty X, interference, robot presence);
 - a robot whose agent sent no event (heartbeats every 1 s) for `death_timeout_s` is dead from
   the first pose group after that: `RunRecorder.record_robot_death` (it no longer senses nor
   interferes);
@@ -29,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from .metrics import RunRecorder
-from .topics import GOAL
+from .topics import REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
 STAMP_EPS_S = 1e-3
@@ -58,8 +59,8 @@ class FleetMonitor:
         self._alive = np.ones(self.n, dtype=bool)
         self._heard = np.full(self.n, -math.inf)  # last event stamp <= the processed time
         self._heard_q: list[deque] = [deque() for _ in range(self.n)]  # event stamps ahead
-        self._goals: list[deque] = [deque() for _ in range(self.n)]  # (stamp, vertex) pending
-        self._goal = [-1] * self.n  # active goal vertex, -1 = none (or spent)
+        # (stamp, robot, vertex, is START) of visits not yet recorded, in stamp order
+        self._visits: list[tuple[float, int, int, bool]] = []
         self.deaths: list[tuple[float, int]] = []
         self._idl_seen, self._idl_sum, self._idl_n, self._idl_max = 0, 0.0, 0, 0.0
 
@@ -69,11 +70,13 @@ class FleetMonitor:
         if not 0 <= robot < self.n:
             return
         self._heard_q[robot].append(float(t))
-        if kind == GOAL and vertex >= 0:
-            q = self._goals[robot]
-            q.append((float(t), int(vertex)))
-            if len(q) > 1 and q[-2][0] > q[-1][0]:
-                self._goals[robot] = deque(sorted(q))
+        if kind in (REACHED, START) and 0 <= vertex < self.patrol_map.num_vertices:
+            t = float(t)
+            if kind == START and self.start_time is not None:
+                t = max(t, self.start_time)
+            self._visits.append((t, int(robot), int(vertex), kind == START))
+            if len(self._visits) > 1 and self._visits[-2][0] > t:
+                self._visits.sort()
 
     def on_pose(self, robot: int, t: float, x: float, y: float) -> None:
         if self.finished or not 0 <= robot < self.n:
@@ -126,42 +129,35 @@ class FleetMonitor:
             self._alive[r] = False
             self.recorder.record_robot_death(r, t)
             self.deaths.append((t, r))
-        positions = self._last.copy()
-        self.recorder.record_positions(t, positions)
-        self._visits(t, positions)
+        self._record_visits(t)
+        self.recorder.record_positions(t, self._last.copy())
         self.now = t
         if t >= end:
             self.end(end)
 
-    def _visits(self, t: float, positions: np.ndarray) -> None:
-        tol2 = self.tolerance * self.tolerance
-        for r in range(self.n):
-            q = self._goals[r]
-            while q and q[0][0] < t - STAMP_EPS_S:
-                self._goal[r] = q.popleft()[1]
-            g = self._goal[r]
-            if g < 0 or not self._alive[r]:
-                continue
-            d = positions[r] - self._positions[g]
-            if d[0] * d[0] + d[1] * d[1] <= tol2:
-                self.recorder.record_visit(r, g, t)
-                self._goal[r] = -1
+    def _record_visits(self, t: float) -> None:
+        """Visits stamped up to t [s] (within the run), in stamp order."""
+        q = self._visits
+        k = 0
+        end = self.start_time + self.duration_s
+        while k < len(q) and q[k][0] <= t + STAMP_EPS_S:
+            stamp, robot, vertex, _ = q[k]
+            if self.start_time - STAMP_EPS_S <= stamp <= end:
+                self.recorder.record_visit(robot, vertex, min(max(stamp, self.start_time), end))
+            k += 1
+        del q[:k]
 
     def _start(self, t: float) -> None:
         self.start_time = t
         self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s,
                                     start_time=t)
-        positions = self._last.copy()
-        self.recorder.record_positions(t, positions)
-        for r in range(self.n):
-            v = self.patrol_map.nearest_vertex(*positions[r])
-            if np.hypot(*(positions[r] - self._positions[v])) <= self.tolerance:
-                self.recorder.record_visit(r, v, t)
-        # Goals announced before the start count from the start on.
-        for r in range(self.n):
-            q = self._goals[r]
-            while q and q[0][0] < t - STAMP_EPS_S:
-                self._goal[r] = q.popleft()[1]
+        # START events before the run start: first visits at the start; REACHED before it
+        # belong to no run.
+        self._visits = sorted((max(s, t) if first else s, r, v, first)
+                              for s, r, v, first in self._visits
+                              if first or s >= t - STAMP_EPS_S)
+        self._record_visits(t)
+        self.recorder.record_positions(t, self._last.copy())
         self.now = t
 
     def end(self, end_time: float) -> None:

@@ -110,8 +110,85 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="strategy parameter (repeatable), e.g. --param utility=eq14",
     )
+    add_runtime_arguments(p)
+    p.add_argument("--engine", choices=("auto", "native", "python"), default="auto",
+                   help="graph runtime's event loop: native (C++), python, or auto (native when "
+                        "the strategy has a C++ decision path and every option is supported; "
+                        "same results either way, runtimes/native.py)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--list", action="store_true", help="list strategies and maps, then exit")
+
+
+def add_runtime_arguments(p: argparse.ArgumentParser) -> None:
+    """--runtime, --robot and the fault options (docs/RUNTIMES.md)."""
+    p.add_argument("--runtime", choices=("graph", "physics"), default="graph",
+                   help="graph: robots on graph edges at nominal speed (default); physics: the "
+                        "C++ world with laser, differential drive, collisions and the agents' "
+                        "navigator (as the ROS fleet, without ROS)")
+    p.add_argument("--robot", default="auto",
+                   help="physics runtime: robot preset (burger, waffle_pi, patrolling_sim) or "
+                        "auto (a preset that drives the map's nominal speed)")
+    p.add_argument("--fail", action="append", default=[], metavar="ROBOT@TIME",
+                   help="robot ROBOT (index) dies at TIME [s] (repeatable)")
+    p.add_argument("--fail-random", type=non_negative_int, default=0, metavar="K",
+                   help="K robots die at seeded random times in [duration/10, duration/2]")
+    p.add_argument("--stall", action="append", default=[], metavar="ROBOT@TIME",
+                   help="robot ROBOT stops moving at TIME [s] but keeps talking (repeatable)")
+
+
+def non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got '{text}'") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {value}")
+    return value
+
+
+def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
+    """The run of `args.runtime` (graph or physics) with the fault options of `args`."""
+    from ..runtimes.faults import FaultError, parse_fault
+
+    try:
+        fail = [parse_fault(x, "--fail") for x in getattr(args, "fail", [])]
+        stall = [parse_fault(x, "--stall") for x in getattr(args, "stall", [])]
+    except FaultError as err:
+        raise CliError(str(err)) from None
+    kwargs = dict(config_kwargs, fail=fail, stall=stall,
+                  fail_random=int(getattr(args, "fail_random", 0)))
+    if getattr(args, "runtime", "graph") == "physics":
+        from ..runtimes.physics import PhysicsConfig, PhysicsRun
+
+        return PhysicsRun(PhysicsConfig(**kwargs, robot=args.robot), patrol_map)
+    from ..runtimes.graph import RunConfig
+    from ..runtimes.native import EngineChoiceError, make_run
+
+    try:
+        run, why = make_run(RunConfig(**kwargs), patrol_map, getattr(args, "engine", "auto"))
+    except EngineChoiceError as err:
+        raise CliError(str(err)) from None
+    if not getattr(args, "quiet", False) or "does not support" in why:
+        print(f"tpuaf run: {why}", file=sys.stderr)
+    return run
+
+
+def format_faults(summary: dict) -> str:
+    """Deaths, stalls and recovery after each death, next to the survivors' ideal."""
+    lines = []
+    for f in summary.get("faults") or []:
+        lines.append(f"  {f['kind']} of robot {f['robot']} at {f['time_s']:,.1f} s")
+    for r in summary.get("recovery") or []:
+        def num(key, r=r):
+            v = r.get(key)
+            return "never" if v is None else f"{v:,.1f} s"
+        lines.append(
+            f"  after robot {r['robot']} died at {r['time_s']:,.1f} s: every vertex visited "
+            f"again after {num('recovery_time_s')}; worst idleness {num('worst_idleness_after_s')}"
+            f" (ideal for the {r['survivors']} survivors "
+            f"{num('ideal_worst_idleness_survivors_s')}); intentions honoured "
+            f"{r['intentions_honoured']}/{len(r['intentions'])}")
+    return "\n".join(lines)
 
 
 def format_summary(summary: dict) -> str:
@@ -139,19 +216,20 @@ def format_summary(summary: dict) -> str:
         else:
             text = f"{value:,}"
         lines.append(f"  {label:<{width}}  {text:>12} {unit}")
-    return "\n".join(lines)
+    faults = format_faults(summary)
+    return "\n".join(lines) + ("\n" + faults if faults else "")
 
 
 def run(args: argparse.Namespace) -> int:
     from ..maps import MapError, builtin_map_names, load_map
     from ..policies import REGISTRY, ParameterError
-    from ..runtimes.graph import BatchRun, ConfigError, RunConfig
+    from ..runtimes.graph import ConfigError
 
     if args.list:
         print("strategies:", ", ".join(REGISTRY.names()))
         print("maps:", ", ".join(builtin_map_names()), "(or a path to a map folder)")
         return 0
-    config = RunConfig(
+    config = dict(
         map=args.map,
         strategy=args.strategy,
         robots=args.robots,
@@ -163,7 +241,7 @@ def run(args: argparse.Namespace) -> int:
     )
     try:
         patrol_map = load_map(args.map, allow_occupied_vertices=args.allow_occupied_vertices)
-        engine = BatchRun(config, patrol_map)
+        engine = make_engine(args, config, patrol_map)
     except (MapError, ConfigError, ParameterError) as err:
         raise CliError(str(err)) from None
     for warning in patrol_map.warnings:

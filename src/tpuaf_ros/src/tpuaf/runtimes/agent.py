@@ -1,24 +1,27 @@
 """The agent runtime: one robot's policy and navigator on a live clock (ROS-free).
 
-The `patrol_agent` node feeds it poses (`on_pose`), team messages of the other robots
-(`on_message`) and laser ticks (`tick`, which returns the velocity command). It implements
-`RobotContext` for the policy exactly as the batch runtime does: `decide` on reaching the goal
-vertex and at requested wake-up times, `on_goal_failed` when the navigator gives up. Times are
-seconds of run time (ROS time minus the run epoch).
+The `patrol_agent` node (and the physics runtime, once per robot) feeds it poses (`on_pose`),
+team messages of the other robots (`on_message`) and control ticks with laser points (`tick`,
+which returns the velocity command). The robot protocol is the shared `RobotMachine`
+(runtimes/robot.py): this class is its driver, with the run clock of the ticks, `publish_team`
+as transport and the `Navigator` (route + local controller) as motion. Times are seconds of run
+time (ROS time minus the run epoch).
 
 Events for the monitor (`publish_event(kind, vertex, from_vertex, t)`, vertices as indices):
-START at the first pose, GOAL on every new goal, REACHED, FAILED, HEARTBEAT every
-`heartbeat_period_s`.
+START at the start (the start vertex's first visit), GOAL on every new goal, REACHED (a visit),
+FAILED, HEARTBEAT every `heartbeat_period_s` while alive.
 """
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from ..messages import well_formed
 from ..navigation import (
     ControllerConfig,
     Event,
@@ -26,24 +29,23 @@ from ..navigation import (
     LocalController,
     Navigator,
 )
-from ..policies import Policy, RobotContextBase
-from ..topics import FAILED, GOAL, HEARTBEAT, REACHED, START
-from .graph import DEFAULT_RETRY_S, STAY_S
+from ..policies import Policy
+from ..topics import HEARTBEAT
+from .robot import DEFAULT_RETRY_S, STAY_S, RobotMachine
+
+__all__ = ["DEFAULT_RETRY_S", "STAY_S", "AgentRuntime"]
 
 
-class AgentRuntime(RobotContextBase):
-    """RobotContext of one robot; see the module docstring."""
+class AgentRuntime:
+    """Driver of one robot's `RobotMachine` (see the module docstring). Attributes of the
+    machine (the policy's RobotContext: now, position, current_vertex, goal, visits, ...) are
+    readable here too."""
 
     def __init__(self, patrol_map: Any, policy: Policy, robot: int, n_robots: int, seed: int,
                  publish_team: Callable[[Any], None],
                  publish_event: Callable[[int, int, int, float], None],
                  controller: ControllerConfig | None = None, heartbeat_period_s: float = 1.0,
                  waypoint_tolerance_m: float = 0.6):
-        self.robot = int(robot)
-        self.n_robots = int(n_robots)
-        self.patrol_map = patrol_map
-        self.rng = np.random.default_rng([int(seed), 2, self.robot])  # as in batch
-        self.policy = policy
         self._publish_team = publish_team
         self._publish_event = publish_event
         self.heartbeat_period_s = float(heartbeat_period_s)
@@ -55,150 +57,156 @@ class AgentRuntime(RobotContextBase):
         self._now = 0.0
         self._pose: tuple[float, float, float] | None = None
         self._pose_t: float | None = None
-        self._start_vertex = -1
-        self._start_position = (math.nan, math.nan)
-        self._current = -1
-        self.goal: int | None = None
         self._stay_until: float | None = None
-        self._wake: float | None = None
-        self._redirect: int | None = None  # a new goal asked for while driving
+        self._wakes: list[float] = []  # requested wake-up times [s] (a heap)
+        self._decide_pending = False
         self._next_heartbeat = -math.inf
-        self.started = False
         self.start_at: float | None = 0.0  # [s] run time to begin patrolling; None = not yet known
-        self.travelled_m = 0.0
-        self.travel_time_s = 0.0
-        self.visits = 0
-        self.failures = 0
+        rng = np.random.default_rng([int(seed), 2, int(robot)])  # as in the graph runtime
+        self.machine = RobotMachine(self, robot, n_robots, patrol_map, policy, rng,
+                                    emit=self._event)
 
-    # --- RobotContext ---
+    def __getattr__(self, name: str) -> Any:
+        # Only for names not found on the runtime: the machine's (RobotContext) attributes.
+        if name == "machine":
+            raise AttributeError(name)
+        return getattr(self.machine, name)
+
+    # --- the policy context, for callers that hand this runtime to a policy ---
     @property
     def now(self) -> float:
         return self._now
 
     @property
     def position(self) -> tuple[float, float]:
-        return (self._pose[0], self._pose[1]) if self._pose else self._start_position
+        return self.position_of(self.machine.robot)
 
     def send(self, message: Any) -> None:
-        self._publish_team(message)
+        self.machine.send(message)
 
     def wake_at(self, time: float) -> None:
-        self._wake = max(float(time), self._now)
+        self.machine.wake_at(time)
 
     def change_goal(self, vertex: int) -> None:
         """Redirect while driving: at the next vertex passed, head to `vertex` instead."""
-        self._redirect = self.checked_vertex(vertex)
+        self.machine.change_goal(vertex)
+
+    # --- RobotDriver ---
+    def position_of(self, robot: int) -> tuple[float, float]:
+        return (self._pose[0], self._pose[1]) if self._pose else self.machine.start_position
+
+    def transmit(self, robot: int, message: Any) -> None:
+        self._publish_team(message)
+
+    def schedule_wake(self, robot: int, time: float) -> None:
+        heapq.heappush(self._wakes, float(time))
+
+    def drive(self, robot: int, from_vertex: int, goal: int) -> None:
+        self._stay_until = None
+        route = GraphRoute(self._graph, self._positions, from_vertex, goal,
+                           from_position=self.position, snap_m=self.navigator.waypoint_tolerance)
+        self.navigator.set_route(route, self._now)
+
+    def dwell(self, robot: int, vertex: int, duration_s: float) -> None:
+        self.navigator.cancel()
+        self._stay_until = self._now + duration_s
+
+    def halt(self, robot: int) -> None:
+        self.navigator.cancel()
+        self._stay_until = None
+
+    def at_vertex(self, robot: int, vertex: int) -> bool:
+        x, y = self.position
+        p = self._positions[vertex]
+        return math.hypot(x - p[0], y - p[1]) <= self.goal_tolerance
 
     # --- inputs ---
     def on_pose(self, t: float, x: float, y: float, th: float) -> None:
         """Localisation (map frame) at run time t [s]."""
-        if self._pose is not None and self.goal is not None and self._stay_until is None:
+        m = self.machine
+        if self._pose is not None and m.goal is not None and not m.dwelling:
             dt = t - self._pose_t
             if dt > 0:
-                self.travelled_m += math.hypot(x - self._pose[0], y - self._pose[1])
-                self.travel_time_s += dt
+                m.travelled_m += math.hypot(x - self._pose[0], y - self._pose[1])
+                m.travel_time_s += dt
         self._pose = (float(x), float(y), float(th))
         self._pose_t = float(t)
 
     def on_message(self, message: Any) -> None:
-        """A team message from another robot (the node filters out our own)."""
-        if self.started and getattr(message, "robot", -1) != self.robot:
-            self.policy.on_message(message, self)
+        """A team message from another robot (the node filters out our own). A malformed one
+        (unknown sender or vertex, NaN time: messages.well_formed) is dropped and counted."""
+        m = self.machine
+        if not well_formed(message, m.n_robots, m.patrol_map.num_vertices):
+            self.dropped_messages = getattr(self, "dropped_messages", 0) + 1
+            return
+        if message.robot != m.robot:
+            m.on_message(message)
+
+    def on_teammate_lost(self, robot: int) -> None:
+        """Teammate `robot` went silent (the transport's liveness timeout)."""
+        self.machine.on_teammate_lost(robot)
+
+    def begin(self, t: float) -> bool:
+        """Start patrolling now at run time t [s] if the pose is known: START and the policy's
+        start hook; the first decision comes with the next tick. Returns True if started."""
+        m = self.machine
+        if m.started or self._pose is None:
+            return m.started
+        self._now = max(self._now, float(t))
+        x, y, _ = self._pose
+        m.place(m.patrol_map.nearest_vertex(x, y))
+        m.start()
+        self._decide_pending = True
+        return True
+
+    def die(self) -> None:
+        """Fault injection: the robot is dead from now on (no motion, no messages)."""
+        self.machine.die()
 
     def tick(self, t: float, points: np.ndarray | None) -> tuple[float, float]:
         """One control step at run time t [s] with laser points (k, 2) in the robot frame;
         returns (v [m/s], w [rad/s])."""
         self._now = max(self._now, float(t))
-        if self._pose is None:
+        m = self.machine
+        if self._pose is None or not m.alive:
             return 0.0, 0.0
         if self._now >= self._next_heartbeat:  # also before the start: "ready"
-            self._event(HEARTBEAT, self.goal if self.goal is not None else -1, self._current)
+            self._event(HEARTBEAT, m.goal if m.goal is not None else -1, m.current_vertex)
             self._next_heartbeat = self._now + self.heartbeat_period_s
-        if not self.started:
+        if not m.started:
             if self.start_at is None or self._now < self.start_at:
                 return 0.0, 0.0
-            self._start()
-        if self.goal is None:
-            if self._wake is not None and self._now >= self._wake:
-                self._wake = None
-                self._decide()
-            if self.goal is None:
-                return 0.0, 0.0
+            self.begin(self._now)
+        if self._decide_pending:
+            self._decide_pending = False
+            m.decide()
+        if self._wakes and self._wakes[0] <= self._now:
+            due = 0
+            while self._wakes and self._wakes[0] <= self._now:
+                heapq.heappop(self._wakes)
+                due += 1
+            for _ in range(due):  # wake-ups asked for now wait for the next tick
+                m.on_wake()
         if self._stay_until is not None:
             if self._now < self._stay_until:
                 return 0.0, 0.0
             self._stay_until = None
-            self._arrive(self.goal)
-            if self.goal is None or self._stay_until is not None:
-                return 0.0, 0.0
+            m.on_vertex(m.current_vertex, True)
+        if self.navigator.route is None:
+            return 0.0, 0.0
         cmd, event, vertex = self.navigator.step(self._now, self._pose, points)
         if event == Event.WAYPOINT:
-            self._current = vertex
-            if self._redirect is not None:
-                self._set_goal(self._redirect)
+            m.on_vertex(vertex, False)
         elif event == Event.ARRIVED:
-            self._arrive(vertex)
-            if self.goal is None or self._stay_until is not None:
+            m.on_vertex(vertex, True)
+            if self.navigator.route is None:
                 return 0.0, 0.0
             cmd, _, _ = self.navigator.step(self._now, self._pose, points)
         elif event == Event.FAILED:
-            self.failures += 1
-            self._event(FAILED, vertex, self._current)
-            self.goal = None
-            self._current = self.patrol_map.nearest_vertex(*self.position)
-            self.policy.on_goal_failed(vertex, self)
-            self._decide()
+            m.on_goal_failed(vertex, m.patrol_map.nearest_vertex(*self.position))
             return 0.0, 0.0
         return cmd.v, cmd.w
 
     # --- internals ---
     def _event(self, kind: int, vertex: int, from_vertex: int, t: float | None = None) -> None:
         self._publish_event(kind, int(vertex), int(from_vertex), self._now if t is None else t)
-
-    def _start(self) -> None:
-        x, y, _ = self._pose
-        self._start_vertex = self._current = self.patrol_map.nearest_vertex(x, y)
-        p = self._positions[self._start_vertex]
-        self._start_position = (float(p[0]), float(p[1]))
-        self.started = True
-        self._event(START, self._start_vertex, -1)
-        self.policy.start(self)
-        self._decide()
-
-    def _arrive(self, vertex: int) -> None:
-        self._current = vertex
-        self.goal = None
-        self.visits += 1
-        self._event(REACHED, vertex, vertex)
-        self._decide()
-
-    def _decide(self) -> None:
-        self._wake = None
-        self._redirect = None
-        goal = self.call_decide(self.policy)
-        if goal is None:
-            self.goal = None
-            self.navigator.cancel()
-            if self._wake is None:
-                self._wake = self._now + DEFAULT_RETRY_S
-            return
-        self._set_goal(goal)
-
-    def _set_goal(self, goal: int) -> None:
-        """Drive to `goal` from the current vertex (announced to the monitor by a GOAL event)."""
-        self._redirect = None
-        self.goal = goal
-        here = self._current
-        x, y = self.position
-        p = self._positions[goal]
-        if goal == here and math.hypot(x - p[0], y - p[1]) <= self.goal_tolerance:
-            # Dwell, then visit again (as batch). The GOAL event is stamped just before the
-            # dwell ends, so the monitor counts the visit at the dwell's end.
-            self._stay_until = self._now + STAY_S
-            self.navigator.cancel()
-            self._event(GOAL, goal, here, t=self._stay_until - 0.01)
-            return
-        route = GraphRoute(self._graph, self._positions, here, goal, from_position=(x, y),
-                           snap_m=self.navigator.waypoint_tolerance)
-        self.navigator.set_route(route, self._now)
-        self._event(GOAL, goal, here)

@@ -1,10 +1,12 @@
-"""Batch runtime: an event-driven simulation of the team without ROS (the reference runtime).
+"""Graph runtime: an event-driven simulation of the team without ROS (the reference runtime).
 
 Robots drive shortest paths along graph edges at nominal speed (straight segments between
-vertex positions, each taking edge length / speed) and decide on reaching their goal. Team
-messages go through `TeamBus` (delay, loss). Ground truth (uncertainty, idleness, interference)
-is measured by `tpuaf.metrics.RunRecorder` from the true, piecewise-linear positions. Runs are
-deterministic for a seed.
+vertex positions, each taking edge length / speed). Each robot is a `RobotMachine`
+(runtimes/robot.py, shared with the physics and agent runtimes); this module is its driver:
+event queue clock, `TeamBus` transport (delay, loss) and segment motion. Ground truth
+(uncertainty, idleness, interference) is measured by `tpuaf.metrics.RunRecorder` from the true,
+piecewise-linear positions; visits are the machines' REACHED events. Faults (death, stall) are
+injected at configured times (runtimes/faults.py). Runs are deterministic for a seed.
 """
 
 from __future__ import annotations
@@ -20,13 +22,23 @@ import numpy as np
 from ..errors import TpuafError
 from ..maps import load_map, start_vertices
 from ..metrics import RunRecorder
-from ..navigation import GraphRoute
-from ..policies import REGISTRY, Policy, RobotContextBase
+from ..navigation import ControllerConfig, GraphRoute
+from ..policies import REGISTRY
+from ..topics import REACHED, START
 from .bus import TeamBus
+from .faults import DEATH, Fault, FaultError, resolve_faults
+from .robot import DEFAULT_RETRY_S, STAY_S, RobotMachine
 
-_ARRIVE, _WAKE, _DELIVER = 0, 1, 2
-STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long, then visits it again
-DEFAULT_RETRY_S = 1.0  # [s] a policy that waits without asking for a wake-up is asked again after
+__all__ = ["DEFAULT_RETRY_S", "STAY_S", "BatchRun", "ConfigError", "RunConfig"]
+
+_ARRIVE, _WAKE, _DELIVER, _FAULT, _GIVE_UP, _LOST = 0, 1, 2, 3, 4, 5
+
+
+def navigator_give_up_s(c: ControllerConfig | None = None) -> float:
+    """[s] for the navigator to report a goal failed when the robot cannot move at all: no
+    progress for stuck_timeout_s, then max_retries times (back off, wait, no progress again)."""
+    c = c or ControllerConfig()
+    return (c.max_retries + 1) * c.stuck_timeout_s + c.max_retries * (c.backoff_s + c.retry_wait_s)
 
 
 class ConfigError(TpuafError):
@@ -44,6 +56,14 @@ class RunConfig:
     loss: float = 0.0  # probability that one recipient loses one message
     strategy_params: dict[str, Any] = field(default_factory=dict)
     sample_period_s: float = 1.0  # time series period [s]
+    # Faults (runtimes/faults.py): deaths and stalls as [robot index, time s] pairs (or
+    # "ROBOT@TIME" strings), and a number of robots dying at seeded random times.
+    fail: list = field(default_factory=list)
+    fail_random: int = 0
+    stall: list = field(default_factory=list)
+    # [s] a silent teammate is lost after this (the agent node's heartbeat timeout): robots are
+    # heard while alive, so teammates get on_teammate_lost this long after a death.
+    teammate_timeout_s: float = 10.0
 
     def validate(self) -> None:
         names = REGISTRY.names()
@@ -62,60 +82,27 @@ class RunConfig:
             raise ConfigError(f"loss must be a probability in [0, 1], got {self.loss}")
         if not self.sample_period_s > 0:
             raise ConfigError(f"sample period must be > 0 s, got {self.sample_period_s}")
+        if not (self.teammate_timeout_s > 0 and math.isfinite(self.teammate_timeout_s)):
+            raise ConfigError(f"teammate timeout must be > 0 s, got {self.teammate_timeout_s}")
+        self.faults()
+
+    def faults(self) -> list[Fault]:
+        """The resolved faults in time order (ConfigError when impossible)."""
+        try:
+            return resolve_faults(self.fail, self.fail_random, self.stall, self.robots,
+                                  float(self.duration_s), int(self.seed))
+        except FaultError as err:
+            raise ConfigError(str(err)) from None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
 
-class _Robot(RobotContextBase):
-    """One simulated robot; also the RobotContext its policy sees."""
-
-    def __init__(self, engine: BatchRun, index: int, start_vertex: int, policy: Policy, rng):
-        self.engine = engine
-        self.robot = index
-        self.n_robots = engine.config.robots
-        self.patrol_map = engine.patrol_map
-        self.rng = rng
-        self.policy = policy
-        self._start_vertex = start_vertex
-        self._current = start_vertex
-        position = engine.patrol_map.positions[start_vertex].astype(float)
-        self._start_position = (float(position[0]), float(position[1]))
-        # Current straight segment: from p0 at t0 to p1 at t1.
-        self.p0 = position.copy()
-        self.p1 = position.copy()
-        self.t0 = self.t1 = 0.0
-        self.route: GraphRoute | None = None  # shared with the ROS navigator
-        self.goal: int | None = None
-        self.travelled_m = 0.0
-        self.travel_time_s = 0.0
-        self.wake_pending = False
-        self.redirect: int | None = None  # a new goal asked for while driving
-
-    # --- RobotContext ---
-    @property
-    def now(self) -> float:
-        return self.engine.now
-
-    @property
-    def position(self) -> tuple[float, float]:
-        p = self.engine.position_of(self.robot, self.engine.now)
-        return (float(p[0]), float(p[1]))
-
-    def send(self, message) -> None:
-        self.engine.bus.send(self.robot, message, self.engine.now, self.engine.schedule_delivery)
-
-    def wake_at(self, time: float) -> None:
-        self.engine.push(max(time, self.engine.now), _WAKE, self.robot)
-        self.wake_pending = True
-
-    def change_goal(self, vertex: int) -> None:
-        """Redirect a moving robot: it finishes its current edge, then heads to `vertex`."""
-        self.redirect = self.checked_vertex(vertex)
-
-
 class BatchRun:
-    """One batch run. `run()` returns the summary; the recorder holds visits and time series."""
+    """One graph-runtime run. `run()` returns the summary; the recorder holds visits and time
+    series. It is the `RobotDriver` of every robot's machine (`self.robots`)."""
+
+    runtime = "graph"
 
     def __init__(self, config: RunConfig, patrol_map=None):
         config.validate()
@@ -124,43 +111,66 @@ class BatchRun:
         graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
         self.graph = graph
         self.speed = float(self.patrol_map.settings.nominal_speed)
+        self.goal_tolerance = float(self.patrol_map.settings.goal_tolerance)
         self.now = 0.0
         self._events: list = []
         self._seq = 0
         seed = int(config.seed)
-        self.bus = TeamBus(
-            config.robots, config.delay_s, config.loss, np.random.default_rng([seed, 1])
-        )
+        n = config.robots
+        self.bus = TeamBus(n, config.delay_s, config.loss, np.random.default_rng([seed, 1]))
         cls = REGISTRY.get(config.strategy)
-        starts = start_vertices(self.patrol_map, config.robots)
+        starts = start_vertices(self.patrol_map, n)
+        self.recorder = RunRecorder(self.patrol_map, n, sample_period_s=config.sample_period_s)
         self.robots = [
-            _Robot(
-                self, i, starts[i], cls(config.strategy_params), np.random.default_rng([seed, 2, i])
-            )
-            for i in range(config.robots)
+            RobotMachine(self, i, n, self.patrol_map, cls(config.strategy_params),
+                         np.random.default_rng([seed, 2, i]), self._listener(i), starts[i])
+            for i in range(n)
         ]
-        self.recorder = RunRecorder(
-            self.patrol_map, config.robots, sample_period_s=config.sample_period_s
-        )
+        self.faults = config.faults()
+        if self.faults:
+            for robot in self.robots:
+                robot.on_announce = self._announcer(robot.robot)
         self._last_positions_time = -1.0
-        # Segment table of all robots, for vectorised positions.
-        self._p0 = np.array([r.p0 for r in self.robots])
+        # Motion of every robot: its route, and one straight segment from p0 at t0 to t1 at
+        # `velocity` (a vectorised table for positions). `_pending[i]` is the sequence number
+        # of its one awaited ARRIVE or GIVE_UP event (others are stale).
+        self._routes: list[GraphRoute | None] = [None] * n
+        self._p0 = np.array([self.patrol_map.positions[s] for s in starts], dtype=float)
         self._velocity = np.zeros_like(self._p0)
-        self._t0 = np.zeros(config.robots)
-        self._t1 = np.zeros(config.robots)
+        self._t0 = np.zeros(n)
+        self._t1 = np.zeros(n)
+        self._pending = [-1] * n
+        self.stall_give_up_s = navigator_give_up_s()
+
+    def _listener(self, robot: int):
+        record_visit = self.recorder.record_visit
+
+        def emit(kind: int, vertex: int, _from_vertex: int, t: float) -> None:
+            if kind == REACHED or kind == START:  # START: the start vertex's first visit
+                record_visit(robot, vertex, t)
+
+        return emit
+
+    def _announcer(self, robot: int):
+        record = self.recorder.record_announcement
+        return lambda vertex, t: record(robot, vertex, t)
 
     # --- event queue ---
-    def push(self, time: float, kind: int, payload) -> None:
+    def push(self, time: float, kind: int, payload) -> int:
         self._seq += 1
         heapq.heappush(self._events, (time, kind, self._seq, payload))
+        return self._seq
 
     def schedule_delivery(self, time: float, message, recipients: list[int]) -> None:
         self.push(time, _DELIVER, (message, recipients))
 
-    def position_of(self, robot: int, t: float) -> np.ndarray:
-        """True position of one robot at time t [m], from the same segment table."""
+    def position_of(self, robot: int, t: float | None = None):
+        """True position of one robot at time t [m] (default now), from the segment table."""
+        if t is None:
+            t = self.now
         elapsed = min(max(t - self._t0[robot], 0.0), self._t1[robot] - self._t0[robot])
-        return self._p0[robot] + self._velocity[robot] * elapsed
+        p = self._p0[robot] + self._velocity[robot] * elapsed
+        return (float(p[0]), float(p[1]))
 
     def positions(self, t: float) -> np.ndarray:
         """True positions of all robots at time t [m], vectorised over robots."""
@@ -172,60 +182,108 @@ class BatchRun:
         robots = self.robots
         while ready:
             message, recipients = ready.popleft()
+            delivered = 0
             for r in recipients:
                 robot = robots[r]
-                robot.policy.on_message(message, robot)
-            self.bus.stats.delivered += len(recipients)
+                if robot.alive:
+                    robot.policy.on_message(message, robot)
+                    delivered += 1
+            self.bus.stats.delivered += delivered
 
-    # --- robot logic ---
-    def _decide(self, robot: _Robot) -> None:
-        robot.wake_pending = False
-        goal = robot.call_decide(robot.policy)
-        robot.redirect = None
-        if goal is None:
-            robot.goal = None
-            if not robot.wake_pending:
-                robot.wake_at(self.now + DEFAULT_RETRY_S)
-            return
-        robot.goal = goal
-        here = robot.current_vertex
-        robot.route = GraphRoute(self.graph, self.patrol_map.positions, here, goal)
-        self._start_segment(robot)
+    # --- RobotDriver ---
+    def transmit(self, robot: int, message) -> None:
+        self.bus.send(robot, message, self.now, self.schedule_delivery)
 
-    def _start_segment(self, robot: _Robot) -> None:
-        here, nxt = robot.current_vertex, robot.route.next_waypoint
-        robot.p0 = self.patrol_map.positions[here].astype(float)
-        robot.p1 = self.patrol_map.positions[nxt].astype(float)
-        robot.t0 = self.now
-        if nxt == here:
-            duration = STAY_S
+    def schedule_wake(self, robot: int, time: float) -> None:
+        self.push(time, _WAKE, robot)
+
+    def at_vertex(self, robot: int, vertex: int) -> bool:
+        x, y = self.position_of(robot)
+        p = self.patrol_map.positions[vertex]
+        return math.hypot(x - p[0], y - p[1]) <= self.goal_tolerance
+
+    def halt(self, robot: int) -> None:
+        """No goal: the robot stands where its last segment ended (nothing to do), unless it
+        is stopped mid-segment (death)."""
+
+    def drive(self, robot: int, from_vertex: int, goal: int) -> None:
+        route = GraphRoute(self.graph, self.patrol_map.positions, from_vertex, goal)
+        self._routes[robot] = route
+        if self.robots[robot].stalled:
+            self._give_up_later(robot)
         else:
-            length = self.graph.edge_length(here, nxt)
-            duration = length / self.speed
-            robot.travelled_m += length
-            robot.travel_time_s += duration
-        robot.t1 = self.now + duration
-        i = robot.robot
-        self._p0[i], self._t0[i], self._t1[i] = robot.p0, robot.t0, robot.t1
-        self._velocity[i] = (robot.p1 - robot.p0) / duration  # [m/s] along the straight segment
-        self.push(robot.t1, _ARRIVE, robot.robot)
+            self._start_segment(robot, from_vertex, route.next_waypoint)
 
-    def _arrive(self, robot: _Robot) -> None:
-        vertex = robot.route.advance()
-        robot._current = vertex
-        robot.p0 = robot.p1
-        if robot.redirect is not None and robot.goal is not None:
-            robot.goal, robot.redirect = robot.redirect, None
-            robot.route = GraphRoute(self.graph, self.patrol_map.positions, vertex, robot.goal)
-            if vertex != robot.goal:
-                self._start_segment(robot)
-                return
-        elif not robot.route.done:
-            self._start_segment(robot)  # pass-through vertex: not a visit
+    def dwell(self, robot: int, vertex: int, duration_s: float) -> None:
+        self._routes[robot] = None
+        self._segment(robot, vertex, vertex, duration_s)
+
+    # --- motion ---
+    def _segment(self, i: int, here: int, nxt: int, duration: float) -> None:
+        positions = self.patrol_map.positions
+        p0 = positions[here].astype(float)
+        t1 = self.now + duration
+        self._p0[i], self._t0[i], self._t1[i] = p0, self.now, t1
+        self._velocity[i] = (positions[nxt] - p0) / duration  # [m/s] along the straight segment
+        self._pending[i] = self.push(t1, _ARRIVE, i)
+
+    def _start_segment(self, i: int, here: int, nxt: int) -> None:
+        if nxt == here:
+            self._segment(i, here, nxt, STAY_S)
             return
-        self.recorder.record_visit(robot.robot, vertex, self.now)
-        robot.goal = None
-        self._decide(robot)
+        length = self.graph.edge_length(here, nxt)
+        duration = length / self.speed
+        robot = self.robots[i]
+        robot.travelled_m += length
+        robot.travel_time_s += duration
+        self._segment(i, here, nxt, duration)
+
+    def _arrive(self, i: int) -> None:
+        robot = self.robots[i]
+        route = self._routes[i]
+        if route is None:  # the end of a dwell
+            robot.on_vertex(robot.current_vertex, True)
+            return
+        vertex = route.advance()
+        if robot.on_vertex(vertex, route.done):
+            self._start_segment(i, vertex, route.next_waypoint)  # pass-through vertex
+
+    def _freeze(self, i: int) -> None:
+        """Stop robot i where it is now; its awaited arrival becomes stale."""
+        p = self.positions(self.now)[i]
+        self._p0[i] = p
+        self._velocity[i] = 0.0
+        self._t0[i] = self._t1[i] = self.now
+        self._pending[i] = -1
+
+    def _give_up_later(self, i: int) -> None:
+        self._pending[i] = self.push(self.now + self.stall_give_up_s, _GIVE_UP, i)
+
+    def _fault(self, fault: Fault) -> None:
+        i = fault.robot
+        robot = self.robots[i]
+        if not robot.alive:
+            return
+        if fault.kind == DEATH:
+            self._freeze(i)
+            robot.die()
+            self.bus.alive[i] = False
+            self.recorder.record_robot_death(i, self.now)
+            self.push(self.now + self.config.teammate_timeout_s, _LOST, i)
+            return
+        robot.stall()
+        self.recorder.record_robot_stall(i, self.now)
+        if not robot.dwelling:  # a dwell needs no motion: it ends as planned
+            self._freeze(i)
+            if robot.goal is not None:
+                self._give_up_later(i)
+
+    def _give_up(self, i: int) -> None:
+        robot = self.robots[i]
+        goal = robot.goal
+        self._routes[i] = None
+        if goal is not None:
+            robot.on_goal_failed(goal, self.patrol_map.nearest_vertex(*self.position_of(i)))
 
     def _record_positions(self, t: float) -> None:
         if t > self._last_positions_time:
@@ -237,30 +295,38 @@ class BatchRun:
         """Simulate until duration_s. `progress(now)` is called now and then."""
         end = float(self.config.duration_s)
         self._record_positions(0.0)
+        for fault in self.faults:
+            self.push(fault.time_s, _FAULT, fault)
         for robot in self.robots:
-            robot.policy.start(robot)
-        for robot in self.robots:
-            self.recorder.record_visit(robot.robot, robot.current_vertex, 0.0)
+            robot.start()
         self._deliver_ready()
         for robot in self.robots:
-            self._decide(robot)
+            robot.decide()
             self._deliver_ready()
         next_progress = 0.0
         events = self._events
+        robots = self.robots
+        pending = self._pending
         while events and events[0][0] <= end:
-            time, kind, _, payload = heapq.heappop(events)
+            time, kind, seq, payload = heapq.heappop(events)
             if time > self.now:
                 self._record_positions(time)
                 self.now = time
             if kind == _ARRIVE:
-                self._arrive(self.robots[payload])
+                if pending[payload] == seq:
+                    self._arrive(payload)
             elif kind == _WAKE:
-                robot = self.robots[payload]
-                if robot.goal is None:
-                    self._decide(robot)
-            else:
+                robots[payload].on_wake()
+            elif kind == _DELIVER:
                 message, recipients = payload
                 self.bus.ready.append((message, recipients))
+            elif kind == _FAULT:
+                self._fault(payload)
+            elif kind == _LOST:
+                for robot in robots:
+                    robot.on_teammate_lost(payload)
+            elif pending[payload] == seq:  # _GIVE_UP
+                self._give_up(payload)
             self._deliver_ready()
             if progress is not None and self.now >= next_progress:
                 progress(self.now)
@@ -277,7 +343,7 @@ class BatchRun:
 
         settings = asdict(self.patrol_map.settings)
         return {
-            "runtime": "batch",
+            "runtime": self.runtime,
             "tpuaf_version": __version__,
             **self.config.to_dict(),
             "strategy_params": dict(self.robots[0].policy.params),
@@ -287,10 +353,12 @@ class BatchRun:
             "start_vertices": [
                 int(self.patrol_map.vertex_ids[r.start_vertex]) for r in self.robots
             ],
+            "faults": [f.to_dict() for f in self.faults],
             "motion": "straight segments between vertices, edge length / nominal speed each",
         }
 
     def summary(self) -> dict:
         summary = self.recorder.summary(self.now)
         summary["messages"] = asdict(self.bus.stats)
+        summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
         return summary

@@ -1,0 +1,304 @@
+"""Physics runtime: the team in the C++ world (laser, differential drive, collisions) without ROS.
+
+The reference the ROS fleet is measured against (`tpuaf run --runtime physics`). Per robot it
+runs exactly what the ROS agent node runs, `AgentRuntime` (the shared `RobotMachine` with the
+`Navigator`: graph route + reactive local controller on the laser), on the world the fleet's
+simulator steps (`tpuaf_core.World`, built from the same world description as `tpuaf fleet`:
+the map's occupancy image or generated corridors, a robot preset, the LDS-01 laser). Team
+messages go through `TeamBus` (delay, loss) as in the graph runtime; ground truth goes to the
+same `RunRecorder`; visits are the agents' REACHED events.
+
+Clock: a fixed control period (default 0.1 s, the fleet's 10 Hz odometry), each one
+`control_period_s / physics_step_s` world steps (default 0.05 s); scans at the laser's rate
+(LDS-01: 5 Hz, every other control tick, as in the fleet). At each control tick k (t = k T):
+faults due, messages due, ground-truth positions to the recorder, then every live robot in
+index order gets its pose and its latest scan and answers a command (messages sent on the way
+are delivered before the next robot's turn when the bus has no delay), then the world steps.
+Deterministic per seed: world noise [seed], bus [seed, 1], policies [seed, 2, i].
+
+Liveness: the fleet's agents hear each other's heartbeats; here a robot is heard while alive,
+so a dead robot's teammates are told it is lost (`on_teammate_lost`) `teammate_timeout_s`
+after its death, as heartbeats would. A stalled robot keeps its heartbeats.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..maps import load_map, start_vertices
+from ..metrics import RunRecorder
+from ..navigation import ControllerConfig
+from ..policies import REGISTRY
+from ..topics import REACHED, START
+from .agent import AgentRuntime
+from .bus import TeamBus
+from .faults import DEATH, Fault
+from .graph import ConfigError, RunConfig
+
+# Physics defaults (docs/RUNTIMES.md).
+PHYSICS_STEP_S = 0.05  # [s] world step
+CONTROL_PERIOD_S = 0.1  # [s] agents' control period (the fleet's 10 Hz odometry)
+
+
+@dataclass
+class PhysicsConfig(RunConfig):
+    robot: str = "auto"  # robot preset (tpuaf_stage.presets) or auto (as `tpuaf fleet --robot`)
+    physics_step_s: float = PHYSICS_STEP_S
+    control_period_s: float = CONTROL_PERIOD_S
+
+    def validate(self) -> None:
+        super().validate()
+        for name in ("physics_step_s", "control_period_s"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"{name} must be a finite number > 0 s, got {value!r}")
+        ratio = self.control_period_s / self.physics_step_s
+        if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
+            raise ConfigError(f"control_period_s ({self.control_period_s:g}) must be a whole "
+                              f"multiple of physics_step_s ({self.physics_step_s:g})")
+
+
+def controller_config(settings, robot: int, speed_mps: float, radius_m: float) -> ControllerConfig:
+    """The local controller of robot `robot`, as the agent node configures it by default."""
+    return ControllerConfig(max_linear_speed=speed_mps, robot_radius=radius_m,
+                            retry_wait_s=0.5 + 0.5 * (robot % 4))  # staggered, as the node
+
+
+class PhysicsRun:
+    """One physics-runtime run; the interface of BatchRun (config, patrol_map, now, recorder,
+    run(progress), summary(), effective_config())."""
+
+    runtime = "physics"
+
+    def __init__(self, config: PhysicsConfig | RunConfig, patrol_map=None):
+        from tpuaf_stage.config import WorldConfig, parse_laser, parse_robot
+
+        from ..cli.fleet import choose_robot
+
+        if not isinstance(config, PhysicsConfig):
+            config = PhysicsConfig(**asdict(config))
+        config.validate()
+        self.config = config
+        self.patrol_map = pm = patrol_map if patrol_map is not None else load_map(config.map)
+        n = config.robots
+        seed = int(config.seed)
+        s = pm.settings
+        self.robot_choice = choose_robot(config.robot, s)
+        preset, robot_model = parse_robot(None, {"preset": self.robot_choice.preset,
+                                                 "max_linear_speed": self.robot_choice.speed_mps})
+        laser_preset, laser = parse_laser(None, {"preset": "lds01"})
+        self.starts = starts = start_vertices(pm, n)
+        grid = pm.occupancy_grid()
+        self.world_config = WorldConfig(
+            source=None, occupied=np.asarray(grid.occupied, dtype=bool),
+            resolution=float(grid.resolution), origin=(float(grid.origin[0]),
+                                                       float(grid.origin[1])),
+            robot=robot_model, laser=laser,
+            poses=[(float(pm.positions[v][0]), float(pm.positions[v][1]), 0.0) for v in starts],
+            seed=seed, map_description=f"patrol map {pm.name}", robot_preset=preset,
+            laser_preset=laser_preset)
+        self.world = self.world_config.build()
+        self.now = 0.0
+        self.bus = TeamBus(n, config.delay_s, config.loss, np.random.default_rng([seed, 1]))
+        self._deliveries: list = []  # (time, seq, message, recipients)
+        self._seq = 0
+        self.recorder = RunRecorder(pm, n, sample_period_s=config.sample_period_s)
+        cls = REGISTRY.get(config.strategy)
+        self.agents = [
+            AgentRuntime(pm, cls(config.strategy_params), i, n, seed,
+                         self._publisher(i), self._listener(i),
+                         controller_config(s, i, self.robot_choice.speed_mps,
+                                           robot_model.radius))
+            for i in range(n)
+        ]
+        self.faults = config.faults()
+        if self.faults:
+            for a in self.agents:
+                a.machine.on_announce = self._announcer(a.machine.robot)
+        self.steps_per_control = round(config.control_period_s / config.physics_step_s)
+        # Scans at the laser rate, on control ticks (LDS-01 5 Hz: every other 10 Hz tick).
+        self.scan_every = max(1, round(1.0 / (laser.rate * config.control_period_s)))
+        self._trig = None
+        ctl = self.agents[0].navigator.controller
+        c = ctl.config
+        self._relevant_m2 = (ctl.cap + c.robot_radius + max(c.plan_margin, c.safety_margin)) ** 2
+        self.collisions = 0
+
+    # --- transport and events ---
+    def _publisher(self, robot: int) -> Callable:
+        def publish(message) -> None:
+            self.bus.send(robot, message, self.now, self._schedule)
+
+        return publish
+
+    def _schedule(self, time: float, message, recipients: list[int]) -> None:
+        self._seq += 1
+        heapq.heappush(self._deliveries, (time, self._seq, message, recipients))
+
+    def _listener(self, robot: int) -> Callable:
+        record_visit = self.recorder.record_visit
+
+        def emit(kind: int, vertex: int, _from_vertex: int, t: float) -> None:
+            if kind == REACHED or kind == START:
+                record_visit(robot, vertex, t)
+
+        return emit
+
+    def _announcer(self, robot: int) -> Callable:
+        record = self.recorder.record_announcement
+        return lambda vertex, t: record(robot, vertex, t)
+
+    def _deliver_ready(self) -> None:
+        ready = self.bus.ready
+        agents = self.agents
+        while ready:
+            message, recipients = ready.popleft()
+            for r in recipients:
+                if agents[r].machine.alive:
+                    agents[r].on_message(message)
+                    self.bus.stats.delivered += 1
+
+    def _deliver_due(self, t: float) -> None:
+        q = self._deliveries
+        while q and q[0][0] <= t + 1e-9:
+            _, _, message, recipients = heapq.heappop(q)
+            self.bus.ready.append((message, recipients))
+        self._deliver_ready()
+
+    # --- laser ---
+    def _points(self, ranges: np.ndarray) -> list[np.ndarray]:
+        """Laser points (k, 2) in the robot (base) frame per robot, valid returns only."""
+        lz = self.world_config.laser
+        if self._trig is None:
+            a = lz.first_angle + lz.angle_increment * np.arange(ranges.shape[1]) + lz.yaw
+            self._trig = (np.cos(a), np.sin(a))
+        c, s = self._trig
+        ok = (ranges >= lz.range_min) & (ranges <= lz.range_max) & (ranges > 0)  # NaN: False
+        r = np.where(ok, ranges, 0.0)
+        xs = r * c + lz.x
+        ys = r * s + lz.y
+        # Only the points the controller would keep (LocalController.relevant): the same
+        # commands, less work.
+        ok &= xs * xs + ys * ys < self._relevant_m2
+        return [np.column_stack((xs[i][ok[i]], ys[i][ok[i]])) for i in range(len(ranges))]
+
+    # --- faults ---
+    def _fault(self, fault: Fault) -> None:
+        i = fault.robot
+        agent = self.agents[i]
+        if not agent.machine.alive:
+            return
+        if fault.kind == DEATH:
+            agent.die()
+            self.bus.alive[i] = False
+            self.recorder.record_robot_death(i, self.now)
+            self._lost.append((self.now + self.config.teammate_timeout_s, i))
+        else:
+            agent.machine.stall()
+            self.recorder.record_robot_stall(i, self.now)
+
+    # --- main loop ---
+    def run(self, progress: Callable[[float], None] | None = None) -> dict:
+        """Simulate until duration_s. `progress(now)` is called now and then."""
+        cfg = self.config
+        end = float(cfg.duration_s)
+        period = float(cfg.control_period_s)
+        step = float(cfg.physics_step_s)
+        agents = self.agents
+        world = self.world
+        n = len(agents)
+        faults = list(self.faults)
+        self._lost: list[tuple[float, int]] = []
+        commands = np.zeros((n, 2))
+        points: list = [None] * n
+        stopped = np.zeros(n, dtype=bool)  # dead or stalled: the world gets zero commands
+        poses = np.asarray(world.poses(), dtype=float)
+        self.recorder.record_positions(0.0, poses[:, :2])
+        for i, a in enumerate(agents):
+            a.on_pose(0.0, *poses[i])
+        for a in agents:
+            a.begin(0.0)
+            self._deliver_ready()
+        n_ticks = int(math.floor(end / period + 1e-9))
+        next_progress = 0.0
+        for k in range(n_ticks + 1):
+            t = k * period
+            self.now = t
+            while faults and faults[0].time_s <= t + 1e-9:
+                fault = faults.pop(0)
+                self._fault(fault)
+                stopped[fault.robot] = True
+            while self._lost and self._lost[0][0] <= t + 1e-9:
+                _, dead = self._lost.pop(0)
+                for a in agents:
+                    a.on_teammate_lost(dead)
+            self._deliver_due(t)
+            if k:
+                poses = np.asarray(world.poses(), dtype=float)
+                self.recorder.record_positions(t, poses[:, :2])
+            if k % self.scan_every == 0:
+                points = self._points(np.asarray(world.scan_all(), dtype=float))
+            if k == n_ticks:
+                break
+            for i, a in enumerate(agents):
+                if not a.machine.alive:
+                    commands[i] = 0.0
+                    continue
+                a.on_pose(t, poses[i, 0], poses[i, 1], poses[i, 2])
+                v, w = a.tick(t, points[i])
+                commands[i, 0], commands[i, 1] = v, w
+                if self.bus.ready:
+                    self._deliver_ready()
+            if stopped.any():
+                commands[stopped] = 0.0
+            world.set_commands(commands)
+            for _ in range(self.steps_per_control):
+                world.step(step)
+            if progress is not None and t >= next_progress:
+                progress(t)
+                next_progress = t + end / 200.0
+        if n_ticks * period < end:
+            self.now = end
+            poses = np.asarray(world.poses(), dtype=float)
+            self.recorder.record_positions(end, poses[:, :2])
+        self.now = end
+        self.collisions = int(sum(world.contact_counts()))
+        if progress is not None:
+            progress(end)
+        return self.summary()
+
+    def effective_config(self) -> dict:
+        """Everything that determines this run, with defaults resolved (written to config.yaml)."""
+        from .. import __version__
+
+        rc = self.robot_choice
+        return {
+            "runtime": self.runtime,
+            "tpuaf_version": __version__,
+            **self.config.to_dict(),
+            "strategy_params": dict(self.agents[0].policy.params),
+            "map_name": self.patrol_map.name,
+            "map_source": str(self.patrol_map.source) if self.patrol_map.source else "built-in",
+            "map_settings": asdict(self.patrol_map.settings),
+            "start_vertices": [int(self.patrol_map.vertex_ids[v]) for v in self.starts],
+            "faults": [f.to_dict() for f in self.faults],
+            "world": self.world_config.summary(),
+            "robot_model": {"preset": rc.preset, "radius_m": rc.radius_m,
+                            "max_linear_speed_mps": rc.speed_mps, "note": rc.note},
+            "controller": asdict(self.agents[0].navigator.controller.config),
+            "motion": (f"C++ world, {self.config.physics_step_s:g} s steps; agents' navigator "
+                       f"at {1 / self.config.control_period_s:g} Hz on ground-truth poses"),
+        }
+
+    def summary(self) -> dict:
+        summary = self.recorder.summary(self.now)
+        summary["messages"] = asdict(self.bus.stats)
+        summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
+        summary["collisions"] = int(sum(self.world.contact_counts()))
+        summary["goal_failures"] = int(sum(a.machine.failures for a in self.agents))
+        return summary

@@ -1,0 +1,243 @@
+"""One robot state machine behind every runtime (issue 9 item 1).
+
+1. Golden outputs: the graph runtime's summary and visit log for fixed configs, recorded before
+   the robot protocol moved into `tpuaf.runtimes.robot`, must stay identical to the last digit.
+   Regenerate (only after checking that a difference is intended, e.g. a strategy change):
+       .venv/bin/python tests/test_runtime_equivalence.py --regenerate
+   The goldens carry a fingerprint of the strategy sources; when a strategy file changed since
+   they were written, a mismatch is reported as a skip naming the changed files (the guard then
+   protects nothing until the goldens are regenerated), never silently.
+2. The graph runtime, the physics runtime and the agent runtime (what the ROS agent node runs)
+   drive the same `RobotMachine`: one scripted scenario gives the same decision sequence in each.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+GOLDEN = REPO / "tests" / "data" / "runtime_golden"
+CUMBERLAND = REPO.parent / "shared" / "maps" / "patrolling_sim" / "cumberland"
+PKG = REPO / "src" / "tpuaf_ros" / "src" / "tpuaf"
+FINGERPRINTED = sorted(str(p.relative_to(PKG)) for p in (PKG / "policies").glob("*.py")) + [
+    "tours.py", "messages.py"]
+
+MAPS = {"grid": "grid", "cumberland": str(CUMBERLAND)}
+CASES = [(m, n, s) for m in ("grid", "cumberland") for n in (1, 4, 12)
+         for s in ("tpuaf", "dtag", "dtap", "gbs")]
+DURATION_S, DELAY_S, LOSS, SEED = 600.0, 2.0, 0.2, 3
+
+
+def _name(map_name: str, n: int, strategy: str) -> str:
+    return f"{map_name}_n{n}_{strategy}"
+
+
+def _fingerprints() -> dict[str, str]:
+    return {f: hashlib.sha256((PKG / f).read_bytes()).hexdigest()[:16] for f in FINGERPRINTED}
+
+
+def _run(map_name: str, n: int, strategy: str) -> tuple[dict, str]:
+    from tpuaf.runtimes.graph import BatchRun, RunConfig
+
+    engine = BatchRun(RunConfig(map=MAPS[map_name], strategy=strategy, robots=n,
+                                duration_s=DURATION_S, seed=SEED, delay_s=DELAY_S, loss=LOSS))
+    summary = engine.run()
+    rec = engine.recorder
+    lines = ["time_s,robot,vertex_index,interval_idleness_s"]
+    for (t, r, v), idl in zip(rec.visits, rec.visit_idleness, strict=True):
+        lines.append(f"{t!r},{r},{v},{idl!r}")
+    return json.loads(json.dumps(summary)), "\n".join(lines) + "\n"
+
+
+def regenerate() -> None:
+    GOLDEN.mkdir(parents=True, exist_ok=True)
+    for case in CASES:
+        summary, visits = _run(*case)
+        name = _name(*case)
+        (GOLDEN / f"{name}.summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
+        (GOLDEN / f"{name}.visits.csv").write_text(visits)
+        print(name, summary["visits"], summary["idleness_avg_s"])
+    (GOLDEN / "fingerprints.json").write_text(json.dumps(_fingerprints(), indent=1))
+
+
+@pytest.mark.parametrize("case", CASES, ids=[_name(*c) for c in CASES])
+def test_graph_runtime_matches_its_golden_output(case):
+    if case[0] == "cumberland" and not CUMBERLAND.is_dir():
+        pytest.skip(f"reference map not found at {CUMBERLAND}")
+    name = _name(*case)
+    want_summary = json.loads((GOLDEN / f"{name}.summary.json").read_text())
+    want_visits = (GOLDEN / f"{name}.visits.csv").read_text()
+    summary, visits = _run(*case)
+    if summary == want_summary and visits == want_visits:
+        return
+    recorded = json.loads((GOLDEN / "fingerprints.json").read_text())
+    changed = sorted(f for f, h in _fingerprints().items() if recorded.get(f) != h)
+    if changed:
+        pytest.skip(f"goldens predate changes to {', '.join(changed)}: regenerate them")
+    assert visits == want_visits
+    assert summary == want_summary
+
+
+# ---------------------------------------------------------------------------------------------
+# The same machine in every runtime: one scripted scenario
+
+
+def scripted_policy_class():
+    """A strategy that follows a script of goals per robot (None = wait 2 s), redirects robot 0
+    when robot 1 reports its first visit, and logs every decision it is asked for."""
+    from tpuaf.messages import Visit
+    from tpuaf.policies import Policy
+
+    class Scripted(Policy):
+        name = "scripted_test"
+        SCRIPT = {0: [12, None, 12, 18], 1: [23, 23, 18, None, 24]}
+        REDIRECT_0 = 20  # robot 0's goal 12 becomes 20 on robot 1's first visit (of 23)
+
+        def __init__(self, params=None):
+            super().__init__(params)
+            self.log: list[tuple] = []
+            self.k = 0
+            self.redirected = False
+
+        def decide(self, ctx):
+            script = self.SCRIPT[ctx.robot]
+            goal = script[self.k] if self.k < len(script) else None
+            self.log.append(("decide", ctx.current_vertex, goal))
+            self.k += 1
+            if goal is None:
+                ctx.wake_at(ctx.now + 2.0)
+            ctx.send(Visit(ctx.robot, ctx.current_vertex, ctx.now, -1 if goal is None else goal))
+            return goal
+
+        def on_message(self, message, ctx):
+            if ctx.robot == 0 and message.robot == 1 and message.vertex == 23 and self.k == 1 \
+                    and not self.redirected:
+                self.redirected = True
+                self.log.append(("redirect", self.REDIRECT_0))
+                ctx.change_goal(self.REDIRECT_0)
+
+    return Scripted
+
+
+# Grid (5 x 5, 5.7 m edges): robot 0 starts at vertex 0 (a corner), robot 1 at 24 (the opposite
+# one). Robot 0's goal 12 (the centre, 4 edges away) is redirected to 20 when robot 1 reports
+# its visit of 23 (one edge away); at 20 it waits 2 s, then 12, then 18. Robot 1 visits 23,
+# dwells there and visits it again, then 18, waits, then 24.
+EXPECTED_REACHED = {0: [20, 12, 18], 1: [23, 23, 18, 24]}
+
+
+def _check_scripted(policies, reached):
+    for r, want in EXPECTED_REACHED.items():
+        assert reached[r][: len(want)] == want, f"robot {r} reached {reached[r]}"
+    log0 = policies[0].log
+    assert log0[:2] == [("decide", 0, 12), ("redirect", 20)]
+    assert log0[2:5] == [("decide", 20, None), ("decide", 20, 12), ("decide", 12, 18)]
+    log1 = policies[1].log
+    assert log1[:5] == [("decide", 24, 23), ("decide", 23, 23), ("decide", 23, 18),
+                        ("decide", 18, None), ("decide", 18, 24)]
+    return [p.log for p in policies]
+
+
+def _start_vertices_grid():
+    from tpuaf.maps import load_map, start_vertices
+
+    grid = load_map("grid")
+    return grid, start_vertices(grid, 2)
+
+
+def _graph_logs(scripted):
+    from tpuaf.runtimes.graph import BatchRun, RunConfig
+    from tpuaf.runtimes.robot import RobotMachine
+
+    graph = BatchRun(RunConfig(map="grid", strategy=scripted.name, robots=2, duration_s=200))
+    graph.run()
+    assert all(isinstance(r, RobotMachine) for r in graph.robots)
+    reached = {r: [v for _, rr, v in graph.recorder.visits if rr == r][1:] for r in (0, 1)}
+    return _check_scripted([r.policy for r in graph.robots], reached)
+
+
+def _agent_logs(scripted):
+    """The agent runtime as the ROS agent node drives it (on_pose / on_message / tick), here on
+    an ideal unicycle with no laser (the node's transport replaced by lists)."""
+    from tpuaf.runtimes.agent import AgentRuntime
+    from tpuaf.runtimes.robot import RobotMachine
+    from tpuaf.topics import REACHED
+
+    grid, starts = _start_vertices_grid()
+    outbox: list = []
+    reached = {0: [], 1: []}
+    agents = []
+    for i in range(2):
+        def event(kind, vertex, _from, _t, i=i):
+            if kind == REACHED:
+                reached[i].append(vertex)
+        agents.append(AgentRuntime(grid, scripted(), i, 2, 0, outbox.append, event))
+    poses = [[*map(float, grid.positions[s]), 0.0] for s in starts]
+    dt = 0.1
+    for k in range(2000):
+        t = k * dt
+        for i, a in enumerate(agents):
+            a.on_pose(t, *poses[i])
+            v, w = a.tick(t, None)
+            x, y, th = poses[i]
+            poses[i] = [x + v * math.cos(th) * dt, y + v * math.sin(th) * dt, th + w * dt]
+            while outbox:
+                msg = outbox.pop(0)
+                for b in agents:
+                    if b.robot != msg.robot:
+                        b.on_message(msg)
+    assert all(isinstance(a.machine, RobotMachine) for a in agents)
+    return _check_scripted([a.policy for a in agents], reached)
+
+
+def _physics_logs(scripted):
+    from tpuaf.runtimes.physics import PhysicsConfig, PhysicsRun
+    from tpuaf.runtimes.robot import RobotMachine
+
+    physics = PhysicsRun(PhysicsConfig(map="grid", strategy=scripted.name, robots=2,
+                                       duration_s=200))
+    physics.run()
+    assert all(isinstance(a.machine, RobotMachine) for a in physics.agents)
+    reached = {r: [v for _, rr, v in physics.recorder.visits if rr == r][1:] for r in (0, 1)}
+    return _check_scripted([a.policy for a in physics.agents], reached)
+
+
+@pytest.fixture()
+def scripted(monkeypatch):
+    from tpuaf.policies import REGISTRY
+
+    cls = scripted_policy_class()
+    monkeypatch.setitem(REGISTRY._classes, cls.name, cls)
+    grid, starts = _start_vertices_grid()
+    assert list(starts) == [0, 24]
+    return cls
+
+
+def test_graph_and_agent_runtimes_run_the_same_machine(scripted):
+    logs_graph = _graph_logs(scripted)
+    logs_agent = _agent_logs(scripted)
+    for r in (0, 1):
+        assert len(logs_graph[r]) >= 5
+        assert logs_graph[r][:5] == logs_agent[r][:5]
+
+
+def test_positions_array_is_sane_for_golden_maps():
+    """The golden maps load (guards the cumberland path the goldens depend on)."""
+    from tpuaf.maps import load_map
+
+    grid = load_map("grid")
+    assert np.asarray(grid.positions).shape == (25, 2)
+
+
+if __name__ == "__main__":
+    if "--regenerate" in sys.argv:
+        regenerate()
+    else:
+        print(__doc__)
