@@ -153,5 +153,38 @@ def test_killing_one_agent_leaves_the_others_patrolling(tmp_path):
     assert late == {0, 2, 3}, late  # the others kept patrolling, robot 1 no more
 
 
+def test_injected_faults_death_stall_and_a_lossy_delayed_relay(tmp_path):
+    """--fail kills robot 1's agent by PID, --stall stops robot 2 in the simulator, and the team
+    messages pass a relay with 1 s delay and 50 % loss; the lock-step run still finishes."""
+    out = tmp_path / "faults"
+    proc = run_fleet(out, duration=150.0, extra=("--fail", "1@40", "--stall", "2@30",
+                                                 "--delay", "1", "--loss", "0.5"))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["complete"] is True and summary["stepping"] == "lock-step"
+    assert summary["deaths"] == 1 and summary["dead_robots"] == [1]
+    [killed] = summary["fleet_deaths_injected"]
+    assert killed["robot"] == 1 and killed["pid"] > 0 and killed["killed_at_s"] >= 40
+    assert summary["unresponsive_events"] == 0  # the killed agent is a death, not a slow agent
+    events = summary["simulator_events"]
+    assert [e["robot"] for e in events if e["event"] == "stall"] == [2]
+    assert 1 in [e["robot"] for e in events if e["event"] in ("gone", "unresponsive")]
+    import csv
+
+    with open(out / "visits.csv") as f:
+        visits = [(float(r["time_s"]), int(r["robot"])) for r in csv.DictReader(f)]
+    end = max(t for t, _ in visits)
+    late = {r for t, r in visits if t > end - 60}
+    assert late == {0, 3}, late  # robot 1 dead, robot 2 stalled; the others patrol on
+    logs = "".join(p.read_text(errors="replace")
+                   for p in (out / "ros_home" / "log").rglob("team_relay*.log"))
+    import re
+
+    sent, delivered, lost = (int(x) for x in
+                             re.findall(r"sent (\d+), delivered (\d+), lost (\d+)", logs)[-1])
+    assert sent > 20 and delivered + lost > 0
+    assert lost / (delivered + lost) == pytest.approx(0.5, abs=0.15)
+
+
 if __name__ == "__main__":
     sys.exit(pytest.main([__file__, "-v", "-s"]))

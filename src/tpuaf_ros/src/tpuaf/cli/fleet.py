@@ -477,8 +477,13 @@ def run(args: argparse.Namespace) -> int:
     if sim_summary.is_file():
         with contextlib.suppress(ValueError):
             sim = json.loads(sim_summary.read_text())
-    summary["unresponsive_events"] = int(sim.get("unresponsive_events", 0))
-    summary["unresponsive_per_robot"] = sim.get("unresponsive_per_robot", [])
+    # A killed agent (--fail) goes silent: the simulator reports it unresponsive (roscpp keeps
+    # retrying its publisher link), but that is the injected death, not a slow agent.
+    killed = {d["robot"] for d in deaths_done}
+    per_robot = [0 if i in killed else int(c)
+                 for i, c in enumerate(sim.get("unresponsive_per_robot", []))]
+    summary["unresponsive_events"] = sum(per_robot)
+    summary["unresponsive_per_robot"] = per_robot
     summary["simulator_events"] = sim.get("events", [])
     summary.setdefault("faults", config["faults"])
     summary["fleet_deaths_injected"] = deaths_done
