@@ -6,6 +6,7 @@ core; the ROS adapters convert to and from the map's vertex ids.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 
@@ -62,3 +63,37 @@ class TaskBid:
 
 
 TeamMessage = Visit | Intention | IdlenessEstimate | TaskRequest | TaskBid
+
+
+TEAM_MESSAGES = (Visit, Intention, IdlenessEstimate, TaskRequest, TaskBid)
+
+
+def well_formed(message: object, n_robots: int, n_vertices: int) -> bool:
+    """True for a team message a policy can use: a known type, a sender 0..n_robots-1, vertices
+    0..n_vertices-1 (next_vertex may be -1: 'not decided'), finite times and
+    bids, an estimate per vertex. Transports drop the others (a garbled or foreign message)."""
+    if not isinstance(message, TEAM_MESSAGES):
+        return False
+
+    def index(value: object, lo: int, hi: int) -> bool:
+        return isinstance(value, int) and not isinstance(value, bool) and lo <= value < hi
+
+    def finite(value: object) -> bool:
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and \
+            math.isfinite(value)
+
+    if not index(message.robot, 0, n_robots):
+        return False
+    for name in ("vertex", "next_vertex", "from_vertex"):
+        if hasattr(message, name) and not index(getattr(message, name),
+                                                -1 if name == "next_vertex" else 0, n_vertices):
+            return False
+    for name in ("time", "expected_arrival", "travel_time", "bid"):
+        if hasattr(message, name) and not finite(getattr(message, name)):
+            return False
+    if isinstance(message, IdlenessEstimate):
+        estimate = message.estimate
+        if not isinstance(estimate, tuple) or len(estimate) != n_vertices or \
+                not all(finite(x) for x in estimate):
+            return False
+    return True
