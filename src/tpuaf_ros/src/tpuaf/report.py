@@ -510,7 +510,8 @@ def _falling(data: Data, ns_all: list[int]) -> tuple[int, list[str]]:
                     continue
                 checked += 1
                 for k in range(len(ns) - 1):
-                    if not means[k + 1] < means[k]:
+                    # already zero (e.g. X of a fully covered map) cannot fall any further
+                    if not (means[k + 1] < means[k] or means[k + 1] == means[k] == 0):
                         broken.append(f"{m} {label(s)} {name} {fmt(means[k])} (N={ns[k]}) → "
                                       f"{fmt(means[k + 1])} (N={ns[k + 1]})")
     return checked, broken
