@@ -110,7 +110,11 @@ def test_rehearsal_keeps_visiting_and_the_monitor_counts_the_reports(rehearsal):
     assert summary["uncertainty_mean"] is not None  # X from tf
     end = summary["start_time_s"] + summary["duration_s"]
     in_run = per_robot(reports["visits"], t1=end)
-    assert summary["visits"] == sum(in_run.values()), (summary["visits"], in_run)
+    with open(results / "visits.csv") as f:
+        counted = sorted((int(row["robot"]), float(row["time_s"])) for row in csv.DictReader(f))
+    assert summary["visits"] == sum(in_run.values()), (
+        summary["visits"], in_run, "start", summary["start_time_s"], "end", end, "monitor",
+        counted, "reports", sorted(map(tuple, reports["events"])), "announced", reports["start"])
 
 
 def test_analyze_of_the_plain_bag_counts_the_agents_reports(rehearsal):
