@@ -298,7 +298,8 @@ class AgentNode:
             return
         now = self.ros_now() - self.epoch
         with self.lock:
-            self.inbox.observe(r, msg.stamp.to_sec() - self.epoch, now)
+            if msg.event == topics.HEARTBEAT:  # stamped "now" (a GOAL may be post-dated)
+                self.inbox.observe(r, msg.stamp.to_sec() - self.epoch, now)
             if self.liveness.heard(r, now):
                 rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
 
