@@ -50,7 +50,8 @@ class PlainBag:
     speed: float = 2.0  # [m/s]
     rate: float = 10.0  # [Hz]
     poses: str = "tf"  # tf | odom | amcl | none
-    events: bool = False  # /fleet/agent_events too (REACHED + 1 Hz heartbeats)
+    events: bool = False  # /fleet/agent_events too (START/REACHED + 1 Hz heartbeats)
+    visit_events: bool = True  # with events: START/REACHED among them (else heartbeats only)
     t0: float = T0
     prefix: str = "tb3_"
     silent_after: dict = field(default_factory=dict)  # robot -> [s] it stops talking and moving
@@ -106,7 +107,7 @@ class PlainBag:
                     items.append((t + 0.01, "/team/intentions", T["tpuaf_ros/msg/Intention"](
                         stamp=stamp(t + 0.01), robot=name, robot_index=r, from_vertex=ids[v],
                         vertex=ids[nxt], expected_arrival=t + 5.0, travel_time=5.0)))
-                if self.events:  # START (0) for the start vertex, then REACHED (2)
+                if self.events and self.visit_events:  # START (0), then REACHED (2)
                     items.append((t, "/fleet/agent_events", T["tpuaf_ros/msg/AgentEvent"](
                         stamp=stamp(t), robot=name, robot_index=r, event=0 if k == 0 else 2,
                         vertex=ids[v], from_vertex=-1)))
@@ -188,9 +189,10 @@ def plain_bag(tmp_path, name="run.bag", **kw) -> PlainBag:
 
 
 @pytest.mark.parametrize("poses, events", [("tf", False), ("odom", False), ("amcl", False),
-                                           ("none", False), ("tf", True), ("none", True)])
+                                           ("none", False), ("tf", True), ("none", True), ("odom", "heartbeats")])
 def test_visits_equal_the_reports_whatever_the_pose_source(tmp_path, poses, events):
-    spec = plain_bag(tmp_path, poses=poses, events=events)
+    spec = plain_bag(tmp_path, poses=poses, events=bool(events),
+                     visit_events=events != "heartbeats")
     result = analyze(tmp_path / "run.bag", GRID)
     s = result.summary
     reported = len(spec.visits)
@@ -208,9 +210,9 @@ def test_visits_equal_the_reports_whatever_the_pose_source(tmp_path, poses, even
         assert result.pose_source == poses
         assert 0 < s["uncertainty_mean"] < 1
         assert any(poses.replace("amcl", "amcl_pose") in n for n in result.notes)
-    assert result.liveness == events
-    assert any("deaths not detected" in n for n in result.notes) != events
-    assert ("REACHED events" in result.visit_source) == events
+    assert result.liveness == bool(events)
+    assert any("deaths not detected" in n for n in result.notes) != bool(events)
+    assert ("REACHED events" in result.visit_source) == (events is True)
 
 
 def test_tf_chain_is_composed_and_span_is_the_bags(tmp_path):

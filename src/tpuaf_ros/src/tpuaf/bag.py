@@ -86,7 +86,7 @@ class BagInfo:
     monitor_final: dict | None = None
     clock_offset_s: float = 0.0  # record time - stamp [s], when the recorder's clock differs
     events: int = 0  # AgentEvent messages
-    reached_events: int = 0
+    visit_events: int = 0  # START (with a vertex) and REACHED events: the visits reported
     visit_messages: int = 0  # Visit team messages
     team_topics: dict[str, str] = field(default_factory=dict)  # topic -> Visit, Intention...
     pose_topics: dict[str, dict[int, str]] = field(default_factory=dict)  # source -> i -> topic
@@ -263,7 +263,7 @@ def inspect(path: str | Path) -> BagInfo:
                         info.names.setdefault(r, str(msg.robot).strip("/"))
                 if conn.topic == EVENTS_TOPIC:
                     info.events += 1
-                    info.reached_events += int(msg.event) == REACHED  # visits reported
+                    info.visit_events += is_visit(int(msg.event), int(msg.vertex))
                 elif info.team_topics[conn.topic] == "Visit":
                     info.visit_messages += 1
                 if len(offsets) < 2001:
@@ -334,13 +334,13 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
     team = {t: k for t, k in info.team_topics.items()
             if team_ns is None or t.startswith(team_ns.rstrip("/") + "/")}
     visit_topics = [t for t, k in team.items() if k == "Visit"]
-    if info.reached_events:
+    if info.visit_events:
         visit_source = f"START and REACHED events ({EVENTS_TOPIC})"
     elif info.visit_messages:
         visit_source = f"Visit team messages ({', '.join(visit_topics)})"
     else:
         visit_source = "none"
-        notes.append(f"no visit reports: neither REACHED events on {EVENTS_TOPIC} nor Visit "
+        notes.append(f"no visit reports: neither START/REACHED events on {EVENTS_TOPIC} nor Visit "
                      f"messages on {DEFAULT_TEAM_NS}/{VISITS_BASENAME}: visits and idleness "
                      "cannot be computed")
     # Liveness: heartbeats (agent events); team messages only when a timeout is given.
@@ -474,7 +474,7 @@ class _Reports:
 
     def __init__(self, info: BagInfo, patrol_map: Any, n: int, team: dict[str, str]):
         self.info, self.map, self.n, self.team = info, patrol_map, n, team
-        self.use_visits = not info.reached_events
+        self.use_visits = not info.visit_events
         self.started = [False] * n
 
     def __call__(self, conn: Any, msg: Any) -> tuple[int, int, int, float] | None:
@@ -482,8 +482,10 @@ class _Reports:
         t = _stamp(msg)
         if not 0 <= r < self.n or not _in_span(self.info, t):
             return None
-        if conn.topic == EVENTS_TOPIC:
+        if conn.topic == EVENTS_TOPIC and not self.use_visits:
             kind, vertex = int(msg.event), _vertex(self.map, int(msg.vertex))
+        elif conn.topic == EVENTS_TOPIC:  # events without visits (heartbeats only)
+            kind, vertex = HEARTBEAT, -1
         elif self.use_visits and self.team.get(conn.topic) == "Visit":
             kind = REACHED if self.started[r] else START
             vertex = _vertex(self.map, int(msg.vertex))
