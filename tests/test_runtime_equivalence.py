@@ -19,7 +19,6 @@ import math
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -228,12 +227,14 @@ def test_graph_and_agent_runtimes_run_the_same_machine(scripted):
         assert logs_graph[r][:5] == logs_agent[r][:5]
 
 
-def test_positions_array_is_sane_for_golden_maps():
-    """The golden maps load (guards the cumberland path the goldens depend on)."""
-    from tpuaf.maps import load_map
 
-    grid = load_map("grid")
-    assert np.asarray(grid.positions).shape == (25, 2)
+
+def test_graph_physics_and_agent_runtimes_run_the_same_machine(scripted):
+    """The done-when of issue 9: one scripted scenario, the same decision sequence in the graph
+    runtime, the physics runtime (C++ world, laser, navigator) and the agent runtime."""
+    logs = [_graph_logs(scripted), _physics_logs(scripted), _agent_logs(scripted)]
+    for r in (0, 1):
+        assert logs[0][r][:5] == logs[1][r][:5] == logs[2][r][:5]
 
 
 if __name__ == "__main__":
