@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import json
 import re
 import time
 from pathlib import Path
@@ -216,3 +217,56 @@ def test_move_base_backend_reaches_vertices_through_the_action_server(tmp_path):
     assert "navigation move_base" in log
     # The agent publishes no velocity: only the planner (here the mock) drives.
     assert "['/tb3_0/move_base']" in pubs, pubs
+
+
+# --- stale inputs: stop, say so, resume -----------------------------------------------------
+
+
+FAKE_ROBOT = r"""
+import json, math, time, rospy
+from geometry_msgs.msg import TransformStamped, Twist
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
+rospy.init_node("fake_robot")
+tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=10)
+scan_pub = rospy.Publisher("/tb3_0/scan", LaserScan, queue_size=10)
+cmds = []
+rospy.Subscriber("/tb3_0/cmd_vel", Twist, lambda m: cmds.append((time.time(), m.linear.x, m.angular.z)))
+def tf(parent, child, x, y, stamp):
+    t = TransformStamped(); t.header.frame_id, t.child_frame_id, t.header.stamp = parent, child, stamp
+    t.transform.translation.x, t.transform.translation.y, t.transform.rotation.w = x, y, 1.0
+    return t
+scan = LaserScan(); scan.header.frame_id = "tb3_0/base_scan"
+scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max = 0.0, math.radians(1), 0.12, 3.5
+scan.ranges = [math.inf] * 360
+phases = {}
+t0 = time.time()
+k = 0
+while time.time() - t0 < 20.0:
+    el = time.time() - t0
+    scanning = not (8.0 <= el < 14.0)   # the laser stops for 6 s
+    now = rospy.Time.now()
+    tf_pub.publish(TFMessage([tf("map", "tb3_0/odom", 1.425, 24.225, now), tf("tb3_0/odom", "tb3_0/base_footprint", 0.0, 0.0, now)]))
+    if scanning and k % 2 == 0:
+        scan.header.stamp = now
+        scan_pub.publish(scan)
+    k += 1
+    time.sleep(0.1)
+print(json.dumps({"t0": t0, "cmds": cmds}))
+"""
+
+
+def test_an_agent_whose_laser_stops_halts_says_so_and_resumes(tmp_path):
+    with ros_master(tmp_path / "ros") as ros:
+        start_robot(ros, "grid", 1, 0, speed=1.0)
+        out = ros.run_python(FAKE_ROBOT, timeout=60, name="fake_robot")
+        log = ros.output("tb3_0")
+    data = json.loads(out.stdout.strip().splitlines()[-1])
+    t0, cmds = data["t0"], data["cmds"]
+    moving = [(t - t0) for t, v, w in cmds if abs(v) > 1e-6 or abs(w) > 1e-6]
+    assert any(t < 8.0 for t in moving), cmds[:20]  # drives while scans come
+    halted = [(t - t0, v, w) for t, v, w in cmds if 10.5 <= t - t0 < 14.0]
+    assert halted and all(v == 0 and w == 0 for _, v, w in halted), halted
+    assert any(t > 14.5 for t in moving)  # resumes when the laser is back
+    assert "robot stopped: scan (/tb3_0/scan) not advancing for" in log, log[-3000:]
+    assert log.count("pose, scan and clock advancing: driving") >= 2

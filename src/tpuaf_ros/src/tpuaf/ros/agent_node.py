@@ -419,11 +419,15 @@ class AgentNode:
                     self.halt(stale)
                 elif stale:
                     self.stop_robot()
-            if stale:
-                ages = ", ".join(f"{n} for {min(self.inputs.age(n, wall), 1e9):.1f} s" for n in stale)
-                src = {"pose": self.pose_input, "scan": topics.SCAN, "clock": "ROS time"}
-                self.warn("stale", f"robot stopped: not advancing: {ages} "
-                          f"({', '.join(src[n] for n in stale)}); resumes when they do")
+            if stale and wall - self._t0_wall > self.p.input_timeout:
+                src = {"pose": self.pose_input, "scan": rospy.resolve_name(topics.SCAN),
+                       "clock": "ROS time"}
+                what = []
+                for n in stale:
+                    age = self.inputs.age(n, wall)
+                    what.append(f"{n} ({src[n]}) " + (f"not advancing for {age:.1f} s"
+                                                      if math.isfinite(age) else "not received"))
+                self.warn("stale", f"robot stopped: {', '.join(what)}; resumes when they do")
             if self.epoch is None:
                 if not self.p.wait_for_start and wall - self._t0_wall >= self.p.start_wait:
                     self.announce_start()
