@@ -446,8 +446,7 @@ class AgentNode:
             with self.lock:
                 lost = self.liveness.check(now)
                 for r in lost:
-                    if self.runtime.started:
-                        self.runtime.policy.on_teammate_lost(r, self.runtime)
+                    self.runtime.on_teammate_lost(r)
                     rospy.logwarn(f"{self.name}: teammate {self.names[r]} silent for "
                                   f"{self.liveness.silent_for(r, now):.1f} s: lost, its "
                                   "intentions dropped")
