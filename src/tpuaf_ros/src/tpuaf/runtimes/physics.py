@@ -245,13 +245,14 @@ class PhysicsRun:
                 points = self._points(np.asarray(world.scan_all(), dtype=float))
             if k == n_ticks:
                 break
+            rows = poses.tolist()
             for i, a in enumerate(agents):
                 if not a.machine.alive:
                     commands[i] = 0.0
                     continue
-                a.on_pose(t, poses[i, 0], poses[i, 1], poses[i, 2])
-                v, w = a.tick(t, points[i])
-                commands[i, 0], commands[i, 1] = v, w
+                x, y, th = rows[i]
+                a.on_pose(t, x, y, th)
+                commands[i] = a.tick(t, points[i])
                 if self.bus.ready:
                     self._deliver_ready()
             if stopped.any():
