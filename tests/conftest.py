@@ -16,3 +16,50 @@ def shared_maps() -> Path:
     if not PATROLLING_SIM_MAPS.is_dir():
         pytest.skip(f"reference maps not found at {PATROLLING_SIM_MAPS}")
     return PATROLLING_SIM_MAPS
+
+
+# ---------------------------------------------------------------------------------------------
+# Subprocesses that clean up after themselves (issue 12): the suite may run with SIGINT ignored
+# (a background job), which children inherit; and a failed or timed-out test must not leave its
+# child (and the child's ROS processes) running.
+
+
+def default_sigint() -> None:
+    """preexec_fn: SIGINT back to its default in the child, whatever the suite inherited."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def stop_tree(proc, grace_s: float = 60.0) -> None:
+    """Stop a `tpuaf` child started with start_new_session: SIGTERM (tpuaf cleans up what it
+    started, e.g. roscore), then SIGKILL of its process group."""
+    import contextlib
+    import os
+    import signal
+    import subprocess
+
+    if proc.poll() is not None:
+        return
+    proc.terminate()
+    try:
+        proc.wait(grace_s)
+    except subprocess.TimeoutExpired:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(10)
+
+
+def run_cli(cmd: list[str], timeout: float, **kwargs):
+    """subprocess.run(cmd, capture_output=True, text=True) that, on a timeout or any failure
+    (e.g. Ctrl-C of the test), stops the child and what it started (stop_tree)."""
+    import subprocess
+
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True, preexec_fn=default_sigint, **kwargs)
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    except BaseException:
+        stop_tree(proc)
+        raise
+    return subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)

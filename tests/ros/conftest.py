@@ -31,6 +31,8 @@ from pathlib import Path
 import pytest
 from tpuaf.cli.fleet import free_port  # a free loopback port, never 11311
 
+from ..conftest import default_sigint
+
 REPO = Path(__file__).resolve().parents[2]
 VENV_PYTHON = REPO / ".venv" / "bin" / "python"
 
@@ -79,7 +81,8 @@ class RosEnv:
         out = open(self.home / f"{name}.out", "wb")  # noqa: SIM115 - closed by the child's exit
         err = open(self.home / f"{name}.err", "wb")  # noqa: SIM115
         proc = subprocess.Popen(cmd, env={**self.env, **env_extra}, stdout=out, stderr=err,
-                                stdin=subprocess.DEVNULL, start_new_session=True, cwd=self.home)
+                                stdin=subprocess.DEVNULL, start_new_session=True, cwd=self.home,
+                                preexec_fn=default_sigint)  # SIGINT stops it, even if ignored here
         proc.log_name = name
         self.procs.append(proc)
         return proc

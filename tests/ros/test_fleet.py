@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from ..conftest import default_sigint, run_cli, stop_tree
+
 REPO = Path(__file__).resolve().parents[2]
 TPUAF = [str(REPO / ".venv" / "bin" / "tpuaf")]
 
@@ -28,8 +30,7 @@ def fleet_cmd(out: Path, strategy="tpuaf", robots=4, duration=600.0, seed=0, ext
 
 def run_fleet(out: Path, **kw) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if not k.startswith("ROS_")}
-    return subprocess.run(fleet_cmd(out, **kw), capture_output=True, text=True, timeout=900,
-                          env=env, cwd=REPO)
+    return run_cli(fleet_cmd(out, **kw), timeout=900, env=env, cwd=REPO)
 
 
 @pytest.fixture(scope="module")
@@ -123,7 +124,8 @@ def test_killing_one_agent_leaves_the_others_patrolling(tmp_path):
     out = tmp_path / "kill"
     env = {k: v for k, v in os.environ.items() if not k.startswith("ROS_")}
     proc = subprocess.Popen(fleet_cmd(out, duration=180.0), stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, env=env, cwd=REPO)
+                            stderr=subprocess.STDOUT, text=True, env=env, cwd=REPO,
+                            start_new_session=True, preexec_fn=default_sigint)
     try:
         deadline = time.monotonic() + 120
         rows = 0
@@ -137,9 +139,7 @@ def test_killing_one_agent_leaves_the_others_patrolling(tmp_path):
         os.kill(pid, signal.SIGKILL)
         stdout, _ = proc.communicate(timeout=300)
     finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-            proc.wait(60)
+        stop_tree(proc)  # on failure: SIGTERM (tpuaf fleet stops its ROS processes), SIGKILL
     assert proc.returncode == 0, stdout
     summary = json.loads((out / "summary.json").read_text())
     assert summary["deaths"] == 1 and summary["dead_robots"] == [1]

@@ -349,8 +349,11 @@ def ros_env(port: int, home: Path) -> dict[str, str]:
 
 def start(cmd: list[str], env: dict, log: Path) -> subprocess.Popen:
     f = open(log, "wb")  # noqa: SIM115 - the child keeps it
+    # SIGINT at its default in the child even when tpuaf runs with it ignored (a background
+    # job): `stop` relies on SIGINT to make roslaunch stop its nodes and close the bag.
     return subprocess.Popen(cmd, env=env, stdout=f, stderr=subprocess.STDOUT,
-                            stdin=subprocess.DEVNULL, start_new_session=True)
+                            stdin=subprocess.DEVNULL, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def stop(proc: subprocess.Popen, grace_s: float = 20.0) -> None:
