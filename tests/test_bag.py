@@ -359,3 +359,30 @@ def test_pose_sampler_groups_robots_on_ticks_and_a_far_stamp_cannot_flood():
         assert p[1, 1] == int(np.floor((t - 10.02) * 20 + 1e-6))
     s.add(0, 1e9, 0.0, 0.0)
     assert len(list(s.ticks(flush=True))) < 20  # the remaining data, not 1e10 ticks
+
+
+def test_messages_of_another_definition_are_one_line_errors_or_ignored(tmp_path):
+    """A foreign type on a fleet topic is ignored; a tpuaf_ros/Visit of another definition
+    (an older package) is a BagError naming the topic."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    store.register(get_types_from_msg("time stamp\nstring robot\nint64 vertex",
+                                      "tpuaf_ros/msg/Visit"))
+    T = store.types
+    with Writer(tmp_path / "old.bag") as w:
+        start = w.add_connection("/fleet/start", "std_msgs/msg/String", typestore=store)
+        w.write(start, int(T0 * 1e9), store.serialize_ros1(T["std_msgs/msg/String"](data="x"),
+                                                           "std_msgs/msg/String"))
+        c = w.add_connection("/team/visits", "tpuaf_ros/msg/Visit", typestore=store)
+        for k in range(3):
+            sec = int(T0) + k
+            msg = T["tpuaf_ros/msg/Visit"](
+                stamp=T["builtin_interfaces/msg/Time"](sec=sec, nanosec=0), robot="r0",
+                vertex=k)
+            w.write(c, sec * 10**9, store.serialize_ros1(msg, "tpuaf_ros/msg/Visit"))
+    with pytest.raises(BagError, match=r"a message on /team/visits \(tpuaf_ros/msg/Visit"):
+        analyze(tmp_path / "old.bag", GRID)
+    proc = cli(tmp_path / "old.bag", "--map", "grid", "--out", tmp_path / "res")
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr

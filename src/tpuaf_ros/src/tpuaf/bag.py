@@ -22,6 +22,7 @@ Entry points (pure functions of a file; every problem is a BagError naming it):
 
 from __future__ import annotations
 
+import contextvars
 import math
 import re
 import statistics
@@ -54,6 +55,8 @@ POSE_TOPIC = re.compile(
     rf"^/(?P<name>(?P<prefix>[^/]*?)(?P<index>\d+))/(?P<kind>{GROUND_TRUTH}|{AMCL_POSE}|{ODOM})$")
 POSE_KIND = {GROUND_TRUTH: "ground_truth", AMCL_POSE: "amcl", ODOM: "odom"}
 TF_TOPICS = ("/tf", "/tf_static")
+FLEET_TYPES = {(START_TOPIC, "std_msgs/Float64"), (METRICS_TOPIC, "tpuaf_ros/LiveMetrics"),
+               (EVENTS_TOPIC, "tpuaf_ros/AgentEvent")}
 MAP_FRAME = "map"
 BASE_FRAME = "base_footprint"
 # Team topic basename -> message kind (the team namespace may differ from /team).
@@ -68,6 +71,35 @@ NS = 1e-9
 
 class BagError(TpuafError):
     """The bag is missing, unreadable or lacks what the analysis needs."""
+
+
+# The message being handled (topic and type), named when its content does not fit its type.
+_CURRENT = contextvars.ContextVar("tpuaf_bag_message", default="")
+# What a message whose definition differs from ours (or holds impossible values) raises.
+_UNFIT = (AttributeError, TypeError, ValueError, KeyError, IndexError, OverflowError,
+          ZeroDivisionError)
+
+
+def _guarded(function):
+    """A public entry point: every failure caused by the bag's content is a BagError."""
+    import functools
+
+    @functools.wraps(function)
+    def wrapper(path, *args, **kwargs):
+        token = _CURRENT.set("")
+        try:
+            return function(path, *args, **kwargs)
+        except BagError:
+            raise
+        except _UNFIT as err:
+            where = _CURRENT.get()
+            raise BagError(f"{path}: " + (f"a message on {where}" if where else "the bag")
+                           + f" does not fit what the analysis expects ({type(err).__name__}: "
+                           f"{err})") from None
+        finally:
+            _CURRENT.reset(token)
+
+    return wrapper
 
 
 @dataclass
@@ -200,6 +232,7 @@ def _stream(path: Path, reader: Any, store: Any, connections: list) -> Iterator[
         except Exception as err:  # noqa: BLE001
             raise BagError(f"{path}: message {t_ns * NS:.3f} s on {conn.topic} cannot be read "
                            f"as {conn.msgtype} ({type(err).__name__}: {err})") from None
+        _CURRENT.set(f"{conn.topic} ({conn.msgtype}, t = {t_ns * NS:.3f} s)")
         yield conn, t_ns * NS, msg
 
 
@@ -217,6 +250,7 @@ def _is_type(conn: Any, short: str) -> bool:
     return conn.msgtype.replace("/msg/", "/") == short
 
 
+@_guarded
 def inspect(path: str | Path) -> BagInfo:
     """What the bag holds for an analysis: its span, robots, team and pose topics (one pass
     over the small topics, and over /tf until every robot's chain to map is known)."""
@@ -240,7 +274,7 @@ def inspect(path: str | Path) -> BagInfo:
                     info.names.setdefault(int(m["index"]), m["name"])
             elif conn.topic in TF_TOPICS and _is_type(conn, "tf2_msgs/TFMessage"):
                 tf_conns.append(conn)
-            elif conn.topic in (START_TOPIC, METRICS_TOPIC, EVENTS_TOPIC):
+            elif (conn.topic, conn.msgtype.replace("/msg/", "/")) in FLEET_TYPES:
                 small.append(conn)
             elif _team_kind(conn.topic) and conn.msgtype.startswith("tpuaf_ros/"):
                 info.team_topics[conn.topic] = _team_kind(conn.topic)
@@ -301,6 +335,7 @@ def _prefix(info: BagInfo) -> str:
 # Analysis
 
 
+@_guarded
 def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
             start_offset_s: float | None = None, duration_s: float | None = None,
             death_timeout_s: float | None = None, pose_source: str | None = None,
@@ -340,9 +375,9 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
         visit_source = f"Visit team messages ({', '.join(visit_topics)})"
     else:
         visit_source = "none"
-        notes.append(f"no visit reports: neither START/REACHED events on {EVENTS_TOPIC} nor Visit "
-                     f"messages on {DEFAULT_TEAM_NS}/{VISITS_BASENAME}: visits and idleness "
-                     "cannot be computed")
+        notes.append(f"no visit reports: neither START/REACHED events on {EVENTS_TOPIC} nor "
+                     f"Visit messages on {DEFAULT_TEAM_NS}/{VISITS_BASENAME}: visits and "
+                     "idleness cannot be computed")
     # Liveness: heartbeats (agent events); team messages only when a timeout is given.
     liveness = info.events > 0 or death_timeout_s is not None
     timeout = death_timeout_s if death_timeout_s is not None else 5.0
@@ -459,7 +494,7 @@ def _vertex(patrol_map: Any, vid: int) -> int | None:
 def _report_connections(reader: Any, info: BagInfo, team: dict[str, str]) -> list:
     conns = []
     for conn in reader.connections:
-        if info.events and conn.topic == EVENTS_TOPIC:
+        if info.events and (conn.topic, conn.msgtype.replace("/msg/", "/")) in FLEET_TYPES:
             conns.append(conn)
         elif conn.topic in team:
             conns.append(conn)
@@ -528,6 +563,8 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     newest = [-math.inf]
 
     def feed(r, t, x, y):
+        if not (math.isfinite(x) and math.isfinite(y)):
+            return
         monitor.on_pose(r, t, x, y)
         last[r] = (x, y)
         newest[0] = max(newest[0], t)
