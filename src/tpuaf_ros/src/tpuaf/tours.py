@@ -329,7 +329,7 @@ def _connected(adj, vertices: set[int]) -> bool:
     return len(seen) == len(vertices)
 
 
-def _robots_per_part(lengths: list[float], n_robots: int) -> list[int]:
+def robots_per_part(lengths: list[float], n_robots: int) -> list[int]:
     """One robot per part, extra robots to the part with the largest L_p / m_p."""
     m = [1] * len(lengths)
     for _ in range(n_robots - len(lengths)):
@@ -393,7 +393,7 @@ def partition_tours(patrol_map: Any, n_robots: int, max_moves: int = 400) -> Par
         adj = _adjacency(graph)
         parts = _balanced_partition(graph, k, max_moves)
         tours = [Tour(*closed_walk(graph, part, adj)) for part in parts]
-        return Partition(parts, tours, _robots_per_part([t.length for t in tours], n_robots))
+        return Partition(parts, tours, robots_per_part([t.length for t in tours], n_robots))
 
     return _cached(("partition", n_robots, max_moves), patrol_map, compute)
 

@@ -138,45 +138,57 @@ def _schedule(route: Route, starts: dict, dist, speed: float) -> dict:
 _PLANS: OrderedDict = OrderedDict()
 
 
-def make_plan(patrol_map, team: tuple[int, ...], all_starts: tuple[int, ...], mode: str) -> Plan:
+def make_plan(patrol_map, team: tuple[int, ...], all_starts: tuple[int, ...], mode: str,
+              repair: str = "auto") -> Plan:
     """The plan for `team` (sorted robot indices believed alive); identical for every robot
     (cached per map object). `all_starts`: every robot's start vertex (may be empty)."""
-    key = (id(patrol_map), team, all_starts, mode)
+    key = (id(patrol_map), team, all_starts, mode, repair)
     hit = _PLANS.get(key)
     if hit is not None and hit[0] is patrol_map:
         return hit[1]
-    plan = _make_plan(patrol_map, team, all_starts, mode)
+    plan = _make_plan(patrol_map, team, all_starts, mode, repair)
     _PLANS[key] = (patrol_map, plan)
     while len(_PLANS) > 64:
         _PLANS.popitem(last=False)
     return plan
 
 
-def _make_plan(patrol_map, team, all_starts, mode) -> Plan:
+def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     graph = patrol_map.graph
     speed = float(patrol_map.settings.nominal_speed)
     dist = np.asarray(graph.distances)
     m = len(team)
     cyc = tours.cyclic_tour(patrol_map)
     cyc_worst = tours.walk_idleness(graph, cyc.walk, m, speed)["worst"]
-    part = tours.partition_tours(patrol_map, m) if graph.num_vertices > 1 else None
-    part_worst = np.inf
-    if part is not None:
-        part_worst = max(
-            tours.walk_idleness(graph, t.walk, k, speed)["worst"]
-            for t, k in zip(part.tours, part.robots_per_part, strict=True)
-        )
+    # Partitions into k = 2..m parts, robots spread over parts by L_p / m_p (k = m is MSP's).
+    part, part_worst = None, np.inf
+    if graph.num_vertices > 1 and mode != "cycle":
+        for k in range(2, min(m, graph.num_vertices) + 1):
+            cand = tours.partition_tours(patrol_map, k)
+            per_part = tours.robots_per_part([t.length for t in cand.tours], m)
+            worst = max(
+                tours.walk_idleness(graph, t.walk, j, speed)["worst"]
+                for t, j in zip(cand.tours, per_part, strict=True)
+            )
+            if worst < part_worst - _EPS:
+                part = tours.Partition(cand.parts, cand.tours, per_part)
+                part_worst = worst
     kind = mode
     if mode == "auto":
         kind = "partition" if part_worst < cyc_worst - _EPS else "cycle"
         if part is not None and abs(part_worst - cyc_worst) <= 0.02 * max(cyc_worst, _EPS):
             x_cyc = predicted_mean_uncertainty(patrol_map, cyc.walk, m, speed)
-            x_part = np.mean([
-                predicted_mean_uncertainty(patrol_map, t.walk, k, speed) * len(p)
-                for t, k, p in zip(part.tours, part.robots_per_part, part.parts, strict=True)
-            ]) * len(part.parts) / graph.num_vertices
+            x_part = sum(
+                predicted_mean_uncertainty(patrol_map, t.walk, j, speed) * len(p)
+                for t, j, p in zip(part.tours, part.robots_per_part, part.parts, strict=True)
+            ) / graph.num_vertices
             kind = "partition" if x_part < x_cyc else "cycle"
     full = len(all_starts) == m and team == tuple(range(m))
+    if not full and all_starts and repair != "replan":
+        merged = _merge_repair(patrol_map, team, all_starts, mode)
+        fresh_worst = part_worst if kind == "partition" else cyc_worst
+        if merged is not None and (repair == "merge" or merged.worst_s <= fresh_worst + _EPS):
+            return merged
     if kind == "cycle" or part is None:
         route = _route(graph, cyc.walk, team)
         routes = (route,)
@@ -202,6 +214,51 @@ def _make_plan(patrol_map, team, all_starts, mode) -> Plan:
         for route in routes:
             schedule.update(_schedule(route, starts, dist, speed))
     return Plan(kind, routes, route_of, float(worst), schedule)
+
+
+def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
+    """Survivors keep their parts of the full team's partition; each part left without a robot
+    joins the adjacent surviving part whose merged closed walk per robot is shortest (greedy,
+    parts in index order). None when the full team's plan is a cycle."""
+    graph = patrol_map.graph
+    speed = float(patrol_map.settings.nominal_speed)
+    home = make_plan(patrol_map, tuple(range(len(all_starts))), tuple(all_starts), mode)
+    if home.kind != "partition":
+        return None
+    adj = tours._adjacency(graph)
+    groups = []  # [vertex set, walk, robots]
+    orphans = []
+    for route in home.routes:
+        robots = [r for r in route.robots if r in team]
+        entry = [set(route.walk), list(route.walk), robots]
+        (groups if robots else orphans).append(entry)
+    if not groups:
+        return None
+    while orphans:
+        progress = False
+        for o in list(orphans):
+            best = None
+            for g in groups:
+                if not any(w in g[0] for v in o[0] for w in adj[v]):
+                    continue
+                walk, length = tours.closed_walk(graph, sorted(g[0] | o[0]), adj, 3, 4)
+                score = length / len(g[2])
+                if best is None or score < best[0] - _EPS:
+                    best = (score, g, walk)
+            if best is not None:
+                _, g, _ = best
+                g[0] |= o[0]
+                g[1] = tours.closed_walk(graph, sorted(g[0]), adj)[0]
+                orphans.remove(o)
+                progress = True
+        if not progress:  # an orphan with no surviving neighbour part: re-plan from scratch
+            return None
+    routes = tuple(_route(graph, g[1], g[2]) for g in groups)
+    route_of = {r: i for i, g in enumerate(groups) for r in g[2]}
+    worst = max(
+        tours.walk_idleness(graph, list(r.walk), len(r.robots), speed)["worst"] for r in routes
+    )
+    return Plan("partition", routes, route_of, float(worst), {})
 
 
 def _assign_survivors(patrol_map, team, all_starts, part, slots, dist, mode) -> list[int]:
@@ -238,6 +295,13 @@ class TpuafPlus(Policy):
             "auto",
             "shared plan: 'auto' (lower predicted worst idleness), 'cycle' or 'partition'",
             lambda v: v in ("auto", "cycle", "partition"),
+        ),
+        "repair": Parameter(
+            "auto",
+            "after a loss in a partition: 'merge' (orphan parts join a neighbouring part), "
+            "'replan' (a fresh plan for the survivors) or 'auto' (the lower predicted worst "
+            "idleness, merge on ties)",
+            lambda v: v in ("auto", "merge", "replan"),
         ),
         "gain": Parameter(
             0.5,
@@ -276,6 +340,7 @@ class TpuafPlus(Policy):
         self.knowledge = new_knowledge(pm, 30.0, timeout)
         self.alive = set(range(ctx.n_robots))
         self.last_heard = {k: ctx.now for k in range(ctx.n_robots)}
+        self.lost_at: dict[int, float] = {}  # robot -> when the runtime reported it lost [s]
         # latest timed message per mate: (from vertex, to vertex, departure [s], sent [s])
         self.heard: dict[int, tuple[int, int, float, float]] = {}
         self.mate_arc: dict[int, float] = {}  # last estimated arc [m] (disambiguates walks)
@@ -291,7 +356,8 @@ class TpuafPlus(Policy):
     def _install_plan(self, ctx, initial: bool = False) -> None:
         old_route = self.route if self.plan is not None else None
         self.plan = make_plan(
-            ctx.patrol_map, self._team(ctx), self.all_starts, self.params["plan"]
+            ctx.patrol_map, self._team(ctx), self.all_starts, self.params["plan"],
+            self.params["repair"],
         )
         self.route = self.plan.routes[self.plan.route_of[ctx.robot]]
         self.departure: float | None = None
@@ -325,13 +391,22 @@ class TpuafPlus(Policy):
 
     def _heard_from(self, k: int, sent: float) -> None:
         self.last_heard[k] = max(self.last_heard.get(k, -np.inf), float(sent))
+        if sent > self.lost_at.get(k, np.inf):
+            del self.lost_at[k]  # heard again after it was reported lost
+
+    def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:
+        """The runtime's liveness timeout (faster than my own silence timeout)."""
+        self.lost_at[robot] = ctx.now
 
     def _update_team(self, ctx) -> None:
         """Mates silent for longer than the timeout leave the team; a mate heard again rejoins."""
         now = ctx.now
         alive = {
             k for k in range(ctx.n_robots)
-            if k == ctx.robot or now - self.last_heard.get(k, -np.inf) <= self.silence_timeout_s
+            if k == ctx.robot or (
+                k not in self.lost_at
+                and now - self.last_heard.get(k, -np.inf) <= self.silence_timeout_s
+            )
         }
         if alive != self.alive:
             self.alive = alive

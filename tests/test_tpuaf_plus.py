@@ -1,0 +1,156 @@
+"""tpuaf_plus: shared plan, start schedule, spacing rule, silence repair (hand-checked graphs)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tpuaf import tours
+from tpuaf.maps import load_map
+from tpuaf.maps.model import MapSettings, PatrolMap
+from tpuaf.messages import Intention, Visit
+from tpuaf.policies import REGISTRY
+from tpuaf.policies.tpuaf_plus import make_plan
+from tpuaf.runtimes.graph import BatchRun, RunConfig
+
+
+def square(side=10.0, starts=(0, 1)) -> PatrolMap:
+    """4-cycle 0-1-2-3-0, every edge `side` m (perimeter L = 4 side), 1 m/s."""
+    pos = np.array([(0, 0), (side, 0), (side, side), (0, side)], dtype=float)
+    edges = [(0, 1, side), (1, 2, side), (2, 3, side), (3, 0, side)]
+    settings = MapSettings(initial_vertices={len(starts): list(starts)})
+    return PatrolMap("square", [0, 1, 2, 3], pos, edges, np.ones(4), np.ones(4), settings)
+
+
+def path4(starts=(0, 3)) -> PatrolMap:
+    """Path 0-1-2-3, edges of 10 m."""
+    pos = np.array([(0, 0), (10, 0), (20, 0), (30, 0)], dtype=float)
+    edges = [(0, 1, 10.0), (1, 2, 10.0), (2, 3, 10.0)]
+    settings = MapSettings(initial_vertices={len(starts): list(starts)})
+    return PatrolMap("path4", [0, 1, 2, 3], pos, edges, np.ones(4), np.ones(4), settings)
+
+
+def run(pm, robots, duration, **kw):
+    config = RunConfig(map=pm.name, strategy="tpuaf_plus", robots=robots, duration_s=duration,
+                       seed=1, **kw)
+    engine = BatchRun(config, patrol_map=pm)
+    return engine, engine.run()
+
+
+def test_square_two_robots_schedule_and_spacing():
+    pm = square()
+    plan = make_plan(pm, (0, 1), (0, 1), "auto")
+    assert plan.kind == "cycle"
+    assert plan.routes[0].length == pytest.approx(40.0)
+    assert plan.worst_s == pytest.approx(20.0)  # L / (N v)
+    # robots 10 m apart on a 40 m cycle: one leaves at once, the other waits 10 s (slots 20 m)
+    departures = sorted(d for _, d in plan.schedule.values())
+    assert departures == pytest.approx([0.0, 10.0])
+    _, summary = run(pm, 2, 400.0)
+    assert summary["idleness_max_s"] == pytest.approx(20.0, abs=1e-6)
+
+
+def test_path_two_robots_partition():
+    pm = path4()
+    # cycle 0-1-2-3-2-1 (60 m) with 2 robots: the ends wait 30 s; halves {0,1}, {2,3}: 20 s
+    assert tours.cyclic_tour(pm).length == pytest.approx(60.0)
+    plan = make_plan(pm, (0, 1), (0, 3), "auto")
+    assert plan.kind == "partition"
+    assert plan.worst_s == pytest.approx(20.0)
+    assert sorted(sorted(r.walk) for r in plan.routes) == [[0, 1], [2, 3]]
+    assert make_plan(pm, (0, 1), (0, 3), "cycle").worst_s == pytest.approx(30.0)
+    _, summary = run(pm, 2, 300.0)
+    assert summary["idleness_max_s"] == pytest.approx(20.0, abs=1e-6)
+
+
+class FakeCtx:
+    """The RobotContext a runtime gives; messages and wake-ups recorded."""
+
+    def __init__(self, pm, robot, n_robots, vertex, now=0.0):
+        self.patrol_map, self.robot, self.n_robots = pm, robot, n_robots
+        self.rng = np.random.default_rng(0)
+        self.now, self.current_vertex, self.start_vertex = now, vertex, vertex
+        self.sent, self.wakes = [], []
+        self.average_speed = 1.0
+
+    def send(self, message):
+        self.sent.append(message)
+
+    def wake_at(self, t):
+        self.wakes.append(t)
+
+
+def test_spacing_rule_exact():
+    pm = square(starts=(0, 2))  # opposite corners: already evenly spaced, no start wait
+    policy = REGISTRY.create("tpuaf_plus")
+    ctx = FakeCtx(pm, 0, 2, 0)
+    policy.start(ctx)
+    walk = policy.route.walk
+    me = walk.index(0)
+    policy.idx = me
+    # the mate left the vertex 10 m ahead of me at t = 0: gap ahead 10, behind 30
+    ahead = walk[(me + 1) % 4]
+    after = walk[(me + 2) % 4]
+    policy.on_message(Intention(1, ahead, after, 10.0, 10.0, 0.0), ctx)
+    assert policy.spacing_wait(ctx, 0.0) == pytest.approx(0.5 * (30 - 10) / 2)  # gain 0.5
+    # seen 4 s later (delay: the message keeps the sender's clock) it is 14 m ahead
+    assert policy.spacing_wait(ctx, 4.0) == pytest.approx(0.5 * (26 - 14) / 2)
+    # a mate 10 m behind me: gap ahead 30 > behind 10, I never wait (the one ahead does)
+    policy.on_message(Visit(1, walk[(me - 1) % 4], 5.0, 0), ctx)
+    policy.on_message(Intention(1, walk[(me - 1) % 4], 0, 15.0, 10.0, 5.0), ctx)
+    assert policy.spacing_wait(ctx, 5.0) == 0.0
+
+
+def test_decide_dwells_with_revisits_and_announces_departure():
+    pm = square(starts=(0, 1))
+    policy = REGISTRY.create("tpuaf_plus")
+    plan = make_plan(pm, (0, 1), (0, 1), "auto")
+    waiter = next(r for r, (_, d) in plan.schedule.items() if d > 0)
+    ctx = FakeCtx(pm, waiter, 2, [0, 1][waiter])
+    policy.start(ctx)
+    assert policy.decide(ctx) is None  # waits for its slot (10 s)
+    intention = [m for m in ctx.sent if isinstance(m, Intention)][-1]
+    assert intention.expected_arrival - intention.travel_time == pytest.approx(10.0)
+    assert ctx.wakes[-1] == pytest.approx(5.0)  # revisit after dwell_revisit_s
+    ctx.now = 5.0
+    assert policy.decide(ctx) == ctx.current_vertex  # re-visit its own vertex (1 s)
+    ctx.now = 6.0
+    assert policy.decide(ctx) is None
+    assert ctx.wakes[-1] == pytest.approx(9.0)  # last nap ends one revisit before 10 s
+    ctx.now = 9.0
+    assert policy.decide(ctx) == ctx.current_vertex
+    ctx.now = 10.0
+    nxt = policy.decide(ctx)
+    assert nxt != ctx.current_vertex and nxt in pm.graph.neighbours(ctx.current_vertex)
+
+
+def test_silent_mate_is_dropped_and_cycle_respaced():
+    pm = square(starts=(0, 2))
+    engine, summary = run(pm, 2, 600.0, fail=["1@100"])
+    survivor = engine.robots[0].policy
+    assert survivor.plan.routes[0].robots == (0,)
+    # after the death robot 0 tours alone: every vertex every 40 s, never worse
+    assert 40.0 - 1e-6 <= summary["idleness_max_s"] <= 40.0 + 20.0
+
+
+def test_silence_timeout_without_runtime_report():
+    pm = square(starts=(0, 2))
+    policy = REGISTRY.create("tpuaf_plus", {"silence_timeout_s": 30.0})
+    ctx = FakeCtx(pm, 0, 2, 0)
+    policy.start(ctx)
+    assert policy.plan.routes[0].robots == (0, 1)
+    ctx.now = 31.0
+    policy.decide(ctx)
+    assert policy.plan.routes[0].robots == (0,)
+    policy.on_message(Visit(1, 2, 32.0, 3), ctx)  # it speaks again: back in the team
+    ctx.now = 33.0
+    policy.decide(ctx)
+    assert policy.plan.routes[0].robots == (0, 1)
+
+
+@pytest.mark.parametrize("fault", [{"delay_s": 5.0}, {"loss": 0.3}])
+def test_grid_faults_stay_near_the_tour(fault):
+    grid = load_map("grid")
+    config = RunConfig(map="grid", strategy="tpuaf_plus", robots=4, duration_s=1800.0, seed=2,
+                       **fault)
+    summary = BatchRun(config, patrol_map=grid).run()
+    assert summary["idleness_max_s"] <= 1.3 * 37.05  # best-known tour, grid N = 4
