@@ -124,10 +124,12 @@ void tpuaf::bindings::bind_engine(py::module_& m) {
   py::class_<TpuafStrategy, TeamStrategy>(m, "TpuafStrategy",
                                           "TPUAF's decision path in C++ (tpuaf.policies.tpuaf).")
       .def(py::init([](const TpuafKnowledge& knowledge, UtilityForm form, bool any_vertex,
-                       std::vector<NumpyPcg64> rngs) {
-             return std::make_unique<TpuafStrategy>(knowledge, form, any_vertex, std::move(rngs));
+                       std::vector<NumpyPcg64> rngs, bool colocation) {
+             return std::make_unique<TpuafStrategy>(knowledge, form, any_vertex, std::move(rngs),
+                                                    colocation);
            }),
-           py::arg("knowledge"), py::arg("form"), py::arg("any_vertex"), py::arg("rngs"))
+           py::arg("knowledge"), py::arg("form"), py::arg("any_vertex"), py::arg("rngs"),
+           py::arg("colocation") = true)
       .def("knowledge", &TpuafStrategy::knowledge, py::arg("robot"), py::return_value_policy::copy);
 
   py::class_<GbsStrategy, TeamStrategy>(m, "GbsStrategy",

@@ -626,7 +626,41 @@ void GraphEngine::change_goal(int robot, int vertex) {
   r.redirect = vertex;
 }
 
+void GraphEngine::deliver_batch_by_robot() {
+  // The ready deliveries, robot by robot; each robot gets them in their order (the strategy's
+  // messages_are_local() makes this the same as delivery by delivery).
+  batch_.clear();
+  while (!ready_.empty()) {
+    batch_.push_back(std::move(ready_.front()));
+    ready_.pop_front();
+  }
+  batch_cursor_.assign(batch_.size(), 0);
+  const int n = config_.robots;
+  for (int r = 0; r < n; ++r) {
+    for (std::size_t k = 0; k < batch_.size(); ++k) {
+      Delivery& d = batch_[k];
+      if (d.all_but_sender) {
+        if (r != d.sender) strategy_->on_message(*this, r, d.message);
+      } else {
+        std::size_t& c = batch_cursor_[k];
+        if (c < d.recipients.size() && d.recipients[c] == r) {  // recipients are ascending
+          strategy_->on_message(*this, r, d.message);
+          ++c;
+        }
+      }
+    }
+  }
+  for (const Delivery& d : batch_) {
+    bus_.delivered += d.all_but_sender ? n - 1 : static_cast<long long>(d.recipients.size());
+  }
+  batch_.clear();
+}
+
 void GraphEngine::deliver_ready() {
+  if (ready_.size() > 1 && strategy_->messages_are_local()) {
+    deliver_batch_by_robot();
+    return;
+  }
   while (!ready_.empty()) {
     Delivery d = std::move(ready_.front());
     ready_.pop_front();

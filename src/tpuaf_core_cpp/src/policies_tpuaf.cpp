@@ -1,4 +1,5 @@
 // TPUAF's decision path in C++ (the same steps as tpuaf/policies/tpuaf.py, in the same order).
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -8,8 +9,13 @@
 namespace tpuaf {
 
 TpuafStrategy::TpuafStrategy(const TpuafKnowledge& knowledge, UtilityForm form, bool any_vertex,
-                             std::vector<NumpyPcg64> rngs)
-    : prototype_(knowledge), form_(form), any_vertex_(any_vertex), rngs_(std::move(rngs)) {
+                             std::vector<NumpyPcg64> rngs, bool colocation)
+    : prototype_(knowledge),
+      form_(form),
+      any_vertex_(any_vertex),
+      rngs_(std::move(rngs)),
+      colocation_(colocation) {
+  colocated_.resize(rngs_.size());
   prototype_.share_visit_results();  // the team hears the same visits: one Eq. 2 per visit
   knowledge_.assign(rngs_.size(), prototype_);
 }
@@ -28,6 +34,44 @@ void TpuafStrategy::start(GraphEngine& engine, int robot) {
                                 std::to_string(engine.robots()) + " robots");
   }
   knowledge_[static_cast<std::size_t>(robot)] = prototype_;
+  Colocation& c = colocated_[static_cast<std::size_t>(robot)];
+  c = Colocation{};
+  c.shadows.assign(static_cast<std::size_t>(engine.robots()), 0);
+}
+
+void TpuafStrategy::presume_choice(GraphEngine& engine, int robot, int mate) {
+  // Teammate `mate`'s presumed choice here (argmax of the same utility, the first on ties)
+  // counts as its announced intention.
+  TpuafKnowledge& k = knowledge_[static_cast<std::size_t>(robot)];
+  const double now = engine.now();
+  const int here = engine.current_vertex(robot);
+  const UtilityResult result = k.utilities(engine.graph(), now, here, candidates_,
+                                           engine.average_speed(robot), form_, any_vertex_);
+  Eigen::Index best = 0;  // np.argmax: the first maximum (a NaN wins)
+  for (Eigen::Index j = 1; j < result.utility.size(); ++j) {
+    if (std::isnan(result.utility[best])) break;
+    if (result.utility[j] > result.utility[best] || std::isnan(result.utility[j])) best = j;
+  }
+  k.hear_intention({mate, here, candidates_[static_cast<std::size_t>(best)], result.arrival_s[best],
+                    result.travel_time_s[best], now},
+                   now);
+}
+
+void TpuafStrategy::track_shadow(int robot, const TeamMessage& visit) {
+  // A teammate's visit at (about) my own visit of that vertex, followed by the same next
+  // vertex, makes it my shadow; any other visit of it ends that.
+  Colocation& c = colocated_[static_cast<std::size_t>(robot)];
+  const double tol = std::max(1.0, 0.1 * c.latency_s);
+  bool same = false;
+  auto it = c.my_visits.find(visit.vertex);
+  if (it != c.my_visits.end()) {
+    for (const auto& [t, next] : it->second) {
+      if (std::abs(t - visit.time_s) <= tol && next == visit.next_vertex) same = true;
+    }
+  }
+  if (visit.robot >= 0 && static_cast<std::size_t>(visit.robot) < c.shadows.size()) {
+    c.shadows[static_cast<std::size_t>(visit.robot)] = same ? 1 : 0;
+  }
 }
 
 int TpuafStrategy::decide(GraphEngine& engine, int robot) {
@@ -54,6 +98,28 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
     visit.next_vertex = here;
     engine.send(robot, visit);
     return here;
+  }
+  Colocation& col = colocated_[static_cast<std::size_t>(robot)];
+  if (colocation_ && col.latency_s > 0) {  // no late messages: nothing to resolve
+    // Teammates that reached this vertex within the latency of now, whose next decision is
+    // not heard yet (their intention for it held), and my shadows; the lower-indexed ones
+    // decide first.
+    const double window = col.latency_s + 1e-6;
+    std::vector<int> mates;
+    for (const Intention& i : k.intentions()) {
+      if (i.robot != robot && i.vertex == here && now - window <= i.expected_arrival_s &&
+          i.expected_arrival_s <= now + 1e-6) {
+        mates.push_back(i.robot);
+      }
+    }
+    for (std::size_t m = 0; m < col.shadows.size(); ++m) {
+      if (col.shadows[m] && static_cast<int>(m) != robot) mates.push_back(static_cast<int>(m));
+    }
+    std::sort(mates.begin(), mates.end());
+    mates.erase(std::unique(mates.begin(), mates.end()), mates.end());
+    for (int mate : mates) {
+      if (mate < robot) presume_choice(engine, robot, mate);
+    }
   }
   const UtilityResult result =
       k.utilities(graph, now, here, candidates_, engine.average_speed(robot), form_, any_vertex_);
@@ -88,6 +154,9 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
     }
   }
   const int target = candidates_[static_cast<std::size_t>(chosen)];
+  auto& mine = col.my_visits[here];
+  mine.emplace_back(now, target);
+  while (mine.size() > 4) mine.pop_front();
   visit.next_vertex = target;
   engine.send(robot, visit);
   TeamMessage intention;
@@ -104,8 +173,14 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
 
 void TpuafStrategy::on_message(GraphEngine& engine, int robot, const TeamMessage& message) {
   TpuafKnowledge& k = knowledge_[static_cast<std::size_t>(robot)];
+  if (message.kind == TeamMessage::Kind::kVisit || message.kind == TeamMessage::Kind::kIntention) {
+    Colocation& c = colocated_[static_cast<std::size_t>(robot)];
+    const double latency = engine.now() - message.time_s;
+    if (latency > c.latency_s) c.latency_s = latency;  // Python's max(latency, now - sent)
+  }
   if (message.kind == TeamMessage::Kind::kVisit) {
     k.hear_visit(message.robot, message.vertex, message.time_s, engine.now());
+    if (colocation_) track_shadow(robot, message);
   } else if (message.kind == TeamMessage::Kind::kIntention) {
     k.hear_intention({message.robot, message.from_vertex, message.vertex,
                       message.expected_arrival_s, message.travel_time_s, message.time_s},

@@ -78,6 +78,10 @@ class TeamStrategy {
   virtual void on_message(GraphEngine& engine, int robot, const TeamMessage& message) = 0;
   // True if the strategy never calls back into Python (the run may release the GIL).
   virtual bool is_native() const { return true; }
+  // True if on_message only changes the recipient's own state and never sends: the engine may
+  // then hand a batch of deliveries out robot by robot (each robot still gets them in order),
+  // which keeps one robot's state in cache.
+  virtual bool messages_are_local() const { return false; }
 };
 
 struct EngineConfig {
@@ -263,6 +267,7 @@ class GraphEngine {
   const Robot& robot_at(int robot) const;
   void push(double time, int kind, int payload);
   void deliver_ready();
+  void deliver_batch_by_robot();
   void decide(int robot);
   void plan_route(Robot& r, int goal);
   void start_segment(int robot);
@@ -285,6 +290,8 @@ class GraphEngine {
   std::vector<Delivery> slots_;
   std::vector<int> free_slots_;
   std::deque<Delivery> ready_;
+  std::vector<Delivery> batch_;
+  std::vector<std::size_t> batch_cursor_;
   BusStats bus_;
   Points scratch_;
   std::vector<double> lost_scratch_;
@@ -297,19 +304,31 @@ class GraphEngine {
 // (numpy default_rng([seed, 2, robot])) for the tie-break.
 class TpuafStrategy : public TeamStrategy {
  public:
+  // colocation: the Python policy's `colocation` parameter (robots that arrive together
+  // before late messages tell resolve by index, tpuaf/policies/tpuaf.py).
   TpuafStrategy(const TpuafKnowledge& knowledge, UtilityForm form, bool any_vertex,
-                std::vector<NumpyPcg64> rngs);
+                std::vector<NumpyPcg64> rngs, bool colocation = true);
   void start(GraphEngine& engine, int robot) override;
   int decide(GraphEngine& engine, int robot) override;
   void on_message(GraphEngine& engine, int robot, const TeamMessage& message) override;
+  bool messages_are_local() const override { return true; }
   const TpuafKnowledge& knowledge(int robot) const;
 
  private:
+  struct Colocation {
+    double latency_s = 0;  // largest message latency seen (receive - send) [s]
+    std::unordered_map<int, std::deque<std::pair<double, int>>> my_visits;  // v -> (t, next)
+    std::vector<char> shadows;                                              // per teammate
+  };
+  void presume_choice(GraphEngine& engine, int robot, int mate);
+  void track_shadow(int robot, const TeamMessage& visit);
   TpuafKnowledge prototype_;
   UtilityForm form_;
   bool any_vertex_;
   std::vector<NumpyPcg64> rngs_;
+  bool colocation_;
   std::vector<TpuafKnowledge> knowledge_;
+  std::vector<Colocation> colocated_;
   std::vector<int> candidates_;
 };
 
@@ -328,6 +347,7 @@ class GbsStrategy : public TeamStrategy {
   void start(GraphEngine& engine, int robot) override;
   int decide(GraphEngine& engine, int robot) override;
   void on_message(GraphEngine& engine, int robot, const TeamMessage& message) override;
+  bool messages_are_local() const override { return true; }
 
  private:
   double g1_, g2_, edge_min_m_, log_inv_g1_;

@@ -64,7 +64,8 @@ def _tpuaf_strategy(run: NativeRun, params: dict, any_vertex: bool):
         tpuaf_core.UtilityForm.EQ14 if params["utility"] == "eq14" else tpuaf_core.UtilityForm.EQ13
     )
     rngs = [_rng_stream(run.seed, 2, i) for i in range(run.config.robots)]
-    return tpuaf_core.TpuafStrategy(knowledge, form, any_vertex, rngs)
+    colocation = params.get("colocation", False) in (True, 1, "true")  # as Tpuaf.start
+    return tpuaf_core.TpuafStrategy(knowledge, form, any_vertex, rngs, colocation)
 
 
 def _gbs_strategy(run: NativeRun, params: dict):
