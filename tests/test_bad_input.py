@@ -235,3 +235,57 @@ def test_maps_module_has_no_import_cycle():
 
     text = Path(occupancy.__file__).read_text()
     assert not re.search(r"^from \.model import", text, re.M)
+
+
+# ---------------------------------------------------------------------------------------------
+# stop signals: one helper for every subcommand (run, compare, fleet, analyze, ...)
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_every_subcommand_stops_on_signals_like_ctrl_c(capsys, monkeypatch, sig):
+    """main() runs each subcommand with SIGINT, SIGTERM and SIGHUP raising KeyboardInterrupt;
+    a second signal while the results are written is only recorded."""
+    import signal as signals_module
+
+    import tpuaf.cli.analyze as analyze_cli
+    import tpuaf.cli.compare as compare_cli
+    from tpuaf.cli import signals
+
+    number = getattr(signals_module, sig)
+    seen = {}
+
+    def handler(args):
+        try:
+            os.kill(os.getpid(), number)
+            seen["not interrupted"] = True
+        except KeyboardInterrupt:
+            with signals.shielded():
+                os.kill(os.getpid(), number)  # during the end files: recorded, not raised
+                seen["shielded"] = True
+            raise
+        return 0
+
+    for module, argv in ((compare_cli, ["compare", "--out", "x"]),
+                         (analyze_cli, ["analyze", "x.bag"])):
+        monkeypatch.setattr(module, "run", handler)
+        code, _, err = cli(capsys, *argv)
+        assert code == 128 + number and "interrupted" in err
+        assert seen.pop("shielded") and "not interrupted" not in seen
+    # the handlers are restored afterwards
+    assert signals_module.getsignal(signals_module.SIGTERM) == signals_module.SIG_DFL
+
+
+def test_an_inherited_ignored_signal_stays_ignored():
+    """`nohup` (SIGHUP ignored) and background jobs (SIGINT ignored) keep their meaning."""
+    import signal
+
+    from tpuaf.cli import signals
+
+    previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        with signals.stop_signals():
+            assert signal.getsignal(signal.SIGHUP) == signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGHUP)  # ignored: nothing raised
+            assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
+    finally:
+        signal.signal(signal.SIGHUP, previous)
