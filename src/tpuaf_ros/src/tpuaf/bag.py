@@ -35,7 +35,7 @@ from typing import Any
 from . import messages as team_messages
 from .errors import TpuafError
 from .monitor import FleetMonitor
-from .poses import POSE_SOURCES, PoseSampler, chain_pose, feed_chains, robot_chains
+from .poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from .topics import (
     AMCL_POSE,
     DEFAULT_TEAM_NS,
@@ -553,44 +553,24 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
             if c.topic in topics:
                 robot_of[c.id] = topics[c.topic]
                 conns.append(c)
-    sampler = None if source == "ground_truth" else PoseSampler(n)
+    feed = MonitorFeed(monitor, grouped=source != "ground_truth")
     chains = robot_chains([info.names.get(r, f"{info.prefix}{r}") for r in range(n)],
                           MAP_FRAME, BASE_FRAME)
     reports = 0
     report_of = _Reports(info, patrol_map, n, team)
-
-    last = [None] * n  # last position fed per robot, and the newest pose stamp
-    newest = [-math.inf]
-
-    def feed(r, t, x, y):
-        if not (math.isfinite(x) and math.isfinite(y)):
-            return
-        monitor.on_pose(r, t, x, y)
-        last[r] = (x, y)
-        newest[0] = max(newest[0], t)
-
-    def feed_ticks(flush=False):
-        for t, positions in sampler.ticks(flush):
-            for r in range(n):
-                feed(r, t, positions[r, 0], positions[r, 1])
 
     for conn, _t_rec, msg in _stream(path, reader, store, conns):
         if conn.topic in TF_TOPICS:
             for r in feed_chains(chains, msg.transforms):
                 pose = chain_pose(chains[r])
                 if pose is not None and _in_span(info, pose[2]):
-                    sampler.add(r, pose[2], pose[0], pose[1])
-            feed_ticks()
+                    feed.add(r, pose[2], pose[0], pose[1])
         elif conn.id in robot_of:
             t = _stamp(msg)
             if not _in_span(info, t):
                 continue
             p = msg.pose.pose.position
-            if sampler is None:
-                feed(robot_of[conn.id], t, p.x, p.y)
-            else:
-                sampler.add(robot_of[conn.id], t, p.x, p.y)
-                feed_ticks()
+            feed.add(robot_of[conn.id], t, p.x, p.y)
         else:
             rep = report_of(conn, msg)
             if rep is None:
@@ -601,13 +581,7 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
             monitor.on_event(r, kind, vertex, t)
         if monitor.finished:
             break
-    if sampler is not None and not monitor.finished:
-        feed_ticks(flush=True)
-    if not monitor.finished and all(p is not None for p in last):
-        # The monitor processes poses lag_s behind the newest: one group that much later
-        # (the robots where they were last seen) brings it to the bag's last poses.
-        for r in range(n):
-            monitor.on_pose(r, newest[0] + monitor.lag_s + 1e-3, *last[r])
+    feed.close()  # up to the bag's last poses
     if not monitor.started:
         raise BagError(f"{path}: no complete set of robot positions ({source}) between "
                        f"t = {start - info.start_s:.2f} s and the bag's end")

@@ -113,3 +113,47 @@ class PoseSampler:
                 positions[r] = self._held[r][1:]
             self._last_tick = tick
             yield tick, positions
+
+
+class MonitorFeed:
+    """Poses into a FleetMonitor (tpuaf.monitor), as the live monitor node and bag analysis
+    feed it: ground truth as stamped (all robots stamped alike), any other source grouped on
+    ticks by a PoseSampler. `close()` brings the monitor to the last poses: it processes pose
+    groups `lag_s` behind the newest, so one more group that much later (every robot where it
+    was last seen) is given."""
+
+    def __init__(self, monitor, grouped: bool):
+        self.monitor = monitor
+        self.n = monitor.n
+        self.sampler = PoseSampler(self.n) if grouped else None
+        self._last: list[tuple[float, float] | None] = [None] * self.n
+        self._newest = -math.inf
+
+    def _feed(self, robot: int, t: float, x: float, y: float) -> None:
+        self.monitor.on_pose(robot, t, x, y)
+        self._last[robot] = (x, y)
+        self._newest = max(self._newest, t)
+
+    def add(self, robot: int, t: float, x: float, y: float) -> None:
+        if not (math.isfinite(t) and math.isfinite(x) and math.isfinite(y)):
+            return
+        if self.sampler is None:
+            self._feed(robot, t, x, y)
+            return
+        self.sampler.add(robot, t, x, y)
+        self._ticks()
+
+    def _ticks(self, flush: bool = False) -> None:
+        for tick, positions in self.sampler.ticks(flush):
+            for r in range(self.n):
+                self._feed(r, tick, float(positions[r, 0]), float(positions[r, 1]))
+
+    def close(self) -> None:
+        if self.monitor.finished:
+            return
+        if self.sampler is not None:
+            self._ticks(flush=True)
+        if not self.monitor.finished and all(p is not None for p in self._last):
+            t = self._newest + self.monitor.lag_s + 1e-3
+            for r, (x, y) in enumerate(self._last):
+                self.monitor.on_pose(r, t, x, y)

@@ -30,7 +30,7 @@ from tpuaf_ros.msg import AgentEvent, LiveMetrics
 from ..maps import MapError, load_map
 from ..monitor import FleetMonitor
 from ..params import MonitorParams, NodeParamError, parse
-from ..poses import POSE_SOURCES, PoseSampler, chain_pose, feed_chains, robot_chains
+from ..poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from ..topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC
 from . import convert
 from .node import private_params, run_node
@@ -74,7 +74,7 @@ class MonitorNode:
         if not p.announce_start:
             rospy.Subscriber(START_TOPIC, Float64, self.on_start, queue_size=10)
         # Poses at their own stamps (all but ground truth) are grouped on ticks.
-        self.sampler = None if p.pose_source == "ground_truth" else PoseSampler(p.robots)
+        self.feed = MonitorFeed(self.fm, grouped=p.pose_source != "ground_truth")
         if p.pose_source == "tf":
             self.chains = robot_chains(self.names, p.map_frame, p.base_frame)
             rospy.Subscriber("/tf", TFMessage, self.on_tf, queue_size=100, tcp_nodelay=True)
@@ -153,13 +153,7 @@ class MonitorNode:
         """Robot i at (x, y) [m] at ROS time t [s] (called with the lock held)."""
         if self.done:
             return
-        if self.sampler is None:
-            self.fm.on_pose(i, t, x, y)
-        else:
-            self.sampler.add(i, t, x, y)
-            for tick, positions in self.sampler.ticks():
-                for r in range(self.p.robots):
-                    self.fm.on_pose(r, tick, positions[r, 0], positions[r, 1])
+        self.feed.add(i, t, x, y)
         if not self.fm.started:
             return
         if self.writer is None:
@@ -191,6 +185,9 @@ class MonitorNode:
         if self.done:
             return
         self.done = True
+        if interrupted:
+            with self.lock:
+                self.feed.close()  # up to the last poses (the monitor runs lag_s behind)
         if self.fm.started:
             summary = self.fm.summary()
             if self.writer is not None:
