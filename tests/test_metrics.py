@@ -255,3 +255,32 @@ def test_out_of_order_visits_give_the_same_summary():
                 "idleness_samples", "worst_idleness_s", "complete_cycles", "counted_visits"):
         assert a[key] == b[key], key
     assert sorted(shuffled.interval_samples) == [10.0, 10.0, 12.0, 12.0]
+
+
+def test_fleet_monitor_counts_reached_events_not_poses():
+    """One definition of a visit: the monitor counts REACHED (and START as the first visit),
+    stamped by the agent; a robot standing on a vertex without REACHED makes no visit."""
+    from tpuaf.monitor import FleetMonitor
+    from tpuaf.topics import GOAL, HEARTBEAT, REACHED, START
+
+    pm = line_map()
+    mon = FleetMonitor(pm, 2, 30.0, lag_s=1.0)
+    mon.on_event(0, REACHED, 2, -1.0)  # before the run: no visit
+    mon.on_event(0, START, 0, -0.5)  # before the run start: the first visit, at the start
+    mon.on_event(1, START, 2, 0.0)
+    for k in range(0, 41):
+        t = float(k)
+        if k == 10:
+            mon.on_event(0, GOAL, 1, t)  # a goal alone is no visit
+        if k == 12:
+            mon.on_event(0, REACHED, 1, 11.5)  # stamped by the agent
+        mon.on_event(0, HEARTBEAT, -1, t)
+        mon.on_event(1, HEARTBEAT, -1, t)
+        x0 = min(t, 10.0)  # robot 0 drives to vertex 1 (x = 10) by t = 10
+        mon.on_pose(0, t, x0, 0.0)
+        mon.on_pose(1, t, 20.0, 0.0)  # robot 1 stands on vertex 2 all along
+    s = mon.summary()
+    assert [(t, r, v) for t, r, v in mon.recorder.visits] == [(0.0, 0, 0), (0.0, 1, 2),
+                                                              (11.5, 0, 1)]
+    assert s["visits"] == 3 and s["deaths"] == 0
+    assert mon.live()["visits"] == 3

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .metrics import RunRecorder
+from .metrics import RunRecorder, complete_cycles
 from .topics import REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
@@ -121,6 +121,7 @@ class FleetMonitor:
             return
         end = self.start_time + self.duration_s
         if t > end:
+            self._record_visits(end)  # those stamped after the last group, up to the end
             self.end(end)
             return
         # Deaths: silent agents (never heard: counted from the start).
@@ -204,7 +205,7 @@ class FleetMonitor:
             "worst_idleness": row.get("worst_idleness_s", nan),
             "uncertainty_mean": row.get("uncertainty_mean", nan),
             "interferences": len(rec.interferences),
-            "complete_cycles": int(min(max(c - 1, 0) for c in counts)) if counts else 0,
+            "complete_cycles": complete_cycles(counts),
             "robots_alive": int(self._alive.sum()),
         }
 

@@ -11,14 +11,24 @@ from pathlib import Path
 from ..errors import CliError
 
 
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got '{text}'") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {value}")
-    return value
+def _int_at_least(lowest: int):
+    """An argparse type: an integer >= lowest, else 'expected an integer >= lowest'."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer >= {lowest}, got '{text}'") from None
+        if value < lowest:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {lowest}, got {value}")
+        return value
+
+    return parse
+
+
+positive_int = _int_at_least(1)
+non_negative_int = _int_at_least(0)
 
 
 def _finite_float(condition, wanted: str):
@@ -134,16 +144,6 @@ def add_runtime_arguments(p: argparse.ArgumentParser) -> None:
                    help="K robots die at seeded random times in [duration/10, duration/2]")
     p.add_argument("--stall", action="append", default=[], metavar="ROBOT@TIME",
                    help="robot ROBOT stops moving at TIME [s] but keeps talking (repeatable)")
-
-
-def non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got '{text}'") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {value}")
-    return value
 
 
 def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):

@@ -98,6 +98,25 @@ class RunConfig:
         return asdict(self)
 
 
+def run_description(run, starts, strategy_params, **extra) -> dict:
+    """config.yaml of a graph or physics run: runtime, version, config, map, starts, faults."""
+    from .. import __version__
+
+    pm = run.patrol_map
+    return {
+        "runtime": run.runtime,
+        "tpuaf_version": __version__,
+        **run.config.to_dict(),
+        "strategy_params": dict(strategy_params),
+        "map_name": pm.name,
+        "map_source": str(pm.source) if pm.source else "built-in",
+        "map_settings": asdict(pm.settings),
+        "start_vertices": [int(pm.vertex_ids[v]) for v in starts],
+        "faults": [f.to_dict() for f in run.faults],
+        **extra,
+    }
+
+
 class BatchRun:
     """One graph-runtime run. `run()` returns the summary; the recorder holds visits and time
     series. It is the `RobotDriver` of every robot's machine (`self.robots`)."""
@@ -339,23 +358,9 @@ class BatchRun:
 
     def effective_config(self) -> dict:
         """Everything that determines this run, with defaults resolved (written to config.yaml)."""
-        from .. import __version__
-
-        settings = asdict(self.patrol_map.settings)
-        return {
-            "runtime": self.runtime,
-            "tpuaf_version": __version__,
-            **self.config.to_dict(),
-            "strategy_params": dict(self.robots[0].policy.params),
-            "map_name": self.patrol_map.name,
-            "map_source": str(self.patrol_map.source) if self.patrol_map.source else "built-in",
-            "map_settings": settings,
-            "start_vertices": [
-                int(self.patrol_map.vertex_ids[r.start_vertex]) for r in self.robots
-            ],
-            "faults": [f.to_dict() for f in self.faults],
-            "motion": "straight segments between vertices, edge length / nominal speed each",
-        }
+        return run_description(
+            self, [r.start_vertex for r in self.robots], self.robots[0].policy.params,
+            motion="straight segments between vertices, edge length / nominal speed each")
 
     def summary(self) -> dict:
         summary = self.recorder.summary(self.now)

@@ -38,7 +38,7 @@ from ..topics import REACHED, START
 from .agent import AgentRuntime
 from .bus import TeamBus
 from .faults import DEATH, Fault
-from .graph import ConfigError, RunConfig
+from .graph import ConfigError, RunConfig, run_description
 
 # Physics defaults (docs/RUNTIMES.md).
 PHYSICS_STEP_S = 0.05  # [s] world step
@@ -275,26 +275,15 @@ class PhysicsRun:
 
     def effective_config(self) -> dict:
         """Everything that determines this run, with defaults resolved (written to config.yaml)."""
-        from .. import __version__
-
         rc = self.robot_choice
-        return {
-            "runtime": self.runtime,
-            "tpuaf_version": __version__,
-            **self.config.to_dict(),
-            "strategy_params": dict(self.agents[0].policy.params),
-            "map_name": self.patrol_map.name,
-            "map_source": str(self.patrol_map.source) if self.patrol_map.source else "built-in",
-            "map_settings": asdict(self.patrol_map.settings),
-            "start_vertices": [int(self.patrol_map.vertex_ids[v]) for v in self.starts],
-            "faults": [f.to_dict() for f in self.faults],
-            "world": self.world_config.summary(),
-            "robot_model": {"preset": rc.preset, "radius_m": rc.radius_m,
-                            "max_linear_speed_mps": rc.speed_mps, "note": rc.note},
-            "controller": asdict(self.agents[0].navigator.controller.config),
-            "motion": (f"C++ world, {self.config.physics_step_s:g} s steps; agents' navigator "
-                       f"at {1 / self.config.control_period_s:g} Hz on ground-truth poses"),
-        }
+        return run_description(
+            self, self.starts, self.agents[0].policy.params,
+            world=self.world_config.summary(),
+            robot_model={"preset": rc.preset, "radius_m": rc.radius_m,
+                         "max_linear_speed_mps": rc.speed_mps, "note": rc.note},
+            controller=asdict(self.agents[0].navigator.controller.config),
+            motion=(f"C++ world, {self.config.physics_step_s:g} s steps; agents' navigator "
+                    f"at {1 / self.config.control_period_s:g} Hz on ground-truth poses"))
 
     def summary(self) -> dict:
         summary = self.recorder.summary(self.now)
