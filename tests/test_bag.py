@@ -140,6 +140,8 @@ class PlainBag:
                         items.append((t, f"/{name}/amcl_pose",
                                       T["geometry_msgs/msg/PoseWithCovarianceStamped"](
                                           header=header(t, "map"), pose=p)))
+        # the first agent's run start (wall clock), latched on /fleet/start
+        items.append((self.t0 + 0.1, "/fleet/start", T["std_msgs/msg/Float64"](data=self.t0)))
         items.sort(key=lambda item: item[0])
         path = Path(path)
         with Writer(path) as writer:

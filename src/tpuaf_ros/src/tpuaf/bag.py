@@ -494,7 +494,7 @@ def _vertex(patrol_map: Any, vid: int) -> int | None:
 def _report_connections(reader: Any, info: BagInfo, team: dict[str, str]) -> list:
     conns = []
     for conn in reader.connections:
-        if info.events and (conn.topic, conn.msgtype.replace("/msg/", "/")) in FLEET_TYPES:
+        if info.events and conn.topic == EVENTS_TOPIC and _is_type(conn, "tpuaf_ros/AgentEvent"):
             conns.append(conn)
         elif conn.topic in team:
             conns.append(conn)
