@@ -150,6 +150,7 @@ class AgentNode:
             self.runtime.start_at = None
         self.points = None
         self._scan = None
+        self._deferred = None  # lock-step: (stamp, run time) of a tick waiting for its scan
         self._stride = 1
         self.origin = None
         if p.localization == "odom":
@@ -310,6 +311,19 @@ class AgentNode:
             self.points = None
             if self.control_on_scan:
                 self.control(msg.header.stamp)
+            elif self._deferred is not None and self._deferred[0] <= msg.header.stamp:
+                stamp, t = self._deferred  # lock-step: the tick that waited for this scan
+                self._deferred = None
+                self.control(stamp, t)
+
+    def scan_due(self, stamp) -> bool:
+        """Lock-step: does the simulator send a scan stamped `stamp` (not yet received)?
+        Its scans come on pose ticks at the laser rate; the tick then waits for it, so the
+        control sees the scan of its own instant, whatever order the threads run in."""
+        s = self._scan
+        if not self.lockstep or s is None or not s.scan_time > 0:
+            return False
+        return (stamp - s.header.stamp).to_sec() >= s.scan_time - 1e-3
 
     def on_odom(self, msg):
         pose = msg.pose.pose
@@ -358,7 +372,13 @@ class AgentNode:
                 self.stop_robot(stamp)
                 return
             t = self.run_time(sec)
+            if self._deferred is not None:  # its scan never came: answer it as it is
+                self.control(*self._deferred)
+                self._deferred = None
             self.runtime.on_pose(t, x, y, th)
+            if self.scan_due(stamp):
+                self._deferred = (stamp, t)  # answered when the scan of this tick arrives
+                return
             self.control(stamp, t)
 
     def control(self, stamp, t=None):
