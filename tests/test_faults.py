@@ -153,7 +153,7 @@ def test_cli_reports_deaths_recovery_and_the_ideal(tmp_path):
          "0@600", "--fail", "3@1200", "--duration", "3600", "--quiet", "--out", str(out)],
         capture_output=True, text=True, cwd=REPO, timeout=600, start_new_session=True)
     assert proc.returncode == 0, proc.stderr
-    assert "death of robot 0 at 600.0 s" in proc.stdout
+    assert "death of robot 0 at 600.0 s" in proc.stdout and "visited again in" in proc.stdout
     assert "death of robot 3 at 1,200.0 s" in proc.stdout
     assert proc.stdout.count("ideal for the") == 2 and "ideal for the 6 survivors" in proc.stdout
     import json

@@ -96,3 +96,14 @@ def test_bad_physics_configs_are_refused():
         PhysicsRun(PhysicsConfig(map="grid", physics_step_s=-1.0))
     with pytest.raises(TpuafError, match="unknown robot preset 'tank'"):
         PhysicsRun(PhysicsConfig(map="grid", robot="tank"))
+
+
+def test_cli_refuses_a_robot_preset_without_the_physics_runtime():
+    proc = subprocess.run([*TPUAF, "run", "--robot", "burger", "--duration", "10", "--quiet"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "needs --runtime physics" in proc.stderr
+    proc = subprocess.run([*TPUAF, "run", "--runtime", "physics", "--robot", "tank",
+                           "--duration", "10", "--quiet"], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 2 and "unknown robot preset 'tank'" in proc.stderr
+    assert "Traceback" not in proc.stderr

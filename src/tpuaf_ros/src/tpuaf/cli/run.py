@@ -157,6 +157,9 @@ def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
         raise CliError(str(err)) from None
     kwargs = dict(config_kwargs, fail=fail, stall=stall,
                   fail_random=int(getattr(args, "fail_random", 0)))
+    if getattr(args, "runtime", "graph") != "physics" and getattr(args, "robot", "auto") != "auto":
+        raise CliError(f"--robot {args.robot}: a robot preset needs --runtime physics (the graph "
+                       "runtime moves at the map's nominal speed)")
     if getattr(args, "runtime", "graph") == "physics":
         from ..runtimes.physics import PhysicsConfig, PhysicsRun
 
@@ -181,10 +184,12 @@ def format_faults(summary: dict) -> str:
     for r in summary.get("recovery") or []:
         def num(key, r=r):
             v = r.get(key)
-            return "never" if v is None else f"{v:,.1f} s"
+            return "n/a" if v is None else f"{v:,.1f} s"
+        back = r.get("recovery_time_s")
+        back = "not by the end" if back is None else f"in {back:,.1f} s"
         lines.append(
             f"  after robot {r['robot']} died at {r['time_s']:,.1f} s: every vertex visited "
-            f"again after {num('recovery_time_s')}; worst idleness {num('worst_idleness_after_s')}"
+            f"again {back}; worst idleness {num('worst_idleness_after_s')}"
             f" (ideal for the {r['survivors']} survivors "
             f"{num('ideal_worst_idleness_survivors_s')}); intentions honoured "
             f"{r['intentions_honoured']}/{len(r['intentions'])}")

@@ -172,20 +172,24 @@ class PhysicsRun:
 
     # --- laser ---
     def _points(self, ranges: np.ndarray) -> list[np.ndarray]:
-        """Laser points (k, 2) in the robot (base) frame per robot, valid returns only."""
+        """Laser points (k, 2) in the robot (base) frame per robot, valid returns only, and
+        only those the controller would keep (LocalController.relevant): the same commands,
+        less work. Beam order is kept."""
         lz = self.world_config.laser
         if self._trig is None:
             a = lz.first_angle + lz.angle_increment * np.arange(ranges.shape[1]) + lz.yaw
             self._trig = (np.cos(a), np.sin(a))
         c, s = self._trig
-        ok = (ranges >= lz.range_min) & (ranges <= lz.range_max) & (ranges > 0)  # NaN: False
-        r = np.where(ok, ranges, 0.0)
-        xs = r * c + lz.x
-        ys = r * s + lz.y
-        # Only the points the controller would keep (LocalController.relevant): the same
-        # commands, less work.
-        ok &= xs * xs + ys * ys < self._relevant_m2
-        return [np.column_stack((xs[i][ok[i]], ys[i][ok[i]])) for i in range(len(ranges))]
+        near = math.sqrt(self._relevant_m2) + math.hypot(lz.x, lz.y)  # [m] of range
+        ok = (ranges >= lz.range_min) & (ranges <= lz.range_max) & (ranges > 0) & (ranges < near)
+        rows, cols = np.nonzero(ok)
+        r = ranges[rows, cols]
+        xs = r * c[cols] + lz.x
+        ys = r * s[cols] + lz.y
+        keep = xs * xs + ys * ys < self._relevant_m2
+        points = np.column_stack((xs[keep], ys[keep]))
+        counts = np.bincount(rows[keep], minlength=len(ranges))
+        return np.split(points, np.cumsum(counts)[:-1])
 
     # --- faults ---
     def _fault(self, fault: Fault) -> None:
