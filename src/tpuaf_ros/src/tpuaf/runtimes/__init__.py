@@ -1,3 +1,10 @@
-"""The runtimes that drive robots: `graph` (event-driven, no physics, no ROS; the default of
-`tpuaf run`), `agent` (one robot on a live clock, driven by the ROS agent node) and the team
-`bus` (delay and loss) they share."""
+"""The runtimes that drive robots (docs/RUNTIMES.md). Every robot runs one state machine,
+`robot.RobotMachine`; a runtime supplies its clock, transport and motion:
+
+- `graph` (event-driven, robots on graph edges; the default of `tpuaf run`; `native` is its
+  event loop in C++ with the same results),
+- `physics` (the C++ world: laser, differential drive, collisions, with the agents' navigator),
+- `agent` (one robot on a live clock: what the ROS agent node drives; the physics runtime runs
+  one per robot),
+
+plus the team `bus` (delay and loss) and `faults` (deaths, stalls) they share."""
