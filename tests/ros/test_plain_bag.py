@@ -103,13 +103,15 @@ def test_rehearsal_keeps_visiting_and_the_monitor_counts_the_reports(rehearsal):
     summary = json.loads((results / "summary.json").read_text())
     assert summary["complete"] is True, logs
     reports = count_reports(bag)
-    visits = per_robot(reports["visits"])
-    assert visits == per_robot(reports["events"])  # a Visit message per START / REACHED event
+    visits = per_robot(reports["events"])  # START / REACHED: the agents' visit reports
     assert all(c >= 3 for c in visits.values()), visits  # both robots kept visiting
+    # a Visit team message goes with each (TPUAF also sends one when it decides again after a
+    # failed goal, so there may be more of those)
+    assert all(per_robot(reports["visits"])[r] >= visits[r] for r in visits), reports
     assert summary["deaths"] == 0
     assert summary["uncertainty_mean"] is not None  # X from tf
     end = summary["start_time_s"] + summary["duration_s"]
-    in_run = per_robot(reports["visits"], t1=end)
+    in_run = per_robot(reports["events"], t1=end)
     with open(results / "visits.csv") as f:
         counted = sorted((int(row["robot"]), float(row["time_s"])) for row in csv.DictReader(f))
     assert summary["visits"] == sum(in_run.values()), (
