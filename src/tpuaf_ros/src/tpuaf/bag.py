@@ -373,6 +373,10 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
         visit_source = f"START and REACHED events ({EVENTS_TOPIC})"
     elif info.visit_messages:
         visit_source = f"Visit team messages ({', '.join(visit_topics)})"
+        notes.append(f"visits from the Visit team messages (no START/REACHED events on "
+                     f"{EVENTS_TOPIC}): a strategy that also sends one when it decides again "
+                     "after a failed goal (TPUAF) counts those too; record the events for exact "
+                     "counts")
     else:
         visit_source = "none"
         notes.append(f"no visit reports: neither START/REACHED events on {EVENTS_TOPIC} nor "
