@@ -108,10 +108,11 @@ def one_run(map_name: str, strategy: str, robots: int, engine: str, duration_s: 
     config = RunConfig(map=map_name, strategy=strategy, robots=robots, duration_s=duration_s,
                        seed=1)
     run = NativeRun(config, patrol_map) if engine == "native" else BatchRun(config, patrol_map)
-    t2 = time.perf_counter()
+    t2, c2 = time.perf_counter(), time.process_time()
     summary = run.run()
-    t3 = time.perf_counter()
-    return {"map_s": t1 - t0, "setup_s": t2 - t1, "run_s": t3 - t2, "visits": summary["visits"],
+    t3, c3 = time.perf_counter(), time.process_time()
+    return {"map_s": t1 - t0, "setup_s": t2 - t1, "run_s": t3 - t2, "run_cpu_s": c3 - c2,
+            "visits": summary["visits"],
             "native_policy": bool(getattr(run, "native_policy", False)),
             "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
 
@@ -119,13 +120,17 @@ def one_run(map_name: str, strategy: str, robots: int, engine: str, duration_s: 
 def whole_process(map_name: str, strategy: str, robots: int, engine: str,
                   duration_s: float) -> dict:
     """One run in a fresh interpreter; adds its wall time from spawn to exit."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     out = subprocess.run(
         [sys.executable, __file__, "--one", map_name, strategy, str(robots), engine,
          str(duration_s)], capture_output=True, text=True, check=True, cwd=REPO)
     wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     result = json.loads(out.stdout.strip().splitlines()[-1])
     result["process_s"] = wall
+    result["process_cpu_s"] = (after.ru_utime - before.ru_utime) + (after.ru_stime -
+                                                                    before.ru_stime)
     return result
 
 
@@ -133,7 +138,7 @@ def measure(map_name, strategy, robots, engine, duration_s, repeats) -> dict:
     runs = [whole_process(map_name, strategy, robots, engine, duration_s)
             for _ in range(repeats)]
     med = {k: statistics.median(r[k] for r in runs)
-           for k in ("process_s", "run_s", "map_s", "rss_mb")}
+           for k in ("process_s", "process_cpu_s", "run_s", "run_cpu_s", "map_s", "rss_mb")}
     med["visits"] = runs[0]["visits"]
     med["native_policy"] = runs[0]["native_policy"]
     med["range"] = (min(r["process_s"] for r in runs), max(r["process_s"] for r in runs))
@@ -180,19 +185,24 @@ def main() -> None:
                  "scale with it).\n")
     lines.append(f"One run = {args.duration:g} simulated seconds, seed 1, default settings, no "
                  f"results folder. Median of {r} runs. *whole process* = fresh interpreter: "
-                 "imports, map, run, exit; *in-engine* = `run()` alone. Real-time factor = "
-                 "simulated / wall.\n")
+                 "imports, map, run, exit; *in-engine* = `run()` alone. Wall and CPU time "
+                 "(user + system) of each: on a shared, loaded machine the CPU time is what a "
+                 "quiet machine's wall time would be (every run is single-threaded). Real-time "
+                 "factor = simulated / time.\n")
     lines.append("## Cumberland, 12 TPUAF robots (target 10,000x real time)\n")
-    lines.append("| engine | visits | whole process s (min-max) | in-engine s | "
-                 "real time, whole | real time, in-engine | peak RSS MB |")
-    lines.append("|---|---|---|---|---|---|---|")
+    lines.append("| engine | visits | whole process wall s (min-max) | whole CPU s | "
+                 "in-engine wall s | in-engine CPU s | real time, whole (wall / CPU) | "
+                 "real time, in-engine (wall / CPU) | peak RSS MB |")
+    lines.append("|---|---|---|---|---|---|---|---|---|")
     engines = ["native"] if args.quick else ["python", "native"]
     for engine in engines:
         m = measure("cumberland", "tpuaf", 12, engine, args.duration, r)
         lines.append(
             f"| {engine}{' (C++ TPUAF)' if m['native_policy'] else ''} | {m['visits']:,} | "
-            f"{m['process_s']:.2f} ({m['range'][0]:.2f}-{m['range'][1]:.2f}) | {m['run_s']:.3f} | "
-            f"{args.duration / m['process_s']:,.0f}x | {args.duration / m['run_s']:,.0f}x | "
+            f"{m['process_s']:.2f} ({m['range'][0]:.2f}-{m['range'][1]:.2f}) | "
+            f"{m['process_cpu_s']:.2f} | {m['run_s']:.3f} | {m['run_cpu_s']:.3f} | "
+            f"{args.duration / m['process_s']:,.0f}x / {args.duration / m['process_cpu_s']:,.0f}x"
+            f" | {args.duration / m['run_s']:,.0f}x / {args.duration / m['run_cpu_s']:,.0f}x | "
             f"{m['rss_mb']:.0f} |")
         print(lines[-1], flush=True)
     lines.append("\n## Generated 1,000-vertex graph (grid1000, 1,794 edges), TPUAF, native "
@@ -200,19 +210,22 @@ def main() -> None:
     lines.append("Targets: N = 100 in <= 3 s, N = 300 in < 15 s with peak RSS < 300 MB. "
                  "Before (Python engine, issue 14, quiet machine): 2.4 / 3.5 / 12.3 / 105.7 s "
                  "at N = 10 / 30 / 100 / 300, 297 MB at 300.\n")
-    lines.append("| N | visits | whole process s (min-max) | of which map build s | "
-                 "in-engine s | real time, in-engine | peak RSS MB |")
-    lines.append("|---|---|---|---|---|---|---|")
+    lines.append("| N | visits | whole process wall s (min-max) | whole CPU s | of which map "
+                 "build wall s | in-engine wall s | in-engine CPU s | real time, in-engine CPU | "
+                 "peak RSS MB |")
+    lines.append("|---|---|---|---|---|---|---|---|---|")
     scale = {}
     for n in (10, 30, 100, 300):
         m = measure(GRID1000, "tpuaf", n, "native", args.duration, r)
         scale[n] = m
         lines.append(
             f"| {n} | {m['visits']:,} | {m['process_s']:.2f} ({m['range'][0]:.2f}-"
-            f"{m['range'][1]:.2f}) | {m['map_s']:.2f} | {m['run_s']:.2f} | "
-            f"{args.duration / m['run_s']:,.0f}x | {m['rss_mb']:.0f} |")
+            f"{m['range'][1]:.2f}) | {m['process_cpu_s']:.2f} | {m['map_s']:.2f} | "
+            f"{m['run_s']:.2f} | {m['run_cpu_s']:.2f} | {args.duration / m['run_cpu_s']:,.0f}x | "
+            f"{m['rss_mb']:.0f} |")
         print(lines[-1], flush=True)
-    for key, label in (("process_s", "whole process"), ("run_s", "in-engine")):
+    for key, label in (("process_s", "whole process wall"), ("process_cpu_s", "whole process CPU"),
+                       ("run_s", "in-engine wall"), ("run_cpu_s", "in-engine CPU")):
         exponent = math.log(scale[300][key] / scale[100][key]) / math.log(3.0)
         lines.append(f"\nFitted exponent of wall time in N from 100 to 300 ({label}): "
                      f"**{exponent:.2f}** (before: about 2).")

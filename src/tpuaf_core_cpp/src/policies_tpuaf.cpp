@@ -154,9 +154,12 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
     }
   }
   const int target = candidates_[static_cast<std::size_t>(chosen)];
-  auto& mine = col.my_visits[here];
-  mine.emplace_back(now, target);
-  while (mine.size() > 4) mine.pop_front();
+  // Own visits and shadows only matter once a message arrived late, which needs a delay.
+  if (colocation_ && engine.config().delay_s > 0) {
+    auto& mine = col.my_visits[here];
+    mine.emplace_back(now, target);
+    while (mine.size() > 4) mine.pop_front();
+  }
   visit.next_vertex = target;
   engine.send(robot, visit);
   TeamMessage intention;
@@ -180,7 +183,7 @@ void TpuafStrategy::on_message(GraphEngine& engine, int robot, const TeamMessage
   }
   if (message.kind == TeamMessage::Kind::kVisit) {
     k.hear_visit(message.robot, message.vertex, message.time_s, engine.now());
-    if (colocation_) track_shadow(robot, message);
+    if (colocation_ && engine.config().delay_s > 0) track_shadow(robot, message);
   } else if (message.kind == TeamMessage::Kind::kIntention) {
     k.hear_intention({message.robot, message.from_vertex, message.vertex,
                       message.expected_arrival_s, message.travel_time_s, message.time_s},
