@@ -158,6 +158,7 @@ class ControllerConfig:
                                  f", got {value!r}")
 
 
+APPROACH_MPS = 0.05  # [m/s] least speed toward a target nearer than any obstacle ahead
 SNUG_MARGIN_M = 0.01  # [m] clearance of the last-resort (slow) headings
 _NON_NEGATIVE = ("keep_right", "retry_wait_s", "max_retries", "safety_margin", "plan_margin")
 
@@ -292,8 +293,10 @@ class LocalController:
                 return Command(0.0, 0.0, Status.RECOVERING)
             self._state = self._DRIVE
             self._best, self._best_t = dist, t
-        # Progress watch.
-        if dist < self._best - c.progress_m or self._best == math.inf:
+        # Progress watch: progress_m, or half of what is left to the tolerance (the last
+        # centimetres next to a wall are driven slowly).
+        needed = min(c.progress_m, 0.5 * max(self._best - self.tolerance, 0.0) + 0.01)
+        if dist < self._best - needed or self._best == math.inf:
             self._best, self._best_t = dist, t
         elif t - self._best_t > c.stuck_timeout_s:
             if self.retries >= c.max_retries:
@@ -316,7 +319,7 @@ class LocalController:
         # Fast path: the straight line to the target is open with the plan margin.
         safe, wide, _ = self._free(points, np.array([bearing]), margins)
         if wide[0] >= need:
-            return self._command(bearing, float(safe[0]))
+            return self._command(bearing, float(safe[0]), dist)
         headings = np.append(self._headings, bearing)
         safe, wide, snug = self._free(points, headings, margins)
         rel = wrap_angle_array(headings - bearing)
@@ -336,17 +339,24 @@ class LocalController:
             ok, room = snug >= min(need, 0.5), 0.5 * snug
         if ok.any():
             k = int(np.argmin(np.where(ok, cost, np.inf)))
-            return self._command(float(headings[k]), float(room[k]))
+            return self._command(float(headings[k]), float(room[k]),
+                                 dist if k == len(headings) - 1 else None)
         k = int(np.argmax(safe - 0.1 * np.abs(rel)))  # the most open direction: turn there
         w = max(-c.max_angular_speed, min(c.max_angular_speed, c.heading_gain * headings[k]))
         return Command(0.0, float(w), Status.DRIVING)
 
-    def _command(self, heading: float, ahead: float) -> Command:
+    def _command(self, heading: float, ahead: float, target_m: float | None = None) -> Command:
+        """Drive along `heading` (relative [rad]) with `ahead` [m] free; `target_m` [m] = the
+        distance to the target when heading straight for it."""
         c = self.config
         w = max(-c.max_angular_speed, min(c.max_angular_speed, c.heading_gain * heading))
         if abs(heading) > c.turn_in_place:
             return Command(0.0, w, Status.DRIVING)
-        v = c.max_linear_speed * min(1.0, ahead / c.slow_distance) * math.cos(heading)
+        scale = min(1.0, ahead / c.slow_distance)
+        if target_m is not None and ahead >= target_m:
+            # The target is nearer than the obstacle: do not crawl the last centimetres.
+            scale = max(scale, min(1.0, APPROACH_MPS / c.max_linear_speed))
+        v = c.max_linear_speed * scale * math.cos(heading)
         return Command(max(0.0, v), w, Status.DRIVING)
 
     @property
