@@ -284,3 +284,29 @@ def test_fleet_monitor_counts_reached_events_not_poses():
                                                               (11.5, 0, 1)]
     assert s["visits"] == 3 and s["deaths"] == 0
     assert mon.live()["visits"] == 3
+
+
+def test_fleet_monitor_dates_a_death_at_the_last_event_and_keeps_intentions():
+    from tpuaf.monitor import FleetMonitor
+    from tpuaf.topics import HEARTBEAT, REACHED, START
+
+    pm = line_map()
+    mon = FleetMonitor(pm, 2, 60.0, lag_s=1.0, death_timeout_s=5.0)
+    mon.on_event(0, START, 0, 0.0)
+    mon.on_event(1, START, 2, 0.0)
+    mon.on_announcement(1, 1, 0.0)  # robot 1 heads to vertex 1 ...
+    for k in range(0, 61):
+        t = float(k)
+        mon.on_event(0, HEARTBEAT, -1, t)
+        if t <= 20:
+            mon.on_event(1, HEARTBEAT, -1, t)  # ... and falls silent after 20 s
+        if k == 30:
+            mon.on_event(0, REACHED, 1, t)  # robot 0 takes over vertex 1
+        mon.on_pose(0, t, min(t / 3.0, 10.0), 0.0)
+        mon.on_pose(1, t, 20.0, 0.0)
+    s = mon.summary()
+    assert s["dead_robots"] == [1] and 25.0 < mon.deaths[0][0] <= 27.0  # detected after 5 s
+    (r,) = s["recovery"]
+    assert r["time_s"] == 20.0  # dated at its last heartbeat
+    assert r["intentions"] == [11] and r["intentions_honoured"] == 1
+    assert r["intention_delays_s"] == [10.0]

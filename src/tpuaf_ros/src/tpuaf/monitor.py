@@ -16,8 +16,10 @@ Definitions (SPEC section 6):
   first visit of its start vertex (at the run start if stamped before it), as in the graph
   runtime; ground truth gives only positions (uncertainty X, interference, robot presence);
 - a robot whose agent sent no event (heartbeats every 1 s) for `death_timeout_s` is dead from
-  the first pose group after that: `RunRecorder.record_robot_death` (it no longer senses nor
-  interferes);
+  the first pose group after that (it no longer senses nor interferes); the recorder dates the
+  death at the last event heard (the recovery metrics count from there);
+- `on_announcement(robot, vertex, t)`: a destination a robot announced in a team message
+  (tpuaf.runtimes.robot.announced_vertex), for the recovery metrics' intentions;
 - the run ends at start + duration_s: `finished` becomes True and later input is ignored.
 """
 
@@ -61,6 +63,7 @@ class FleetMonitor:
         self._heard_q: list[deque] = [deque() for _ in range(self.n)]  # event stamps ahead
         # (stamp, robot, vertex, is START) of visits not yet recorded, in stamp order
         self._visits: list[tuple[float, int, int, bool]] = []
+        self._announcements: list[tuple[int, int, float]] = []  # until the recorder exists
         self.deaths: list[tuple[float, int]] = []
         self._idl_seen, self._idl_sum, self._idl_n, self._idl_max = 0, 0.0, 0, 0.0
 
@@ -77,6 +80,14 @@ class FleetMonitor:
             self._visits.append((t, int(robot), int(vertex), kind == START))
             if len(self._visits) > 1 and self._visits[-2][0] > t:
                 self._visits.sort()
+
+    def on_announcement(self, robot: int, vertex: int, t: float) -> None:
+        """Robot `robot` announced at t [s] that it heads to `vertex` (index)."""
+        if 0 <= robot < self.n and 0 <= vertex < self.patrol_map.num_vertices:
+            if self.recorder is None:
+                self._announcements.append((int(robot), int(vertex), float(t)))
+            else:
+                self.recorder.record_announcement(int(robot), int(vertex), float(t))
 
     def on_pose(self, robot: int, t: float, x: float, y: float) -> None:
         if self.finished or not 0 <= robot < self.n:
@@ -128,7 +139,7 @@ class FleetMonitor:
         silent = np.maximum(self._heard, self.start_time) < t - self.death_timeout_s
         for r in np.flatnonzero(silent & self._alive).tolist():
             self._alive[r] = False
-            self.recorder.record_robot_death(r, t)
+            self.recorder.record_robot_death(r, max(float(self._heard[r]), self.start_time))
             self.deaths.append((t, r))
         self._record_visits(t)
         self.recorder.record_positions(t, self._last.copy())
@@ -159,6 +170,9 @@ class FleetMonitor:
                               if first or s >= t - STAMP_EPS_S)
         self._record_visits(t)
         self.recorder.record_positions(t, self._last.copy())
+        for robot, vertex, stamp in self._announcements:
+            self.recorder.record_announcement(robot, vertex, stamp)
+        self._announcements.clear()
         self.now = t
 
     def end(self, end_time: float) -> None:
