@@ -281,9 +281,10 @@ def test_sebs_intention_penalty_changes_the_choice():
 
 
 def test_cbls_arc_weights_after_one_reward_and_punish_step():
+    """The intended rule of BASELINES.md (a parameter)."""
     m = star([1.0, 1.0, 1.0])  # centre 0, leaves 1, 2, 3
     ctx = Ctx(m, n_robots=2)
-    pol = create("cbls", ctx)
+    pol = create("cbls", ctx, reward_rule="intended")
     for v, t in [(1, 10.0), (1, 20.0), (2, 20.0)]:
         pol.on_message(Visit(1, v, t, -1), ctx)
     # t = 40: counts 2, 1, 0; closed means 10, 20, -; I = 20, 20, 40
@@ -306,6 +307,34 @@ def test_cbls_arc_weights_after_one_reward_and_punish_step():
         pol.previous = (0, [1, 2, 3], 0.0)
         pol.learn(ctx.at(3, 41.0))
     assert pol.weight(0, 2) == 2.0 and pol.weight(0, 1) == 0.5
+
+
+def test_cbls_reference_rule_is_the_default():
+    """The reference's actual rule: its visits tie test is always true, so the most idle of the
+    previous candidates is rewarded and the least idle punished, whatever the visit counts."""
+    m = star([1.0, 1.0, 1.0])
+    ctx = Ctx(m, n_robots=2)
+    pol = create("cbls", ctx)
+    assert pol.params["reward_rule"] == "reference"
+    for v, t in [(1, 10.0), (1, 20.0), (2, 20.0)]:
+        pol.on_message(Visit(1, v, t, -1), ctx)
+    assert pol.decide(ctx.at(0, 40.0)) == 3
+    entropy = pol.previous[2]
+    # arrival at 3 at t = 41: idleness 21, 21, 0 -> reward 1 and 2 (the intended rule would
+    # punish 1, the most visited), punish 3
+    pol.decide(ctx.at(3, 41.0))
+    step = 1.0 - entropy
+    assert pol.weight(0, 1) == pytest.approx(1.0 + step)
+    assert pol.weight(0, 2) == pytest.approx(1.0 + step)
+    assert pol.weight(0, 3) == pytest.approx(1.0 - step)
+    # all equally idle: every candidate is both the most and the least idle, and -1 wins
+    pol.previous = (0, [1, 2], 0.0)
+    pol.table.visit(1, 50.0)
+    pol.table.visit(2, 50.0)
+    before = pol.weight(0, 1), pol.weight(0, 2)
+    pol.learn(ctx.at(3, 60.0))  # step 1 - H = 1
+    assert (pol.weight(0, 1), pol.weight(0, 2)) == pytest.approx(
+        (max(before[0] - 1, 0.5), max(before[1] - 1, 0.5)))
 
 
 def test_cbls_avoids_vertices_intended_by_others():

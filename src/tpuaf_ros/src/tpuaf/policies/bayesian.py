@@ -183,6 +183,14 @@ class ConcurrentBayesianLearning(_SharedIdleness):
         "weight_min": Parameter(0.5, "lower clamp of an arc weight (unitless)", lambda x: x > 0),
         "weight_max": Parameter(2.0, "upper clamp of an arc weight (unitless)", lambda x: x > 0),
         "weight_init": Parameter(1.0, "initial arc weight (unitless)", lambda x: x > 0),
+        "reward_rule": Parameter(
+            "reference",
+            "'reference': the reference code's actual rule (its visits tie test is always "
+            "true: reward the most idle previous candidates, punish the least idle, -1 wins "
+            "where both apply); 'intended': reward the fewest visits per degree, punish the "
+            "most (ties by idleness), as BASELINES.md states the intent",
+            lambda x: x in ("reference", "intended"),
+        ),
     }
 
     def start(self, ctx):
@@ -235,9 +243,16 @@ class ConcurrentBayesianLearning(_SharedIdleness):
             pick = sub.max() if fewest else sub.min()
             return [cands[i] for i in tied[np.abs(sub - pick) <= tol]]
 
-        reward, punish = extreme(per_degree, True), extreme(per_degree, False)
-        if set(reward) == set(punish):
-            return  # nothing distinguishes the candidates
+        if self.params["reward_rule"] == "reference":
+            # the visit counts always tie in the reference: only the idleness tie-break acts
+            top, low = ic.max(), ic.min()
+            reward = [c for c, x in zip(cands, ic, strict=True) if x >= top - tol]
+            punish = [c for c, x in zip(cands, ic, strict=True) if x <= low + tol]
+            reward = [c for c in reward if c not in punish]  # -1 wins where both apply
+        else:
+            reward, punish = extreme(per_degree, True), extreme(per_degree, False)
+            if set(reward) == set(punish):
+                return  # nothing distinguishes the candidates
         step = 1.0 - entropy
         lo, hi = float(self.params["weight_min"]), float(self.params["weight_max"])
         for sign, group in ((1.0, reward), (-1.0, punish)):
