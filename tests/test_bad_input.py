@@ -43,6 +43,7 @@ def assert_one_line_error(code: int, err: str, *needles: str) -> None:
     (["--seed", "abc"], "--seed"),
     (["--seed", str(2**40)], "--seed"),
     (["--robots", "0"], "--robots"),
+    (["--robots", "2147483647"], "--robots"),  # used to allocate until the OOM killer came
     (["--duration", "nan"], "--duration"),
     (["--duration", "inf"], "--duration"),
     (["--delay", "-1"], "--delay"),

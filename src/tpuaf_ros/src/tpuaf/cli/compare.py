@@ -14,6 +14,7 @@ from .run import (
     positive_int,
     probability,
     seed_int,
+    team_size,
 )
 
 
@@ -22,7 +23,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="built-in map names (grid, lab) or map folder / .graph paths")
     p.add_argument("--strategies", nargs="+", default=["gbs", "dtag", "dtap", "tpuaf"],
                    metavar="STRATEGY", help="strategy names, any case")
-    p.add_argument("--robots", nargs="+", type=positive_int, default=[4, 8, 12], metavar="N",
+    p.add_argument("--robots", nargs="+", type=team_size, default=[4, 8, 12], metavar="N",
                    help="team sizes (include 1 for the acceleration ratio)")
     p.add_argument("--duration", type=positive_float, default=3600.0,
                    help="simulated seconds per run")

@@ -35,7 +35,13 @@ import yaml
 from ..errors import CliError
 from ..paths import catkin_prefix
 from ..topics import METRICS_TOPIC
-from .run import format_summary, non_negative_float, parse_params, positive_float, positive_int
+from .run import (
+    format_summary,
+    non_negative_float,
+    parse_params,
+    positive_float,
+    team_size,
+)
 
 LAUNCH = ("tpuaf_ros", "fleet.launch")  # found by roslaunch through the package
 PREFIX = "robot_"
@@ -89,7 +95,7 @@ def loss_float(text: str) -> float:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--map", default="grid", help="built-in map name or map folder path")
     p.add_argument("--strategy", default="tpuaf", help="strategy name (see tpuaf run --list)")
-    p.add_argument("--robots", type=positive_int, default=4, help="team size N")
+    p.add_argument("--robots", type=team_size, default=4, help="team size N")
     p.add_argument("--duration", type=positive_float, default=600.0,
                    help="simulated run time [s] (default 600)")
     p.add_argument("--seed", type=int, default=0, help="random seed")

@@ -47,6 +47,15 @@ def _finite_float(condition, wanted: str):
 
 
 MAX_SEED = 2**31 - 1  # seeds travel as ROS parameters (XML-RPC int32) in fleets
+MAX_ROBOTS = 10_000  # team size: beyond, memory and time explode (the paper's teams: 1-12)
+
+
+def team_size(text: str) -> int:
+    """An argparse type: a team size 1 .. MAX_ROBOTS."""
+    value = positive_int(text)
+    if value > MAX_ROBOTS:
+        raise argparse.ArgumentTypeError(f"expected a team size in 1 .. {MAX_ROBOTS}, got {value}")
+    return value
 
 
 def seed_int(text: str) -> int:
@@ -102,7 +111,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--map", default="grid", help="built-in map name (grid, lab) or a map folder path"
     )
     p.add_argument("--strategy", default="tpuaf", help="strategy name, any case (see --list)")
-    p.add_argument("--robots", type=positive_int, default=4, help="team size N")
+    p.add_argument("--robots", type=team_size, default=4, help=f"team size N (1 .. {MAX_ROBOTS})")
     p.add_argument("--duration", type=positive_float, default=3600.0, help="simulated seconds")
     p.add_argument("--seed", type=seed_int, default=0,
                    help=f"random seed 0 .. {MAX_SEED} (runs are deterministic)")
