@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import yaml
 from tpuaf.errors import TpuafError
+from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.graph import ConfigError
 from tpuaf.runtimes.physics import PhysicsConfig, PhysicsRun
 
@@ -107,3 +108,11 @@ def test_cli_refuses_a_robot_preset_without_the_physics_runtime():
                           timeout=120)
     assert proc.returncode == 2 and "unknown robot preset 'tank'" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+@pytest.mark.parametrize("strategy", REGISTRY.names())
+def test_every_strategy_survives_faults_in_the_physics_runtime(strategy):
+    summary, engine = physics(map="grid", strategy=strategy, robots=4, duration_s=300, seed=1,
+                              fail=["0@60"], stall=["2@90"], delay_s=0.5, loss=0.1)
+    assert engine.now == 300.0 and summary["deaths"] == 1
+    assert summary["visits"] > 4
