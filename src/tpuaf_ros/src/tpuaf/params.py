@@ -92,7 +92,7 @@ class AgentParams:
     strategy: str = "tpuaf"  # strategy name from the registry
     strategy_params: dict = opt({}, dict)  # the strategy's parameters (checked by the strategy)
     seed: int = 0  # run seed (the robot's generator is seeded with [seed, 2, robot_index])
-    localization: str = "ground_truth"  # tf (hardware) | odom | ground_truth | amcl
+    localization: str = "tf"  # tf (map -> base, any localiser) | odom | ground_truth (sim) | amcl
     initial_pose: list = opt([], list)  # [x m, y m, yaw rad] odom origin / initialpose
     map_frame: str = "map"  # global frame of the patrol map (tf localisation)
     base_frame: str = ""  # robot frame for tf localisation; '' = <namespace>/base_footprint
