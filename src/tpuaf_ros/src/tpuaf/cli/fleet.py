@@ -21,6 +21,7 @@ import json
 import math
 import os
 import re
+import shlex
 import signal
 import socket
 import subprocess
@@ -430,7 +431,7 @@ def run(args: argparse.Namespace) -> int:
                        "(bash launch_scripts/setup.sh)")
     ros_env_sh = prefix / "env.sh"
     if args.prepare_only:
-        print(f"{ros_env_sh} " + " ".join(cmd))
+        print(f"{ros_env_sh} " + " ".join(shlex.quote(c) for c in cmd))
         return 0
     if config["robot"]["note"]:
         print(f"tpuaf fleet: note: {config['robot']['note']}", file=sys.stderr)
