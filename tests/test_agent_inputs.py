@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -240,3 +241,26 @@ def test_goal_navigator_fails_on_abort_and_without_progress():
     nav.set_route(GraphRoute(pm.graph, pm.positions, 0, 1), 0.0)
     assert nav.step(5.0, (*pm.positions[0], 0.0))[1] == Event.NONE
     assert nav.step(16.0, (*pm.positions[0], 0.0))[1:] == (Event.FAILED, 1)
+
+
+# --- node parameter cross-checks -------------------------------------------------------------
+
+
+@pytest.mark.parametrize("values, sim, why", [
+    ({"localization": "gps"}, False, "~localization must be one of tf, odom"),
+    ({"navigation": "nav2"}, False, "~navigation must be builtin or move_base"),
+    ({"initial_pose": [1.0, 2.0]}, False, "~initial_pose must be [x, y, yaw]"),
+    ({"initial_pose": [1.0, 2.0, float("nan")]}, False, "~initial_pose must be [x, y, yaw]"),
+    ({"clock_offset": 0.5}, True, "~clock_offset needs the wall clock"),
+    ({"lockstep": True, "navigation": "move_base"}, False, "~lockstep needs ~navigation builtin"),
+    ({"teammate_timeout": 0.0}, False, "~teammate_timeout must be > 0"),
+    ({"robot_index": 2}, False, "~robot_index 2 not in 0..1"),
+])
+def test_agent_parameter_combinations_are_refused(values, sim, why):
+    pytest.importorskip("rospy")
+    from tpuaf.params import AgentParams, NodeParamError, parse
+    from tpuaf.ros.agent_node import check_params
+
+    with pytest.raises(NodeParamError, match=re.escape(why)):  # by the parser or the node
+        check_params(parse(AgentParams, {"map": "lab", "robot_index": 0, "robots": 2, **values},
+                           "agent"), sim)
