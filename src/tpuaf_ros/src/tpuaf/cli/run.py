@@ -278,6 +278,7 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
     title = (
         f"{config.strategy} on {engine.patrol_map.name}, N = {config.robots}, "
         f"{config.duration_s:g} s, seed {config.seed}"
+        + ("" if getattr(engine, "runtime", "graph") == "graph" else f", {engine.runtime} runtime")
     )
     writer = ResultsWriter(out, engine.effective_config()) if out else None
     bar = tqdm(
