@@ -102,6 +102,10 @@ def fleet(map_ref: str, n: int, duration: float, out: Path, extra=()) -> dict:
     finally:
         stop.set()
         sampler.join()
+    if not (out / "fleet_timing.json").is_file() or not (out / "summary.json").is_file():
+        return {"ok": False, "rtf": None, "visits": 0, "deaths": None, "unresponsive": None,
+                "agent_cpu_ms_per_tick": None, "agent_cpu_s": sum(cpu.values()),
+                "agents_seen": len(cpu), "bag_mb": None, "tail": stdout[-600:]}
     timing = json.loads((out / "fleet_timing.json").read_text())
     summary = json.loads((out / "summary.json").read_text())
     sim = json.loads((out / "simulator.json").read_text()) if (out / "simulator.json").is_file() \
@@ -117,14 +121,28 @@ def fleet(map_ref: str, n: int, duration: float, out: Path, extra=()) -> dict:
             "tail": stdout[-600:]}
 
 
-def reference_visits(map_ref: str, n: int, duration: float, runtime: str) -> int:
-    with tempfile.TemporaryDirectory() as tmp:
-        cmd = [TPUAF, "run", "--map", map_ref, "--robots", str(n), "--duration", str(duration),
-               "--seed", "0", "--out", f"{tmp}/ref"]
-        if runtime != "graph":
-            cmd += ["--runtime", runtime]
-        subprocess.run(cmd, capture_output=True, text=True, check=True, timeout=1800, cwd=REPO)
-        return json.loads(Path(f"{tmp}/ref/summary.json").read_text())["visits"]
+def reference_visits(map_ref: str, n: int, duration: float, runtime: str) -> int | None:
+    for _attempt in range(2):
+        with tempfile.TemporaryDirectory() as tmp:
+            cmd = [TPUAF, "run", "--map", map_ref, "--robots", str(n), "--duration",
+                   str(duration), "--seed", "0", "--out", f"{tmp}/ref"]
+            if runtime != "graph":
+                cmd += ["--runtime", runtime]
+            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, cwd=REPO)
+            if proc.returncode == 0:
+                return json.loads(Path(f"{tmp}/ref/summary.json").read_text())["visits"]
+            print(f"reference run failed: {proc.stderr[-500:]}", file=sys.stderr)
+    return None
+
+
+def wait_for_workspace(timeout_s: float = 300.0) -> None:
+    """Others rebuild the shared workspace: wait until the core module imports."""
+    deadline = time.monotonic() + timeout_s
+    while subprocess.run([sys.executable, "-c", "import tpuaf_core, tpuaf.cli"],
+                         capture_output=True).returncode != 0:
+        if time.monotonic() > deadline:
+            raise SystemExit("the workspace does not import (tpuaf_core being rebuilt?)")
+        time.sleep(5)
 
 
 def physics_available() -> bool:
@@ -144,6 +162,8 @@ def main() -> int:
     ap.add_argument("--robots", default="4,8,12")
     ap.add_argument("--maps", default="grid,cumberland")
     ap.add_argument("--reference", default="auto", help="physics, graph or auto")
+    ap.add_argument("--append", action="store_true",
+                    help="keep the other configurations' rows of the existing fleet.json")
     args = ap.parse_args()
     maps = {"grid": MAPS["grid"]} if args.quick else {m: MAPS[m] for m in args.maps.split(",")}
     ns = [4] if args.quick else [int(x) for x in args.robots.split(",")]
@@ -157,8 +177,10 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for name, ref in maps.items():
             for n in ns:
+                wait_for_workspace()
                 ref_visits = reference_visits(ref, n, args.duration, runtime)
                 for load in loads:
+                    wait_for_workspace()
                     hog = start_hog() if load == "hog" else []
                     try:
                         la = uptime()
@@ -166,9 +188,19 @@ def main() -> int:
                     finally:
                         stop_hog(hog)
                     r.update(map=name, n=n, load=load, loadavg=la, ref_visits=ref_visits,
+                             reference=runtime, started=started,
                              health=r["visits"] / ref_visits if ref_visits else None)
                     rows.append(r)
-                    print(json.dumps({k: v for k, v in r.items() if k != "tail"}), flush=True)
+                    print(json.dumps({k: v for k, v in r.items() if k != "tail" or not r["ok"]}),
+                          flush=True)
+    name = "fleet_quick" if args.quick else "fleet"
+    if args.append and (RESULTS / f"{name}.json").is_file():
+        done = {(r["map"], r["n"], r["load"]) for r in rows}
+        old = [r for r in json.loads((RESULTS / f"{name}.json").read_text())
+               if (r["map"], r["n"], r["load"]) not in done]
+        rows = sorted(old + rows, key=lambda r: (list(MAPS).index(r["map"]), r["n"],
+                                                 loads.index(r["load"]) if r["load"] in loads
+                                                 else 9))
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True, cwd=REPO).stdout.strip()
     lines = [f"# ROS fleet: lock-step, roscpp simulator\n\nOne run per row on {os.cpu_count()} "
@@ -197,7 +229,6 @@ def main() -> int:
     lines += ["", f"Load average after: {uptime()}. The machine is shared with other "
               "developers: RTF moves with their load; health and visits should not (lock-step)."]
     RESULTS.mkdir(exist_ok=True)
-    name = "fleet_quick" if args.quick else "fleet"
     (RESULTS / f"{name}.md").write_text("\n".join(lines) + "\n")
     (RESULTS / f"{name}.json").write_text(json.dumps(
         [{k: v for k, v in r.items() if k != "tail"} for r in rows], indent=2))
