@@ -234,7 +234,10 @@ def test_start_and_duration_inside_the_bag(tmp_path):
     result = analyze(tmp_path / "run.bag", GRID, start_offset_s=5.0, duration_s=20.0)
     assert result.summary["duration_s"] == pytest.approx(20.0, abs=0.2)
     inside = [v for v in spec.visits if info.start_s + 5.0 <= v[0] <= info.start_s + 25.0]
-    assert result.reports == len(inside)
+    # each robot's START (before the span) is its first visit at the span's start, as in the
+    # monitor
+    assert result.reports == len(inside) + 2
+    assert result.summary["visits"] == result.reports
     with pytest.raises(BagError, match="runs past its end"):
         analyze(tmp_path / "run.bag", GRID, duration_s=1e9)
     with pytest.raises(BagError, match="outside it"):

@@ -34,7 +34,7 @@ from typing import Any
 
 from . import messages as team_messages
 from .errors import TpuafError
-from .monitor import FleetMonitor
+from .monitor import STAMP_EPS_S, FleetMonitor
 from .poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from .topics import (
     AMCL_POSE,
@@ -429,12 +429,16 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
         summary = recorder.summary(end)
         start_used = start
     end_used = start_used + summary["duration_s"]
+    # reports inside the analysed span (a START before it is the first visit at its start)
+    eps = STAMP_EPS_S
+    n_reports = sum(1 for t, first in reports
+                    if (first or t >= start_used - eps) and t <= end_used + eps)
     if source is None:
         for key in ("uncertainty_mean", "uncertainty_final_mean", "interferences",
                     "interference_rate_per_min"):
             summary[key] = None
     return Analysis(summary, recorder, info, n, start_used, end_used, source, visit_source,
-                    reports, liveness, notes)
+                    n_reports, liveness, notes)
 
 
 def _missing_poses(info: BagInfo, n: int) -> str:
@@ -560,7 +564,7 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     feed = MonitorFeed(monitor, grouped=source != "ground_truth")
     chains = robot_chains([info.names.get(r, f"{info.prefix}{r}") for r in range(n)],
                           MAP_FRAME, BASE_FRAME)
-    reports = 0
+    reports: list[tuple[float, bool]] = []  # (stamp, is START) of the visit reports
     report_of = _Reports(info, patrol_map, n, team)
 
     for conn, _t_rec, msg in _stream(path, reader, store, conns):
@@ -580,8 +584,8 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
             if rep is None:
                 continue
             r, kind, vertex, t = rep
-            if is_visit(kind, vertex) and start <= t <= end:
-                reports += 1
+            if is_visit(kind, vertex):
+                reports.append((t, kind == START))
             monitor.on_event(r, kind, vertex, t)
         if monitor.finished:
             break
@@ -603,7 +607,7 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
     recorder = RunRecorder(patrol_map, n, ground_truth=False, start_time=start)
     heard = [start] * n  # last sign of life [s]
     alive = [True] * n
-    reports = 0
+    reports: list[tuple[float, bool]] = []  # (stamp, is START) of the visit reports
     report_of = _Reports(info, patrol_map, n, team)
 
     def deaths_until(t):
@@ -619,16 +623,15 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
         r, kind, vertex, t = rep
         if t > end:
             break
-        if t < start:
-            continue
+        if t < start and kind != START:
+            continue  # before the run (a START is the first visit at the start)
+        t = max(t, start)
         if liveness:
             deaths_until(t)
-        if not alive[r]:
-            continue
         heard[r] = max(heard[r], t)
-        if is_visit(kind, vertex):
+        if is_visit(kind, vertex):  # as FleetMonitor: a robot's reports count even if silent
             recorder.record_visit(r, vertex, t)
-            reports += 1
+            reports.append((t, kind == START))
     if liveness:
         deaths_until(end)
     recorder.finish(end)
