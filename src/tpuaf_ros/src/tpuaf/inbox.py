@@ -30,7 +30,7 @@ class InboxConfig:
 
     skew_warn_s: float = 1.0  # [s] a teammate clock offset above this is named in a warning
     max_skew_s: float = 30.0  # [s] a message time farther than this from our clock is refused
-    max_horizon_s: float = 86400.0  # [s] an expected arrival later than this after sending is refused
+    max_horizon_s: float = 86400.0  # [s] an expected arrival this far from sending is refused
     window: int = 15  # messages per teammate in the median offset estimate
     correct_skew: bool = True  # shift teammates' times by their estimated offset
     deadband_s: float = 0.05  # [s] offsets below this (transport delay) are left alone
@@ -112,7 +112,7 @@ class TeamInbox:
                     return f"{name} {getattr(msg, name)!r} is not finite"
             if msg.travel_time < 0:
                 return f"travel time {msg.travel_time} s < 0"
-            if not -1.0 <= msg.expected_arrival - t <= self.config.max_horizon_s:
+            if abs(msg.expected_arrival - t) > self.config.max_horizon_s:  # (late is possible)
                 return f"expected arrival {msg.expected_arrival - t:+.1f} s after sending"
             return None
         if kind is m.IdlenessEstimate:
