@@ -251,6 +251,9 @@ def test_heartbeats_detect_a_silent_robot(tmp_path):
     result = analyze(tmp_path / "run.bag", GRID)
     assert result.liveness and result.summary["deaths"] == 1
     assert result.summary["dead_robots"] == [1]
+    # its announced intentions (Intention messages) are in the recovery metrics
+    (rec,) = result.summary["recovery"]
+    assert rec["robot"] == 1 and rec["intentions"] == [14]
 
 
 def cli(*args, cwd=REPO):

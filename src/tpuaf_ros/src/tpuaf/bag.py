@@ -520,7 +520,7 @@ class _Reports:
         self.use_visits = not info.visit_events
         self.started = [False] * n
 
-    def __call__(self, conn: Any, msg: Any) -> tuple[int, int, int, float] | None:
+    def __call__(self, conn: Any, msg: Any) -> tuple[int, int | None, int, float] | None:
         r = int(msg.robot_index)
         t = _stamp(msg)
         if not 0 <= r < self.n or not _in_span(self.info, t):
@@ -534,8 +534,8 @@ class _Reports:
             vertex = _vertex(self.map, int(msg.vertex))
             if vertex is not None:
                 self.started[r] = True
-        else:
-            kind, vertex = HEARTBEAT, -1
+        else:  # a sign of life, only where the bag has no heartbeats (as the live monitor)
+            kind, vertex = (None if self.info.events else HEARTBEAT), -1
         if vertex is None:
             return None
         return r, kind, vertex, t
@@ -586,7 +586,12 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
             r, kind, vertex, t = rep
             if is_visit(kind, vertex):
                 reports.append((t, kind == START))
-            monitor.on_event(r, kind, vertex, t)
+            if kind is not None:
+                monitor.on_event(r, kind, vertex, t)
+            if team.get(conn.topic) == "Intention":  # for the recovery metrics
+                target = _vertex(patrol_map, int(msg.vertex))
+                if target is not None and target >= 0:
+                    monitor.on_announcement(r, target, t)
         if monitor.finished:
             break
     feed.close()  # up to the bag's last poses
@@ -623,8 +628,8 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
         r, kind, vertex, t = rep
         if t > end:
             break
-        if t < start and kind != START:
-            continue  # before the run (a START is the first visit at the start)
+        if kind is None or (t < start and kind != START):
+            continue  # no sign of life; before the run (a START is the first visit at the start)
         t = max(t, start)
         if liveness:
             deaths_until(t)

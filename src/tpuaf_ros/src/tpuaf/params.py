@@ -155,6 +155,7 @@ class MonitorParams:
     base_frame: str = "base_footprint"  # tf: robot i's frame is <robot_prefix><i>/<base_frame>
     announce_start: bool = True  # announce /fleet/start when all agents are ready; false: follow
     #   the start the agents announce (hardware)
+    team_ns: str = "/team"  # namespace of the team topics (intentions: recovery metrics)
 
     # Numeric limits checked by `parse` (not fields): name -> (">" or ">=", bound).
     ranges: ClassVar[dict[str, tuple[str, float]]] = {

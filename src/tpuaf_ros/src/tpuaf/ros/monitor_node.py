@@ -25,13 +25,14 @@ from nav_msgs.msg import Odometry
 from std_msgs.msg import Float64
 from tf2_msgs.msg import TFMessage
 
-from tpuaf_ros.msg import AgentEvent, LiveMetrics
+from tpuaf_ros.msg import AgentEvent, Intention, LiveMetrics
 
+from .. import messages
 from ..maps import MapError, load_map
 from ..monitor import FleetMonitor
 from ..params import MonitorParams, NodeParamError, parse
 from ..poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
-from ..topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC
+from ..topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
 from . import convert
 from .node import private_params, run_node
 
@@ -71,6 +72,9 @@ class MonitorNode:
         self.ready_wall = None
         self.names = [f"{p.robot_prefix}{i}" for i in range(p.robots)]
         rospy.Subscriber(convert.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=500)
+        # announced destinations: how many of a dead robot's intentions were honoured
+        rospy.Subscriber(team_topic(p.team_ns, messages.Intention), Intention,
+                         self.on_intention, queue_size=500)
         if not p.announce_start:
             rospy.Subscriber(START_TOPIC, Float64, self.on_start, queue_size=10)
         # Poses at their own stamps (all but ground truth) are grouped on ticks.
@@ -89,7 +93,8 @@ class MonitorNode:
     def on_event(self, msg):
         with self.lock:
             r = msg.robot_index
-            self.fm.on_event(r, msg.event, self.vertex_index(msg.vertex), msg.stamp.to_sec())
+            v = self.vertex_index(msg.vertex)  # not on the map: a sign of life only
+            self.fm.on_event(r, msg.event, -1 if v is None else v, msg.stamp.to_sec())
             if 0 <= r < len(self.ready):
                 self.ready[r] = True
             if (self.p.announce_start and not self.announced and all(self.ready)
@@ -105,6 +110,12 @@ class MonitorNode:
                 self.announced = True
                 rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
                               f"{start:.2f} s for {self.p.duration:g} s")
+
+    def on_intention(self, msg):
+        v = self.vertex_index(msg.vertex)
+        if v is not None and v >= 0:
+            with self.lock:
+                self.fm.on_announcement(msg.robot_index, v, msg.stamp.to_sec())
 
     def on_start(self, msg):
         """~announce_start false: the run starts at the earliest start the agents announce."""
@@ -122,7 +133,11 @@ class MonitorNode:
                               f"{START_TOPIC}) for {self.p.duration:g} s")
 
     def vertex_index(self, vid):
-        return -1 if vid < 0 else self.patrol_map.index_of(vid)
+        """Graph index of vertex id `vid` (-1: none), None when the map has no such vertex."""
+        try:
+            return -1 if vid < 0 else self.patrol_map.index_of(vid)
+        except (KeyError, IndexError, ValueError):
+            return None
 
     def recorder_ready(self):
         if not self.p.wait_for_recorder:
