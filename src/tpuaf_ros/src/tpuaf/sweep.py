@@ -391,11 +391,13 @@ def run_config(task: dict[str, Any]):
 
 
 def make_engine(config, patrol_map, runtime: str = "graph"):
-    """The engine of a runtime: graph = BatchRun; physics = runtimes/physics.py PhysicsRun."""
+    """The engine of a runtime: graph = the C++ event loop when the strategy has a C++
+    decision path and no unsupported option is set, else BatchRun (same results either way,
+    runtimes/native.py); physics = runtimes/physics.py PhysicsRun."""
     if runtime == "graph":
-        from .runtimes.graph import BatchRun
+        from .runtimes.native import make_run
 
-        return BatchRun(config, patrol_map)
+        return make_run(config, patrol_map, "auto")[0]
     if runtime == "physics":
         from .runtimes.physics import PhysicsRun
 
