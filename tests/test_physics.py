@@ -116,3 +116,15 @@ def test_every_strategy_survives_faults_in_the_physics_runtime(strategy):
                               fail=["0@60"], stall=["2@90"], delay_s=0.5, loss=0.1)
     assert engine.now == 300.0 and summary["deaths"] == 1
     assert summary["visits"] > 4
+
+
+def test_the_survivors_ideal_uses_the_robots_speed():
+    """A Burger on grid drives 0.22 m/s, not the map's 1 m/s: the N - 1 ideal says so."""
+    from tpuaf.tours import reference_tours
+
+    summary, engine = physics(map="grid", robot="burger", robots=3, duration_s=60,
+                              fail=["2@10"])
+    (r,) = summary["recovery"]
+    want = reference_tours(engine.patrol_map, 2, 0.22)["best_worst_idleness_s"]
+    assert r["ideal_worst_idleness_survivors_s"] == pytest.approx(want)
+    assert r["time_s"] == pytest.approx(10.0)

@@ -77,7 +77,7 @@ class RunRecorder:
     def __init__(self, patrol_map: Any, n_robots: int, *, sample_period_s: float = 1.0,
                  refractory_s: float = 10.0, ground_truth: bool = True,
                  start_time: float = 0.0, max_substep_s: float = 0.25,
-                 field_merge_s: float = 0.5):
+                 field_merge_s: float = 0.5, speed_mps: float | None = None):
         if n_robots <= 0:
             raise ValueError(f"need at least one robot, got {n_robots}")
         if not sample_period_s > 0:
@@ -93,6 +93,9 @@ class RunRecorder:
         # Consecutive position updates closer than this [s] are merged into one linear step of
         # the ground-truth field (0 = never merge); 0.5 s changes X by < 0.3 % at 1 m/s.
         self.field_merge_s = float(field_merge_s)
+        # [m/s] the robots' speed, for the survivors' ideal (default: the map's nominal speed)
+        self.speed_mps = float(patrol_map.settings.nominal_speed if speed_mps is None
+                               else speed_mps)
         self._field_t = self.start_time
         self._field_p: np.ndarray | None = None
         self._field_finite = True
@@ -381,7 +384,7 @@ class RunRecorder:
         - worst_idleness_after_s: the worst idleness (t - last visit, any vertex) at any time t
           from the death to the next death or the end (time before the death counts);
         - ideal_worst_idleness_survivors_s: the reference tours' best worst idleness (cyclic
-          or partition, tpuaf.tours) for the survivors on this map at its nominal speed;
+          or partition, tpuaf.tours) for the survivors on this map at `speed_mps`;
         - intentions: the vertices the dead robot had announced as its next destination in
           the team messages it sent since its last visit (what its teammates may count on it
           for); intentions_honoured: how many of them a teammate visited after the death,
@@ -390,7 +393,7 @@ class RunRecorder:
 
         end_time = float(end_time)
         ids = list(self.patrol_map.vertex_ids)
-        speed = float(self.patrol_map.settings.nominal_speed)
+        speed = self.speed_mps
         deaths = sorted(d for d in self.deaths if d[0] <= end_time)
         out = []
         for k, (td, robot) in enumerate(deaths):

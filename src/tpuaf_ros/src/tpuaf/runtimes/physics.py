@@ -107,7 +107,8 @@ class PhysicsRun:
         self.bus = TeamBus(n, config.delay_s, config.loss, np.random.default_rng([seed, 1]))
         self._deliveries: list = []  # (time, seq, message, recipients)
         self._seq = 0
-        self.recorder = RunRecorder(pm, n, sample_period_s=config.sample_period_s)
+        self.recorder = RunRecorder(pm, n, sample_period_s=config.sample_period_s,
+                                    speed_mps=self.robot_choice.speed_mps)
         cls = REGISTRY.get(config.strategy)
         self.agents = [
             AgentRuntime(pm, cls(config.strategy_params), i, n, seed,
