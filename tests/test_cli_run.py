@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -174,3 +175,33 @@ def test_analyze_refuses_a_damaged_bag_clearly(tmp_path, content):
     assert result.returncode == 2
     assert "broken.bag: not a readable ROS 1 bag" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+@pytest.mark.slow
+def test_compare_stops_on_sigterm_keeping_finished_runs(tmp_path):
+    """`timeout` or a scheduler stops a sweep with SIGTERM: like Ctrl-C, the finished runs stay
+    (summary.json each, resumable) and the tables are written; exit code 143."""
+    out = tmp_path / "sweep"
+    proc = subprocess.Popen(
+        [*TPUAF, "compare", "--maps", "grid", "--strategies", "tpuaf", "--robots", "4",
+         "--seeds", "100", "--duration", "36000", "--workers", "1", "--quiet", "--out", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=default_sigint,
+        start_new_session=True)
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and proc.poll() is None:
+            if len(list(out.glob("runs/*/*/*/seed*/summary.json"))) >= 2:
+                break
+            time.sleep(0.1)
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(10)
+    assert proc.returncode == 143, stderr[-2000:]
+    assert "Traceback" not in stderr
+    finished = list(out.glob("runs/*/*/*/seed*/summary.json"))
+    assert 2 <= len(finished) < 100
+    for summary in finished:
+        assert json.loads(summary.read_text())  # whole files only (written atomically)
