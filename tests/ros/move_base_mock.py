@@ -59,7 +59,8 @@ class MockMoveBase:
                 err = (math.atan2(dy, dx) - th + math.pi) % (2 * math.pi) - math.pi
                 cmd = Twist()
                 cmd.angular.z = max(-TURN, min(TURN, 3.0 * err))
-                if abs(err) < 0.5:
+                # Turn in place unless nearly aligned (no orbiting around the goal).
+                if abs(err) < (0.5 if d > 0.3 else 0.15):
                     cmd.linear.x = min(SPEED, 1.5 * d) * math.cos(err)
                 self.cmd.publish(cmd)
                 fb.base_position.pose.position.x, fb.base_position.pose.position.y = x, y

@@ -126,6 +126,10 @@ def test_two_burgers_keep_visiting_on_the_wall_clock(tmp_path):
             log = logs[m][i]
             assert "localisation tf map" in log and "wall clock" in log
             assert "robot stopped" not in log, log[-3000:]
+        # One run start for the team, announced once on /fleet/start (latched).
+        epochs = {re.findall(r"run start (?:\(epoch\) )?(\d+\.\d+) s", log)[-1]
+                  for log in logs[m]}
+        assert len(epochs) == 1, epochs
         assert "/clock" not in topics[m]
         bag = tmp_path / m / "run.bag"
         assert bag.is_file() and bag.stat().st_size > 10_000
@@ -206,7 +210,7 @@ def test_move_base_backend_reaches_vertices_through_the_action_server(tmp_path):
                   name="move_base")
         start_robot(ros, "lab", 1, 0, "navigation:=move_base")
         start = wait_started(ros, 1)
-        time.sleep(22.0)
+        time.sleep(25.0)
         rows = events(ros)
         pubs = ros.run_python(
             "import rosgraph; m = rosgraph.Master('/t'); pubs, _, _ = m.getSystemState();"
