@@ -132,6 +132,7 @@ def test_overwrite_clears_only_what_tpuaf_wrote(capsys, tmp_path):
     (out / "run.bag").write_bytes(b"#ROSBAG V2.0\n")
     (out / "summary.json").write_text(json.dumps({"complete": True, "duration_s": 9999}))
     (out / "world.yaml").write_text("robots: 4\n")
+    (out / "config.yaml").write_text("runtime: ros\n")
     (out / "notes.txt").write_text("my notes\n")
     code, _, err = cli(capsys, "run", "--duration", "30", "--quiet", "--overwrite",
                        "--out", str(out))
@@ -147,6 +148,20 @@ def test_overwrite_clears_only_what_tpuaf_wrote(capsys, tmp_path):
     assert cli(capsys, "run", "--duration", "20", "--quiet", "--overwrite",
                "--out", str(out))[0] == 0
     assert (out / "notes.txt").is_file()
+
+
+def test_overwrite_refuses_a_folder_that_holds_no_results(capsys, tmp_path):
+    """`--out . --overwrite` in a source or home folder must not delete its config.yaml."""
+    out = tmp_path / "project"
+    out.mkdir()
+    (out / "config.yaml").write_text("mine: true\n")
+    (out / "README.md").write_text("# mine\n")
+    code, _, err = cli(capsys, "run", "--duration", "5", "--quiet", "--overwrite",
+                       "--out", str(out))
+    assert_one_line_error(code, err, "holds no tpuaf results")
+    assert (out / "config.yaml").read_text() == "mine: true\n"
+    code, _, err = cli(capsys, "run", "--duration", "5", "--quiet", "--out", "")
+    assert_one_line_error(code, err, "--out")
 
 
 def test_manifest_cannot_delete_outside_the_folder(tmp_path):

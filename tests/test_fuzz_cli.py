@@ -4,6 +4,7 @@ on stderr; nothing ever raises or prints a traceback."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
 from pathlib import Path
@@ -29,7 +30,7 @@ STRATEGIES = [*REGISTRY.names(), "TPUAF", "Gbs", "nope", "", "tpuaf "]
 MAPS = ["grid", "lab", "atlantis", "", "GRID", "@file", "@dir", "@nothing", "/dev/null", "."]
 PARAMS = ["utility=eq11", "utility=eq99", "g1=0.5", "g1=abc", "g1=nan", "g2=inf", "=", "x",
           "warp=9", "intention_timeout_s=-1", "a=[", "a={", "silence_timeout_s=1e400", "k=v=w"]
-OUTS = ["@new", "@new", "@file", "@dir", "@nested/deeper", ""]
+OUTS = ["@new", "@new", "@file", "@dir", "@nested/deeper", "@results", "", "relative"]
 
 
 def option():
@@ -65,13 +66,20 @@ def _resolve(token: str, root: Path) -> str:
         path.mkdir(exist_ok=True)
         (path / "keep.txt").write_text("mine\n")
         return str(path)
+    if token == "@results":  # an earlier run's folder, and a file of the user's in it
+        path = root / "a_dir"
+        path.mkdir(exist_ok=True)
+        (path / "keep.txt").write_text("mine\n")
+        (path / "config.yaml").write_text("map: grid\n")
+        (path / "summary.json").write_text("{}\n")
+        return str(path)
     return str(root / token[1:])
 
 
 @FUZZ
 @given(options=st.lists(option(), max_size=7))
 def test_fuzz_run_argv(options, capsys):
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, contextlib.chdir(tmp):  # relative --out: here
         root = Path(tmp)
         argv = ["run", "--duration", "2", "--robots", "2", "--quiet"]
         for opt in options:

@@ -105,6 +105,15 @@ def _written_by_tpuaf(out_dir: Path) -> list[Path]:
     return paths
 
 
+def _is_results_folder(folder: Path) -> bool:
+    """A folder tpuaf wrote: its manifest, or (older runs) config.yaml beside results."""
+    if (folder / MANIFEST).is_file():
+        return True
+    results = ("summary.json", "visits.csv", "timeseries.csv", "fleet_config.yaml", "run.bag")
+    return (folder / "config.yaml").is_file() and any((folder / n).exists() for n in results) \
+        or (folder / "fleet_config.yaml").is_file()
+
+
 def prepare_out_dir(out_dir: str | Path, overwrite: bool = False, option: str = "--out") -> Path:
     """Check and create a results folder before a run starts.
 
@@ -128,6 +137,10 @@ def prepare_out_dir(out_dir: str | Path, overwrite: bool = False, option: str = 
     except OSError as err:
         raise ResultsError(f"{option} {out}: cannot write there: "
                            f"{err.strerror or err}") from None
+    if existing and not _is_results_folder(out):
+        raise ResultsError(
+            f"{option} {out}: holds no tpuaf results (no {MANIFEST} manifest nor config.yaml "
+            "with results): --overwrite only replaces a results folder; choose a new folder")
     if existing:
         for path in _written_by_tpuaf(out):
             if path.is_dir() and not path.is_symlink():

@@ -69,6 +69,13 @@ def seed_int(text: str) -> int:
     return value
 
 
+def folder_path(text: str) -> Path:
+    """An argparse type: a non-empty path ('' would be the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a folder path, got ''")
+    return Path(text)
+
+
 positive_float = _finite_float(lambda v: v > 0, "a finite number > 0")
 non_negative_float = _finite_float(lambda v: v >= 0, "a finite number >= 0")
 probability = _finite_float(lambda v: 0 <= v <= 1, "a probability in [0, 1]")
@@ -115,7 +122,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--duration", type=positive_float, default=3600.0, help="simulated seconds")
     p.add_argument("--seed", type=seed_int, default=0,
                    help=f"random seed 0 .. {MAX_SEED} (runs are deterministic)")
-    p.add_argument("--out", type=Path, default=None, help="results folder (default: none written)")
+    p.add_argument("--out", type=folder_path, default=None,
+                   help="results folder (default: none written)")
     p.add_argument("--overwrite", action="store_true",
                    help="reuse a non-empty --out: remove the files tpuaf wrote there first")
     p.add_argument("--allow-occupied-vertices", action="store_true",
