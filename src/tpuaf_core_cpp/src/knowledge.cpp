@@ -17,8 +17,7 @@ TpuafKnowledge::TpuafKnowledge(const Eigen::VectorXd& importance, const Eigen::V
                                double intention_timeout_s, double silence_timeout_s)
     : importance_(importance),
       last_visit_(Eigen::VectorXd::Zero(importance.size())),
-      anchor_value_(initial),
-      anchor_time_(Eigen::VectorXd::Zero(importance.size())),
+      anchor_(static_cast<std::size_t>(importance.size())),
       model_(std::move(model)),
       pass_coverage_(pass_coverage),
       pass_time_s_(pass_time_s),
@@ -28,6 +27,8 @@ TpuafKnowledge::TpuafKnowledge(const Eigen::VectorXd& importance, const Eigen::V
   if (initial.size() != importance.size()) {
     throw std::invalid_argument("need one importance C and one initial X0 per vertex");
   }
+  for (Eigen::Index j = 0; j < initial.size(); ++j)
+    anchor_[static_cast<std::size_t>(j)] = {initial[j], 0.0};
   if (!(pass_coverage >= 0) || !(pass_time_s >= 0)) {
     throw std::invalid_argument("pass coverage and pass time must be >= 0");
   }
@@ -46,21 +47,21 @@ void TpuafKnowledge::check_vertex(int v) const {
 void TpuafKnowledge::record_visit(int vertex, double time_s) {
   check_vertex(vertex);
   last_visit_[vertex] = std::max(last_visit_[vertex], time_s);
-  if (time_s < anchor_time_[vertex]) return;  // older than what the estimate already holds
+  if (time_s < anchor_[vertex].time) return;  // older than what the estimate already holds
   VisitResult* shared = shared_visits_ ? &(*shared_visits_)[vertex] : nullptr;
-  if (shared != nullptr && shared->valid && shared->value_in == anchor_value_[vertex] &&
-      shared->time_in == anchor_time_[vertex] && shared->visit_time == time_s) {
-    anchor_value_[vertex] = shared->value_out;
-    anchor_time_[vertex] = time_s;
+  if (shared != nullptr && shared->valid && shared->value_in == anchor_[vertex].value &&
+      shared->time_in == anchor_[vertex].time && shared->visit_time == time_s) {
+    anchor_[vertex].value = shared->value_out;
+    anchor_[vertex].time = time_s;
     return;
   }
   const double c = importance_[vertex];
-  const double x = model_.evolve(anchor_value_[vertex], c, time_s - anchor_time_[vertex]);
+  const double x = model_.evolve(anchor_[vertex].value, c, time_s - anchor_[vertex].time);
   const double value = model_.evolve(x, c - pass_coverage_, pass_time_s_);
   if (shared != nullptr)
-    *shared = {anchor_value_[vertex], anchor_time_[vertex], time_s, value, true};
-  anchor_value_[vertex] = value;
-  anchor_time_[vertex] = time_s;
+    *shared = {anchor_[vertex].value, anchor_[vertex].time, time_s, value, true};
+  anchor_[vertex].value = value;
+  anchor_[vertex].time = time_s;
 }
 
 void TpuafKnowledge::share_visit_results() {
@@ -74,28 +75,21 @@ TpuafKnowledge::Slot* TpuafKnowledge::slot(int robot) {
 }
 
 void TpuafKnowledge::hear_visit(int robot, int vertex, double time_s, double now_s) {
-  if (robot < 0) throw std::out_of_range("robot index must be >= 0");
-  if (static_cast<std::size_t>(robot) >= last_heard_s_.size())
-    last_heard_s_.resize(robot + 1, -kInf);
-  last_heard_s_[robot] = now_s;
+  Slot* s = slot(robot);  // throws for robot < 0
+  s->last_heard_s = now_s;
   record_visit(vertex, time_s);
-  Slot* s = slot(robot);
   if (s->held && s->intention.vertex == vertex) s->held = false;
 }
 
 void TpuafKnowledge::hear_intention(const Intention& intention, double now_s) {
   check_vertex(intention.vertex);
-  if (intention.robot < 0) throw std::out_of_range("robot index must be >= 0");
-  if (static_cast<std::size_t>(intention.robot) >= last_heard_s_.size()) {
-    last_heard_s_.resize(intention.robot + 1, -kInf);
-  }
-  last_heard_s_[intention.robot] = now_s;
-  Slot* s = slot(intention.robot);
+  Slot* s = slot(intention.robot);  // throws for robot < 0
+  s->last_heard_s = now_s;
   if (s->held) {
     if (intention.sent_s >= s->intention.sent_s) s->intention = intention;
     return;
   }
-  *s = Slot{intention, next_order_++, true};
+  *s = Slot{intention, next_order_++, true, now_s};
 }
 
 void TpuafKnowledge::forget_intention(int robot) {
@@ -109,9 +103,8 @@ void TpuafKnowledge::drop_stale(double now_s) {
     if (!s.held) continue;
     const Intention& i = s.intention;
     const bool late = now_s - i.expected_arrival_s > intention_timeout_s_;
-    const double heard =
-        static_cast<std::size_t>(i.robot) < last_heard_s_.size() ? last_heard_s_[i.robot] : -kInf;
-    if (late || now_s - heard > silence_timeout_s_) s.held = false;
+    // s is robot i.robot's slot: its last message time is kept there.
+    if (late || now_s - s.last_heard_s > silence_timeout_s_) s.held = false;
   }
 }
 
@@ -130,7 +123,7 @@ std::vector<Intention> TpuafKnowledge::intentions() const {
 Eigen::VectorXd TpuafKnowledge::estimate(double now_s) const {
   Eigen::VectorXd x(size());
   for (int j = 0; j < size(); ++j) {
-    x[j] = model_.evolve(anchor_value_[j], importance_[j], std::max(0.0, now_s - anchor_time_[j]));
+    x[j] = model_.evolve(anchor_[j].value, importance_[j], std::max(0.0, now_s - anchor_[j].time));
   }
   return x;
 }
@@ -166,7 +159,7 @@ UtilityResult TpuafKnowledge::utilities(const PatrolGraph& graph, double now_s, 
   }
   auto estimate_at = [&](int j) {
     scratch_estimate_[j] =
-        model_.evolve(anchor_value_[j], importance_[j], std::max(0.0, now_s - anchor_time_[j]));
+        model_.evolve(anchor_[j].value, importance_[j], std::max(0.0, now_s - anchor_[j].time));
   };
   estimate_at(current_vertex);
   for (int j : candidates) estimate_at(j);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -59,7 +60,12 @@ class TpuafKnowledge {
 
  private:
   void check_vertex(int v) const;
-  Eigen::VectorXd importance_, last_visit_, anchor_value_, anchor_time_;
+  Eigen::VectorXd importance_, last_visit_;
+  // The estimate of X_j: its value at its anchor time (both in one cache line).
+  struct Anchor {
+    double value = 0, time = 0;
+  };
+  std::vector<Anchor> anchor_;
   UncertaintyModel model_;
   double pass_coverage_, pass_time_s_, intention_timeout_s_, silence_timeout_s_;
   // At most one intention per robot, held in the robot's slot; `order` is when the slot was
@@ -69,6 +75,7 @@ class TpuafKnowledge {
     Intention intention;
     std::uint64_t order = 0;
     bool held = false;
+    double last_heard_s = -std::numeric_limits<double>::infinity();  // that robot, any message
   };
   Slot* slot(int robot);
   struct VisitResult {
@@ -78,7 +85,6 @@ class TpuafKnowledge {
   std::shared_ptr<std::vector<VisitResult>> shared_visits_;
   std::vector<Slot> slots_;
   std::uint64_t next_order_ = 0;
-  std::vector<double> last_heard_s_;  // per robot index, -inf when never heard
   Eigen::VectorXd scratch_estimate_, scratch_arrival_, scratch_travel_;
   std::vector<std::uint64_t> scratch_order_;
 };
