@@ -141,10 +141,8 @@ def node_rtf(ros, world: Path, case: str, seconds: float, status_period: float) 
 
 
 def bench_node(map_dir: Path, reps: int, seconds: float, status_period: float) -> dict:
-    spec = importlib.util.spec_from_file_location("ros_conftest", REPO / "tests/ros/conftest.py")
-    conftest = importlib.util.module_from_spec(spec)
-    sys.modules["ros_conftest"] = conftest
-    spec.loader.exec_module(conftest)
+    sys.path.insert(0, str(REPO))  # the fixtures module is part of the tests package
+    conftest = importlib.import_module("tests.ros.conftest")
     out = {case: [] for case in CASES}
     with tempfile.TemporaryDirectory() as tmp, conftest.ros_master(Path(tmp) / "ros") as ros:
         world = world_yaml(map_dir, Path(tmp))
