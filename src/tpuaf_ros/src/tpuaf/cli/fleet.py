@@ -110,9 +110,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-lockstep", dest="lockstep", action="store_false",
                    help="do not step in lock-step with the agents (paced with --rtf X, or "
                         "free-running with --rtf 0; results then depend on the machine's load)")
-    p.add_argument("--lockstep-timeout", type=positive_float, default=2.0,
+    p.add_argument("--lockstep-timeout", type=positive_float, default=5.0,
                    help="[s of wall time] an agent silent this long on a tick is unresponsive: "
-                        "its robot stops, the run goes on (default 2)")
+                        "its robot stops, the run goes on (default 5: a 2 s limit was reached "
+                        "once with 12 agents, a CPU hog and a load average of 19)")
     p.add_argument("--rtf", type=rtf_float, default=None,
                    help="pace the simulator at this real-time factor (0 = as fast as possible; "
                         "default: 0 in lock-step, 10 without)")
