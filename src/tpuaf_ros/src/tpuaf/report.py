@@ -873,15 +873,19 @@ def degradation_figure(data: Data, m: str, n: int, path: Path) -> Path | None:
                     continue
                 levels = sorted(per)
                 st = [stat(r[col] for r in per[lv]) for lv in levels]
-                ax.errorbar(levels, [t.mean for t in st],
-                            yerr=[t.ci if np.isfinite(t.ci) else 0 for t in st], marker="o",
+                means = np.array([t.mean for t in st])
+                lo = np.array([min(t.values) if t.values else np.nan for t in st])
+                hi = np.array([max(t.values) if t.values else np.nan for t in st])
+                # bars: min..max over seeds (a t interval of 2 or 3 seeds says little)
+                ax.errorbar(levels, means, yerr=[means - lo, hi - means], marker="o",
                             ms=3, capsize=2, color=colors[s], label=label(s))
             ax.set_yscale("log")
             ax.set_xlabel(xlabel)
             ax.set_ylabel(name)
             ax.grid(alpha=0.3, which="both")
     axes[0][0].legend(fontsize=7, ncol=2)
-    fig.suptitle(f"Degradation on {m}, N = {n} (one factor at a time; mean ± 95 % CI over seeds)")
+    fig.suptitle(f"Degradation on {m}, N = {n} (one factor at a time; mean over seeds, bars: "
+                 "min to max)")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -1144,14 +1148,18 @@ def write_report(root: Path, out: Path | None = None, paper: Path | None = None,
     if data.rows:
         md += [f"- fault-free graph runs (nominal): maps {', '.join(data.maps())}; strategies "
                f"{', '.join(label(s) for s in data.strategies())}; N = "
-               f"{', '.join(map(str, data.robots()))}; {len(data.rows)} runs"]
+               f"{', '.join(map(str, data.robots()))}; seeds "
+               f"{', '.join(map(str, sorted({r['seed'] for r in data.rows})))}; "
+               f"{len(data.rows)} runs"]
     for sc in scenarios:
         if sc == NOMINAL:
             continue
         d = everything.subset(sc)
         md.append(f"- scenario `{sc}`: maps {', '.join(d.maps())}; strategies "
                   f"{', '.join(label(s) for s in d.strategies())}; N = "
-                  f"{', '.join(map(str, d.robots()))}; {len(d.rows)} runs")
+                  f"{', '.join(map(str, d.robots()))}; seeds "
+                  f"{', '.join(map(str, sorted({r['seed'] for r in d.rows})))}; "
+                  f"{len(d.rows)} runs")
     md += [f"- seeds: {', '.join(map(str, seeds))}",
            f"- simulated duration per run: {', '.join(f'{d:g}' for d in durations)} s"]
     md += wall_time_lines(everything) + [""]
