@@ -184,7 +184,7 @@ def test_report_fault_tables_curves_and_physics(table, tmp_path):
     assert "| TPUAF | 40.20 | 52.26 | 64.32 | 76.38 | 50.00 | 60.15 |" in text
     assert "Every curve is roughly monotone in I_max." in text
     assert "## Physics runtime (`physics`" in text
-    assert "TPUAF's I_ins and X fall as N grows in the physics runs (as in the paper's " \
+    assert "TPUAF's I_ins and X fall as N grows in the physics runs (as TPUAF's in the paper's " \
            "Table 4): **reproduced**" in text
     data = load(table, paper=None)
     assert data.scenarios()[0] == NOMINAL
