@@ -52,7 +52,13 @@ def run_one(job: tuple) -> tuple:
         strategy_params=dict(scenario.get("params", {})), fail=fail,
     )
     t0 = time.perf_counter()
-    summary = BatchRun(config, patrol_map=_load(map_name)).run()
+    try:  # the C++ event loop when it can run this configuration (same results)
+        from tpuaf.runtimes.native import make_run
+
+        engine, _ = make_run(config, _load(map_name), "auto")
+    except ImportError:
+        engine = BatchRun(config, patrol_map=_load(map_name))
+    summary = engine.run()
     return job, summary["idleness_max_s"], summary["uncertainty_mean"], time.perf_counter() - t0
 
 
@@ -71,8 +77,10 @@ def evaluate(strategies, maps, robots, seeds, scenario, processes=2) -> dict:
     if processes > 1:
         with mp.get_context("fork").Pool(processes) as pool:
             done = pool.imap_unordered(run_one, jobs)
-            for job, i_max, x, _ in done:
+            for k, (job, i_max, x, _) in enumerate(done):
                 results.setdefault(job[:3], []).append((i_max, x))
+                print(f"{k + 1}/{len(jobs)} {job[:4]} I_max {i_max:.1f}", file=sys.stderr,
+                      flush=True)
     else:
         for job in jobs:
             job, i_max, x, _ = run_one(job)

@@ -191,8 +191,12 @@ class Tpuaf(Policy):
 
 @register
 class TpuafAnyVertex(Tpuaf):
-    """Variant beyond the paper: any vertex is a candidate, travel by shortest path."""
+    """Variant beyond the paper: any vertex is a candidate, travel by shortest path.
+
+    Worse than TPUAF in I_max and X everywhere measured (docs/STRATEGIES.md); kept registered
+    only until the canonical comparison that lists it is regenerated, then removed."""
 
     name = "tpuaf_any"
-    description = "TPUAF variant: any vertex, d = shortest-path length (not the paper's rule)"
+    description = ("TPUAF variant: any vertex, d = shortest-path length (not the paper's rule; "
+                   "worse than tpuaf everywhere measured, to be removed)")
     any_vertex = True
