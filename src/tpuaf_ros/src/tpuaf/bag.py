@@ -23,6 +23,7 @@ Entry points (pure functions of a file; every problem is a BagError naming it):
 from __future__ import annotations
 
 import contextvars
+import heapq
 import math
 import re
 import statistics
@@ -239,6 +240,41 @@ def _stream(path: Path, reader: Any, store: Any, connections: list) -> Iterator[
 def _stamp(msg: Any) -> float:
     st = msg.header.stamp if hasattr(msg, "header") else msg.stamp
     return st.sec + st.nanosec * NS
+
+
+# [s of stamp time] rosbag's record times lag the message stamps by up to tens of seconds of
+# simulated time on a loaded machine, and by different amounts per topic: the replay puts the
+# messages back in stamp order within this window (memory: the messages of one window).
+REORDER_WINDOW_S = 60.0
+
+
+def _order_key(msg: Any, t_rec: float) -> float:
+    """The stamp a message is replayed at: its header or own stamp, a TF message's first
+    transform's, else its record time."""
+    try:
+        if hasattr(msg, "transforms"):
+            return _stamp(msg.transforms[0]) if len(msg.transforms) else t_rec
+        return _stamp(msg)
+    except AttributeError:
+        return t_rec
+
+
+def _in_stamp_order(stream: Iterator[tuple], window_s: float = REORDER_WINDOW_S
+                    ) -> Iterator[tuple]:
+    """(connection, record time, message) of `stream` in stamp order, given that no message
+    is recorded more than `window_s` after one stamped later (a bounded reorder buffer)."""
+    held: list[tuple] = []
+    newest = -math.inf
+    for seq, (conn, t_rec, msg) in enumerate(stream):
+        key = _order_key(msg, t_rec)
+        newest = max(newest, key)
+        heapq.heappush(held, (key, seq, conn, t_rec, msg))
+        while held[0][0] < newest - window_s:
+            _, _, c, t, m = heapq.heappop(held)
+            yield c, t, m
+    while held:
+        _, _, c, t, m = heapq.heappop(held)
+        yield c, t, m
 
 
 def _team_kind(topic: str) -> str | None:
@@ -567,7 +603,7 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     reports: list[tuple[float, bool]] = []  # (stamp, is START) of the visit reports
     report_of = _Reports(info, patrol_map, n, team)
 
-    for conn, _t_rec, msg in _stream(path, reader, store, conns):
+    for conn, _t_rec, msg in _in_stamp_order(_stream(path, reader, store, conns)):
         if conn.topic in TF_TOPICS:
             for r in feed_chains(chains, msg.transforms):
                 pose = chain_pose(chains[r])
@@ -621,7 +657,8 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
                 alive[r] = False
                 recorder.record_robot_death(r, heard[r] + timeout)
 
-    for conn, _t, msg in _stream(path, reader, store, _report_connections(reader, info, team)):
+    for conn, _t, msg in _in_stamp_order(
+            _stream(path, reader, store, _report_connections(reader, info, team))):
         rep = report_of(conn, msg)
         if rep is None:
             continue

@@ -104,7 +104,9 @@ class MonitorNode:
                     self.ready_wall = time.monotonic()
                 if time.monotonic() - self.ready_wall < self.p.start_wall_delay:
                     return
-                start = msg.stamp.to_sec() + self.p.start_delay
+                # Never in the past of the poses already seen: a late event would otherwise
+                # announce a start the live monitor has passed (a bag replay starts there).
+                start = max(msg.stamp.to_sec(), self.fm.now) + self.p.start_delay
                 self.fm.start_after = start
                 self.start_pub.publish(Float64(start))
                 self.announced = True
