@@ -877,7 +877,8 @@ def degradation_figure(data: Data, m: str, n: int, path: Path) -> Path | None:
                 lo = np.array([min(t.values) if t.values else np.nan for t in st])
                 hi = np.array([max(t.values) if t.values else np.nan for t in st])
                 # bars: min..max over seeds (a t interval of 2 or 3 seeds says little)
-                ax.errorbar(levels, means, yerr=[means - lo, hi - means], marker="o",
+                yerr = [np.maximum(means - lo, 0.0), np.maximum(hi - means, 0.0)]  # rounding
+                ax.errorbar(levels, means, yerr=yerr, marker="o",
                             ms=3, capsize=2, color=colors[s], label=label(s))
             ax.set_yscale("log")
             ax.set_xlabel(xlabel)
