@@ -734,7 +734,7 @@ def plus_targets(data: Data, faults: dict[str, Data]) -> list[str]:
     for name, fd in faults.items():
         if PLUS not in fd.strategies():
             continue
-        total, miss = 0, []
+        total, miss, tie = 0, [], []
         for m in fd.maps():
             for n in fd.robots(m):
                 for col, cname in FAULT_METRICS:
@@ -745,13 +745,17 @@ def plus_targets(data: Data, faults: dict[str, Data]) -> list[str]:
                         continue
                     total += 1
                     v, s = min(others)
-                    if not p.mean < v:
-                        miss.append(f"{m} N={n} {cname} ({label(s)} {fmt(v)} vs {fmt(p.mean)})")
+                    if p.mean < v:
+                        continue
+                    text = f"{m} N={n} {cname} ({label(s)} {fmt(v)} vs {fmt(p.mean)})"
+                    (tie if p.mean <= v * 1.005 else miss).append(text)
         if total:
             out.append(f"- under {FAULT_TITLES.get(name, name)}: lower I_max, worst idleness and X "
-                       f"than every other strategy: **{'met' if not miss else 'missed'}** in "
-                       f"{total - len(miss)} of {total} (map, N, metric) cases"
-                       + (f"; missed: {'; '.join(miss)}." if miss else "."))
+                       f"than every other strategy: **{'met' if not miss and not tie else 'missed'}"
+                       f"**: lower in {total - len(miss) - len(tie)} of {total} (map, N, metric) "
+                       "cases"
+                       + (f"; tied (within 0.5 %) in {len(tie)}: {'; '.join(tie)}" if tie else "")
+                       + (f"; higher in {len(miss)}: {'; '.join(miss)}" if miss else "") + ".")
     return out
 
 
