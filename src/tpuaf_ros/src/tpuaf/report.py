@@ -1010,7 +1010,8 @@ def box_figure(data: Data, m: str, path: Path) -> Path | None:
     strategies = data.strategies(m)
     if not any((m, s, n) in data.samples for s in strategies for n in ns):
         return None
-    fig, axes = plt.subplots(1, len(ns), figsize=(3.2 * len(ns) + 1, 4.2), squeeze=False)
+    width = 3.2 if len(strategies) <= 6 else 0.3 * len(strategies) + 0.6  # [in] per panel
+    fig, axes = plt.subplots(1, len(ns), figsize=(width * len(ns) + 1, 4.6), squeeze=False)
     colors = _colors(strategies)
     for ax, n in zip(axes[0], ns, strict=True):
         values = [data.samples.get((m, s, n), np.zeros(0)) for s in strategies]
@@ -1025,7 +1026,8 @@ def box_figure(data: Data, m: str, path: Path) -> Path | None:
         for patch, (s, _) in zip(bp["boxes"], present, strict=True):
             patch.set_facecolor(colors[s])
             patch.set_alpha(0.6)
-        ax.set_xticks(range(1, len(present) + 1), [label(s) for s, _ in present], rotation=45)
+        ax.set_xticks(range(1, len(present) + 1), [label(s) for s, _ in present],
+                      rotation=90 if len(present) > 6 else 45, fontsize=7 if len(present) > 6 else 9)
         ref = data.reference.get((m, n))
         if ref:
             worst = min(ref["cyclic_worst_idleness_s"], ref["partition_worst_idleness_s"])
