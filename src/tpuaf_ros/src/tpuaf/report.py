@@ -999,8 +999,11 @@ def _pyplot():
 def _colors(strategies: list[str]) -> dict[str, Any]:
     import matplotlib
 
-    cmap = matplotlib.colormaps["tab10"]
-    return {s: cmap(i % 10) for i, s in enumerate(strategies)}
+    if len(strategies) <= 10:
+        cmap = matplotlib.colormaps["tab10"]
+        return {s: cmap(i % 10) for i, s in enumerate(strategies)}
+    cmap = matplotlib.colormaps["tab20"]  # dark shades first, then the light ones
+    return {s: cmap((2 * i) % 20 + (2 * i) // 20) for i, s in enumerate(strategies)}
 
 
 def box_figure(data: Data, m: str, path: Path) -> Path | None:
