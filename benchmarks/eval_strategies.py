@@ -59,7 +59,9 @@ def run_one(job: tuple) -> tuple:
     except ImportError:
         engine = BatchRun(config, patrol_map=_load(map_name))
     summary = engine.run()
-    return job, summary["idleness_max_s"], summary["uncertainty_mean"], time.perf_counter() - t0
+    # worst idleness also counts a vertex never visited again (a dead robot's part)
+    return job, summary["idleness_max_s"], summary["uncertainty_mean"], (
+        summary["worst_idleness_s"], time.perf_counter() - t0)
 
 
 def best_known() -> dict:
@@ -77,21 +79,24 @@ def evaluate(strategies, maps, robots, seeds, scenario, processes=2) -> dict:
     if processes > 1:
         with mp.get_context("fork").Pool(processes) as pool:
             done = pool.imap_unordered(run_one, jobs)
-            for k, (job, i_max, x, _) in enumerate(done):
-                results.setdefault(job[:3], []).append((i_max, x))
+            for k, (job, i_max, x, extra) in enumerate(done):
+                results.setdefault(job[:3], []).append((i_max, x, extra[0]))
                 print(f"{k + 1}/{len(jobs)} {job[:4]} I_max {i_max:.1f}", file=sys.stderr,
                       flush=True)
     else:
         for job in jobs:
-            job, i_max, x, _ = run_one(job)
-            results.setdefault(job[:3], []).append((i_max, x))
+            job, i_max, x, extra = run_one(job)
+            results.setdefault(job[:3], []).append((i_max, x, extra[0]))
     return results
 
 
-def table(results, strategies, maps, robots, bounds) -> list[str]:
+def table(results, strategies, maps, robots, bounds, worst=False) -> list[str]:
+    """Markdown rows; `worst` adds each strategy's worst idleness [s] (median)."""
+    per = 3 if worst else 2
     head = "| map | N | best-known [s] | " + " | ".join(
-        f"{s} I_max (ratio) | {s} X" for s in strategies) + " |"
-    lines = [head, "|" + "---|" * (3 + 2 * len(strategies))]
+        f"{s} I_max (ratio) | {s} X" + (f" | {s} worst" if worst else "")
+        for s in strategies) + " |"
+    lines = [head, "|" + "---|" * (3 + per * len(strategies))]
     for m in maps:
         for n in robots:
             b = bounds.get((m, n))
@@ -99,12 +104,14 @@ def table(results, strategies, maps, robots, bounds) -> list[str]:
             for s in strategies:
                 rows = results.get((s, m, n), [])
                 if not rows:
-                    cells += ["-", "-"]
+                    cells += ["-"] * per
                     continue
                 i_max = statistics.median(r[0] for r in rows)
                 x = statistics.median(r[1] for r in rows)
                 ratio = f" ({i_max / b:.2f}x)" if b else ""
                 cells += [f"{i_max:.1f}{ratio}", f"{x:.3f}"]
+                if worst:
+                    cells.append(f"{statistics.median(r[2] for r in rows):.0f}")
             lines.append("| " + " | ".join(cells) + " |")
     return lines
 
@@ -141,7 +148,7 @@ def main(argv=None) -> int:
     t0 = time.time()
     results = evaluate(strategies, maps, robots, a.seeds, scenario, min(2, a.processes))
     wall = time.time() - t0
-    lines = table(results, strategies, maps, robots, best_known())
+    lines = table(results, strategies, maps, robots, best_known(), worst=a.fail_quarter)
     load = os.getloadavg()[0]
     deaths = f"robots 0..N/4-1 die at {a.fail_time:g} s" if a.fail_quarter else "no deaths"
     desc = (f"{a.title}\n\nmedian of {a.seeds} seeds, {a.duration:g} s; delay {a.delay:g} s, "
