@@ -4,8 +4,9 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
 
 1. Plan. Every robot computes the same plan from the map and the team it believes alive
    (deterministic, no messages): either the shortest closed walk found through all vertices
-   with all robots on it (`tours.cyclic_tour`), or a balanced partition with one closed walk
-   per part (`tours.partition_tours`), whichever has the lower predicted steady-state worst
+   with all robots on it (`tours.cyclic_tour`), or a balanced partition into k parts (every
+   k = 2..N on graphs up to SMALL_GRAPH vertices, else k = N) with one closed walk per part
+   (`tours.partition_tours`), whichever has the lower predicted steady-state worst
    idleness at nominal speed (`tours.walk_idleness`; a tie within 2 % goes to the lower
    predicted mean X, TPUAF's uncertainty model integrated over the plan's visit gaps).
 2. Start. Each robot enters its walk at its start vertex (or drives to the part's nearest
@@ -42,6 +43,7 @@ from .base import Parameter, Policy, RobotContext, register
 from .tpuaf import new_knowledge
 
 _EPS = 1e-6
+SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
 STAY_S = 1.0  # [s] the runtimes' dwell for a goal equal to the current vertex (runtimes.graph)
 
 
@@ -163,7 +165,11 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     # Partitions into k = 2..m parts, robots spread over parts by L_p / m_p (k = m is MSP's).
     part, part_worst = None, np.inf
     if graph.num_vertices > 1 and mode != "cycle":
-        for k in range(2, min(m, graph.num_vertices) + 1):
+        top = min(m, graph.num_vertices)
+        # every k on small graphs; on large ones only MSP's k = m (a partition search takes
+        # tens of seconds at ~170 vertices); by size only, so every robot agrees
+        ks = range(2, top + 1) if graph.num_vertices <= SMALL_GRAPH else [top] if top > 1 else []
+        for k in ks:
             cand = tours.partition_tours(patrol_map, k)
             per_part = tours.robots_per_part([t.length for t in cand.tours], m)
             worst = max(
