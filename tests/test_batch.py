@@ -84,10 +84,9 @@ def test_tpuaf_beats_random_walk_on_grid():
     assert tpuaf["uncertainty_mean"] < rand["uncertainty_mean"]
 
 
-def test_eq14_and_any_vertex_variant_run():
+def test_eq14_variant_runs():
     a, _ = run(map="grid", robots=2, duration_s=600, seed=1, strategy_params={"utility": "eq14"})
-    b, _ = run(map="grid", robots=2, duration_s=600, seed=1, strategy="tpuaf_any")
-    assert a["visits"] > 0 and b["visits"] > 0
+    assert a["visits"] > 0
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,8 @@
-"""TPUAF (SPEC section 4; paper Sec. 3, Eq. 6-14) and its any-vertex variant.
+"""TPUAF (SPEC section 4; paper Sec. 3, Eq. 6-14).
+
+The any-vertex variant `tpuaf_any` was removed (issue 13): it was worse than TPUAF in I_max and X
+on every map and team size of the canonical comparison and under faults (docs/STRATEGIES.md).
+`any_vertex` stays a class switch, mirrored by the C++ decision path.
 
 Each robot keeps the shared set Q (latest known visit of every vertex, announced intentions of
 the others, stale entries dropped) and its own estimate of every target's uncertainty X_j,
@@ -188,15 +192,3 @@ class Tpuaf(Policy):
                 message.travel_time, message.time, ctx.now,
             )
 
-
-@register
-class TpuafAnyVertex(Tpuaf):
-    """Variant beyond the paper: any vertex is a candidate, travel by shortest path.
-
-    Worse than TPUAF in I_max and X everywhere measured (docs/STRATEGIES.md); kept registered
-    only until the canonical comparison that lists it is regenerated, then removed."""
-
-    name = "tpuaf_any"
-    description = ("TPUAF variant: any vertex, d = shortest-path length (not the paper's rule; "
-                   "worse than tpuaf everywhere measured, to be removed)")
-    any_vertex = True

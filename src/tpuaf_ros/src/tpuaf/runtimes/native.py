@@ -5,7 +5,7 @@ It gives the same results, to the last digit, as the Python graph runtime
 motion, same bus (numpy's PCG64 stream reproduced in C++), same recorder arithmetic
 (tests/test_engine_golden.py). Two kinds of strategies:
 
-- a strategy with a C++ decision path (`NATIVE_STRATEGIES`: tpuaf, tpuaf_any, gbs, dtag) runs
+- a strategy with a C++ decision path (`NATIVE_STRATEGIES`: tpuaf, gbs, dtag) runs
   entirely in C++ between start and finish (the GIL is released); its messages go straight to
   the C++ state of the other robots. GBS's exp is the C library's where numpy's differs by up
   to 1 ulp; its decisions compare probabilities with a 1e-9 tolerance, so runs agree unless
@@ -101,8 +101,6 @@ def _dtag_strategy(run: NativeRun, params: dict):
 # Strategies with a C++ decision path: name -> (Python class it mirrors, builder(run, params)).
 NATIVE_STRATEGIES: dict[str, tuple[str, Callable[[NativeRun, dict], Any]]] = {
     "tpuaf": ("Tpuaf", lambda run, params: _tpuaf_strategy(run, params, any_vertex=False)),
-    "tpuaf_any": ("TpuafAnyVertex",
-                  lambda run, params: _tpuaf_strategy(run, params, any_vertex=True)),
     "gbs": ("GreedyBayesian", _gbs_strategy),
     "dtag": ("DynamicTaskAssignmentGreedy", _dtag_strategy),
 }
