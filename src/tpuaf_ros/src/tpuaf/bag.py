@@ -525,16 +525,6 @@ def _in_span(info: BagInfo, t: float) -> bool:
     return ok
 
 
-def _vertex(patrol_map: Any, vid: int) -> int | None:
-    """Graph index of vertex id `vid` (-1 for none), None when the map has no such vertex."""
-    if vid < 0:
-        return -1
-    try:
-        return patrol_map.index_of(int(vid))
-    except (KeyError, IndexError, ValueError):
-        return None
-
-
 def _report_connections(reader: Any, info: BagInfo, team: dict[str, str]) -> list:
     conns = []
     for conn in reader.connections:
@@ -562,12 +552,12 @@ class _Reports:
         if not 0 <= r < self.n or not _in_span(self.info, t):
             return None
         if conn.topic == EVENTS_TOPIC and not self.use_visits:
-            kind, vertex = int(msg.event), _vertex(self.map, int(msg.vertex))
+            kind, vertex = int(msg.event), self.map.lookup_index(int(msg.vertex))
         elif conn.topic == EVENTS_TOPIC:  # events without visits (heartbeats only)
             kind, vertex = HEARTBEAT, -1
         elif self.use_visits and self.team.get(conn.topic) == "Visit":
             kind = REACHED if self.started[r] else START
-            vertex = _vertex(self.map, int(msg.vertex))
+            vertex = self.map.lookup_index(int(msg.vertex))
             if vertex is not None:
                 self.started[r] = True
         else:  # a sign of life, only where the bag has no heartbeats (as the live monitor)
@@ -625,7 +615,7 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
             if kind is not None:
                 monitor.on_event(r, kind, vertex, t)
             if team.get(conn.topic) == "Intention":  # for the recovery metrics
-                target = _vertex(patrol_map, int(msg.vertex))
+                target = patrol_map.lookup_index(int(msg.vertex))
                 if target is not None and target >= 0:
                     monitor.on_announcement(r, target, t)
         if monitor.finished:

@@ -487,43 +487,56 @@ class RunRecorder:
     def summary(self, end_time: float) -> dict:
         """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null)."""
         self.finish(end_time)
-        duration = float(end_time) - self.start_time
-        stats = idleness_stats(self.interval_samples)
-        worst = self.worst_idleness(end_time)
-        n_rows = len(self.timeseries)
-        counts = self.visit_counts
-        ids = list(self.patrol_map.vertex_ids)
-        counted = sum(max(c - 1, 0) for c in counts)
         x_final = float(np.mean(self.field.values)) if self.field is not None else math.nan
-        out = {
-            "map": self.patrol_map.name,
-            "n_robots": self.n_robots,
-            "n_vertices": self.n_vertices,
-            "start_time_s": self.start_time,
-            "duration_s": duration,
-            "idleness_avg_s": stats["avg"],
-            "idleness_std_s": stats["std"],
-            "idleness_min_s": stats["min"],
-            "idleness_max_s": stats["max"],
-            "idleness_samples": stats["count"],
-            "idleness_ins_mean_s": self._ins_sum / n_rows if n_rows else math.nan,
-            "worst_idleness_s": worst,
-            "uncertainty_mean": self._x_sum / self._x_count if self._x_count else math.nan,
-            "uncertainty_final_mean": x_final,
-            "interferences": len(self.interferences),
-            "interference_rate_per_min": (len(self.interferences) / (duration / 60.0)
-                                          if duration > 0 else math.nan),
-            "interference_distance_m": self.d_if,
-            "visits": len(self.visits),
-            "counted_visits": counted,
-            "visits_per_vertex": {str(v): c for v, c in zip(ids, counts, strict=True)},
-            "unvisited_vertices": int(sum(1 for c in counts if c == 0)),
-            "complete_cycles": complete_cycles(counts),
-            "deaths": len(self.deaths),
-            "dead_robots": [r for _, r in self.deaths],
-            **({"stalled_robots": [r for _, r in self.stalls]} if self.stalls else {}),
-            **({"recovery": self.recovery(end_time)} if self.deaths else {}),
-            "sample_period_s": self.sample_period_s,
-            "timeseries_rows": n_rows,
-        }
-        return plain(out)
+        return build_summary(
+            self, end_time, interval_samples=self.interval_samples, ins_sum=self._ins_sum,
+            n_rows=len(self.timeseries), worst=self.worst_idleness(end_time),
+            x_sum=self._x_sum, x_count=self._x_count, x_final=x_final,
+            n_interferences=len(self.interferences), n_visits=len(self.visits),
+            deaths=self.deaths, stalls=self.stalls,
+            recovery=self.recovery(end_time) if self.deaths else None)
+
+
+def build_summary(rec: Any, end_time: float, *, interval_samples, ins_sum: float, n_rows: int,
+                  worst: float, x_sum: float, x_count: int, x_final: float,
+                  n_interferences: int, n_visits: int, deaths=(), stalls=(),
+                  recovery: list | None = None) -> dict:
+    """The summary of SPEC section 6 from a recorder's accumulated figures; one layout for the
+    Python recorder and the C++ event loop's (`rec`: patrol_map, n_robots, n_vertices,
+    start_time, d_if, visit_counts, sample_period_s). Times [s]; NaN -> null."""
+    duration = float(end_time) - rec.start_time
+    stats = idleness_stats(interval_samples)
+    counts = rec.visit_counts
+    ids = list(rec.patrol_map.vertex_ids)
+    out = {
+        "map": rec.patrol_map.name,
+        "n_robots": rec.n_robots,
+        "n_vertices": rec.n_vertices,
+        "start_time_s": rec.start_time,
+        "duration_s": duration,
+        "idleness_avg_s": stats["avg"],
+        "idleness_std_s": stats["std"],
+        "idleness_min_s": stats["min"],
+        "idleness_max_s": stats["max"],
+        "idleness_samples": stats["count"],
+        "idleness_ins_mean_s": ins_sum / n_rows if n_rows else math.nan,
+        "worst_idleness_s": worst,
+        "uncertainty_mean": x_sum / x_count if x_count else math.nan,
+        "uncertainty_final_mean": x_final,
+        "interferences": n_interferences,
+        "interference_rate_per_min": (n_interferences / (duration / 60.0)
+                                      if duration > 0 else math.nan),
+        "interference_distance_m": rec.d_if,
+        "visits": n_visits,
+        "counted_visits": sum(max(c - 1, 0) for c in counts),
+        "visits_per_vertex": {str(v): c for v, c in zip(ids, counts, strict=True)},
+        "unvisited_vertices": int(sum(1 for c in counts if c == 0)),
+        "complete_cycles": complete_cycles(counts),
+        "deaths": len(deaths),
+        "dead_robots": [r for _, r in deaths],
+        **({"stalled_robots": [r for _, r in stalls]} if stalls else {}),
+        **({"recovery": recovery} if recovery is not None else {}),
+        "sample_period_s": rec.sample_period_s,
+        "timeseries_rows": n_rows,
+    }
+    return plain(out)

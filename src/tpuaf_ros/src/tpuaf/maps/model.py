@@ -86,6 +86,13 @@ class PatrolMap:
         except KeyError:
             raise MapError(f"map '{self.name}' has no vertex {vertex_id}") from None
 
+    def lookup_index(self, vertex_id: int) -> int | None:
+        """Index of vertex id `vertex_id` (-1 for a negative id: "no vertex"), None when the
+        map has no such vertex (a message about another map: ignored by its readers)."""
+        if vertex_id < 0:
+            return -1
+        return self._index.get(int(vertex_id))
+
     @cached_property
     def _index(self) -> dict[int, int]:
         return {int(v): i for i, v in enumerate(self.vertex_ids)}

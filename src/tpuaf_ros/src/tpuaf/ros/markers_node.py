@@ -86,26 +86,20 @@ class MarkersNode:
             self.map_pub.publish(occupancy_msg(patrol_map.occupancy_grid(), p.map_frame))
         self.timer = rospy.Timer(rospy.Duration(1.0 / p.rate), self.publish)
 
-    def vertex(self, vid):
-        try:
-            return -1 if vid < 0 else self.map.index_of(int(vid))
-        except (KeyError, IndexError, ValueError):
-            return None  # not on this map: ignored
-
     def on_visit(self, msg):
-        v = self.vertex(msg.vertex)
+        v = self.map.lookup_index(msg.vertex)
         if v is not None and v >= 0:
             with self.lock:
                 self.view.on_visit(msg.robot_index, v, msg.stamp.to_sec())
 
     def on_intention(self, msg):
-        a, b = self.vertex(msg.from_vertex), self.vertex(msg.vertex)
+        a, b = self.map.lookup_index(msg.from_vertex), self.map.lookup_index(msg.vertex)
         if a is not None and b is not None:
             with self.lock:
                 self.view.on_intention(msg.robot_index, a, b)
 
     def on_event(self, msg):
-        v = self.vertex(msg.vertex)
+        v = self.map.lookup_index(msg.vertex)
         if v is None:
             return
         with self.lock:

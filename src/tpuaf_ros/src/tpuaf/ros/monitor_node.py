@@ -93,7 +93,7 @@ class MonitorNode:
     def on_event(self, msg):
         with self.lock:
             r = msg.robot_index
-            v = self.vertex_index(msg.vertex)  # not on the map: a sign of life only
+            v = self.patrol_map.lookup_index(msg.vertex)  # not on the map: a sign of life only
             self.fm.on_event(r, msg.event, -1 if v is None else v, msg.stamp.to_sec())
             if 0 <= r < len(self.ready):
                 self.ready[r] = True
@@ -114,7 +114,7 @@ class MonitorNode:
                               f"{start:.2f} s for {self.p.duration:g} s")
 
     def on_intention(self, msg):
-        v = self.vertex_index(msg.vertex)
+        v = self.patrol_map.lookup_index(msg.vertex)
         if v is not None and v >= 0:
             with self.lock:
                 self.fm.on_announcement(msg.robot_index, v, msg.stamp.to_sec())
@@ -133,13 +133,6 @@ class MonitorNode:
                 self.announced = True
                 rospy.loginfo(f"{NODE}: run starts at t = {start:.2f} s (announced on "
                               f"{START_TOPIC}) for {self.p.duration:g} s")
-
-    def vertex_index(self, vid):
-        """Graph index of vertex id `vid` (-1: none), None when the map has no such vertex."""
-        try:
-            return -1 if vid < 0 else self.patrol_map.index_of(vid)
-        except (KeyError, IndexError, ValueError):
-            return None
 
     def recorder_ready(self):
         if not self.p.wait_for_recorder:

@@ -20,7 +20,6 @@ summary(), effective_config()). Select the runtime with `make_run(config, engine
 from __future__ import annotations
 
 import inspect
-import math
 from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
@@ -28,8 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..maps import load_map, start_vertices
-from ..metrics import RunRecorder, complete_cycles, idleness_stats
-from ..plain import plain
+from ..metrics import RunRecorder, build_summary
 from ..policies import REGISTRY, Policy, RobotContextBase
 from .bus import BusStats
 from .graph import DEFAULT_RETRY_S, STAY_S, BatchRun, RunConfig
@@ -307,43 +305,11 @@ class NativeRecorder:
         engine = self._engine
         engine.finish()
         end_time = float(end_time)
-        duration = end_time - self.start_time
-        stats = idleness_stats(engine.interval_samples)
-        n_rows = engine.row_count
-        counts = self.visit_counts
-        ids = list(self.patrol_map.vertex_ids)
-        x_count = engine.x_count
-        n_inter = len(engine.interferences)
-        out = {
-            "map": self.patrol_map.name,
-            "n_robots": self.n_robots,
-            "n_vertices": self.n_vertices,
-            "start_time_s": self.start_time,
-            "duration_s": duration,
-            "idleness_avg_s": stats["avg"],
-            "idleness_std_s": stats["std"],
-            "idleness_min_s": stats["min"],
-            "idleness_max_s": stats["max"],
-            "idleness_samples": stats["count"],
-            "idleness_ins_mean_s": engine.ins_sum / n_rows if n_rows else math.nan,
-            "worst_idleness_s": engine.worst_idleness(end_time),
-            "uncertainty_mean": engine.x_sum / x_count if x_count else math.nan,
-            "uncertainty_final_mean": float(np.mean(engine.field_values)),
-            "interferences": n_inter,
-            "interference_rate_per_min": (n_inter / (duration / 60.0)
-                                          if duration > 0 else math.nan),
-            "interference_distance_m": self.d_if,
-            "visits": engine.visit_count,
-            "counted_visits": sum(max(c - 1, 0) for c in counts),
-            "visits_per_vertex": {str(v): c for v, c in zip(ids, counts, strict=True)},
-            "unvisited_vertices": int(sum(1 for c in counts if c == 0)),
-            "complete_cycles": complete_cycles(counts),
-            "deaths": 0,
-            "dead_robots": [],
-            "sample_period_s": self.sample_period_s,
-            "timeseries_rows": n_rows,
-        }
-        return plain(out)
+        return build_summary(
+            self, end_time, interval_samples=engine.interval_samples, ins_sum=engine.ins_sum,
+            n_rows=engine.row_count, worst=engine.worst_idleness(end_time), x_sum=engine.x_sum,
+            x_count=engine.x_count, x_final=float(np.mean(engine.field_values)),
+            n_interferences=len(engine.interferences), n_visits=engine.visit_count)
 
 
 class NativeRun:
