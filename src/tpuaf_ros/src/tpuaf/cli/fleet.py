@@ -490,11 +490,25 @@ def run(args: argparse.Namespace) -> int:
             sim = json.loads(sim_summary.read_text())
     # A killed agent (--fail) goes silent: the simulator reports it unresponsive (roscpp keeps
     # retrying its publisher link), but that is the injected death, not a slow agent.
+    # Only the run counts: a slow first answer while the agents start up (before the run
+    # start, e.g. under a CPU hog) is listed but not counted.
     killed = {d["robot"] for d in deaths_done}
-    per_robot = [0 if i in killed else int(c)
-                 for i, c in enumerate(sim.get("unresponsive_per_robot", []))]
+    start_s = summary.get("start_time_s")
+    end_s = None if start_s is None else start_s + summary.get("duration_s", 0.0)
+    per_robot = [0] * len(sim.get("unresponsive_per_robot", []))
+    before_start = 0
+    for event in sim.get("events", []):
+        robot, t = event.get("robot"), event.get("sim_time_s")
+        if (event.get("event") != "unresponsive" or robot in killed or t is None
+                or not 0 <= robot < len(per_robot)):
+            continue
+        if start_s is None or t < start_s:
+            before_start += 1
+        elif t <= end_s:
+            per_robot[robot] += 1
     summary["unresponsive_events"] = sum(per_robot)
     summary["unresponsive_per_robot"] = per_robot
+    summary["unresponsive_events_before_start"] = before_start
     summary["simulator_events"] = sim.get("events", [])
     summary.setdefault("faults", config["faults"])
     summary["fleet_deaths_injected"] = deaths_done
