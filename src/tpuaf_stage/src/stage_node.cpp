@@ -106,25 +106,28 @@ struct NodeParams {
 struct ParamDoc {
   const char* name;
   const char* kind;  // "double", "bool", "string"
+  const char* default_text;
+  const char* meaning;  // unit and meaning (as beside NodeParams)
 };
 const ParamDoc kParams[] = {
-    {"world", "string"},
-    {"step", "double"},
-    {"clock_rate", "double"},
-    {"real_time_factor", "double"},
-    {"odom_rate", "double"},
-    {"robot_prefix", "string"},
-    {"cmd_vel_timeout", "double"},
-    {"map_frame", "string"},
-    {"publish_map_tf", "bool"},
-    {"scan_topic", "string"},
-    {"status_period", "double"},
-    {"lockstep", "bool"},
-    {"lockstep_timeout", "double"},
-    {"start_timeout", "double"},
-    {"wall_clock", "bool"},
-    {"stall", "string"},
-    {"summary_file", "string"},
+    {"world", "string", "(required)", "path of the world YAML file (plain or resolved)"},
+    {"step", "double", "0.01", "[s] fixed physics step of simulated time"},
+    {"clock_rate", "double", "100", "[Hz of sim time] /clock messages; at most 1 / step"},
+    {"real_time_factor", "double", "0", "[-] simulated s per wall s; 0 = as fast as possible"},
+    {"odom_rate", "double", "10", "[Hz of sim time] odom, ground truth, stalled, /tf"},
+    {"robot_prefix", "string", "robot_", "robot i lives in namespace <robot_prefix><i>"},
+    {"cmd_vel_timeout", "double", "0.2", "[s of sim time] a robot with an older command gets zero"},
+    {"map_frame", "string", "map", "global frame of the ground truth and map -> <ns>/odom"},
+    {"publish_map_tf", "bool", "true", "also publish map -> <ns>/odom (perfect localisation)"},
+    {"scan_topic", "string", "base_scan", "per-robot laser topic (TurtleBot3: scan)"},
+    {"status_period", "double", "10", "[s of wall time] between status log lines; 0 = none"},
+    {"lockstep", "bool", "false", "step on only once every live agent answered the odom tick"},
+    {"lockstep_timeout", "double", "1",
+     "[s of wall time] per tick; a silent agent is unresponsive"},
+    {"start_timeout", "double", "60", "[s of wall time] lock-step: wait for every agent at start"},
+    {"wall_clock", "bool", "false", "rehearsal: real-time pace, wall-clock stamps, no /clock"},
+    {"stall", "string", "''", "faults: \"R@T,R@T\": robot R stops moving at run time T [s]"},
+    {"summary_file", "string", "''", "JSON of the lock-step and fault events, written at exit"},
 };
 
 std::string value_text(const XmlRpc::XmlRpcValue& v) {
@@ -858,8 +861,24 @@ void StageNode::spin() {
   }
 }
 
+void print_help() {
+  std::printf(
+      "%s: headless 2-D simulator node (replaces Stage; docs/SIMULATOR.md)\n\n"
+      "Private parameters (~name, type, default, meaning):\n",
+      kNode);
+  for (const auto& d : kParams) {
+    std::printf("  ~%-20s %-7s %-12s %s\n", d.name, d.kind, d.default_text, d.meaning);
+  }
+}
+
 int run(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // log lines reach a redirected stdout at once
+  for (int k = 1; k < argc; ++k) {
+    if (std::strcmp(argv[k], "--help") == 0 || std::strcmp(argv[k], "-h") == 0) {
+      print_help();  // no master needed
+      return 0;
+    }
+  }
   ros::init(argc, argv, kNode);
   ros::NodeHandle nh;
   NodeParams p;
