@@ -68,32 +68,55 @@ TeamMessage = Visit | Intention | IdlenessEstimate | TaskRequest | TaskBid
 TEAM_MESSAGES = (Visit, Intention, IdlenessEstimate, TaskRequest, TaskBid)
 
 
-def well_formed(message: object, n_robots: int, n_vertices: int) -> bool:
-    """True for a team message a policy can use: a known type, a sender 0..n_robots-1, vertices
-    0..n_vertices-1 (next_vertex may be -1: 'not decided'), finite times and
-    bids, an estimate per vertex. Transports drop the others (a garbled or foreign message)."""
+def _index_problem(value: object, name: str, n: int, allow_none: bool = False) -> str | None:
+    if isinstance(value, bool) or not isinstance(value, int):
+        return f"{name} {value!r} is not an integer"
+    if allow_none and value == -1:
+        return None
+    if not 0 <= value < n:
+        return f"{name} {value} is outside the map (0..{n - 1})"
+    return None
+
+
+def _finite(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def problem(message: object, n_robots: int, n_vertices: int) -> str | None:
+    """Why a team message cannot be used by a policy (None: it can): an unknown type, a sender
+    outside 0..n_robots-1, a vertex outside the map (next_vertex and from_vertex may be -1:
+    'none'), a non-finite time, a negative travel time, bid or estimate, or an estimate of
+    the wrong length. The one structural check of every transport (agent runtime, ROS inbox)."""
     if not isinstance(message, TEAM_MESSAGES):
-        return False
-
-    def index(value: object, lo: int, hi: int) -> bool:
-        return isinstance(value, int) and not isinstance(value, bool) and lo <= value < hi
-
-    def finite(value: object) -> bool:
-        return isinstance(value, (int, float)) and not isinstance(value, bool) and \
-            math.isfinite(value)
-
-    if not index(message.robot, 0, n_robots):
-        return False
+        return f"not a team message: {type(message).__name__}"
+    r = message.robot
+    if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < n_robots:
+        return f"unknown robot index {r!r} (team of {n_robots})"
+    if not _finite(message.time):
+        return f"time {message.time!r} is not finite"
     for name in ("vertex", "next_vertex", "from_vertex"):
-        if hasattr(message, name) and not index(getattr(message, name),
-                                                -1 if name == "next_vertex" else 0, n_vertices):
-            return False
-    for name in ("time", "expected_arrival", "travel_time", "bid"):
-        if hasattr(message, name) and not finite(getattr(message, name)):
-            return False
+        if hasattr(message, name):
+            why = _index_problem(getattr(message, name), name.replace("_", " "), n_vertices,
+                                 allow_none=name != "vertex")
+            if why:
+                return why
+    for name in ("expected_arrival", "travel_time"):
+        if hasattr(message, name) and not _finite(getattr(message, name)):
+            return f"{name} {getattr(message, name)!r} is not finite"
+    if hasattr(message, "travel_time") and message.travel_time < 0:
+        return f"travel time {message.travel_time} s < 0"
+    if hasattr(message, "bid") and not (_finite(message.bid) and message.bid >= 0):
+        return f"bid {message.bid!r} is negative or not finite"
     if isinstance(message, IdlenessEstimate):
         estimate = message.estimate
-        if not isinstance(estimate, tuple) or len(estimate) != n_vertices or \
-                not all(finite(x) for x in estimate):
-            return False
-    return True
+        if not isinstance(estimate, tuple) or len(estimate) != n_vertices:
+            size = len(estimate) if isinstance(estimate, (tuple, list)) else estimate
+            return f"estimate of {size} vertices (map has {n_vertices})"
+        if not all(_finite(x) and x >= 0 for x in estimate):
+            return "estimate has a negative or non-finite idleness"
+    return None
+
+
+def well_formed(message: object, n_robots: int, n_vertices: int) -> bool:
+    """True when `problem` finds nothing: the message is safe to hand to a policy."""
+    return problem(message, n_robots, n_vertices) is None
