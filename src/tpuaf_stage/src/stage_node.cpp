@@ -356,6 +356,19 @@ void yaw_quat(geometry_msgs::Quaternion& q, double yaw) {
   q.w = std::cos(0.5 * yaw);
 }
 
+// Odometry of robot i (pose row and robot-frame twist row), published only when subscribed.
+void publish_odometry(ros::Publisher& pub, nav_msgs::Odometry& m, const ros::Time& stamp,
+                      const tpuaf::Poses& poses, const tpuaf::Twists& twists, int i) {
+  if (pub.getNumSubscribers() == 0) return;
+  m.header.stamp = stamp;
+  m.pose.pose.position.x = poses(i, 0);
+  m.pose.pose.position.y = poses(i, 1);
+  yaw_quat(m.pose.pose.orientation, poses(i, 2));
+  m.twist.twist.linear.x = twists(i, 0);
+  m.twist.twist.angular.z = twists(i, 1);
+  pub.publish(m);
+}
+
 using WallClock = std::chrono::steady_clock;
 double wall_now() {
   return std::chrono::duration<double>(WallClock::now().time_since_epoch()).count();
@@ -672,26 +685,8 @@ void StageNode::publish_state(const std::vector<bool>* only) {
   const tpuaf::Twists vel = world_.velocities();
   for (int i = 0; i < n_; ++i) {
     if (!wanted(i)) continue;
-    if (odom_pub_[i].getNumSubscribers() > 0) {
-      nav_msgs::Odometry& m = odom_msg_[i];
-      m.header.stamp = now;
-      m.pose.pose.position.x = odom(i, 0);
-      m.pose.pose.position.y = odom(i, 1);
-      yaw_quat(m.pose.pose.orientation, odom(i, 2));
-      m.twist.twist.linear.x = odom_vel(i, 0);
-      m.twist.twist.angular.z = odom_vel(i, 1);
-      odom_pub_[i].publish(m);
-    }
-    if (gt_pub_[i].getNumSubscribers() > 0) {
-      nav_msgs::Odometry& g = gt_msg_[i];
-      g.header.stamp = now;
-      g.pose.pose.position.x = truth(i, 0);
-      g.pose.pose.position.y = truth(i, 1);
-      yaw_quat(g.pose.pose.orientation, truth(i, 2));
-      g.twist.twist.linear.x = vel(i, 0);
-      g.twist.twist.angular.z = vel(i, 1);
-      gt_pub_[i].publish(g);
-    }
+    publish_odometry(odom_pub_[i], odom_msg_[i], now, odom, odom_vel, i);
+    publish_odometry(gt_pub_[i], gt_msg_[i], now, truth, vel, i);
   }
   if (only != nullptr || tf_pub_.getNumSubscribers() == 0) return;
   for (int i = 0; i < n_; ++i) {
