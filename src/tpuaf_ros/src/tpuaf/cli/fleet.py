@@ -37,10 +37,12 @@ from ..errors import CliError
 from ..paths import catkin_prefix
 from ..topics import METRICS_TOPIC
 from .run import (
+    finite_float,
     format_summary,
     non_negative_float,
     parse_params,
     positive_float,
+    probability,
     team_size,
 )
 
@@ -72,25 +74,7 @@ def fault_spec(text: str) -> tuple[int, float]:
     return r, t
 
 
-def rtf_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a real-time factor >= 0, got '{text}'") from None
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"expected a real-time factor >= 0 (0 = as fast as "
-                                         f"possible), got {text}")
-    return value
-
-
-def loss_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a probability in [0, 1], got '{text}'") from None
-    if not (math.isfinite(value) and 0 <= value <= 1):
-        raise argparse.ArgumentTypeError(f"expected a probability in [0, 1], got {text}")
-    return value
+rtf_float = finite_float(lambda v: v >= 0, "a real-time factor >= 0 (0 = as fast as possible)")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -136,7 +120,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="robot ROBOT stops moving at run time TIME [s]; its agent goes on")
     p.add_argument("--delay", type=non_negative_float, default=0.0,
                    help="[s of sim time] team message delay, through a relay (as tpuaf run)")
-    p.add_argument("--loss", type=loss_float, default=0.0,
+    p.add_argument("--loss", type=probability, default=0.0,
                    help="team message loss probability per recipient, through a relay")
     p.add_argument("--timeout", type=positive_float, default=None,
                    help="wall-clock limit [s] (default: duration + 300)")

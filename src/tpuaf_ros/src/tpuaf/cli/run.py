@@ -31,7 +31,7 @@ positive_int = _int_at_least(1)
 non_negative_int = _int_at_least(0)
 
 
-def _finite_float(condition, wanted: str):
+def finite_float(condition, wanted: str):
     """An argparse type: a finite float for which `condition` holds, else 'expected <wanted>'."""
 
     def parse(text: str) -> float:
@@ -76,9 +76,9 @@ def folder_path(text: str) -> Path:
     return Path(text)
 
 
-positive_float = _finite_float(lambda v: v > 0, "a finite number > 0")
-non_negative_float = _finite_float(lambda v: v >= 0, "a finite number >= 0")
-probability = _finite_float(lambda v: 0 <= v <= 1, "a probability in [0, 1]")
+positive_float = finite_float(lambda v: v > 0, "a finite number > 0")
+non_negative_float = finite_float(lambda v: v >= 0, "a finite number >= 0")
+probability = finite_float(lambda v: 0 <= v <= 1, "a probability in [0, 1]")
 
 
 def parse_param_value(raw: str):
