@@ -98,7 +98,8 @@ def load(map_name: str):
 
 def one_run(map_name: str, strategy: str, robots: int, engine: str, duration_s: float) -> dict:
     """One run in this process: timings of its phases and this process's peak RSS."""
-    from tpuaf.runtimes.graph import BatchRun, RunConfig
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import BatchRun
     from tpuaf.runtimes.native import NativeRun
 
     t0 = time.perf_counter()
@@ -151,7 +152,7 @@ SWEEP_STRATEGIES = ["tpuaf", "gbs", "dtag", "dtap"]  # dtap runs its Python poli
 def sweep_wall(workers: int, root: Path) -> float:
     """Wall time of one small sweep (grid x SWEEP_STRATEGIES x N = 4, 12 x 2 seeds x 30 min) on
     a local Dask cluster of `workers` single-threaded processes, cluster start included."""
-    from tpuaf.sweep import make_spec, run_sweep
+    from tpuaf.experiments.sweep import make_spec, run_sweep
 
     spec = make_spec(["grid"], SWEEP_STRATEGIES, [4, 12], 2, 1800.0)
     start = time.perf_counter()
@@ -234,7 +235,7 @@ def main() -> None:
                      f"**{exponent:.2f}** (before: about 2).")
     if not args.quick:
         lines.append("\n## Sweep on a local Dask cluster (1 thread per worker)\n")
-        lines.append("`tpuaf.sweep.run_sweep` of grid x {" + ", ".join(SWEEP_STRATEGIES) +
+        lines.append("`tpuaf.experiments.sweep.run_sweep` of grid x {" + ", ".join(SWEEP_STRATEGIES) +
                      "} x N {4, 12} x 2 seeds, 30 min each (16 runs; tpuaf, gbs, dtag on the "
                      "native engine, dtap in Python), cluster start included, one fresh results "
                      f"folder per measurement; median of {min(r, 2)}.\n")

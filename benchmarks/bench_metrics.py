@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 from tpuaf.maps import load_map
-from tpuaf.metrics import RunRecorder
+from tpuaf.measure.metrics import RunRecorder
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "maps" / "patrolling_sim"
 

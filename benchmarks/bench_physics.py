@@ -33,7 +33,8 @@ def load() -> str:
 
 
 def one(source: str, robots: int, robot: str, duration: float, seed: int):
-    from tpuaf.runtimes.physics import PhysicsConfig, PhysicsRun
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
 
     run = PhysicsRun(PhysicsConfig(map=source, robots=robots, robot=robot, duration_s=duration,
                                    seed=seed))
@@ -47,7 +48,8 @@ def cpu_split(source: str, robots: int, duration: float) -> dict[str, float]:
     """CPU seconds of one run by part: the agents' navigator (tpuaf.navigation), laser scans
     and world steps (C++), the rest (state machines, bus, recorder, this loop)."""
     from tpuaf import navigation
-    from tpuaf.runtimes.physics import PhysicsConfig, PhysicsRun
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
 
     acc = {"navigator": 0.0, "scans": 0.0, "world steps": 0.0}
     step = navigation.Navigator.step

@@ -40,7 +40,8 @@ def _load(name: str):
 def run_one(job: tuple) -> tuple:
     """(strategy, map, N, seed, scenario dict) -> (job, I_max [s], X mean, wall [s])."""
     strategy, map_name, n, seed, scenario = job
-    from tpuaf.runtimes.graph import BatchRun, RunConfig
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import BatchRun
 
     fail = []
     if scenario.get("fail_quarter"):

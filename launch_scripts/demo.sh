@@ -21,7 +21,7 @@ echo "== tpuaf analyze $OUT/run.bag"
 "$TPUAF" analyze "$OUT/run.bag" || echo "demo: tpuaf analyze exited with code $?"
 echo
 echo "== plots"
-"$ROOT/.venv/bin/python" -m tpuaf.plots "$OUT"
+"$ROOT/.venv/bin/python" -m tpuaf.experiments.plots "$OUT"
 ln -sfn "$(basename "$OUT")" "$ROOT/results/demo_fleet_latest"
 echo
 echo "demo: fleet, analysis and plots in $OUT ($(($(date +%s) - start)) s wall)"

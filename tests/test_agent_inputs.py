@@ -1,6 +1,6 @@
 """What a hardware agent checks on its inputs (ROS-free): team message checks and clock skew
-(tpuaf.inbox), silent teammates and stale inputs (tpuaf.liveness), the tf pose chain
-(tpuaf.frames) and the move_base navigator (tpuaf.navigation.GoalNavigator)."""
+(tpuaf.team.inbox), silent teammates and stale inputs (tpuaf.team.liveness), the tf pose chain
+(tpuaf.navigation.frames) and the move_base navigator (tpuaf.navigation.GoalNavigator)."""
 
 from __future__ import annotations
 
@@ -9,13 +9,13 @@ import re
 
 import numpy as np
 import pytest
-from tpuaf import messages as m
-from tpuaf.frames import FrameChain
-from tpuaf.inbox import InboxConfig, TeamInbox
-from tpuaf.liveness import InputWatchdog, TeammateLiveness
 from tpuaf.maps import load_map
 from tpuaf.navigation import Event, GoalClient, GoalNavigator, GraphRoute
+from tpuaf.navigation.frames import FrameChain
 from tpuaf.policies import REGISTRY, RobotContextBase
+from tpuaf.team import messages as m
+from tpuaf.team.inbox import InboxConfig, TeamInbox
+from tpuaf.team.liveness import InputWatchdog, TeammateLiveness
 
 # --- team message checks ---------------------------------------------------------------------
 

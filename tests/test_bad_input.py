@@ -165,7 +165,7 @@ def test_overwrite_refuses_a_folder_that_holds_no_results(capsys, tmp_path):
 
 
 def test_manifest_cannot_delete_outside_the_folder(tmp_path):
-    from tpuaf.results import prepare_out_dir
+    from tpuaf.experiments.results import prepare_out_dir
 
     victim = tmp_path / "victim.txt"
     victim.write_text("keep\n")
@@ -179,7 +179,7 @@ def test_manifest_cannot_delete_outside_the_folder(tmp_path):
 def test_writer_never_keeps_an_earlier_summary(tmp_path):
     """A ResultsWriter in a folder with an old summary.json (e.g. the monitor in a reused fleet
     folder) removes it at once: an interruption cannot leave 'complete: true' of another run."""
-    from tpuaf.results import ResultsWriter
+    from tpuaf.experiments.results import ResultsWriter
 
     out = tmp_path / "run"
     out.mkdir()
@@ -230,10 +230,10 @@ def test_monitor_node_ranges(name, value):
 
 
 def test_one_error_base_class():
-    from tpuaf.bag import BagError
-    from tpuaf.report import ReportError
-    from tpuaf.runtimes.graph import ConfigError
-    from tpuaf.sweep import SweepError
+    from tpuaf.experiments.report import ReportError
+    from tpuaf.experiments.sweep import SweepError
+    from tpuaf.measure.bag import BagError
+    from tpuaf.runtimes.config import ConfigError
 
     from tpuaf_stage import WorldError
 

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tpuaf.bag import BagError, analyze, inspect
 from tpuaf.maps import load_map
+from tpuaf.measure.bag import BagError, analyze, inspect
 
 REPO = Path(__file__).resolve().parents[1]
 MSG_DIR = REPO / "src" / "tpuaf_ros" / "msg"
@@ -350,7 +350,7 @@ def test_memory_stays_bounded_on_a_long_bag(tmp_path):
 
 
 def test_pose_sampler_groups_robots_on_ticks_and_a_far_stamp_cannot_flood():
-    from tpuaf.poses import PoseSampler
+    from tpuaf.measure.poses import PoseSampler
 
     s = PoseSampler(2, period_s=0.1, lag_s=0.5)
     ticks = []

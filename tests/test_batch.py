@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from tpuaf.maps import MapError, MapSettings, PatrolMap, load_map
 from tpuaf.policies import ParameterError
-from tpuaf.runtimes.graph import BatchRun, ConfigError, RunConfig
+from tpuaf.runtimes.config import ConfigError, RunConfig
+from tpuaf.runtimes.graph import BatchRun
 
 
 def ring_map(n: int = 8, radius_m: float = 10.0) -> PatrolMap:

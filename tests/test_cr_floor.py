@@ -24,7 +24,7 @@ import statistics
 
 import pytest
 from tpuaf.maps import load_map
-from tpuaf.runtimes.graph import RunConfig
+from tpuaf.runtimes.config import RunConfig
 from tpuaf.runtimes.native import make_run
 
 COORDINATED = ["gbs", "sebs", "cbls", "dtag", "dtap", "tpuaf", "tpuaf_plus", "cgg", "msp"]

@@ -13,9 +13,10 @@ import json
 import numpy as np
 import pytest
 import tpuaf_core
+from tpuaf.experiments.results import ResultsWriter
 from tpuaf.maps import load_map
-from tpuaf.results import ResultsWriter
-from tpuaf.runtimes.graph import BatchRun, RunConfig
+from tpuaf.runtimes.config import RunConfig
+from tpuaf.runtimes.graph import BatchRun
 from tpuaf.runtimes.native import NativeRun, make_run
 
 CASES = [

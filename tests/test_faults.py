@@ -7,10 +7,11 @@ import math
 import subprocess
 
 import pytest
+from tpuaf.maps.tours import reference_tours
 from tpuaf.policies import REGISTRY
+from tpuaf.runtimes.config import ConfigError, RunConfig
 from tpuaf.runtimes.faults import DEATH, STALL, resolve_faults
-from tpuaf.runtimes.graph import BatchRun, ConfigError, RunConfig
-from tpuaf.tours import reference_tours
+from tpuaf.runtimes.graph import BatchRun
 
 from .conftest import REPO
 

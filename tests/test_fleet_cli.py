@@ -11,7 +11,7 @@ import pytest
 from tpuaf.cli.fleet import RECORD_GROUPS, choose_robot, record_regex
 from tpuaf.errors import CliError
 from tpuaf.maps import load_map
-from tpuaf.relay import RelayModel
+from tpuaf.team.relay import RelayModel
 
 REPO = Path(__file__).resolve().parents[1]
 TPUAF = str(REPO / ".venv" / "bin" / "tpuaf")

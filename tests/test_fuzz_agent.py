@@ -11,9 +11,9 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from tpuaf.maps import load_map
-from tpuaf.messages import IdlenessEstimate, Intention, TaskBid, TaskRequest, Visit
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.agent import AgentRuntime
+from tpuaf.team.messages import IdlenessEstimate, Intention, TaskBid, TaskRequest, Visit
 
 FUZZ_EXAMPLES = int(os.environ.get("TPUAF_FUZZ_EXAMPLES", "1000"))  # fewer while iterating
 FUZZ = settings(max_examples=FUZZ_EXAMPLES, deadline=None,

@@ -1,4 +1,4 @@
-"""Fuzz (hypothesis, 1,000 cases each): the bag reader (tpuaf.bag.analyze, the pure entry point
+"""Fuzz (hypothesis, 1,000 cases each): the bag reader (tpuaf.measure.bag.analyze, the pure entry point
 of `tpuaf analyze`) on truncated and garbled copies of a plain bag written with the rosbags
 writer. Every case is analysed or refused with BagError naming the bag: nothing else raises."""
 
@@ -10,7 +10,7 @@ from pathlib import Path
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from tpuaf.bag import Analysis, BagError, analyze
+from tpuaf.measure.bag import Analysis, BagError, analyze
 
 from .test_bag import GRID, PlainBag
 

@@ -15,7 +15,8 @@ from tpuaf.cli import main
 from tpuaf.cli.run import parse_param_value
 from tpuaf.maps import load_map
 from tpuaf.policies import REGISTRY, ParameterError
-from tpuaf.runtimes.graph import BatchRun, ConfigError, RunConfig
+from tpuaf.runtimes.config import ConfigError, RunConfig
+from tpuaf.runtimes.graph import BatchRun
 
 GRID = load_map("grid")
 FUZZ_EXAMPLES = int(os.environ.get("TPUAF_FUZZ_EXAMPLES", "1000"))  # fewer while iterating

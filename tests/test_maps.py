@@ -412,8 +412,7 @@ def test_maps_cli(capsys):
 # ---------------------------------------------------------------------------------------------
 # geometry checks (issue 12): where vertices lie, edge lengths, start vertices
 
-GRID_DIR = Path(__file__).resolve().parents[1] / "src" / "tpuaf_ros" / "src" / "tpuaf" / "data" \
-    / "maps" / "grid"
+GRID_DIR = Path(__file__).resolve().parents[1] / "maps" / "grid"
 
 
 def grid_copy(tmp_path: Path, old: str | None = None, new: str | None = None,

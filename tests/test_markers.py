@@ -1,11 +1,11 @@
-"""tpuaf.markers (ROS-free): what the RViz markers show of a patrol."""
+"""tpuaf.measure.markers (ROS-free): what the RViz markers show of a patrol."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from tpuaf.maps import load_map
-from tpuaf.markers import ROBOT_COLOURS, PatrolView, scale_colour
+from tpuaf.measure.markers import ROBOT_COLOURS, PatrolView, scale_colour
 
 LAB = load_map("lab")
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import tpuaf_core
 from tpuaf.maps import MapSettings, PatrolMap, load_map
-from tpuaf.metrics import RunRecorder, acceleration_ratio, complete_cycles, idleness_stats
+from tpuaf.measure.metrics import RunRecorder, acceleration_ratio, complete_cycles, idleness_stats
 
 
 def line_map(d_if: float = 2.0) -> PatrolMap:
@@ -260,7 +260,7 @@ def test_out_of_order_visits_give_the_same_summary():
 def test_fleet_monitor_counts_reached_events_not_poses():
     """One definition of a visit: the monitor counts REACHED (and START as the first visit),
     stamped by the agent; a robot standing on a vertex without REACHED makes no visit."""
-    from tpuaf.monitor import FleetMonitor
+    from tpuaf.measure.monitor import FleetMonitor
     from tpuaf.topics import GOAL, HEARTBEAT, REACHED, START
 
     pm = line_map()
@@ -287,7 +287,7 @@ def test_fleet_monitor_counts_reached_events_not_poses():
 
 
 def test_fleet_monitor_dates_a_death_at_the_last_event_and_keeps_intentions():
-    from tpuaf.monitor import FleetMonitor
+    from tpuaf.measure.monitor import FleetMonitor
     from tpuaf.topics import HEARTBEAT, REACHED, START
 
     pm = line_map()

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import tpuaf_core
 from tpuaf.maps import load_map, start_vertices
-from tpuaf.monitor import FleetMonitor
+from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.navigation import (
     ControllerConfig,
     Event,

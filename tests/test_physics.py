@@ -11,8 +11,8 @@ import pytest
 import yaml
 from tpuaf.errors import TpuafError
 from tpuaf.policies import REGISTRY
-from tpuaf.runtimes.graph import ConfigError
-from tpuaf.runtimes.physics import PhysicsConfig, PhysicsRun
+from tpuaf.runtimes.config import ConfigError, PhysicsConfig
+from tpuaf.runtimes.physics import PhysicsRun
 
 from .conftest import REPO
 
@@ -120,7 +120,7 @@ def test_every_strategy_survives_faults_in_the_physics_runtime(strategy):
 
 def test_the_survivors_ideal_uses_the_robots_speed():
     """A Burger on grid drives 0.22 m/s, not the map's 1 m/s: the N - 1 ideal says so."""
-    from tpuaf.tours import reference_tours
+    from tpuaf.maps.tours import reference_tours
 
     summary, engine = physics(map="grid", robot="burger", robots=3, duration_s=60,
                               fail=["2@10"])

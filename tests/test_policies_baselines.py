@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 from tpuaf.maps.model import PatrolMap
-from tpuaf.messages import IdlenessEstimate, TaskBid, TaskRequest, Visit
 from tpuaf.policies import REGISTRY, ParameterError, Policy, Registry
 from tpuaf.policies.bayesian import gbs_probability, gbs_table, intention_factor
 from tpuaf.policies.reactive import hcr_scores
+from tpuaf.team.messages import IdlenessEstimate, TaskBid, TaskRequest, Visit
 
 BASELINES = ["rand", "cr", "hcr", "hpcc", "cgg", "msp", "gbs", "sebs", "cbls", "dtag", "dtap"]
 

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from PIL import Image
 from tpuaf.cli import main
+from tpuaf.experiments.plots import Trajectories, _read_csv, frame_times
 from tpuaf.maps import load_map
-from tpuaf.plots import Trajectories, _read_csv, frame_times
 
 PNG = b"\x89PNG\r\n\x1a\n"
 

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 from tpuaf.cli import main
-from tpuaf.report import load, write_report
-from tpuaf.sweep import (
+from tpuaf.experiments.report import load, write_report
+from tpuaf.experiments.sweep import (
     NOMINAL,
     RESULT_COLUMNS,
     RunKey,

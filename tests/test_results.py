@@ -8,9 +8,7 @@ import json
 import numpy as np
 import pytest
 import yaml
-from tpuaf.maps import load_map
-from tpuaf.metrics import RunRecorder
-from tpuaf.results import (
+from tpuaf.experiments.results import (
     PS_IDLENESS_HEADER,
     PS_INFO_COLUMNS,
     PS_TIMERESULTS_HEADER,
@@ -18,6 +16,8 @@ from tpuaf.results import (
     VISIT_COLUMNS,
     ResultsWriter,
 )
+from tpuaf.maps import load_map
+from tpuaf.measure.metrics import RunRecorder
 
 CONFIG = {"map": "lab", "n_robots": 2, "strategy": "tpuaf", "seed": 3,
           "strategy_params": {"utility": "eq11"}, "duration_s": 1900.0}

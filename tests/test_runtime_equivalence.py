@@ -1,7 +1,7 @@
 """One robot state machine behind every runtime (issue 9 item 1).
 
 1. Golden outputs: the graph runtime's summary and visit log for fixed configs, recorded before
-   the robot protocol moved into `tpuaf.runtimes.robot`, must stay identical to the last digit.
+   the robot protocol moved into `tpuaf.robot.machine`, must stay identical to the last digit.
    Regenerate (only after checking that a difference is intended, e.g. a strategy change):
        .venv/bin/python tests/test_runtime_equivalence.py --regenerate
    The goldens carry a fingerprint of the strategy sources; when a strategy file changed since
@@ -43,7 +43,8 @@ def _fingerprints() -> dict[str, str]:
 
 
 def _run(map_name: str, n: int, strategy: str) -> tuple[dict, str]:
-    from tpuaf.runtimes.graph import BatchRun, RunConfig
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import BatchRun
 
     engine = BatchRun(RunConfig(map=MAPS[map_name], strategy=strategy, robots=n,
                                 duration_s=DURATION_S, seed=SEED, delay_s=DELAY_S, loss=LOSS))
@@ -91,8 +92,8 @@ def test_graph_runtime_matches_its_golden_output(case):
 def scripted_policy_class():
     """A strategy that follows a script of goals per robot (None = wait 2 s), redirects robot 0
     when robot 1 reports its first visit, and logs every decision it is asked for."""
-    from tpuaf.messages import Visit
     from tpuaf.policies import Policy
+    from tpuaf.team.messages import Visit
 
     class Scripted(Policy):
         name = "scripted_test"
@@ -152,8 +153,9 @@ def _start_vertices_grid():
 
 
 def _graph_logs(scripted):
-    from tpuaf.runtimes.graph import BatchRun, RunConfig
-    from tpuaf.runtimes.robot import RobotMachine
+    from tpuaf.robot.machine import RobotMachine
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import BatchRun
 
     graph = BatchRun(RunConfig(map="grid", strategy=scripted.name, robots=2, duration_s=200))
     graph.run()
@@ -165,8 +167,8 @@ def _graph_logs(scripted):
 def _agent_logs(scripted):
     """The agent runtime as the ROS agent node drives it (on_pose / on_message / tick), here on
     an ideal unicycle with no laser (the node's transport replaced by lists)."""
+    from tpuaf.robot.machine import RobotMachine
     from tpuaf.runtimes.agent import AgentRuntime
-    from tpuaf.runtimes.robot import RobotMachine
     from tpuaf.topics import REACHED
 
     grid, starts = _start_vertices_grid()
@@ -197,8 +199,9 @@ def _agent_logs(scripted):
 
 
 def _physics_logs(scripted):
-    from tpuaf.runtimes.physics import PhysicsConfig, PhysicsRun
-    from tpuaf.runtimes.robot import RobotMachine
+    from tpuaf.robot.machine import RobotMachine
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
 
     physics = PhysicsRun(PhysicsConfig(map="grid", strategy=scripted.name, robots=2,
                                        duration_s=200))

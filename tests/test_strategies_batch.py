@@ -6,7 +6,8 @@ from __future__ import annotations
 import pytest
 from tpuaf.maps import load_map
 from tpuaf.policies import REGISTRY
-from tpuaf.runtimes.graph import BatchRun, RunConfig
+from tpuaf.runtimes.config import RunConfig
+from tpuaf.runtimes.graph import BatchRun
 
 from .conftest import PATROLLING_SIM_MAPS
 

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import pytest
 from tpuaf.cli import main
-from tpuaf.report import load, verdicts, write_report
-from tpuaf.sweep import RESULT_COLUMNS, RunKey, make_spec, run_sweep
+from tpuaf.experiments.report import load, verdicts, write_report
+from tpuaf.experiments.sweep import RESULT_COLUMNS, RunKey, make_spec, run_sweep
 
 TINY = ["--maps", "grid", "--strategies", "gbs", "TPUAF", "--robots", "1", "2",
         "--duration", "120", "--seeds", "1", "--quiet"]

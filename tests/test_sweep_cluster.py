@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 
-from tpuaf.sweep import make_spec, run_sweep, run_task
+from tpuaf.experiments.sweep import make_spec, run_sweep, run_task
 
 
 def test_two_worker_local_cluster_runs_every_run_once_with_equal_results(tmp_path):

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tpuaf import tours
+from tpuaf.maps import tours
 from tpuaf.maps.model import PatrolMap
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"

@@ -8,7 +8,8 @@ the other's intention in time, and they travelled as one for the rest of the run
 import statistics
 
 from tpuaf.maps import load_map
-from tpuaf.runtimes.graph import BatchRun, RunConfig
+from tpuaf.runtimes.config import RunConfig
+from tpuaf.runtimes.graph import BatchRun
 
 GRID = load_map("grid")
 

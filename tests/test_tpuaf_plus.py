@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tpuaf import tours
-from tpuaf.maps import load_map
+from tpuaf.maps import load_map, tours
 from tpuaf.maps.model import MapSettings, PatrolMap
-from tpuaf.messages import Intention, Visit
 from tpuaf.policies import REGISTRY
 from tpuaf.policies.tpuaf_plus import make_plan
-from tpuaf.runtimes.graph import BatchRun, RunConfig
+from tpuaf.runtimes.config import RunConfig
+from tpuaf.runtimes.graph import BatchRun
+from tpuaf.team.messages import Intention, Visit
 
 
 def square(side=10.0, starts=(0, 1)) -> PatrolMap:

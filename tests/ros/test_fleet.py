@@ -58,7 +58,7 @@ def test_bag_is_closed_and_analyze_matches_the_monitor(tpuaf_run):
     out, _ = tpuaf_run
     bag = out / "run.bag"
     assert bag.is_file() and not (out / "run.bag.active").exists()
-    from tpuaf.bag import inspect
+    from tpuaf.measure.bag import inspect
 
     info = inspect(bag)
     assert info.robots == 4 and info.monitor_finished
@@ -73,7 +73,8 @@ def test_bag_is_closed_and_analyze_matches_the_monitor(tpuaf_run):
 
 
 def test_batch_and_fleet_idleness_within_factor(tpuaf_run):
-    from tpuaf.runtimes.graph import BatchRun, RunConfig
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import BatchRun
 
     out, _ = tpuaf_run
     fleet = json.loads((out / "summary.json").read_text())["idleness_avg_s"]

@@ -53,7 +53,7 @@ def near(image: np.ndarray, rgb, tol=40) -> int:
                     reason="rviz or Xvfb not installed (launch_scripts/setup.sh installs them)")
 def test_rviz_shows_the_patrol_markers(tmp_path):
     from PIL import ImageGrab
-    from tpuaf.markers import EDGE_COLOUR, ROBOT_COLOURS
+    from tpuaf.measure.markers import EDGE_COLOUR, ROBOT_COLOURS
 
     prep = subprocess.run([TPUAF, "fleet", "--map", "lab", "--robots", str(ROBOTS),
                            "--duration", "60", "--out", str(tmp_path / "prep"),

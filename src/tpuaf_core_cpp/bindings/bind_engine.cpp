@@ -61,10 +61,8 @@ NumpyPcg64 pcg_from_state(py::dict state) {
                     state["has_uint32"].cast<int>() != 0, state["uinteger"].cast<std::uint32_t>());
 }
 
-}  // namespace
-}  // namespace tpuaf
-
-void tpuaf::bindings::bind_engine(py::module_& m) {
+// NumpyPcg64 and numpy_mean: numpy's PCG64 stream and pairwise mean, bit for bit.
+void wrap_numpy(py::module_& m) {
   py::class_<NumpyPcg64>(m, "NumpyPcg64",
                          "numpy's PCG64 stream in C++, seeded from a Generator's "
                          "bit_generator.state (draws the same numbers as numpy).")
@@ -97,7 +95,10 @@ void tpuaf::bindings::bind_engine(py::module_& m) {
         return numpy_mean(a.data(), static_cast<std::size_t>(a.size()));
       },
       py::arg("values"), "Mean with numpy's pairwise summation (equal to np.mean bit for bit).");
+}
 
+// EngineConfig: the settings of one run.
+void wrap_config(py::module_& m) {
   py::class_<EngineConfig>(m, "EngineConfig", "Settings of one graph-runtime run (SI units).")
       .def(py::init<>())
       .def_readwrite("robots", &EngineConfig::robots)
@@ -115,7 +116,10 @@ void tpuaf::bindings::bind_engine(py::module_& m) {
       .def_readwrite("sensing_peak", &EngineConfig::sensing_peak)
       .def_readwrite("sensing_radius_m", &EngineConfig::sensing_radius_m)
       .def_readwrite("start_vertices", &EngineConfig::start_vertices);
+}
 
+// TeamStrategy and its Python, TPUAF, GBS and DTAG decision paths.
+void wrap_strategies(py::module_& m) {
   py::class_<TeamStrategy>(m, "TeamStrategy", "A team's decision makers, one per robot.");
   py::class_<PythonStrategy, TeamStrategy>(
       m, "PythonStrategy",
@@ -149,9 +153,13 @@ void tpuaf::bindings::bind_engine(py::module_& m) {
            py::arg("initial_estimate_s"), py::arg("w_idleness"), py::arg("w_path"),
            py::arg("w_origin"), py::arg("origin_distance_m"), py::arg("rngs"))
       .def("replans", &DtagStrategy::replans, py::arg("robot"));
+}
 
-  py::class_<GraphEngine>(m, "GraphEngine",
-                          "Event loop of the graph runtime (tpuaf.runtimes.native drives it).")
+// GraphEngine: construction, strategy, the run, the robots and the bus (the recorder: below).
+py::class_<GraphEngine> wrap_engine(py::module_& m) {
+  py::class_<GraphEngine> engine(
+      m, "GraphEngine", "Event loop of the graph runtime (tpuaf.runtimes.native drives it).");
+  engine
       .def(py::init<const PatrolGraph&, Points, EngineConfig, UncertaintyField, NumpyPcg64>(),
            py::arg("graph"), py::arg("positions"), py::arg("config"), py::arg("field"),
            py::arg("bus_rng"), py::keep_alive<1, 2>())
@@ -203,12 +211,16 @@ void tpuaf::bindings::bind_engine(py::module_& m) {
           py::arg("robot"), py::arg("message"))
       .def("wake_at", &GraphEngine::wake_at, py::arg("robot"), py::arg("time_s"))
       .def("change_goal", &GraphEngine::change_goal, py::arg("robot"), py::arg("vertex"))
-      .def_property_readonly("bus_stats",
-                             [](const GraphEngine& e) {
-                               const BusStats& s = e.bus_stats();
-                               return py::make_tuple(s.sent, s.delivered, s.lost);
-                             })
-      // --- recorder ---
+      .def_property_readonly("bus_stats", [](const GraphEngine& e) {
+        const BusStats& s = e.bus_stats();
+        return py::make_tuple(s.sent, s.delivered, s.lost);
+      });
+  return engine;
+}
+
+// GraphEngine's recorder: visits, 1 Hz rows, interferences, visit intervals and sums.
+void wrap_recorder(py::class_<GraphEngine>& engine) {
+  engine
       .def(
           "visits",
           [](const GraphEngine& e, std::size_t first) {
@@ -292,4 +304,15 @@ void tpuaf::bindings::bind_engine(py::module_& m) {
         if (!e.recorder().has_positions()) return py::none();
         return py::float_(e.recorder().positions_time());
       });
+}
+
+}  // namespace
+}  // namespace tpuaf
+
+void tpuaf::bindings::bind_engine(py::module_& m) {
+  wrap_numpy(m);
+  wrap_config(m);
+  wrap_strategies(m);
+  py::class_<GraphEngine> engine = wrap_engine(m);
+  wrap_recorder(engine);
 }

@@ -2,7 +2,7 @@
 // with delay and loss, and the ground-truth recorder (visits, 1 Hz samples, interference, X).
 //
 // It reproduces the Python graph runtime (tpuaf.runtimes.graph.BatchRun with
-// tpuaf.metrics.RunRecorder) operation for operation, so that a run gives the same numbers to
+// tpuaf.measure.metrics.RunRecorder) operation for operation, so that a run gives the same numbers to
 // the last digit for the same seed: the random streams are numpy's PCG64 with numpy's
 // algorithms, and the means use numpy's pairwise summation. Times in seconds, lengths in metres,
 // vertices are graph indices.
@@ -51,7 +51,7 @@ inline double numpy_mean(const double* a, std::size_t n) {
   return numpy_sum(a, n) / static_cast<double>(n);
 }
 
-// A team message (tpuaf.messages). `opaque` carries a message of a Python strategy unchanged.
+// A team message (tpuaf.team.messages). `opaque` carries a message of a Python strategy unchanged.
 struct TeamMessage {
   enum class Kind { kVisit, kIntention, kIdlenessEstimate, kOpaque };
   Kind kind = Kind::kOpaque;
@@ -122,7 +122,7 @@ struct BusStats {
   long long sent = 0, delivered = 0, lost = 0;
 };
 
-// Ground truth of one run (tpuaf.metrics.RunRecorder with ground truth, all robots alive).
+// Ground truth of one run (tpuaf.measure.metrics.RunRecorder with ground truth, all robots alive).
 class GroundTruthRecorder {
  public:
   GroundTruthRecorder(const EngineConfig& config, UncertaintyField field);

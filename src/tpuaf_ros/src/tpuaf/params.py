@@ -8,7 +8,7 @@ import re
 from dataclasses import MISSING, dataclass, fields
 from typing import Any, ClassVar
 
-from .errors import TpuafError
+from tpuaf.errors import TpuafError
 
 
 class NodeParamError(TpuafError):

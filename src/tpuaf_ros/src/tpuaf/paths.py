@@ -1,6 +1,8 @@
 """Where the installed package keeps its data, found through the package, never the source tree.
 
-- `data_path(...)`: files shipped inside the Python package (`tpuaf/data/`: built-in maps).
+- `builtin_maps_dir()`: the built-in maps. In the source tree (and the devel space, whose loader
+  points at it) they are the repository's top-level `maps/`; an install space ships them as
+  package data, `tpuaf/data/maps/` (installed by src/tpuaf_ros/CMakeLists.txt).
 - `catkin_prefix()`: the catkin devel or install space holding this package (its `env.sh`
   runs ROS tools with the workspace's environment), or None when it is not in one.
 """
@@ -11,11 +13,12 @@ from pathlib import Path
 
 import tpuaf
 
-DATA_DIR = Path(__file__).resolve().parent / "data"
+_PACKAGE_MAPS = Path(__file__).resolve().parent / "data" / "maps"  # install space
+_SOURCE_MAPS = Path(__file__).resolve().parents[4] / "maps"  # repo/src/tpuaf_ros/src/tpuaf/..
 
 
-def data_path(*parts: str) -> Path:
-    return DATA_DIR.joinpath(*parts)
+def builtin_maps_dir() -> Path:
+    return _PACKAGE_MAPS if _PACKAGE_MAPS.is_dir() else _SOURCE_MAPS
 
 
 def catkin_prefix() -> Path | None:

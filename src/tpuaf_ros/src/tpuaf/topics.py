@@ -6,15 +6,15 @@ Team topics live under the team namespace (agent parameter ~team_ns, default /te
 
 from __future__ import annotations
 
-from . import messages as m
-
 # Team topics (relative to the team namespace) of each message type.
-TEAM_TOPICS: dict[type, str] = {
-    m.Visit: "visits",
-    m.Intention: "intentions",
-    m.IdlenessEstimate: "idleness",
-    m.TaskRequest: "task_requests",
-    m.TaskBid: "task_bids",
+# Keyed by the name of the message class (tpuaf.team.messages), so that this module stays below
+# the team layer.
+TEAM_TOPICS: dict[str, str] = {
+    "Visit": "visits",
+    "Intention": "intentions",
+    "IdlenessEstimate": "idleness",
+    "TaskRequest": "task_requests",
+    "TaskBid": "task_bids",
 }
 DEFAULT_TEAM_NS = "/team"
 EVENTS_TOPIC = "/fleet/agent_events"  # tpuaf_ros/AgentEvent of every agent
@@ -40,4 +40,4 @@ EVENT_NAMES = {START: "START", GOAL: "GOAL", REACHED: "REACHED", FAILED: "FAILED
 
 
 def team_topic(team_ns: str, message_class: type) -> str:
-    return f"{team_ns.rstrip('/')}/{TEAM_TOPICS[message_class]}"
+    return f"{team_ns.rstrip('/')}/{TEAM_TOPICS[message_class.__name__]}"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .. import __version__
+from tpuaf import __version__
 
 # (name, module, help): modules define add_arguments(parser) and run(args) -> int.
 SUBCOMMANDS: list[tuple[str, str, str]] = [
@@ -19,8 +19,8 @@ SUBCOMMANDS: list[tuple[str, str, str]] = [
 ]
 
 
-from ..errors import CliError, TpuafError  # noqa: E402,F401 - re-exported for the subcommands
-from . import signals  # noqa: E402
+from tpuaf.cli import signals  # noqa: E402
+from tpuaf.errors import CliError, TpuafError  # noqa: E402,F401 - re-exported for the subcommands
 
 
 class ArgumentParser(argparse.ArgumentParser):

@@ -2,7 +2,7 @@
 
 Reads a `tpuaf fleet` bag or a plain `rosbag record` of a robot run (team topics plus tf, odom or
 amcl_pose; no ground truth or monitor topics needed): visits and idleness from the agents' own
-reports, X from whatever positions the bag holds (tpuaf.bag says how). Writes the same results
+reports, X from whatever positions the bag holds (tpuaf.measure.bag says how). Writes the same results
 folder as the monitor and batch (default: <bag folder>/analysis), and, when the monitor's
 summary.json lies beside the bag, compares the two (docs/FLEET.md states the tolerance).
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import yaml
 
-from ..errors import CliError
+from tpuaf.errors import CliError
 
 # Compared keys and their tolerance: (absolute, relative); a key agrees if within either.
 TOLERANCES = {
@@ -85,11 +85,11 @@ def check_options(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..bag import BagError, analyze
-    from ..errors import TpuafError
-    from ..maps import load_map
-    from ..results import ResultsWriter, prepare_out_dir
-    from .run import format_summary
+    from tpuaf.cli.run import format_summary
+    from tpuaf.errors import TpuafError
+    from tpuaf.experiments.results import ResultsWriter, prepare_out_dir
+    from tpuaf.maps import load_map
+    from tpuaf.measure.bag import BagError, analyze
 
     check_options(args)
     bag = args.bag.expanduser().resolve()

@@ -6,8 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..errors import CliError
-from .run import (
+from tpuaf.cli.run import (
     MAX_SEED,
     non_negative_float,
     positive_float,
@@ -16,6 +15,7 @@ from .run import (
     seed_int,
     team_size,
 )
+from tpuaf.errors import CliError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -58,7 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..sweep import SweepError, make_scenarios, make_spec, run_sweep
+    from tpuaf.experiments.sweep import SweepError, make_scenarios, make_spec, run_sweep
 
     if args.scheduler and args.workers:
         raise CliError("--workers applies to the local cluster only, not with --scheduler")

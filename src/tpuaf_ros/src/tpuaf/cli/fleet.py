@@ -27,16 +27,12 @@ import socket
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-from ..errors import CliError
-from ..paths import catkin_prefix
-from ..topics import METRICS_TOPIC
-from .run import (
+from tpuaf.cli.run import (
     finite_float,
     format_summary,
     non_negative_float,
@@ -45,6 +41,10 @@ from .run import (
     probability,
     team_size,
 )
+from tpuaf.errors import CliError
+from tpuaf.paths import catkin_prefix
+from tpuaf.runtimes.config import choose_robot
+from tpuaf.topics import METRICS_TOPIC
 
 LAUNCH = ("tpuaf_ros", "fleet.launch")  # found by roslaunch through the package
 PREFIX = "robot_"
@@ -133,37 +133,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 # Options and the robot model
 
 
-@dataclass
-class RobotChoice:
-    preset: str
-    radius_m: float
-    speed_mps: float  # what the agents are told and the simulator allows
-    note: str  # '' or why the speed differs from the map's nominal speed
-
-
-def choose_robot(name: str, settings) -> RobotChoice:
-    """The robot preset for a map: never faster than the preset allows."""
-    from tpuaf_stage.presets import ROBOT_PRESETS
-
-    nominal = float(settings.nominal_speed)
-    if name == "auto":  # a preset that drives the map's speed, of the closest radius
-        able = [k for k, v in ROBOT_PRESETS.items() if v["max_linear_speed"] >= nominal - 1e-9]
-        name = min(able or ["burger"], key=lambda k: abs(ROBOT_PRESETS[k]["radius"] -
-                                                           settings.robot_radius))
-    if name not in ROBOT_PRESETS:
-        raise CliError(f"--robot: unknown robot preset '{name}' (known: auto, "
-                       f"{', '.join(sorted(ROBOT_PRESETS))})")
-    preset = ROBOT_PRESETS[name]
-    limit = float(preset["max_linear_speed"])
-    note = ""
-    speed = nominal
-    if nominal > limit + 1e-9:
-        speed = limit
-        note = (f"the map's nominal speed {nominal:g} m/s is above the {name} limit {limit:g} m/s: "
-                f"robots drive at {limit:g} m/s (compare with a run at that speed)")
-    return RobotChoice(name, float(preset["radius"]), speed, note)
-
-
 def record_regex(spec: str, prefix: str = PREFIX) -> str:
     """The rosbag -e regex: the default topics plus --record groups or a regex."""
     base = DEFAULT_RECORD.format(p=prefix)
@@ -233,10 +202,9 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     fleet_config.yaml; the roslaunch args."""
     from tpuaf_stage.resolve import write_resolved
 
+    from tpuaf.maps import MapError, builtin_map_names, load_map, start_vertices
+    from tpuaf.policies import REGISTRY, ParameterError
     from tpuaf_stage.config import WorldError, parse_world
-
-    from ..maps import MapError, builtin_map_names, load_map, start_vertices
-    from ..policies import REGISTRY, ParameterError
 
     check_options(args)
     try:
@@ -249,7 +217,7 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
         raise CliError(err.args[0]) from None
     robot = choose_robot(args.robot, patrol_map.settings)
     faults = fault_plan(args)
-    from ..results import prepare_out_dir
+    from tpuaf.experiments.results import prepare_out_dir
 
     prepare_out_dir(args.out, overwrite=args.overwrite)  # a file, unwritable, earlier results
     out = args.out.expanduser().resolve()
@@ -516,7 +484,7 @@ def run(args: argparse.Namespace) -> int:
                        "real_time_factor": rtf, "finished": finished,
                        "sim_elapsed_s": sim_elapsed})
     if interrupted:
-        from . import signals
+        from tpuaf.cli import signals
 
         return signals.exit_code()
     return 0 if finished and bag_ok else 1

@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from ..errors import CliError
+from tpuaf.errors import CliError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -58,7 +58,7 @@ def format_table(summaries: list[dict]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..maps import MapError, builtin_map_names, load_map, map_summary
+    from tpuaf.maps import MapError, builtin_map_names, load_map, map_summary
 
     names = args.maps or builtin_map_names()
     summaries = []

@@ -6,8 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..errors import CliError
-from .run import positive_float, positive_int
+from tpuaf.cli.run import positive_float, positive_int
+from tpuaf.errors import CliError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -31,7 +31,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..plots import render, summary_png
+    from tpuaf.experiments.plots import render, summary_png
 
     folder = args.folder
     if not folder.is_dir():
@@ -51,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, KeyError, OSError) as err:
         raise CliError(f"{folder}: {err}") from None
     if path.resolve().parent == folder.resolve():  # `--overwrite` of the folder clears it
-        from ..results import record_written
+        from tpuaf.experiments.results import record_written
 
         record_written(folder, path.name)
     print(f"animation: {path} ({count} frames at {args.fps:g} fps)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..errors import CliError
+from tpuaf.errors import CliError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -22,7 +22,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..report import ReportError, write_report
+    from tpuaf.experiments.report import ReportError, write_report
 
     if not args.dir.is_dir():
         raise CliError(f"{args.dir}: not a folder (give a folder written by `tpuaf compare`)")

@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..errors import CliError
+from tpuaf.errors import CliError
 
 
 def _int_at_least(lowest: int):
@@ -165,7 +165,7 @@ def add_runtime_arguments(p: argparse.ArgumentParser) -> None:
 
 def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
     """The run of `args.runtime` (graph or physics) with the fault options of `args`."""
-    from ..runtimes.faults import FaultError, parse_fault
+    from tpuaf.runtimes.faults import FaultError, parse_fault
 
     try:
         fail = [parse_fault(x, "--fail") for x in getattr(args, "fail", [])]
@@ -178,11 +178,12 @@ def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
         raise CliError(f"--robot {args.robot}: a robot preset needs --runtime physics (the graph "
                        "runtime moves at the map's nominal speed)")
     if getattr(args, "runtime", "graph") == "physics":
-        from ..runtimes.physics import PhysicsConfig, PhysicsRun
+        from tpuaf.runtimes.config import PhysicsConfig
+        from tpuaf.runtimes.physics import PhysicsRun
 
         return PhysicsRun(PhysicsConfig(**kwargs, robot=args.robot), patrol_map)
-    from ..runtimes.graph import RunConfig
-    from ..runtimes.native import EngineChoiceError, make_run
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.native import EngineChoiceError, make_run
 
     try:
         run, why = make_run(RunConfig(**kwargs), patrol_map, getattr(args, "engine", "auto"))
@@ -243,9 +244,9 @@ def format_summary(summary: dict) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..maps import MapError, builtin_map_names, load_map
-    from ..policies import REGISTRY, ParameterError
-    from ..runtimes.graph import ConfigError
+    from tpuaf.maps import MapError, builtin_map_names, load_map
+    from tpuaf.policies import REGISTRY, ParameterError
+    from tpuaf.runtimes.config import ConfigError
 
     if args.list:
         print("strategies:", ", ".join(REGISTRY.names()))
@@ -269,7 +270,7 @@ def run(args: argparse.Namespace) -> int:
     for warning in patrol_map.warnings:
         print(f"tpuaf run: warning: {warning}", file=sys.stderr)
     if args.out is not None:
-        from ..results import prepare_out_dir
+        from tpuaf.experiments.results import prepare_out_dir
 
         args.out = prepare_out_dir(args.out, overwrite=args.overwrite)
     return execute(engine, args.out, quiet=args.quiet)
@@ -279,8 +280,8 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
     """Run with a progress bar, write the results folder, print the summary table."""
     from tqdm import tqdm
 
-    from ..results import ResultsWriter
-    from . import signals
+    from tpuaf.cli import signals
+    from tpuaf.experiments.results import ResultsWriter
 
     config = engine.config
     title = (

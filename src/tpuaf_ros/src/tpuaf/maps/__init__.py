@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MapError
-from .model import MapSettings, PatrolMap
-from .occupancy import OccupancyGrid, corridors_from_graph, load_occupancy
+from tpuaf.errors import MapError
+from tpuaf.maps.model import MapSettings, PatrolMap
+from tpuaf.maps.occupancy import OccupancyGrid, corridors_from_graph, load_occupancy
 
 __all__ = [
     "MapError",
@@ -25,7 +25,7 @@ __all__ = [
 
 
 def builtin_map_names() -> list[str]:
-    from .builtin import GENERATORS
+    from tpuaf.maps.builtin import GENERATORS
 
     return sorted(GENERATORS)
 
@@ -36,9 +36,9 @@ def load_map(name_or_path: str | Path, allow_occupied_vertices: bool = False) ->
     (connected graph, valid lengths) and comes with an occupancy grid (from its image, or
     corridors generated from the graph), and its geometry is checked (tpuaf.maps.geometry:
     vertices on free cells, unless `allow_occupied_vertices`; doubts in `warnings`)."""
-    from .builtin import BUILTIN_MAPS_DIR, GENERATORS
-    from .mapfile import load_map_folder
-    from .patrolling_sim import load_patrolling_sim
+    from tpuaf.maps.builtin import BUILTIN_MAPS_DIR, GENERATORS
+    from tpuaf.maps.mapfile import load_map_folder
+    from tpuaf.maps.patrolling_sim import load_patrolling_sim
 
     text = str(name_or_path)
     if isinstance(name_or_path, str) and text in GENERATORS:
@@ -65,7 +65,7 @@ def load_map(name_or_path: str | Path, allow_occupied_vertices: bool = False) ->
                 "otherwise give the path of a map folder (map.yaml), a patrolling_sim folder "
                 "or a .graph file"
             )
-    from .geometry import check_coordinates, check_geometry
+    from tpuaf.maps.geometry import check_coordinates, check_geometry
 
     pm.graph  # noqa: B018 - validate now
     check_coordinates(pm)  # before a grid is generated from them
@@ -110,6 +110,6 @@ def start_vertices(patrol_map: PatrolMap, n_robots: int) -> list[int]:
 
 
 def map_summary(patrol_map: PatrolMap) -> dict:
-    from .analysis import map_summary as _summary
+    from tpuaf.maps.analysis import map_summary as _summary
 
     return _summary(patrol_map)

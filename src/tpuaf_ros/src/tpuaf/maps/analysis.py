@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import PatrolMap
+from tpuaf.maps.model import PatrolMap
 
 
 def weight_matrix(patrol_map: PatrolMap) -> np.ndarray:

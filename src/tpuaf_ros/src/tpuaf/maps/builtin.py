@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..paths import data_path
-from .model import MapSettings, PatrolMap
+from tpuaf.maps.model import MapSettings, PatrolMap
+from tpuaf.paths import builtin_maps_dir
 
-BUILTIN_MAPS_DIR = data_path("maps")  # installed with the package (setup.py package_data)
+BUILTIN_MAPS_DIR = builtin_maps_dir()  # top-level maps/ (package data once installed)
 
 
 def make_grid() -> PatrolMap:
@@ -108,7 +108,7 @@ GENERATORS = {"grid": make_grid, "lab": make_lab}
 
 
 def write_builtin(out_dir: Path = BUILTIN_MAPS_DIR) -> list[Path]:
-    from .mapfile import save_map_folder
+    from tpuaf.maps.mapfile import save_map_folder
 
     out = []
     for name, make in GENERATORS.items():

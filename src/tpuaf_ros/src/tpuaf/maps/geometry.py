@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..errors import MapError
+from tpuaf.errors import MapError
 
 MAX_COORDINATE_M = 1.0e5  # [m] 100 km: beyond, a coordinate is a unit or typing mistake
 SHORT_EDGE_TOLERANCE = 0.01  # relative: an edge this much shorter than the straight line warns

@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..errors import MapError
-from .model import MapSettings, PatrolMap
-from .occupancy import load_occupancy
+from tpuaf.errors import MapError
+from tpuaf.maps.model import MapSettings, PatrolMap
+from tpuaf.maps.occupancy import load_occupancy
 
 
 class _LineDict(dict):
@@ -288,7 +288,7 @@ def _fmt(v: Any) -> str:
 def save_map_folder(patrol_map: PatrolMap, folder: str | Path, *, occupancy_file: bool = False,
                     header: str = "") -> Path:
     """Write `patrol_map` in our format (map.yaml + graph.yaml [+ occupancy.yaml/.pgm])."""
-    from .occupancy import write_occupancy
+    from tpuaf.maps.occupancy import write_occupancy
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)

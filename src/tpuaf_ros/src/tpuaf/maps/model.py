@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 import tpuaf_core
 
-from ..errors import MapError
-from .occupancy import corridors_from_graph
+from tpuaf.errors import MapError
+from tpuaf.maps.occupancy import corridors_from_graph
 
 
 @dataclass

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..errors import MapError
+from tpuaf.errors import MapError
 
 
 @dataclass

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MapError
-from .model import MapSettings, PatrolMap
-from .occupancy import load_occupancy
+from tpuaf.errors import MapError
+from tpuaf.maps.model import MapSettings, PatrolMap
+from tpuaf.maps.occupancy import load_occupancy
 
 IMPORTED_SETTINGS = {
     "nominal_speed": 1.0,

@@ -1,6 +1,6 @@
 """Strategies behind one `Policy` interface, by name. Importing this package registers them all."""
 
-from .base import (
+from tpuaf.policies.base import (
     REGISTRY,
     Parameter,
     ParameterError,
@@ -23,8 +23,8 @@ __all__ = [
 ]
 
 # Strategy modules register themselves on import.
-from . import tpuaf, tpuaf_plus  # noqa: E402,F401
+from tpuaf.policies import tpuaf, tpuaf_plus  # noqa: E402,F401
 
 # isort: split
 # Baselines of BASELINES.md (GBS/SEBS/CBLS, CGG/MSP, DTAG, DTAP, RAND/CR/HCR/HPCC).
-from . import bayesian, cyclic, dtag, dtap, reactive  # noqa: E402,F401
+from tpuaf.policies import bayesian, cyclic, dtag, dtap, reactive  # noqa: E402,F401

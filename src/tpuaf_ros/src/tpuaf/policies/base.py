@@ -12,7 +12,7 @@ A runtime (batch engine, ROS agent node) owns one `Policy` per robot and calls i
 - `on_teammate_lost(robot, ctx)` when a teammate has gone silent (optional; default no-op).
 
 Policies talk to the team only through `ctx.send(message)`, with the typed messages of
-`tpuaf.messages`. They draw randomness only from `ctx.rng` (seeded per run and robot).
+`tpuaf.team.messages`. They draw randomness only from `ctx.rng` (seeded per run and robot).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
-from ..errors import TpuafError
+from tpuaf.errors import TpuafError
 
 
 class RobotContext(Protocol):

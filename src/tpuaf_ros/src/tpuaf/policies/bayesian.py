@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from ..messages import Visit
-from .base import Parameter, Policy, register
-from .common import IdlenessTable, neighbours, pick_max, wait_nowhere_to_go
+from tpuaf.policies.base import Parameter, Policy, register
+from tpuaf.policies.common import IdlenessTable, neighbours, pick_max, wait_nowhere_to_go
+from tpuaf.team.messages import Visit
 
 # GBS per-map G2 [s/m] by team size and edge_min [m] (BASELINES.md, converted to metres).
 GBS_TABLE_N = (1, 2, 4, 6, 8, 12)

@@ -1,14 +1,14 @@
 """Route-following baselines of BASELINES.md: CGG (one shared cycle) and MSP (one part each).
 
-Routes come from `tpuaf.tours` (deterministic, so every robot computes the same ones).
+Routes come from `tpuaf.maps.tours` (deterministic, so every robot computes the same ones).
 No messages.
 """
 
 from __future__ import annotations
 
-from .. import tours
-from .base import Policy, register
-from .common import neighbours, wait_nowhere_to_go
+from tpuaf.maps import tours
+from tpuaf.policies.base import Policy, register
+from tpuaf.policies.common import neighbours, wait_nowhere_to_go
 
 
 class _RouteFollower(Policy):
@@ -86,7 +86,7 @@ def team_start_vertices(ctx) -> list[int]:
     Every robot must use the same list so that the part assignment is consistent; a robot
     whose actual start differs simply drives to its assigned part first."""
     try:
-        from ..maps import start_vertices
+        from tpuaf.maps import start_vertices
 
         starts = [int(v) for v in start_vertices(ctx.patrol_map, ctx.n_robots)]
     except Exception:  # a map without start settings: robot k gets part k

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..messages import IdlenessEstimate
-from .base import Parameter, Policy, register
-from .common import pick_max, wait_nowhere_to_go
+from tpuaf.policies.base import Parameter, Policy, register
+from tpuaf.policies.common import pick_max, wait_nowhere_to_go
+from tpuaf.team.messages import IdlenessEstimate
 
 
 def _nonneg(x) -> bool:

@@ -20,10 +20,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..messages import IdlenessEstimate, TaskBid, TaskRequest
-from .base import Parameter, Policy, register
-from .common import neighbours, pick_max, wait_nowhere_to_go
-from .dtag import SharedEstimate
+from tpuaf.policies.base import Parameter, Policy, register
+from tpuaf.policies.common import neighbours, pick_max, wait_nowhere_to_go
+from tpuaf.policies.dtag import SharedEstimate
+from tpuaf.team.messages import IdlenessEstimate, TaskBid, TaskRequest
 
 
 def _pos(x) -> bool:

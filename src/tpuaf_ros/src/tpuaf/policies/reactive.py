@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Policy, register
-from .common import (
+from tpuaf.policies.base import Policy, register
+from tpuaf.policies.common import (
     IdlenessTable,
     adjacency,
     dijkstra_path,

@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..messages import Intention, Visit
-from .base import Parameter, Policy, RobotContext, register
+from tpuaf.policies.base import Parameter, Policy, RobotContext, register
+from tpuaf.team.messages import Intention, Visit
 
 
 def _positive(x) -> bool:

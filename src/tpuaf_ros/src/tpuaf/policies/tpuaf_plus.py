@@ -37,10 +37,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import tours
-from ..messages import Intention, Visit
-from .base import Parameter, Policy, RobotContext, register
-from .tpuaf import new_knowledge
+from tpuaf.maps import tours
+from tpuaf.policies.base import Parameter, Policy, RobotContext, register
+from tpuaf.policies.tpuaf import new_knowledge
+from tpuaf.team.messages import Intention, Visit
 
 _EPS = 1e-6
 SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
@@ -335,7 +335,7 @@ class TpuafPlus(Policy):
         self.speed = float(pm.settings.nominal_speed)  # plan speed [m/s]
         self.graph = pm.graph
         self.dist = np.asarray(self.graph.distances)
-        from .cyclic import team_start_vertices
+        from tpuaf.policies.cyclic import team_start_vertices
 
         self.all_starts = tuple(team_start_vertices(ctx))
         timeout = float(self.params["silence_timeout_s"])

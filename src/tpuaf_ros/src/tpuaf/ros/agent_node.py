@@ -25,19 +25,18 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64
 from tf2_msgs.msg import TFMessage
 
+from tpuaf import topics
+from tpuaf.maps import MapError, load_map, start_vertices
+from tpuaf.navigation import ControllerConfig, GoalNavigator, Scan, scan_points
+from tpuaf.navigation.frames import FrameChain
+from tpuaf.params import AgentParams, NodeParamError, parse
+from tpuaf.policies import REGISTRY, ParameterError
+from tpuaf.ros import convert
+from tpuaf.ros.node import private_params, run_node, yaw_of
+from tpuaf.runtimes.agent import AgentRuntime
+from tpuaf.team.inbox import InboxConfig, TeamInbox
+from tpuaf.team.liveness import InputWatchdog, TeammateLiveness
 from tpuaf_ros.msg import AgentEvent
-
-from .. import topics
-from ..frames import FrameChain
-from ..inbox import InboxConfig, TeamInbox
-from ..liveness import InputWatchdog, TeammateLiveness
-from ..maps import MapError, load_map, start_vertices
-from ..navigation import ControllerConfig, GoalNavigator, Scan, scan_points
-from ..params import AgentParams, NodeParamError, parse
-from ..policies import REGISTRY, ParameterError
-from ..runtimes.agent import AgentRuntime
-from . import convert
-from .node import private_params, run_node, yaw_of
 
 NODE = "patrol_agent"
 LOCALIZATIONS = ("tf", "odom", "ground_truth", "amcl")
@@ -142,7 +141,7 @@ class AgentNode:
                                     self.publish_team, self.publish_event, cfg,
                                     p.heartbeat_period, p.waypoint_tolerance)
         if p.navigation == "move_base":
-            from .move_base import MoveBaseClient
+            from tpuaf.ros.move_base import MoveBaseClient
 
             self.runtime.navigator = GoalNavigator(
                 MoveBaseClient(p.move_base_action, p.map_frame), self.runtime.goal_tolerance,

@@ -1,4 +1,4 @@
-"""tpuaf.messages <-> tpuaf_ros.msg, vertex index <-> map vertex id, run time <-> ROS stamp.
+"""tpuaf.team.messages <-> tpuaf_ros.msg, vertex index <-> map vertex id, run time <-> ROS stamp.
 
 Run time t [s] is ROS time minus the run's epoch (0 with simulated time; on hardware the epoch
 shared by the team, see docs/FLEET.md), so the policies see the same clock as in batch.
@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from .. import messages as m
-from ..maps import MapError
-from ..topics import EVENTS_TOPIC, METRICS_TOPIC, TEAM_TOPICS  # noqa: F401 - re-exported
+from tpuaf.maps import MapError
+from tpuaf.team import messages as m
+from tpuaf.topics import EVENTS_TOPIC, METRICS_TOPIC, TEAM_TOPICS  # noqa: F401 - re-exported
 
 
 class MalformedMessage(ValueError):

@@ -1,4 +1,4 @@
-"""patrol_markers: RViz markers of a patrol (thin adapter of tpuaf.markers, see docs/HARDWARE.md).
+"""patrol_markers: RViz markers of a patrol (thin adapter of tpuaf.measure.markers, see docs/HARDWARE.md).
 
 Subscribes the team's Visit and Intention messages (<team_ns>/visits, <team_ns>/intentions),
 /fleet/agent_events (GOAL events: each robot's goal) and the robots' poses (~pose_source:
@@ -22,16 +22,15 @@ from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker as RosMarker
 from visualization_msgs.msg import MarkerArray
 
+from tpuaf.errors import MapError
+from tpuaf.maps import load_map
+from tpuaf.measure.markers import MODES, Marker, PatrolView
+from tpuaf.measure.poses import POSE_SOURCES, feed_chains, robot_chains
+from tpuaf.params import NodeParamError, parse, req
+from tpuaf.ros.node import private_params, run_node, yaw_of
+from tpuaf.team import messages
+from tpuaf.topics import AMCL_POSE, EVENTS_TOPIC, GOAL, GROUND_TRUTH, ODOM, REACHED, team_topic
 from tpuaf_ros.msg import AgentEvent, Intention, Visit
-
-from .. import messages
-from ..errors import MapError
-from ..maps import load_map
-from ..markers import MODES, Marker, PatrolView
-from ..params import NodeParamError, parse, req
-from ..poses import POSE_SOURCES, feed_chains, robot_chains
-from ..topics import AMCL_POSE, EVENTS_TOPIC, GOAL, GROUND_TRUTH, ODOM, REACHED, team_topic
-from .node import private_params, run_node, yaw_of
 
 NODE = "patrol_markers"
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")

@@ -1,10 +1,10 @@
-"""monitor: measures a ROS run with tpuaf.metrics (thin adapter, see docs/FLEET.md).
+"""monitor: measures a ROS run with tpuaf.measure.metrics (thin adapter, see docs/FLEET.md).
 
 Visits are the agents' own reports (REACHED on /fleet/agent_events, tpuaf_ros/AgentEvent, whose
 heartbeats also tell the living from the dead). Positions (X, interference) per ~pose_source:
 ground_truth /<robot_prefix><i>/base_pose_ground_truth (simulation), tf (hardware: /tf and
 /tf_static, map -> <robot_prefix><i>/base_footprint from any localiser), odom /<..><i>/odom or
-amcl /<..><i>/amcl_pose; poses at their own stamps are grouped on 0.1 s ticks (tpuaf.poses).
+amcl /<..><i>/amcl_pose; poses at their own stamps are grouped on 0.1 s ticks (tpuaf.measure.poses).
 Publishes /fleet/start (std_msgs/Float64, latched: the run's start, ROS time [s]) once every
 agent is ready (~announce_start false: follows the agents' announcement instead),
 /fleet/metrics (tpuaf_ros/LiveMetrics) at 1 Hz of run time and once more with finished = true
@@ -25,16 +25,15 @@ from nav_msgs.msg import Odometry
 from std_msgs.msg import Float64
 from tf2_msgs.msg import TFMessage
 
+from tpuaf.maps import MapError, load_map
+from tpuaf.measure.monitor import FleetMonitor
+from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
+from tpuaf.params import MonitorParams, NodeParamError, parse
+from tpuaf.ros import convert
+from tpuaf.ros.node import private_params, run_node
+from tpuaf.team import messages
+from tpuaf.topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
 from tpuaf_ros.msg import AgentEvent, Intention, LiveMetrics
-
-from .. import messages
-from ..maps import MapError, load_map
-from ..monitor import FleetMonitor
-from ..params import MonitorParams, NodeParamError, parse
-from ..poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
-from ..topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
-from . import convert
-from .node import private_params, run_node
 
 NODE = "monitor"
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
@@ -178,7 +177,7 @@ class MonitorNode:
 
     def open_results(self):
         if self.p.out:
-            from ..results import ResultsWriter
+            from tpuaf.experiments.results import ResultsWriter
 
             self.config["start_time_s"] = self.fm.start_time
             self.writer = ResultsWriter(self.p.out, self.config)

@@ -11,7 +11,7 @@ import rospy
 from actionlib_msgs.msg import GoalStatus
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 
-from ..navigation import GoalClient
+from tpuaf.navigation import GoalClient
 
 _FAILED = (GoalStatus.ABORTED, GoalStatus.REJECTED, GoalStatus.LOST)
 

@@ -6,7 +6,7 @@ import math
 import sys
 from collections.abc import Callable
 
-from ..params import params_help
+from tpuaf.params import params_help
 
 
 def private_params() -> dict:

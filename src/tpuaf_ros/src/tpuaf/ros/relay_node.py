@@ -1,5 +1,5 @@
 """team_relay: team messages between the agents of a simulated fleet with loss and delay (thin
-adapter of tpuaf.relay.RelayModel, the batch TeamBus model; see docs/FLEET.md).
+adapter of tpuaf.team.relay.RelayModel, the batch TeamBus model; see docs/FLEET.md).
 
 Subscribes each agent's team topics /team_agents/<prefix>i/<topic> (its own broadcasts: the
 message's robot_index is i), mirrors every message at once on /team/<topic> (monitor, bag), and
@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import rospy
 from rosgraph_msgs.msg import Clock
 
-from ..params import NodeParamError, parse, req
-from ..relay import RelayModel
-from ..topics import CLOCK_TOPIC, DEFAULT_TEAM_NS, TEAM_TOPICS
-from .convert import ros_types
-from .node import private_params, run_node
+from tpuaf.params import NodeParamError, parse, req
+from tpuaf.ros.convert import ros_types
+from tpuaf.ros.node import private_params, run_node
+from tpuaf.team.relay import RelayModel
+from tpuaf.topics import CLOCK_TOPIC, DEFAULT_TEAM_NS, TEAM_TOPICS
 
 NODE = "team_relay"
 AGENTS_NS = "/team_agents"  # agent i's team namespace: AGENTS_NS/<robot_prefix>i
@@ -45,7 +45,7 @@ class RelayNode:
         self.deliver_pub: dict[tuple[int, str], rospy.Publisher] = {}
         self.mirror_pub: dict[str, rospy.Publisher] = {}
         for cls, ros_cls in ros_types().items():
-            topic = TEAM_TOPICS[cls]
+            topic = TEAM_TOPICS[cls.__name__]
             self.mirror_pub[topic] = rospy.Publisher(f"{p.team_ns.rstrip('/')}/{topic}", ros_cls,
                                                      queue_size=1000)
             for i in range(p.robots):

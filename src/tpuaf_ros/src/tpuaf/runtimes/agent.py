@@ -21,17 +21,17 @@ from typing import Any
 
 import numpy as np
 
-from ..messages import well_formed
-from ..navigation import (
+from tpuaf.navigation import (
     ControllerConfig,
     Event,
     GraphRoute,
     LocalController,
     Navigator,
 )
-from ..policies import Policy
-from ..topics import HEARTBEAT
-from .robot import DEFAULT_RETRY_S, STAY_S, RobotMachine
+from tpuaf.policies import Policy
+from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, RobotMachine
+from tpuaf.team.messages import well_formed
+from tpuaf.topics import HEARTBEAT
 
 __all__ = ["DEFAULT_RETRY_S", "STAY_S", "AgentRuntime"]
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import TpuafError
+from tpuaf.errors import TpuafError
 
 DEATH, STALL = "death", "stall"
 

@@ -4,7 +4,7 @@ Robots drive shortest paths along graph edges at nominal speed (straight segment
 vertex positions, each taking edge length / speed). Each robot is a `RobotMachine`
 (runtimes/robot.py, shared with the physics and agent runtimes); this module is its driver:
 event queue clock, `TeamBus` transport (delay, loss) and segment motion. Ground truth
-(uncertainty, idleness, interference) is measured by `tpuaf.metrics.RunRecorder` from the true,
+(uncertainty, idleness, interference) is measured by `tpuaf.measure.metrics.RunRecorder` from the true,
 piecewise-linear positions; visits are the machines' REACHED events. Faults (death, stall) are
 injected at configured times (runtimes/faults.py). Runs are deterministic for a seed.
 """
@@ -14,107 +14,23 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
-from typing import Any
+from dataclasses import asdict
 
 import numpy as np
 
-from ..errors import TpuafError
-from ..maps import load_map, start_vertices
-from ..metrics import RunRecorder
-from ..navigation import ControllerConfig, GraphRoute
-from ..policies import REGISTRY
-from ..topics import REACHED, START
-from .bus import TeamBus
-from .faults import DEATH, Fault, FaultError, resolve_faults
-from .robot import DEFAULT_RETRY_S, STAY_S, RobotMachine
+from tpuaf.maps import load_map, start_vertices
+from tpuaf.measure.metrics import RunRecorder
+from tpuaf.navigation import GraphRoute, navigator_give_up_s
+from tpuaf.policies import REGISTRY
+from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, RobotMachine
+from tpuaf.runtimes.config import RunConfig, run_description
+from tpuaf.runtimes.faults import DEATH, Fault
+from tpuaf.team.bus import TeamBus
+from tpuaf.topics import REACHED, START
 
-__all__ = ["DEFAULT_RETRY_S", "STAY_S", "BatchRun", "ConfigError", "RunConfig"]
+__all__ = ["DEFAULT_RETRY_S", "STAY_S", "BatchRun"]
 
 _ARRIVE, _WAKE, _DELIVER, _FAULT, _GIVE_UP, _LOST = 0, 1, 2, 3, 4, 5
-
-
-def navigator_give_up_s(c: ControllerConfig | None = None) -> float:
-    """[s] for the navigator to report a goal failed when the robot cannot move at all: no
-    progress for stuck_timeout_s, then max_retries times (back off, wait, no progress again)."""
-    c = c or ControllerConfig()
-    return (c.max_retries + 1) * c.stuck_timeout_s + c.max_retries * (c.backoff_s + c.retry_wait_s)
-
-
-class ConfigError(TpuafError):
-    """An invalid run configuration; the message names the field and the valid choices."""
-
-
-@dataclass
-class RunConfig:
-    map: str = "grid"
-    strategy: str = "tpuaf"
-    robots: int = 4
-    duration_s: float = 3600.0
-    seed: int = 0
-    delay_s: float = 0.0  # team message delay [s]
-    loss: float = 0.0  # probability that one recipient loses one message
-    strategy_params: dict[str, Any] = field(default_factory=dict)
-    sample_period_s: float = 1.0  # time series period [s]
-    # Faults (runtimes/faults.py): deaths and stalls as [robot index, time s] pairs (or
-    # "ROBOT@TIME" strings), and a number of robots dying at seeded random times.
-    fail: list = field(default_factory=list)
-    fail_random: int = 0
-    stall: list = field(default_factory=list)
-    # [s] a silent teammate is lost after this (the agent node's heartbeat timeout): robots are
-    # heard while alive, so teammates get on_teammate_lost this long after a death.
-    teammate_timeout_s: float = 10.0
-
-    def validate(self) -> None:
-        names = REGISTRY.names()
-        if self.strategy.lower() not in names:
-            raise ConfigError(f"unknown strategy '{self.strategy}' (valid: {', '.join(names)})")
-        self.strategy = self.strategy.lower()
-        if not (isinstance(self.robots, int) and self.robots >= 1):
-            raise ConfigError(f"robots must be an integer >= 1, got {self.robots!r}")
-        if not (self.duration_s > 0 and math.isfinite(self.duration_s)):
-            raise ConfigError(
-                f"duration must be a finite number of seconds > 0, got {self.duration_s}"
-            )
-        if not (self.delay_s >= 0 and math.isfinite(self.delay_s)):
-            raise ConfigError(f"delay must be >= 0 s, got {self.delay_s}")
-        if not 0.0 <= self.loss <= 1.0:
-            raise ConfigError(f"loss must be a probability in [0, 1], got {self.loss}")
-        if not self.sample_period_s > 0:
-            raise ConfigError(f"sample period must be > 0 s, got {self.sample_period_s}")
-        if not (self.teammate_timeout_s > 0 and math.isfinite(self.teammate_timeout_s)):
-            raise ConfigError(f"teammate timeout must be > 0 s, got {self.teammate_timeout_s}")
-        self.faults()
-
-    def faults(self) -> list[Fault]:
-        """The resolved faults in time order (ConfigError when impossible)."""
-        try:
-            return resolve_faults(self.fail, self.fail_random, self.stall, self.robots,
-                                  float(self.duration_s), int(self.seed))
-        except FaultError as err:
-            raise ConfigError(str(err)) from None
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-
-def run_description(run, starts, strategy_params, **extra) -> dict:
-    """config.yaml of a graph or physics run: runtime, version, config, map, starts, faults."""
-    from .. import __version__
-
-    pm = run.patrol_map
-    return {
-        "runtime": run.runtime,
-        "tpuaf_version": __version__,
-        **run.config.to_dict(),
-        "strategy_params": dict(strategy_params),
-        "map_name": pm.name,
-        "map_source": str(pm.source) if pm.source else "built-in",
-        "map_settings": asdict(pm.settings),
-        "start_vertices": [int(pm.vertex_ids[v]) for v in starts],
-        "faults": [f.to_dict() for f in run.faults],
-        **extra,
-    }
 
 
 class BatchRun:
@@ -359,7 +275,7 @@ class BatchRun:
     def effective_config(self) -> dict:
         """Everything that determines this run, with defaults resolved (written to config.yaml)."""
         return run_description(
-            self, [r.start_vertex for r in self.robots], self.robots[0].policy.params,
+            self, [r.start_vertex for r in self.robots], self.robots[0].policy.params, self.faults,
             motion="straight segments between vertices, edge length / nominal speed each")
 
     def summary(self) -> dict:

@@ -26,11 +26,12 @@ from typing import Any
 
 import numpy as np
 
-from ..maps import load_map, start_vertices
-from ..metrics import RunRecorder, build_summary
-from ..policies import REGISTRY, Policy, RobotContextBase
-from .bus import BusStats
-from .graph import DEFAULT_RETRY_S, STAY_S, BatchRun, RunConfig
+from tpuaf.maps import load_map, start_vertices
+from tpuaf.measure.metrics import RunRecorder, build_summary
+from tpuaf.policies import REGISTRY, Policy, RobotContextBase
+from tpuaf.runtimes.config import RunConfig, run_description
+from tpuaf.runtimes.graph import DEFAULT_RETRY_S, STAY_S, BatchRun
+from tpuaf.team.bus import BusStats
 
 ENGINES = ("auto", "native", "python")
 
@@ -53,7 +54,7 @@ def _rng_stream(seed: int, *key: int):
 def _tpuaf_strategy(run: NativeRun, params: dict, any_vertex: bool):
     import tpuaf_core
 
-    from ..policies.tpuaf import new_knowledge
+    from tpuaf.policies.tpuaf import new_knowledge
 
     knowledge = new_knowledge(
         run.patrol_map, params["intention_timeout_s"], params["silence_timeout_s"]
@@ -315,6 +316,8 @@ class NativeRecorder:
 class NativeRun:
     """One graph-runtime run on the C++ event loop; the interface of BatchRun."""
 
+    runtime = "graph"
+
     def __init__(self, config: RunConfig, patrol_map=None, *, native_policy: bool = True):
         """native_policy=False runs even a strategy with a C++ path as its Python policy."""
         import tpuaf_core
@@ -392,21 +395,10 @@ class NativeRun:
 
     def effective_config(self) -> dict:
         """Everything that determines this run (as BatchRun's, plus the engine used)."""
-        from .. import __version__
-
-        return {
-            "runtime": getattr(BatchRun, "runtime", "graph"),
-            "engine": "native" + (" (C++ decision path)" if self.native_policy else ""),
-            "tpuaf_version": __version__,
-            **self.config.to_dict(),
-            "strategy_params": dict(self.params),
-            "map_name": self.patrol_map.name,
-            "map_source": str(self.patrol_map.source) if self.patrol_map.source else "built-in",
-            "map_settings": asdict(self.patrol_map.settings),
-            "start_vertices": [int(self.patrol_map.vertex_ids[v]) for v in self.start_vertices],
-            "faults": [],
-            "motion": "straight segments between vertices, edge length / nominal speed each",
-        }
+        return run_description(
+            self, self.start_vertices, self.params, [],
+            engine="native" + (" (C++ decision path)" if self.native_policy else ""),
+            motion="straight segments between vertices, edge length / nominal speed each")
 
     def summary(self) -> dict:
         summary = self.recorder.summary(self.now)

@@ -26,41 +26,19 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 
 import numpy as np
 
-from ..maps import load_map, start_vertices
-from ..metrics import RunRecorder
-from ..navigation import ControllerConfig
-from ..policies import REGISTRY
-from ..topics import REACHED, START
-from .agent import AgentRuntime
-from .bus import TeamBus
-from .faults import DEATH, Fault
-from .graph import ConfigError, RunConfig, run_description
-
-# Physics defaults (docs/RUNTIMES.md).
-PHYSICS_STEP_S = 0.05  # [s] world step
-CONTROL_PERIOD_S = 0.1  # [s] agents' control period (the fleet's 10 Hz odometry)
-
-
-@dataclass
-class PhysicsConfig(RunConfig):
-    robot: str = "auto"  # robot preset (tpuaf_stage.presets) or auto (as `tpuaf fleet --robot`)
-    physics_step_s: float = PHYSICS_STEP_S
-    control_period_s: float = CONTROL_PERIOD_S
-
-    def validate(self) -> None:
-        super().validate()
-        for name in ("physics_step_s", "control_period_s"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ConfigError(f"{name} must be a finite number > 0 s, got {value!r}")
-        ratio = self.control_period_s / self.physics_step_s
-        if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
-            raise ConfigError(f"control_period_s ({self.control_period_s:g}) must be a whole "
-                              f"multiple of physics_step_s ({self.physics_step_s:g})")
+from tpuaf.maps import load_map, start_vertices
+from tpuaf.measure.metrics import RunRecorder
+from tpuaf.navigation import ControllerConfig
+from tpuaf.policies import REGISTRY
+from tpuaf.runtimes.agent import AgentRuntime
+from tpuaf.runtimes.config import PhysicsConfig, RunConfig, choose_robot, run_description
+from tpuaf.runtimes.faults import DEATH, Fault
+from tpuaf.team.bus import TeamBus
+from tpuaf.topics import REACHED, START
 
 
 def controller_config(settings, robot: int, speed_mps: float, radius_m: float) -> ControllerConfig:
@@ -77,8 +55,6 @@ class PhysicsRun:
 
     def __init__(self, config: PhysicsConfig | RunConfig, patrol_map=None):
         from tpuaf_stage.config import WorldConfig, parse_laser, parse_robot
-
-        from ..cli.fleet import choose_robot
 
         if not isinstance(config, PhysicsConfig):
             config = PhysicsConfig(**asdict(config))
@@ -282,7 +258,7 @@ class PhysicsRun:
         """Everything that determines this run, with defaults resolved (written to config.yaml)."""
         rc = self.robot_choice
         return run_description(
-            self, self.starts, self.agents[0].policy.params,
+            self, self.starts, self.agents[0].policy.params, self.faults,
             world=self.world_config.summary(),
             robot_model={"preset": rc.preset, "radius_m": rc.radius_m,
                          "max_linear_speed_mps": rc.speed_mps, "note": rc.note},

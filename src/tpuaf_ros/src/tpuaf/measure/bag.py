@@ -33,11 +33,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from . import messages as team_messages
-from .errors import TpuafError
-from .monitor import STAMP_EPS_S, FleetMonitor
-from .poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
-from .topics import (
+from tpuaf.errors import TpuafError
+from tpuaf.measure.monitor import STAMP_EPS_S, FleetMonitor
+from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
+from tpuaf.team import messages as team_messages
+from tpuaf.topics import (
     AMCL_POSE,
     DEFAULT_TEAM_NS,
     EVENTS_TOPIC,
@@ -61,8 +61,8 @@ FLEET_TYPES = {(START_TOPIC, "std_msgs/Float64"), (METRICS_TOPIC, "tpuaf_ros/Liv
 MAP_FRAME = "map"
 BASE_FRAME = "base_footprint"
 # Team topic basename -> message kind (the team namespace may differ from /team).
-TEAM_BASENAMES = {name: cls.__name__ for cls, name in TEAM_TOPICS.items()}
-VISITS_BASENAME = TEAM_TOPICS[team_messages.Visit]
+TEAM_BASENAMES = {name: class_name for class_name, name in TEAM_TOPICS.items()}
+VISITS_BASENAME = TEAM_TOPICS[team_messages.Visit.__name__]
 # [s] messages stamped this far outside the bag's span are ignored (garbled or foreign stamps).
 STAMP_MARGIN_S = 5.0
 # [s] a record-time/stamp offset larger than this is a recorder on another clock.
@@ -633,7 +633,7 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
 def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeout, team,
                     liveness):
     """Reports only (no positions): visits and idleness straight into a RunRecorder."""
-    from .metrics import RunRecorder
+    from tpuaf.measure.metrics import RunRecorder
 
     recorder = RunRecorder(patrol_map, n, ground_truth=False, start_time=start)
     heard = [start] * n  # last sign of life [s]

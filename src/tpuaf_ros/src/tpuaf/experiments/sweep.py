@@ -47,8 +47,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import TpuafError
-from .plain import plain
+from tpuaf.errors import TpuafError
+from tpuaf.plain import plain
 
 
 class SweepError(TpuafError):
@@ -268,7 +268,7 @@ _LABEL_OK = re.compile(r"^[A-Za-z0-9_.+-]+$")
 
 def resolve_maps(names: Iterable[str]) -> list[MapSpec]:
     """Load every map once (validating it) and give each a unique label (its name)."""
-    from .maps import MapError, builtin_map_names, load_map
+    from tpuaf.maps import MapError, builtin_map_names, load_map
 
     specs: list[MapSpec] = []
     for name in names:
@@ -296,7 +296,7 @@ def resolve_maps(names: Iterable[str]) -> list[MapSpec]:
 
 
 def resolve_strategies(names: Iterable[str]) -> list[str]:
-    from .policies import REGISTRY
+    from tpuaf.policies import REGISTRY
 
     valid = REGISTRY.names()
     out: list[str] = []
@@ -364,11 +364,11 @@ def run_config(task: dict[str, Any]):
     runtime = task.get("runtime") or "graph"
     if runtime == "physics":
         try:
-            from .runtimes.physics import PhysicsConfig as Config
+            from tpuaf.runtimes.config import PhysicsConfig as Config
         except ImportError as err:
             raise SweepError(f"runtime 'physics' is not available in this build ({err})") from None
     elif runtime == "graph":
-        from .runtimes.graph import RunConfig as Config
+        from tpuaf.runtimes.config import RunConfig as Config
     else:
         raise SweepError(f"unknown runtime '{runtime}' (valid: {', '.join(RUNTIMES)})")
     fields = {f.name for f in dataclasses.fields(Config)}
@@ -395,11 +395,11 @@ def make_engine(config, patrol_map, runtime: str = "graph"):
     decision path and no unsupported option is set, else BatchRun (same results either way,
     runtimes/native.py); physics = runtimes/physics.py PhysicsRun."""
     if runtime == "graph":
-        from .runtimes.native import make_run
+        from tpuaf.runtimes.native import make_run
 
         return make_run(config, patrol_map, "auto")[0]
     if runtime == "physics":
-        from .runtimes.physics import PhysicsRun
+        from tpuaf.runtimes.physics import PhysicsRun
 
         return PhysicsRun(config, patrol_map)
     raise SweepError(f"unknown runtime '{runtime}' (valid: {', '.join(RUNTIMES)})")
@@ -410,7 +410,7 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
     start = time.perf_counter()
     result: dict[str, Any] = {"task": task, "host": socket.gethostname(), "pid": os.getpid()}
     try:
-        from .maps import load_map
+        from tpuaf.maps import load_map
 
         config = run_config(task)
         engine = make_engine(config, load_map(task["map_source"]), task.get("runtime") or "graph")
@@ -594,8 +594,8 @@ def write_tables(root: Path) -> tuple[Path, Path]:
 
 def reference_rows(maps: list[MapSpec], robots: Iterable[int]) -> list[dict[str, Any]]:
     """Reference tours (tours.py) per (map, N) at the map's nominal speed."""
-    from .maps import load_map
-    from .tours import reference_tours
+    from tpuaf.maps import load_map
+    from tpuaf.maps.tours import reference_tours
 
     rows = []
     for spec in maps:

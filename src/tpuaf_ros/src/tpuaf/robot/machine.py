@@ -23,9 +23,9 @@ import math
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from ..messages import IdlenessEstimate, Intention, Visit
-from ..policies import Policy, RobotContextBase
-from ..topics import FAILED, GOAL, REACHED, START
+from tpuaf.policies import Policy, RobotContextBase
+from tpuaf.team.messages import IdlenessEstimate, Intention, Visit
+from tpuaf.topics import FAILED, GOAL, REACHED, START
 
 STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long, then visits it again
 DEFAULT_RETRY_S = 1.0  # [s] a policy that waits without asking for a wake-up is asked again after

@@ -32,9 +32,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .errors import TpuafError
-from .metrics import TIMESERIES_COLUMNS
-from .plain import plain
+from tpuaf.errors import TpuafError
+from tpuaf.measure.metrics import TIMESERIES_COLUMNS
+from tpuaf.plain import plain
 
 VISIT_COLUMNS = ["time_s", "robot", "vertex_id", "vertex_index", "interval_idleness_s"]
 # patrolling_sim monitor's files (monitor.cpp), same columns and separators.
@@ -253,7 +253,9 @@ class ResultsWriter:
         self._ts_f.close()
         if recorder is not None:
             self._write_patrolling_sim(summary, recorder, interrupted, timeresults_period_s)
-            from .plots import write_summary_png  # never raises: a note when it cannot draw
+            from tpuaf.experiments.plots import (
+                write_summary_png,  # never raises: a note when it cannot draw
+            )
 
             write_summary_png(self.out_dir, recorder.patrol_map, summary)
         # last: a summary.json means every other file is complete

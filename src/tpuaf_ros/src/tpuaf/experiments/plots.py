@@ -2,7 +2,7 @@
 idleness drawn on the map image. Headless (Agg). Inputs: the folder's timeseries.csv,
 visits.csv and config.yaml (the map); outputs PNG files in the folder (or `out`).
 
-    tpuaf.plots.run_figures(folder)  ->  [idleness_over_time.png, vertex_idleness_map.png]
+    tpuaf.experiments.plots.run_figures(folder)  ->  [idleness_over_time.png, vertex_idleness_map.png]
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import yaml
 
 
 def _pyplot():
-    from .report import _pyplot as headless
+    from tpuaf.experiments.report import _pyplot as headless
 
     return headless()
 
@@ -54,7 +54,7 @@ def idleness_over_time(folder: Path, out: Path | None = None) -> Path:
 
 def vertex_idleness_on_map(folder: Path, out: Path | None = None) -> Path:
     """Each vertex's mean interval idleness [s] (visits.csv) as a coloured disc on the map."""
-    from .maps import load_map
+    from tpuaf.maps import load_map
 
     folder = Path(folder)
     config = yaml.safe_load((folder / "config.yaml").read_text())
@@ -119,7 +119,7 @@ def run_figures(folder: Path, out: Path | None = None) -> list[Path]:
 def _map_of(folder: Path, patrol_map=None):
     if patrol_map is not None:
         return patrol_map
-    from .maps import load_map
+    from tpuaf.maps import load_map
 
     config = yaml.safe_load((Path(folder) / "config.yaml").read_text()) or {}
     source = config.get("map_source")

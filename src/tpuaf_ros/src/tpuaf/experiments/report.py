@@ -1,6 +1,6 @@
 """The report of a `tpuaf compare` folder: Markdown tables, PNG figures, verdicts (SPEC sec. 8).
 
-Inputs (written by tpuaf.sweep): DIR/results.csv, DIR/samples.csv.gz, DIR/reference.csv; when
+Inputs (written by tpuaf.experiments.sweep): DIR/results.csv, DIR/samples.csv.gz, DIR/reference.csv; when
 DIR/runs/ exists the tables are rebuilt from the run folders first. Output: DIR/report.md and
 DIR/figures/*.png (or another --out folder).
 
@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import TpuafError
+from tpuaf.errors import TpuafError
 
 
 class ReportError(TpuafError):
@@ -47,7 +47,7 @@ PAPER_STRATEGIES = ["gbs", "dtag", "dtap", "tpuaf"]  # the paper's comparison se
 ORDER = ["gbs", "sebs", "cbls", "dtag", "dtap", "tpuaf", "tpuaf_plus", "tpuaf_any", "cgg", "msp",
          "cr", "hcr", "hpcc", "rand"]
 PAPER_TABLE = {"cumberland": 2, "grid": 3, "lab": 4}
-NOMINAL = "nominal"  # tpuaf.sweep.NOMINAL: the fault-free graph runs
+NOMINAL = "nominal"  # tpuaf.experiments.sweep.NOMINAL: the fault-free graph runs
 # The fault scenarios of the canonical comparison (issue 13): a quarter of the team dies at half
 # the run, 30 % message loss, 5 s delay. Other scenarios appear in the degradation curves only.
 FAULT_SCENARIOS = ["deaths1of4", "loss0.3", "delay5"]
@@ -207,7 +207,7 @@ def load_paper(path: Path | None) -> dict[tuple[str, int, str, str], float]:
 
 
 def load(root: Path, paper: Path | None = None, bounds: Path | None = None) -> Data:
-    from .sweep import write_tables
+    from tpuaf.experiments.sweep import write_tables
 
     root = Path(root)
     if not root.is_dir():
@@ -326,7 +326,7 @@ def acceleration(data: Data, map_name: str, strategy: str, n: int) -> Stat:
     """a(N) per seed (seeds run at both N = 1 and N), mean and CI over seeds."""
     one = data.per_seed(map_name, strategy, 1, "idleness_avg_s")
     many = data.per_seed(map_name, strategy, n, "idleness_avg_s")
-    from .metrics import acceleration_ratio
+    from tpuaf.measure.metrics import acceleration_ratio
 
     return stat(acceleration_ratio(one[s], many[s], n) for s in sorted(set(one) & set(many)))
 

@@ -2,7 +2,7 @@
 
 Agent i talks on its own team namespace (/team_agents/<prefix>i); the relay node hands each
 message it hears from agent s to this model, which decides, as the batch runtime's TeamBus
-(tpuaf.runtimes.bus: each recipient independently loses a message with probability `loss`, the
+(tpuaf.team.bus: each recipient independently loses a message with probability `loss`, the
 others get it `delay_s` seconds of run time later), who receives it and when. The node delivers
 what `due(now)` returns on the recipients' namespaces and mirrors every original message on
 /team (monitor, bag) unaltered.
@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .runtimes.bus import BusStats, TeamBus
+from tpuaf.team.bus import BusStats, TeamBus
 
 
 class RelayModel:

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from .plain import plain
+from tpuaf.plain import plain
 
 # ---------------------------------------------------------------------------------------------
 # Pure functions
@@ -384,12 +384,12 @@ class RunRecorder:
         - worst_idleness_after_s: the worst idleness (t - last visit, any vertex) at any time t
           from the death to the next death or the end (time before the death counts);
         - ideal_worst_idleness_survivors_s: the reference tours' best worst idleness (cyclic
-          or partition, tpuaf.tours) for the survivors on this map at `speed_mps`;
+          or partition, tpuaf.maps.tours) for the survivors on this map at `speed_mps`;
         - intentions: the vertices the dead robot had announced as its next destination in
           the team messages it sent since its last visit (what its teammates may count on it
           for); intentions_honoured: how many of them a teammate visited after the death,
           intention_delays_s: after how long (None: never)."""
-        from .tours import reference_tours
+        from tpuaf.maps.tours import reference_tours
 
         end_time = float(end_time)
         ids = list(self.patrol_map.vertex_ids)

@@ -1,6 +1,6 @@
 """In-process team bus of the batch runtime: broadcast with a fixed delay and seeded loss.
 
-The ROS runtime carries the same typed messages (tpuaf.messages) on topics; this bus models what
+The ROS runtime carries the same typed messages (tpuaf.team.messages) on topics; this bus models what
 a radio does to them: every recipient independently loses a message with probability `loss`,
 and the others receive it `delay_s` seconds after it was sent.
 """

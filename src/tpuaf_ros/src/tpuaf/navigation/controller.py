@@ -1,14 +1,9 @@
-"""The navigator: graph routes and a reactive local controller (ROS-free, shared by runtimes).
+"""The reactive local controller: (pose, obstacle points, target) -> velocity command.
 
-`GraphRoute` is the sequence of vertices along the graph's shortest path from the current vertex
-to the goal. `LocalController` turns (pose, laser ranges, target point) into a velocity command
-(v [m/s], w [rad/s]), steering around obstacles and other robots seen by the laser (keeping
-right, so that two robots meeting head-on in a corridor pass each other), and recovers when
-stuck: back off, wait, retry, and after `max_retries` report the goal failed. `Navigator` chains
-the two: it follows a route waypoint by waypoint.
-
-Everything here is a deterministic function of the inputs it is fed (times in seconds, poses in
-the map frame [m, rad]); no clock, no ROS.
+Steers around obstacles and other robots seen by the laser (keeping right, so that two robots
+meeting head-on in a corridor pass each other), and recovers when stuck: back off, wait, retry,
+and after `max_retries` report the goal failed. Deterministic in its inputs (times [s], map-frame
+poses [m, rad]); no clock, no ROS.
 """
 
 from __future__ import annotations
@@ -16,108 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 from enum import Enum
-from typing import Any
 
 import numpy as np
-
-# ---------------------------------------------------------------------------------------------
-# Route along the graph
-
-
-class GraphRoute:
-    """Waypoints (vertex indices) of the shortest path from `start_vertex` to `goal_vertex`.
-
-    The start vertex itself is not a waypoint (the robot is there), unless `from_position`
-    [m] is given and lies farther than `snap_m` from it (the robot must first drive back to it).
-    A goal equal to the start gives the single waypoint [goal]."""
-
-    def __init__(self, graph: Any, positions: np.ndarray, start_vertex: int, goal_vertex: int,
-                 *, from_position: tuple[float, float] | None = None, snap_m: float = 0.5):
-        n = int(graph.num_vertices)
-        for name, v in (("start", start_vertex), ("goal", goal_vertex)):
-            if not 0 <= int(v) < n:
-                raise IndexError(f"{name} vertex index {v} out of range (graph has {n})")
-        self.start = int(start_vertex)
-        self.goal = int(goal_vertex)
-        self.positions = np.asarray(positions, dtype=float)
-        if self.goal == self.start:
-            path = [self.goal]
-        else:
-            path = [int(v) for v in graph.path(self.start, self.goal)[1:]]
-        if from_position is not None and self.goal != self.start:
-            p = self.positions[self.start]
-            if math.hypot(from_position[0] - p[0], from_position[1] - p[1]) > snap_m:
-                path.insert(0, self.start)
-        self.waypoints: list[int] = path
-        self._k = 0
-
-    @property
-    def done(self) -> bool:
-        return self._k >= len(self.waypoints)
-
-    @property
-    def next_waypoint(self) -> int | None:
-        return None if self.done else self.waypoints[self._k]
-
-    @property
-    def is_last(self) -> bool:
-        """True when the next waypoint is the goal."""
-        return self._k == len(self.waypoints) - 1
-
-    def next_position(self) -> tuple[float, float]:
-        p = self.positions[self.waypoints[self._k]]
-        return (float(p[0]), float(p[1]))
-
-    def advance(self) -> int:
-        """Mark the next waypoint reached; returns it."""
-        if self.done:
-            raise IndexError("route already done")
-        v = self.waypoints[self._k]
-        self._k += 1
-        return v
-
-    def length(self) -> float:
-        """Length [m] of the polyline start -> waypoints (straight segments)."""
-        pts = self.positions[[self.start, *self.waypoints]]
-        return float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
-
-
-# ---------------------------------------------------------------------------------------------
-# Laser scan
-
-
-@dataclass(frozen=True)
-class Scan:
-    """A planar scan in the robot frame: beam k at angle_min + k * angle_increment [rad]."""
-
-    ranges: np.ndarray  # [m]; 0, NaN, inf or > range_max = no return
-    angle_min: float
-    angle_increment: float
-    range_min: float = 0.0
-    range_max: float = math.inf
-
-
-_TRIG_CACHE: dict[tuple[int, float, float], tuple[np.ndarray, np.ndarray]] = {}
-
-
-def scan_points(scan: Scan) -> np.ndarray:
-    """(k, 2) obstacle points [m] in the robot frame from the valid returns of `scan`."""
-    r = np.asarray(scan.ranges, dtype=float)
-    key = (len(r), float(scan.angle_min), float(scan.angle_increment))
-    trig = _TRIG_CACHE.get(key)
-    if trig is None:
-        a = scan.angle_min + scan.angle_increment * np.arange(len(r))
-        trig = (np.cos(a), np.sin(a))
-        if len(_TRIG_CACHE) > 16:
-            _TRIG_CACHE.clear()
-        _TRIG_CACHE[key] = trig
-    ok = (r > 0) & (r >= scan.range_min) & (r <= scan.range_max)  # NaN compares False
-    return np.column_stack((r[ok] * trig[0][ok], r[ok] * trig[1][ok]))
-
-
-def wrap_angle(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
 
 # ---------------------------------------------------------------------------------------------
 # Local controller
@@ -364,172 +259,16 @@ class LocalController:
         return self._state == self._FAILED
 
 
+def wrap_angle(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
 def wrap_angle_array(a: np.ndarray) -> np.ndarray:
     return (np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi
 
 
-# ---------------------------------------------------------------------------------------------
-# Navigator: route + controller
-
-
-class Event(Enum):
-    NONE = 0
-    WAYPOINT = 1  # passed a waypoint that is not the goal
-    ARRIVED = 2  # within goal tolerance of the goal vertex
-    FAILED = 3  # gave up on the goal
-
-
-class Navigator:
-    """Follows a `GraphRoute` with a `LocalController`.
-
-    Pass-through waypoints count as reached within `waypoint_tolerance` [m], the goal within
-    `goal_tolerance` [m] (SPEC: 0.4 m). `step` returns (Command, Event, vertex): the vertex is
-    the waypoint or goal reached, or the goal that failed."""
-
-    def __init__(self, controller: LocalController, goal_tolerance: float = 0.4,
-                 waypoint_tolerance: float = 0.6):
-        self.controller = controller
-        self.goal_tolerance = float(goal_tolerance)
-        self.waypoint_tolerance = float(waypoint_tolerance)
-        self.route: GraphRoute | None = None
-
-    def set_route(self, route: GraphRoute, t: float) -> None:
-        self.route = route
-        self._aim(t, new_goal=True)
-
-    def cancel(self) -> None:
-        self.route = None
-        self.controller.target = None
-
-    def pause(self) -> None:
-        """The robot is stopped by its runtime (stale inputs); nothing to do here."""
-
-    def resume(self, t: float) -> None:
-        """After a pause (stale inputs, robot stopped): restart the progress watch at t [s], so
-        the standstill does not count as being stuck."""
-        self.controller.restart_progress(t)
-
-    def _aim(self, t: float, new_goal: bool) -> None:
-        route = self.route
-        tol = self.goal_tolerance if route.is_last else self.waypoint_tolerance
-        self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
-
-    def step(self, t: float, pose: tuple[float, float, float],
-             points: np.ndarray | None) -> tuple[Command, Event, int]:
-        route = self.route
-        if route is None:
-            return Command(0.0, 0.0, Status.REACHED), Event.NONE, -1
-        cmd = self.controller.step(t, pose, points)
-        if cmd.status == Status.FAILED:
-            goal = route.goal
-            self.cancel()
-            return cmd, Event.FAILED, goal
-        if cmd.status != Status.REACHED:
-            return cmd, Event.NONE, -1
-        last = route.is_last
-        vertex = route.advance()
-        if last:
-            self.cancel()
-            return cmd, Event.ARRIVED, vertex
-        self._aim(t, new_goal=False)
-        # Steer toward the next waypoint right away (no standstill tick at a pass-through).
-        cmd = self.controller.step(t, pose, points)
-        return cmd, Event.WAYPOINT, vertex
-
-
-# ---------------------------------------------------------------------------------------------
-# Navigation by an external planner (move_base): same interface as Navigator
-
-
-class GoalClient:
-    """What `GoalNavigator` needs from a planner's action client (the rospy adapter is
-    tpuaf.ros.move_base.MoveBaseClient). `state()` is one of 'idle', 'active', 'succeeded',
-    'failed'."""
-
-    def send(self, x: float, y: float, yaw: float) -> None:  # pragma: no cover - interface
-        raise NotImplementedError
-
-    def cancel(self) -> None:  # pragma: no cover - interface
-        raise NotImplementedError
-
-    def state(self) -> str:  # pragma: no cover - interface
-        raise NotImplementedError
-
-
-class GoalNavigator:
-    """Follows a `GraphRoute` by sending each waypoint as a goal to an external planner
-    (move_base drives the robot; the agent publishes no cmd_vel). Events as `Navigator`:
-    a waypoint is passed within `waypoint_tolerance`, the goal reached within
-    `goal_tolerance` [m] of the pose (the one definition of a visit, whatever the planner's own
-    tolerance), and the goal fails when the planner aborts or the robot makes no progress of
-    `progress_m` for `stuck_timeout_s` [s]."""
-
-    def __init__(self, client: GoalClient, goal_tolerance: float = 0.4,
-                 waypoint_tolerance: float = 0.6, stuck_timeout_s: float = 60.0,
-                 progress_m: float = 0.15):
-        self.client = client
-        self.goal_tolerance = float(goal_tolerance)
-        self.waypoint_tolerance = float(waypoint_tolerance)
-        self.stuck_timeout_s = float(stuck_timeout_s)
-        self.progress_m = float(progress_m)
-        self.route: GraphRoute | None = None
-        self._target: tuple[float, float] | None = None
-        self._best = math.inf
-        self._best_t = 0.0
-        self.goals_sent = 0
-
-    def set_route(self, route: GraphRoute, t: float) -> None:
-        self.route = route
-        self._aim(t)
-
-    def cancel(self) -> None:
-        if self.route is not None:
-            self.client.cancel()
-        self.route = None
-        self._target = None
-
-    def pause(self) -> None:
-        """Stale inputs: stop the planner (the route is kept; `resume` sends the goal again)."""
-        if self.route is not None:
-            self.client.cancel()
-
-    def resume(self, t: float) -> None:
-        if self.route is not None and self._target is not None:
-            self._aim(t)
-
-    def _aim(self, t: float) -> None:
-        route = self.route
-        x, y = route.next_position()
-        k = route._k
-        prev = route.positions[route.waypoints[k - 1] if k > 0 else route.start]
-        yaw = math.atan2(y - prev[1], x - prev[0]) if (x, y) != tuple(prev) else 0.0
-        self._target = (x, y)
-        self._best, self._best_t = math.inf, float(t)
-        self.client.send(x, y, yaw)
-        self.goals_sent += 1
-
-    def step(self, t: float, pose: tuple[float, float, float],
-             points: np.ndarray | None = None) -> tuple[Command, Event, int]:
-        route = self.route
-        if route is None:
-            return Command(0.0, 0.0, Status.REACHED), Event.NONE, -1
-        idle = Command(0.0, 0.0, Status.DRIVING)
-        last = route.is_last
-        d = math.hypot(self._target[0] - pose[0], self._target[1] - pose[1])
-        state = self.client.state()
-        tol = self.goal_tolerance if last else self.waypoint_tolerance
-        if d <= tol or (state == "succeeded" and not last and d <= 2 * tol):
-            vertex = route.advance()
-            if last:
-                self.cancel()  # the visit counts here; move_base may still be fine-tuning
-                return Command(0.0, 0.0, Status.REACHED), Event.ARRIVED, vertex
-            self._aim(t)
-            return idle, Event.WAYPOINT, vertex
-        if d < self._best - self.progress_m or self._best == math.inf:
-            self._best, self._best_t = d, float(t)
-        stuck = t - self._best_t > self.stuck_timeout_s
-        if state == "failed" or stuck or (state == "succeeded" and last):
-            goal = route.goal
-            self.cancel()
-            return STOP_FAILED, Event.FAILED, goal
-        return idle, Event.NONE, -1
+def navigator_give_up_s(c: ControllerConfig | None = None) -> float:
+    """[s] for the navigator to report a goal failed when the robot cannot move at all: no
+    progress for stuck_timeout_s, then max_retries times (back off, wait, no progress again)."""
+    c = c or ControllerConfig()
+    return (c.max_retries + 1) * c.stuck_timeout_s + c.max_retries * (c.backoff_s + c.retry_wait_s)

@@ -19,7 +19,7 @@ Definitions (SPEC section 6):
   the first pose group after that (it no longer senses nor interferes); the recorder dates the
   death at the last event heard (the recovery metrics count from there);
 - `on_announcement(robot, vertex, t)`: a destination a robot announced in a team message
-  (tpuaf.runtimes.robot.announced_vertex), for the recovery metrics' intentions;
+  (tpuaf.robot.machine.announced_vertex), for the recovery metrics' intentions;
 - the run ends at start + duration_s: `finished` becomes True and later input is ignored.
 """
 
@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from .metrics import RunRecorder, complete_cycles
-from .topics import REACHED, START
+from tpuaf.measure.metrics import RunRecorder, complete_cycles
+from tpuaf.topics import REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
 STAMP_EPS_S = 1e-3

@@ -21,7 +21,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
-from . import messages as m
+from tpuaf.team import messages as m
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """Robot positions from localisation streams (ROS-free), for the monitor node and bag analysis.
 
 - `robot_chains` / `feed_chains`: every robot's tf chain map -> <robot>/base_footprint (the
-  agents' own `tpuaf.frames.FrameChain`, one per robot).
+  agents' own `tpuaf.navigation.frames.FrameChain`, one per robot).
 - `PoseSampler`: per-robot pose streams at their own stamps (tf, odom, amcl_pose: robots are
   not stamped alike) -> pose groups at common tick times, as `FleetMonitor.on_pose` expects.
   A tick's position of a robot is its latest pose stamped at or before the tick (sample and
@@ -31,8 +31,8 @@ def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
 
 
 def robot_chains(names: list[str], root: str = "map", base: str = "base_footprint") -> list:
-    """One tf chain root -> <name>/<base> per robot (tpuaf.frames.FrameChain, as the agents')."""
-    from .frames import FrameChain
+    """One tf chain root -> <name>/<base> per robot (tpuaf.navigation.frames.FrameChain, as the agents')."""
+    from tpuaf.navigation.frames import FrameChain
 
     return [FrameChain(root, f"{name}/{base}") for name in names]
 
@@ -116,7 +116,7 @@ class PoseSampler:
 
 
 class MonitorFeed:
-    """Poses into a FleetMonitor (tpuaf.monitor), as the live monitor node and bag analysis
+    """Poses into a FleetMonitor (tpuaf.measure.monitor), as the live monitor node and bag analysis
     feed it: ground truth as stamped (all robots stamped alike), any other source grouped on
     ticks by a PoseSampler. `close()` brings the monitor to the last poses: it processes pose
     groups `lag_s` behind the newest, so one more group that much later (every robot where it

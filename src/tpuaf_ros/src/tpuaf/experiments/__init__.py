@@ -1,0 +1,1 @@
+"""Experiments: results folders, Dask sweeps, plots and the comparison report."""

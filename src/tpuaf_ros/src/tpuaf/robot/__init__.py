@@ -1,0 +1,1 @@
+"""The robot: the one state machine (decide, dwell, redirect, faults) of every runtime."""

@@ -1,0 +1,62 @@
+// Lock-step of the tpuaf_stage node: which agent answered which odom tick (cmd_vel_stamped), who is
+// unresponsive or gone, and the waits for the agents at start and after each tick.
+#pragma once
+
+#include <ros/ros.h>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace tpuaf_stage {
+
+// [s] steady wall clock: lock-step timeouts, pacing and the status line.
+double wall_now();
+
+class Lockstep {
+ public:
+  // What the waits need from the node.
+  struct Hooks {
+    std::function<void(double timeout_s)> serve;  // callbacks for up to timeout_s [s of wall time]
+    std::function<void()> publish_clock;          // /clock again while waiting at start
+    std::function<void(const std::vector<bool>& robots)> resend;  // the tick again to these robots
+    std::function<void(const std::string& kind, int robot, const std::string& detail)> event;
+  };
+
+  // ns: robot namespaces; timeouts [s of wall time]: ~lockstep_timeout, ~start_timeout.
+  Lockstep(std::vector<std::string> ns, double lockstep_timeout_s, double start_timeout_s,
+           Hooks hooks);
+
+  // cmd_vel_stamped subscription of the next robot: its publisher is the robot's agent.
+  void add_subscriber(ros::Subscriber sub) { cmd_stamped_sub_.push_back(std::move(sub)); }
+  // Robot i answered the tick of stamp; an unresponsive robot is waited for again.
+  void on_answer(int i, const ros::Time& stamp);
+  // Until every robot's cmd_vel_stamped has a publisher (at most ~start_timeout).
+  void start_gate();
+  // After the odom tick at stamp tick: until every live agent has answered it.
+  void wait_answers(const ros::Time& tick);
+
+  bool unresponsive(int i) const { return unresponsive_[i]; }
+  int num_unresponsive() const;
+  const std::vector<int>& unresponsive_count() const { return unresponsive_count_; }  // events
+  const std::vector<std::int64_t>& answers() const { return answers_; }  // answers received
+  // Ticks without an agent to wait for, per robot.
+  const std::vector<std::int64_t>& unwaited_ticks() const { return unwaited_ticks_; }
+
+ private:
+  std::vector<std::string> ns_;
+  int n_;
+  double lockstep_timeout_s_, start_timeout_s_;
+  Hooks hooks_;
+  std::vector<ros::Subscriber> cmd_stamped_sub_;
+
+  std::vector<ros::Time> answered_;  // stamp of the latest lock-step answer
+  std::vector<bool> ever_answered_, unresponsive_, gone_;
+  std::vector<int> unresponsive_count_;
+  std::vector<std::int64_t> unwaited_ticks_;
+  std::vector<std::int64_t> answers_;
+};
+
+}  // namespace tpuaf_stage
