@@ -16,15 +16,24 @@ from tpuaf.navigation.controller import (
     LocalController,
     Status,
     navigator_give_up_s,
+    retry_wait_for,
     wrap_angle,
     wrap_angle_array,
 )
 from tpuaf.navigation.navigator import Event, GoalClient, GoalNavigator, Navigator
 from tpuaf.navigation.route import GraphRoute
-from tpuaf.navigation.scan import Scan, scan_points
+from tpuaf.navigation.scan import (
+    DEFAULT_SCAN_BEAMS,
+    LaserMount,
+    Scan,
+    beam_step,
+    scan_points,
+    scan_points_batch,
+)
 
 __all__ = [
     "APPROACH_MPS", "SNUG_MARGIN_M", "STOP_FAILED", "Command", "ControllerConfig", "Event",
     "GoalClient", "GoalNavigator", "GraphRoute", "LocalController", "Navigator", "Scan",
-    "Status", "navigator_give_up_s", "scan_points", "wrap_angle", "wrap_angle_array",
+    "Status", "navigator_give_up_s", "retry_wait_for", "scan_points",
+    "DEFAULT_SCAN_BEAMS", "LaserMount", "beam_step", "scan_points_batch", "wrap_angle", "wrap_angle_array",
 ]

@@ -14,6 +14,8 @@ from enum import Enum
 
 import numpy as np
 
+from tpuaf.params import CONTROLLER_DEFAULTS as _D  # the defaults shared with the agent node
+
 # ---------------------------------------------------------------------------------------------
 # Local controller
 
@@ -23,22 +25,22 @@ class ControllerConfig:
     """Parameters of the local controller (units in the comments)."""
 
     max_linear_speed: float = 1.0  # [m/s]
-    max_angular_speed: float = 2.84  # [rad/s]
+    max_angular_speed: float = _D.max_angular_speed  # [rad/s]
     robot_radius: float = 0.105  # [m]
-    safety_margin: float = 0.08  # [m] kept between the robot's disc and any laser return
-    plan_margin: float = 0.3  # [m] wider clearance wanted when choosing a heading
+    safety_margin: float = _D.safety_margin  # [m] kept between the robot's disc and any laser return
+    plan_margin: float = _D.plan_margin  # [m] wider clearance wanted when choosing a heading
     lookahead: float = 1.0  # [m] free length wanted along the chosen heading
     slow_distance: float = 0.8  # [m] free length below which the speed drops linearly
     heading_gain: float = 2.5  # [1/s] w = gain * heading error
     turn_in_place: float = 1.0  # [rad] heading error above which the robot only turns
     keep_right: float = 0.2  # [rad] extra cost of passing an obstacle on its right side
     n_headings: int = 24  # candidate headings around the robot
-    stuck_timeout_s: float = 6.0  # [s] no progress of progress_m toward the target -> recover
+    stuck_timeout_s: float = _D.stuck_timeout_s  # [s] no progress of progress_m toward the target -> recover
     progress_m: float = 0.15  # [m]
-    backoff_s: float = 1.5  # [s] reversing time of one recovery
+    backoff_s: float = _D.backoff_s  # [s] reversing time of one recovery
     backoff_speed: float = 0.15  # [m/s]
     retry_wait_s: float = 1.0  # [s] standing still after backing off, before the retry
-    max_retries: int = 2  # recoveries before the goal is reported failed
+    max_retries: int = _D.max_retries  # recoveries before the goal is reported failed
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -152,12 +154,18 @@ class LocalController:
             out.append(np.minimum(np.maximum(reach.min(axis=1), 0.0), cap))
         return out
 
+    @property
+    def reach_m(self) -> float:
+        """[m] from the base beyond which obstacle points cannot matter (cap + radius + the
+        larger margin)."""
+        c = self.config
+        return self.cap + c.robot_radius + max(c.plan_margin, c.safety_margin)
+
     def relevant(self, points: np.ndarray | None) -> np.ndarray | None:
-        """The points close enough to matter (within cap + radius + plan margin)."""
+        """The points close enough to matter (within reach_m)."""
         if points is None or len(points) == 0:
             return None
-        c = self.config
-        r = self.cap + c.robot_radius + max(c.plan_margin, c.safety_margin)
+        r = self.reach_m
         near = points[:, 0] * points[:, 0] + points[:, 1] * points[:, 1] < r * r
         return points[near] if near.any() else None
 
@@ -272,3 +280,9 @@ def navigator_give_up_s(c: ControllerConfig | None = None) -> float:
     progress for stuck_timeout_s, then max_retries times (back off, wait, no progress again)."""
     c = c or ControllerConfig()
     return (c.max_retries + 1) * c.stuck_timeout_s + c.max_retries * (c.backoff_s + c.retry_wait_s)
+
+
+def retry_wait_for(robot_index: int) -> float:
+    """[s] wait of a recovery for robot `robot_index`: staggered over 4 robots (0.5-2 s), so
+    that two robots stuck on each other do not retry in lock-step (a symmetric deadlock)."""
+    return 0.5 + 0.5 * (int(robot_index) % 4)

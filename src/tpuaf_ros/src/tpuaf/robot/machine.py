@@ -51,8 +51,6 @@ class RobotDriver(Protocol):
 
     def halt(self, robot: int) -> None: ...  # no goal: stand still
 
-    def at_vertex(self, robot: int, vertex: int) -> bool: ...  # within goal tolerance of it
-
 
 def announced_vertex(message: Any) -> int:
     """The vertex a team message announces as its sender's next destination (-1: none)."""
@@ -95,6 +93,12 @@ class RobotMachine(RobotContextBase):
         self.visits = 0
         self.failures = 0
         self.decisions = 0
+
+    def at_vertex(self, vertex: int) -> bool:
+        """Is the robot within the map's goal tolerance [m] of `vertex` (a visit's distance)?"""
+        x, y = self.position
+        p = self.patrol_map.positions[vertex]
+        return math.hypot(x - p[0], y - p[1]) <= float(self.patrol_map.settings.goal_tolerance)
 
     # --- RobotContext -----------------------------------------------------------------------
     @property
@@ -159,7 +163,7 @@ class RobotMachine(RobotContextBase):
         self.goal = goal
         here = self._current
         self.emit(GOAL, goal, here, self.driver.now)
-        if goal == here and self.driver.at_vertex(self.robot, goal):
+        if goal == here and self.at_vertex(goal):
             self.dwelling = True
             self.driver.dwell(self.robot, goal, STAY_S)
         else:

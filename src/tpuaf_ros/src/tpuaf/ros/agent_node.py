@@ -16,7 +16,6 @@ import threading
 import time
 import warnings
 
-import numpy as np
 import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
@@ -27,7 +26,14 @@ from tf2_msgs.msg import TFMessage
 
 from tpuaf import topics
 from tpuaf.maps import MapError, load_map, start_vertices
-from tpuaf.navigation import ControllerConfig, GoalNavigator, Scan, scan_points
+from tpuaf.navigation import (
+    ControllerConfig,
+    GoalNavigator,
+    LaserMount,
+    Scan,
+    retry_wait_for,
+    scan_points,
+)
 from tpuaf.navigation.frames import FrameChain
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
@@ -51,7 +57,8 @@ def _shape(reason: str) -> str:
 
 
 def check_params(p: AgentParams, sim: bool) -> None:
-    """Cross-parameter checks (one-line NodeParamError naming the problem)."""
+    """Cross-parameter and choice checks (one-line NodeParamError naming the problem); the
+    numeric limits of single parameters are AgentParams.ranges, checked by `parse`."""
     if not 0 <= p.robot_index < p.robots:
         raise NodeParamError(f"~robot_index {p.robot_index} not in 0..{p.robots - 1}")
     if p.localization not in LOCALIZATIONS:
@@ -62,14 +69,6 @@ def check_params(p: AgentParams, sim: bool) -> None:
     if p.initial_pose and (len(p.initial_pose) != 3 or not all(
             isinstance(v, (int, float)) and math.isfinite(v) for v in p.initial_pose)):
         raise NodeParamError(f"~initial_pose must be [x, y, yaw], got {p.initial_pose}")
-    for name in ("input_timeout", "teammate_timeout", "skew_warn", "max_skew", "heartbeat_period",
-                 "move_base_timeout"):
-        if not getattr(p, name) > 0:
-            raise NodeParamError(f"~{name} must be > 0, got {getattr(p, name)}")
-    if p.start_wait < 0:
-        raise NodeParamError(f"~start_wait must be >= 0 s, got {p.start_wait}")
-    if p.scan_beams < 8:
-        raise NodeParamError(f"~scan_beams must be >= 8, got {p.scan_beams}")
     if sim and p.clock_offset != 0.0:
         raise NodeParamError("~clock_offset needs the wall clock (use_sim_time false)")
     if p.lockstep and p.navigation == "move_base":
@@ -100,7 +99,7 @@ class AgentNode:
             robot_radius=p.robot_radius or s.robot_radius,
             safety_margin=p.safety_margin, plan_margin=p.plan_margin,
             stuck_timeout_s=p.stuck_timeout, backoff_s=p.backoff_time, max_retries=p.max_retries,
-            retry_wait_s=0.5 + 0.5 * (p.robot_index % 4),  # staggered: breaks symmetric deadlocks
+            retry_wait_s=retry_wait_for(p.robot_index),
         )
         policy = REGISTRY.create(p.strategy, p.strategy_params)
         self.inbox = TeamInbox(p.robots, patrol_map.num_vertices, p.robot_index, InboxConfig(
@@ -140,6 +139,8 @@ class AgentNode:
         self.runtime = AgentRuntime(patrol_map, policy, p.robot_index, p.robots, p.seed,
                                     self.publish_team, self.publish_event, cfg,
                                     p.heartbeat_period, p.waypoint_tolerance)
+        # [m] laser points farther from the base than this cannot matter to the controller
+        self.points_within_m = self.runtime.navigator.controller.reach_m
         if p.navigation == "move_base":
             from tpuaf.ros.move_base import MoveBaseClient
 
@@ -428,20 +429,14 @@ class AgentNode:
                 self.stop_robot(stamp)
                 return
             self.resume()
-        if self.points is None and self._scan is not None:
+        if self.points is None and self._scan is not None:  # the physics runtime's scan step
             s = self._scan
-            n = len(s.ranges)
-            k = max(1, -(-n // self.p.scan_beams))  # ceil: subsample to <= scan_beams beams
-            pts = scan_points(Scan(s.ranges[::k], s.angle_min, s.angle_increment * k,
-                                   s.range_min, s.range_max))
             if self.laser_pose is None and self._laser_frame != s.header.frame_id:
                 self._laser_frame = s.header.frame_id
                 self._find_laser()
-            if self.laser_pose is not None:  # laser frame -> base frame
-                lx, ly, lyaw = self.laser_pose
-                c, si = math.cos(lyaw), math.sin(lyaw)
-                pts = np.column_stack((lx + c * pts[:, 0] - si * pts[:, 1],
-                                       ly + si * pts[:, 0] + c * pts[:, 1]))
+            mount = LaserMount(*self.laser_pose) if self.laser_pose is not None else LaserMount()
+            pts = scan_points(Scan(s.ranges, s.angle_min, s.angle_increment, s.range_min,
+                                   s.range_max), mount, self.p.scan_beams, self.points_within_m)
             self.points = pts
         v, w = self.runtime.tick(self.run_time(stamp.to_sec()) if t is None else t, self.points)
         if not self.drives:

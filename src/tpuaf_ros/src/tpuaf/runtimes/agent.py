@@ -115,11 +115,6 @@ class AgentRuntime:
         self.navigator.cancel()
         self._stay_until = None
 
-    def at_vertex(self, robot: int, vertex: int) -> bool:
-        x, y = self.position
-        p = self._positions[vertex]
-        return math.hypot(x - p[0], y - p[1]) <= self.goal_tolerance
-
     # --- inputs ---
     def on_pose(self, t: float, x: float, y: float, th: float) -> None:
         """Localisation (map frame) at run time t [s]."""

@@ -23,31 +23,32 @@ after its death, as heartbeats would. A stalled robot keeps its heartbeats.
 
 from __future__ import annotations
 
-import heapq
 import math
 from collections.abc import Callable
 from dataclasses import asdict
 
 import numpy as np
 
-from tpuaf.maps import load_map, start_vertices
-from tpuaf.measure.metrics import RunRecorder
-from tpuaf.navigation import ControllerConfig
+from tpuaf.maps import start_vertices
+from tpuaf.navigation import (
+    ControllerConfig,
+    LaserMount,
+    retry_wait_for,
+    scan_points_batch,
+)
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.agent import AgentRuntime
+from tpuaf.runtimes.base import TeamRun
 from tpuaf.runtimes.config import PhysicsConfig, RunConfig, choose_robot, run_description
-from tpuaf.runtimes.faults import DEATH, Fault
-from tpuaf.team.bus import TeamBus
-from tpuaf.topics import REACHED, START
 
 
-def controller_config(settings, robot: int, speed_mps: float, radius_m: float) -> ControllerConfig:
+def controller_config(robot: int, speed_mps: float, radius_m: float) -> ControllerConfig:
     """The local controller of robot `robot`, as the agent node configures it by default."""
     return ControllerConfig(max_linear_speed=speed_mps, robot_radius=radius_m,
-                            retry_wait_s=0.5 + 0.5 * (robot % 4))  # staggered, as the node
+                            retry_wait_s=retry_wait_for(robot))
 
 
-class PhysicsRun:
+class PhysicsRun(TeamRun):
     """One physics-runtime run; the interface of BatchRun (config, patrol_map, now, recorder,
     run(progress), summary(), effective_config())."""
 
@@ -58,13 +59,10 @@ class PhysicsRun:
 
         if not isinstance(config, PhysicsConfig):
             config = PhysicsConfig(**asdict(config))
-        config.validate()
-        self.config = config
-        self.patrol_map = pm = patrol_map if patrol_map is not None else load_map(config.map)
+        super().__init__(config, patrol_map)
+        pm = self.patrol_map
         n = config.robots
-        seed = int(config.seed)
-        s = pm.settings
-        self.robot_choice = choose_robot(config.robot, s)
+        self.robot_choice = choose_robot(config.robot, pm.settings)
         preset, robot_model = parse_robot(None, {"preset": self.robot_choice.preset,
                                                  "max_linear_speed": self.robot_choice.speed_mps})
         laser_preset, laser = parse_laser(None, {"preset": "lds01"})
@@ -76,112 +74,40 @@ class PhysicsRun:
                                                        float(grid.origin[1])),
             robot=robot_model, laser=laser,
             poses=[(float(pm.positions[v][0]), float(pm.positions[v][1]), 0.0) for v in starts],
-            seed=seed, map_description=f"patrol map {pm.name}", robot_preset=preset,
+            seed=self.seed, map_description=f"patrol map {pm.name}", robot_preset=preset,
             laser_preset=laser_preset)
         self.world = self.world_config.build()
-        self.now = 0.0
-        self.bus = TeamBus(n, config.delay_s, config.loss, np.random.default_rng([seed, 1]))
-        self._deliveries: list = []  # (time, seq, message, recipients)
-        self._seq = 0
-        self.recorder = RunRecorder(pm, n, sample_period_s=config.sample_period_s,
-                                    speed_mps=self.robot_choice.speed_mps)
+        self._record(self.robot_choice.speed_mps)
         cls = REGISTRY.get(config.strategy)
         self.agents = [
-            AgentRuntime(pm, cls(config.strategy_params), i, n, seed,
-                         self._publisher(i), self._listener(i),
-                         controller_config(s, i, self.robot_choice.speed_mps,
-                                           robot_model.radius))
+            AgentRuntime(pm, cls(config.strategy_params), i, n, self.seed,
+                         self._publisher(i), self.visit_listener(i),
+                         controller_config(i, self.robot_choice.speed_mps, robot_model.radius))
             for i in range(n)
         ]
-        self.faults = config.faults()
-        if self.faults:
-            for a in self.agents:
-                a.machine.on_announce = self._announcer(a.machine.robot)
+        self._team([a.machine for a in self.agents])
+        self._lost: list[tuple[float, int]] = []
         self.steps_per_control = round(config.control_period_s / config.physics_step_s)
         # Scans at the laser rate, on control ticks (LDS-01 5 Hz: every other 10 Hz tick).
         self.scan_every = max(1, round(1.0 / (laser.rate * config.control_period_s)))
-        self._trig = None
-        ctl = self.agents[0].navigator.controller
-        c = ctl.config
-        self._relevant_m2 = (ctl.cap + c.robot_radius + max(c.plan_margin, c.safety_margin)) ** 2
         self.collisions = 0
 
-    # --- transport and events ---
     def _publisher(self, robot: int) -> Callable:
         def publish(message) -> None:
-            self.bus.send(robot, message, self.now, self._schedule)
+            self.bus.send(robot, message, self.now)
 
         return publish
 
-    def _schedule(self, time: float, message, recipients: list[int]) -> None:
-        self._seq += 1
-        heapq.heappush(self._deliveries, (time, self._seq, message, recipients))
+    def _notify_lost_at(self, time_s: float, robot: int) -> None:
+        self._lost.append((time_s, robot))
 
-    def _listener(self, robot: int) -> Callable:
-        record_visit = self.recorder.record_visit
-
-        def emit(kind: int, vertex: int, _from_vertex: int, t: float) -> None:
-            if kind == REACHED or kind == START:
-                record_visit(robot, vertex, t)
-
-        return emit
-
-    def _announcer(self, robot: int) -> Callable:
-        record = self.recorder.record_announcement
-        return lambda vertex, t: record(robot, vertex, t)
-
-    def _deliver_ready(self) -> None:
-        ready = self.bus.ready
-        agents = self.agents
-        while ready:
-            message, recipients = ready.popleft()
-            for r in recipients:
-                if agents[r].machine.alive:
-                    agents[r].on_message(message)
-                    self.bus.stats.delivered += 1
-
-    def _deliver_due(self, t: float) -> None:
-        q = self._deliveries
-        while q and q[0][0] <= t + 1e-9:
-            _, _, message, recipients = heapq.heappop(q)
-            self.bus.ready.append((message, recipients))
-        self._deliver_ready()
-
-    # --- laser ---
     def _points(self, ranges: np.ndarray) -> list[np.ndarray]:
-        """Laser points (k, 2) in the robot (base) frame per robot, valid returns only, and
-        only those the controller would keep (LocalController.relevant): the same commands,
-        less work. Beam order is kept."""
+        """Laser points (k, 2) in the base frame per robot: the agent node's scan step
+        (navigation.scan_points_batch), keeping only what the controller can use."""
         lz = self.world_config.laser
-        if self._trig is None:
-            a = lz.first_angle + lz.angle_increment * np.arange(ranges.shape[1]) + lz.yaw
-            self._trig = (np.cos(a), np.sin(a))
-        c, s = self._trig
-        near = math.sqrt(self._relevant_m2) + math.hypot(lz.x, lz.y)  # [m] of range
-        ok = (ranges >= lz.range_min) & (ranges <= lz.range_max) & (ranges > 0) & (ranges < near)
-        rows, cols = np.nonzero(ok)
-        r = ranges[rows, cols]
-        xs = r * c[cols] + lz.x
-        ys = r * s[cols] + lz.y
-        keep = xs * xs + ys * ys < self._relevant_m2
-        points = np.column_stack((xs[keep], ys[keep]))
-        counts = np.bincount(rows[keep], minlength=len(ranges))
-        return np.split(points, np.cumsum(counts)[:-1])
-
-    # --- faults ---
-    def _fault(self, fault: Fault) -> None:
-        i = fault.robot
-        agent = self.agents[i]
-        if not agent.machine.alive:
-            return
-        if fault.kind == DEATH:
-            agent.die()
-            self.bus.alive[i] = False
-            self.recorder.record_robot_death(i, self.now)
-            self._lost.append((self.now + self.config.teammate_timeout_s, i))
-        else:
-            agent.machine.stall()
-            self.recorder.record_robot_stall(i, self.now)
+        return scan_points_batch(ranges, lz.first_angle, lz.angle_increment, lz.range_min,
+                                 lz.range_max, LaserMount(lz.x, lz.y, lz.yaw),
+                                 within_m=self.agents[0].navigator.controller.reach_m)
 
     # --- main loop ---
     def run(self, progress: Callable[[float], None] | None = None) -> dict:
@@ -194,7 +120,6 @@ class PhysicsRun:
         world = self.world
         n = len(agents)
         faults = list(self.faults)
-        self._lost: list[tuple[float, int]] = []
         commands = np.zeros((n, 2))
         points: list = [None] * n
         stopped = np.zeros(n, dtype=bool)  # dead or stalled: the world gets zero commands
@@ -204,7 +129,7 @@ class PhysicsRun:
             a.on_pose(0.0, *poses[i])
         for a in agents:
             a.begin(0.0)
-            self._deliver_ready()
+            self.deliver_ready()
         n_ticks = int(math.floor(end / period + 1e-9))
         next_progress = 0.0
         for k in range(n_ticks + 1):
@@ -212,13 +137,12 @@ class PhysicsRun:
             self.now = t
             while faults and faults[0].time_s <= t + 1e-9:
                 fault = faults.pop(0)
-                self._fault(fault)
+                self.inject(fault)
                 stopped[fault.robot] = True
             while self._lost and self._lost[0][0] <= t + 1e-9:
-                _, dead = self._lost.pop(0)
-                for a in agents:
-                    a.on_teammate_lost(dead)
-            self._deliver_due(t)
+                self.teammate_lost(self._lost.pop(0)[1])
+            self.bus.release_due(t)
+            self.deliver_ready()
             if k:
                 poses = np.asarray(world.poses(), dtype=float)
                 self.recorder.record_positions(t, poses[:, :2])
@@ -235,7 +159,7 @@ class PhysicsRun:
                 a.on_pose(t, x, y, th)
                 commands[i] = a.tick(t, points[i])
                 if self.bus.ready:
-                    self._deliver_ready()
+                    self.deliver_ready()
             if stopped.any():
                 commands[stopped] = 0.0
             world.set_commands(commands)
@@ -267,9 +191,7 @@ class PhysicsRun:
                     f"at {1 / self.config.control_period_s:g} Hz on ground-truth poses"))
 
     def summary(self) -> dict:
-        summary = self.recorder.summary(self.now)
-        summary["messages"] = asdict(self.bus.stats)
-        summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
+        summary = super().summary()
         summary["collisions"] = int(sum(self.world.contact_counts()))
         summary["goal_failures"] = int(sum(a.machine.failures for a in self.agents))
         return summary

@@ -2,11 +2,16 @@
 
 The ROS runtime carries the same typed messages (tpuaf.team.messages) on topics; this bus models what
 a radio does to them: every recipient independently loses a message with probability `loss`,
-and the others receive it `delay_s` seconds after it was sent.
+and the others receive it `delay_s` seconds after it was sent. The bus keeps the messages in
+flight itself (`in_flight`, a heap); a runtime
+releases them into `ready` when they are due (in due order, then send order) and then hands `ready` to the robots.
 """
 
 from __future__ import annotations
 
+import heapq
+import itertools
+import math
 from collections import deque
 from dataclasses import dataclass
 
@@ -33,6 +38,8 @@ class TeamBus:
         self.alive = np.ones(n_robots, dtype=bool)
         self.stats = BusStats()
         self.ready: deque = deque()  # (message, recipients) to deliver now
+        self.in_flight: list = []  # heap of (due time [s], send order, message, recipients)
+        self._order = itertools.count()
 
     def recipients(self, sender: int) -> list[int]:
         keep = self.alive.copy()
@@ -43,8 +50,8 @@ class TeamBus:
             keep &= ~lost
         return np.flatnonzero(keep).tolist()
 
-    def send(self, sender: int, message, now: float, schedule) -> None:
-        """Broadcast; `schedule(time, message, recipients)` queues a delayed delivery."""
+    def send(self, sender: int, message, now: float) -> None:
+        """Broadcast at time `now` [s]: ready at once without delay, else in flight."""
         self.stats.sent += 1
         recipients = self.recipients(sender)
         if not recipients:
@@ -52,4 +59,19 @@ class TeamBus:
         if self.delay_s == 0:
             self.ready.append((message, recipients))
         else:
-            schedule(now + self.delay_s, message, recipients)
+            heapq.heappush(self.in_flight,
+                           (now + self.delay_s, next(self._order), message, recipients))
+
+    def next_due_s(self) -> float:
+        """[s] when the next message in flight is due (+inf if none)."""
+        return self.in_flight[0][0] if self.in_flight else math.inf
+
+    def release_next(self) -> None:
+        """The next message in flight becomes ready."""
+        _, _, message, recipients = heapq.heappop(self.in_flight)
+        self.ready.append((message, recipients))
+
+    def release_due(self, now: float, slack_s: float = 1e-9) -> None:
+        """Every message in flight due by `now` [s] (within `slack_s`) becomes ready."""
+        while self.in_flight and self.in_flight[0][0] <= now + slack_s:
+            self.release_next()

@@ -10,8 +10,6 @@ what `due(now)` returns on the recipients' namespaces and mirrors every original
 
 from __future__ import annotations
 
-import heapq
-import itertools
 from typing import Any
 
 import numpy as np
@@ -23,8 +21,6 @@ class RelayModel:
     def __init__(self, n_robots: int, delay_s: float, loss: float, seed: int):
         # The batch runtime seeds its bus with [seed, 1]; the relay with its own stream.
         self.bus = TeamBus(n_robots, delay_s, loss, np.random.default_rng([int(seed), 1, 7]))
-        self._queue: list = []  # (due time [s], order, message, recipients)
-        self._order = itertools.count()
 
     @property
     def stats(self) -> BusStats:
@@ -34,23 +30,17 @@ class RelayModel:
         """A message robot `sender` broadcast at run time `now` [s]."""
         if not 0 <= sender < self.bus.n_robots:
             return  # not one of the team (a malformed or foreign message)
-
-        def schedule(when, msg, recipients):
-            heapq.heappush(self._queue, (when, next(self._order), msg, recipients))
-
-        self.bus.send(sender, message, now, schedule)
+        self.bus.send(sender, message, now)
 
     def due(self, now: float) -> list[tuple[int, Any]]:
         """(recipient, message) pairs to deliver at run time `now`, in sending order."""
+        self.bus.release_due(now)
         out = []
         while self.bus.ready:
             msg, recipients = self.bus.ready.popleft()
-            out += [(r, msg) for r in recipients]
-        while self._queue and self._queue[0][0] <= now + 1e-9:
-            _, _, msg, recipients = heapq.heappop(self._queue)
             out += [(r, msg) for r in recipients]
         self.bus.stats.delivered += len(out)
         return out
 
     def pending(self) -> int:
-        return len(self._queue)
+        return len(self.bus.in_flight)
