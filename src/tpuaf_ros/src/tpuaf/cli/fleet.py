@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import math
 import os
 import re
 import shlex
@@ -42,8 +41,10 @@ from tpuaf.cli.run import (
     team_size,
 )
 from tpuaf.errors import CliError
+from tpuaf.files import atomic_write
 from tpuaf.paths import catkin_prefix
 from tpuaf.runtimes.config import choose_robot
+from tpuaf.runtimes.faults import FaultError, parse_fault
 from tpuaf.topics import METRICS_TOPIC
 
 LAUNCH = ("tpuaf_ros", "fleet.launch")  # found by roslaunch through the package
@@ -62,16 +63,13 @@ DEFAULT_RECORD = r"/clock|/fleet/.*|/team/.*|/{p}[0-9]+/base_pose_ground_truth"
 
 
 def fault_spec(text: str) -> tuple[int, float]:
-    """An argparse type: ROBOT@TIME (robot index >= 0, run time [s] >= 0)."""
-    robot, sep, when = text.partition("@")
+    """An argparse type: ROBOT@TIME (robot index >= 0, run time [s] >= 0), by the runtimes'
+    parser (`tpuaf run --fail`), with the CLI's one message."""
     try:
-        r, t = int(robot), float(when)
-    except ValueError:
-        r, t = -1, math.nan
-    if not sep or r < 0 or not math.isfinite(t) or t < 0:
+        return parse_fault(text)
+    except FaultError:
         raise argparse.ArgumentTypeError(f"expected ROBOT@TIME (robot index >= 0, run time "
-                                         f"[s] >= 0), got '{text}'")
-    return r, t
+                                         f"[s] >= 0), got '{text}'") from None
 
 
 rtf_float = finite_float(lambda v: v >= 0, "a real-time factor >= 0 (0 = as fast as possible)")
@@ -366,9 +364,7 @@ def wait_bag_closed(bag: Path, timeout_s: float = 30.0) -> bool:
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(data, indent=2))
-    os.replace(tmp, path)
+    atomic_write(path, json.dumps(data, indent=2))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -14,11 +14,22 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from tpuaf.files import atomic_file, atomic_path
 
-def _pyplot():
-    from tpuaf.experiments.report import _pyplot as headless
 
-    return headless()
+def headless_pyplot():
+    """matplotlib.pyplot on the headless Agg backend. Debian's mpl_toolkits beside the venv's
+    matplotlib makes it warn about 3-D axes; no figure here uses them."""
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Unable to import Axes3D")
+        warnings.filterwarnings("ignore", message="Importing matplotlib.tri.triangulation")
+        import matplotlib.pyplot as plt
+    return plt
 
 
 def _read_csv(path: Path) -> list[dict]:
@@ -36,7 +47,7 @@ def idleness_over_time(folder: Path, out: Path | None = None) -> Path:
     t = t - t[0]
     ins = np.array([float(r["idleness_ins_s"]) for r in rows])
     worst = np.array([float(r["worst_idleness_s"]) for r in rows])
-    plt = _pyplot()
+    plt = headless_pyplot()
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(t, ins, label="instantaneous idleness (mean over vertices)")
     ax.plot(t, worst, label="worst idleness", alpha=0.8)
@@ -67,7 +78,7 @@ def vertex_idleness_on_map(folder: Path, out: Path | None = None) -> Path:
             sums[v] += float(r["interval_idleness_s"])
             counts[v] += 1
     mean = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
-    plt = _pyplot()
+    plt = headless_pyplot()
     grid = pm.occupancy_grid()
     x0, y0 = grid.origin
     extent = (x0, x0 + grid.width * grid.resolution, y0, y0 + grid.height * grid.resolution)
@@ -157,7 +168,7 @@ def summary_png(folder: Path, patrol_map=None, summary: dict | None = None,
     folder = Path(folder)
     pm = _map_of(folder, patrol_map)
     rows = _read_csv(folder / "timeseries.csv")
-    plt = _pyplot()
+    plt = headless_pyplot()
     fig, (ax_t, ax_m) = plt.subplots(1, 2, figsize=(9.5, 3.8),
                                      gridspec_kw={"width_ratios": [1.3, 1.0]})
     if rows:
@@ -199,10 +210,9 @@ def summary_png(folder: Path, patrol_map=None, summary: dict | None = None,
                    fontsize=8)
     fig.tight_layout()
     path = Path(path or folder / "summary.png")
-    tmp = path.with_name(f".{path.name}.tmp")
-    fig.savefig(tmp, dpi=80, format="png")
+    with atomic_file(path) as f:
+        fig.savefig(f, dpi=80, format="png")
     plt.close(fig)
-    tmp.replace(path)
     return path
 
 
@@ -395,7 +405,7 @@ def render(folder: Path, out: Path | None = None, *, frames: int | None = None,
         clabel = "X (ground truth)"
         vmax = None
 
-    plt = _pyplot()
+    plt = headless_pyplot()
     grid = pm.occupancy_grid()
     aspect = grid.height / max(grid.width, 1)
     fig, ax = plt.subplots(figsize=(6.0, max(2.5, 4.8 * aspect) + 0.4))
@@ -456,15 +466,14 @@ def render(folder: Path, out: Path | None = None, *, frames: int | None = None,
             plt.close(fig)
             raise ValueError("an .mp4 needs ffmpeg on the PATH; write a .gif instead")
         writer = animation.FFMpegWriter(fps=fps)
-        tmp = out.with_name(f".{out.stem}.tmp{out.suffix}")
-        with writer.saving(fig, str(tmp), dpi):
-            for k, t in enumerate(times):
-                _, p = frame_rgb(k, float(t), prev_t, prev_p)
-                prev_p = _without_dead(p, deaths, float(t))
-                prev_t = float(t)
-                writer.grab_frame()
-        plt.close(fig)
-        tmp.replace(out)
+        with atomic_path(out, out.suffix) as tmp:  # ffmpeg picks the format by the name
+            with writer.saving(fig, str(tmp), dpi):
+                for k, t in enumerate(times):
+                    _, p = frame_rgb(k, float(t), prev_t, prev_p)
+                    prev_p = _without_dead(p, deaths, float(t))
+                    prev_t = float(t)
+                    writer.grab_frame()
+            plt.close(fig)
         return out, len(times)
     from PIL import Image
 
@@ -474,11 +483,10 @@ def render(folder: Path, out: Path | None = None, *, frames: int | None = None,
         prev_t = float(t)
         images.append(Image.fromarray(rgb).quantize(colors=128, method=Image.Quantize.MEDIANCUT))
     plt.close(fig)
-    tmp = out.with_name(f".{out.stem}.tmp.gif")
-    images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:],
-                   duration=max(20, int(round(1000.0 / fps))), loop=0, optimize=False,
-                   disposal=1)
-    tmp.replace(out)
+    with atomic_file(out) as f:
+        images[0].save(f, format="GIF", save_all=True, append_images=images[1:],
+                       duration=max(20, int(round(1000.0 / fps))), loop=0, optimize=False,
+                       disposal=1)
     return out, len(images)
 
 

@@ -9,8 +9,8 @@
 
 Streamed files are flushed after every batch of rows, so an interrupted run leaves valid CSV
 files for what was simulated. The end files (summary.json, config.yaml, the patrolling_sim files)
-are written atomically: a temporary file beside them, then a rename, so that a reader (or a
-kill) never sees half a file. `.tpuaf-files` lists every file tpuaf wrote in the folder:
+are written atomically (tpuaf.files: a temporary file beside them, fsynced, then a rename), so
+that a reader (or a kill) never sees half a file. `.tpuaf-files` lists every file tpuaf wrote in the folder:
 `prepare_out_dir(..., overwrite=True)` removes those (and the known names below), nothing else.
 """
 
@@ -33,6 +33,7 @@ import numpy as np
 import yaml
 
 from tpuaf.errors import TpuafError
+from tpuaf.files import atomic_write_text
 from tpuaf.measure.metrics import TIMESERIES_COLUMNS
 from tpuaf.plain import plain
 
@@ -63,21 +64,6 @@ PRODUCT_FILES = frozenset({
 
 class ResultsError(TpuafError):
     """A results folder cannot be used (a file, unwritable, or holding earlier results)."""
-
-
-def atomic_write_text(path: str | Path, text: str) -> None:
-    """Write `text` to `path` through a temporary file in the same folder and a rename."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", newline="") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
 
 
 def record_written(out_dir: str | Path, *names: str) -> None:

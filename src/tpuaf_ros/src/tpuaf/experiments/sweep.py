@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from tpuaf.errors import TpuafError
+from tpuaf.files import atomic_write
 from tpuaf.plain import plain
 
 
@@ -425,15 +426,6 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
     return result
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
-
-
 def _json_bytes(obj: Any) -> bytes:
     return (json.dumps(plain(obj), indent=1, allow_nan=False) + "\n").encode()
 
@@ -451,20 +443,20 @@ def write_run(root: Path, result: dict[str, Any]) -> Path:
     meta = {"task": task, "host": result.get("host"), "pid": result.get("pid"),
             "wall_time_s": result.get("wall_time_s")}
     if result.get("error"):
-        _atomic_write(folder / "config.json", _json_bytes({**meta, "config": result.get("config")}))
-        _atomic_write(folder / "error.txt", result["error"].encode())
+        atomic_write(folder / "config.json", _json_bytes({**meta, "config": result.get("config")}))
+        atomic_write(folder / "error.txt", result["error"].encode())
         return folder
     (folder / "error.txt").unlink(missing_ok=True)
-    _atomic_write(folder / "config.json", _json_bytes({**meta, "config": result["config"]}))
+    atomic_write(folder / "config.json", _json_bytes({**meta, "config": result["config"]}))
     buf = io.BytesIO()
     with gzip.GzipFile(fileobj=buf, mode="wb", mtime=0) as gz:
         np.savetxt(gz, np.asarray(result["samples"], dtype=float), fmt="%.3f")
-    _atomic_write(folder / "idleness.txt.gz", buf.getvalue())
+    atomic_write(folder / "idleness.txt.gz", buf.getvalue())
     summary = dict(result["summary"])
     summary["run"] = {**task, "wall_time_s": result.get("wall_time_s"),
                       "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S"),
                       "host": result.get("host")}
-    _atomic_write(summary_path, _json_bytes(summary))
+    atomic_write(summary_path, _json_bytes(summary))
     return folder
 
 
@@ -574,7 +566,7 @@ def write_tables(root: Path) -> tuple[Path, Path]:
     root = Path(root)
     rows = collect(root)
     results = root / "results.csv"
-    _atomic_write(results, _csv_text(rows, RESULT_COLUMNS).encode())
+    atomic_write(results, _csv_text(rows, RESULT_COLUMNS).encode())
     out = io.StringIO()
     out.write(",".join(SAMPLE_COLUMNS) + "\n")
     for row in rows:
@@ -588,7 +580,7 @@ def write_tables(root: Path) -> tuple[Path, Path]:
     with gzip.GzipFile(fileobj=buf, mode="wb", mtime=0) as gz:
         gz.write(out.getvalue().encode())
     samples_path = root / "samples.csv.gz"
-    _atomic_write(samples_path, buf.getvalue())
+    atomic_write(samples_path, buf.getvalue())
     return results, samples_path
 
 
@@ -629,7 +621,7 @@ def write_reference(root: Path, maps: list[MapSpec], robots: Iterable[int]) -> P
     fresh = {(r["map"], int(r["robots"])) for r in new}
     keep = [r for r in old if (r["map"], int(r["robots"])) not in fresh]
     rows = sorted(keep + new, key=lambda r: (r["map"], int(r["robots"])))
-    _atomic_write(path, _csv_text(rows, REFERENCE_COLUMNS).encode())
+    atomic_write(path, _csv_text(rows, REFERENCE_COLUMNS).encode())
     return path
 
 
@@ -827,4 +819,4 @@ def _finish(root: Path, spec: SweepSpec, outcome: SweepOutcome) -> None:
     if outcome.ran or outcome.failed:
         history.append(entry)
     record["history"] = history
-    _atomic_write(path, _json_bytes(record))
+    atomic_write(path, _json_bytes(record))

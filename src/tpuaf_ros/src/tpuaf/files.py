@@ -1,0 +1,113 @@
+"""Atomic file writes: a reader (or a kill, or a power cut) sees the old file or the whole new
+one, never half a file.
+
+The data goes to a temporary file in the same folder (`.NAME.PID.tmp`, hidden, same file
+system), is flushed and fsynced, renamed over NAME, then the folder is fsynced (the rename
+itself survives a crash). On any error, KeyboardInterrupt included, the temporary file is
+removed and the old NAME is left as it was.
+
+    atomic_write(path, b"bytes" | "text" | writer)   # writer(f): f is a binary file object
+    atomic_write_text(path, text)
+    with atomic_file(path) as f: fig.savefig(f, format="png")   # or "w" for text (csv)
+    with atomic_path(path, ".mp4") as tmp: ...                 # writers that need a file name
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import IO, Any
+
+
+def _temp_path(path: Path, suffix: str = "") -> Path:
+    """`.NAME.PID.tmp[suffix]` beside `path` (the pid keeps concurrent writers apart)."""
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp{suffix}")
+
+
+def _fsync_folder(folder: Path) -> None:
+    """fsync a folder so that a rename in it is on disk; skipped where the OS refuses."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        with contextlib.suppress(OSError):  # e.g. EINVAL on some network file systems
+            os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def _temporary(path: Path, suffix: str) -> Iterator[Path]:
+    """A temporary path beside `path`, removed if the block raises (any BaseException)."""
+    tmp = _temp_path(path, suffix)
+    try:
+        yield tmp
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def _commit(tmp: Path, path: Path) -> None:
+    os.replace(tmp, path)
+    _fsync_folder(path.parent)
+
+
+@contextlib.contextmanager
+def atomic_file(path: str | Path, mode: str = "wb", *, encoding: str | None = None,
+                newline: str | None = None) -> Iterator[IO[Any]]:
+    """A file object (open(tmp, mode, ...)) whose contents replace `path` when the block ends
+    without an error. `mode` is "wb" or "w" (text: `encoding` and `newline` as for open())."""
+    if mode not in ("w", "wb"):
+        raise ValueError(f"atomic_file: mode '{mode}' (expected 'w' or 'wb')")
+    path = Path(path)
+    with _temporary(path, "") as tmp:
+        with open(tmp, mode, encoding=encoding, newline=newline) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        _commit(tmp, path)
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path, suffix: str = "") -> Iterator[Path]:
+    """A temporary file name ending in `suffix` (e.g. ".mp4" for ffmpeg, which picks the format
+    by the name) for a writer that opens the file itself; it replaces `path` when the block
+    ends without an error."""
+    path = Path(path)
+    with _temporary(path, suffix) as tmp:
+        yield tmp
+        fd = os.open(tmp, os.O_RDONLY)  # the writer closed it: fsync through a new descriptor
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        _commit(tmp, path)
+
+
+def atomic_write(path: str | Path, data: bytes | str | Callable[[IO[bytes]], object], *,
+                 encoding: str | None = None) -> None:
+    """Replace `path` with `data`: bytes as they are, text in `encoding` (default: open()'s)
+    with no newline translation, or a writer called with the open binary file."""
+    if isinstance(data, bytes | bytearray | memoryview):
+        with atomic_file(path, "wb") as f:
+            f.write(data)
+    elif isinstance(data, str):
+        with atomic_file(path, "w", encoding=encoding, newline="") as f:
+            f.write(data)
+    elif callable(data):
+        with atomic_file(path, "wb") as f:
+            data(f)
+    else:
+        raise TypeError(f"atomic_write: data is {type(data).__name__} (expected bytes, str or "
+                        "a writer callable)")
+
+
+def atomic_write_text(path: str | Path, text: str, *, encoding: str | None = None) -> None:
+    """atomic_write of a str (written as given: no newline translation)."""
+    if not isinstance(text, str):
+        raise TypeError(f"atomic_write_text: text is {type(text).__name__}, not str")
+    atomic_write(path, text, encoding=encoding)
