@@ -10,4 +10,5 @@ PYBIND11_MODULE(_core, m) {
   tpuaf::bindings::bind_knowledge(m);
   tpuaf::bindings::bind_world(m);
   tpuaf::bindings::bind_engine(m);
+  tpuaf::bindings::bind_planner(m);
 }

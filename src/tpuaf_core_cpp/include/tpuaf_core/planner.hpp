@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -157,7 +158,8 @@ class GridPlanner {
     Eigen::Vector2d point = Eigen::Vector2d::Zero();
   };
   struct Node {
-    double f, g;
+    double f;  // g + h [m]
+    float h;   // [m], tie-break
     int cell;
   };
   class DiscGuard;
@@ -179,6 +181,7 @@ class GridPlanner {
   Plan finish(const std::vector<int>& cells, const Eigen::Vector2d& start, const Snap& s,
               const Eigen::Vector2d& goal, const Snap& g, int expanded) const;
   void smooth(std::vector<Eigen::Vector2d>& pts, std::size_t first) const;
+  void tighten(std::vector<Eigen::Vector2d>& pts, std::size_t first) const;
   void next_generation();
 
   static constexpr float kLethal = 1e30f;  // multiplier of a lethal cell
@@ -191,11 +194,13 @@ class GridPlanner {
   std::vector<std::pair<int, float>> undo_;  // disc edits to revert
   std::vector<double> g_;
   std::vector<int> parent_;
-  std::vector<std::uint32_t> seen_, closed_;  // generation stamps
+  std::vector<std::uint32_t> seen_, closed_, target_;  // generation stamps
   std::uint32_t gen_ = 0;
   std::vector<Node> heap_;
-  int offsets_[8];
-  double steps_[8];
+  int offsets_[8];                 // padded index offsets: E, W, N, S, NE, NW, SE, SW
+  int dcol_[8], drow_[8];          // the same as column and row steps
+  int side_col_[8], side_row_[8];  // the two side cells of a diagonal step
+  double steps_[8];                // step lengths [m]
 };
 
 }  // namespace tpuaf

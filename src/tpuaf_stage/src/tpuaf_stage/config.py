@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 import tpuaf_core
-from tpuaf_core import TpuafError
+from tpuaf_core import TpuafError, yamlfile
 
 from .presets import LASER_PRESETS, ROBOT_PRESETS
 
@@ -151,23 +151,12 @@ ROBOT_KEYS = {"preset"} | {f.name for f in fields(RobotModel)}
 LASER_KEYS = {"preset"} | {f.name for f in fields(LaserModel)}
 
 
-def _line(node: Any) -> int:
-    return int(getattr(node, "line", 0) or 0)
-
-
 def _where(path: Path | None, node: Any = None) -> str:
-    name = str(path) if path else "world"
-    line = _line(node)
-    return f"{name}:{line}" if line else name
+    return yamlfile.where(path if path else "world", node)
 
 
 def _check_keys(path: Path | None, node: Any, allowed: set[str], what: str) -> None:
-    if not isinstance(node, dict):
-        raise WorldError(f"{_where(path, node)}: {what} must be a mapping, got {type(node).__name__}")
-    unknown = sorted(str(k) for k in set(node) - allowed)
-    if unknown:
-        raise WorldError(f"{_where(path, node)}: unknown key(s) {', '.join(unknown)} in {what} "
-                         f"(valid: {', '.join(sorted(allowed))})")
+    yamlfile.check_keys(node, allowed, what, _where(path, node), WorldError)
 
 
 def _number(path, node, key, value, *, lo=None, positive=False, allow_inf=False) -> float:
@@ -261,11 +250,11 @@ def _poses(path, node, doc) -> list[tuple[float, float, float]] | int:
                              "vertices); with 'map' give a list of [x, y, theta] poses")
         return value
     if not isinstance(value, list) or not value:
-        raise WorldError(f"{_where(path, value if _line(value) else node)}: 'robots' must be a "
+        raise WorldError(f"{_where(path, value if yamlfile.line_of(value) else node)}: 'robots' must be a "
                          f"non-empty list of [x, y, theta] poses or a count, got {value!r}")
     poses = []
     for i, p in enumerate(value):
-        at = p if _line(p) else value
+        at = p if yamlfile.line_of(p) else value
         if not isinstance(p, list) or len(p) not in (2, 3):
             raise WorldError(f"{_where(path, at)}: robots[{i}] must be [x, y] or [x, y, theta] "
                              f"[m, m, rad], got {p!r}")
@@ -273,16 +262,6 @@ def _poses(path, node, doc) -> list[tuple[float, float, float]] | int:
                         isinstance(q, bool) else q) for q in p]
         poses.append((nums[0], nums[1], nums[2] if len(nums) == 3 else 0.0))
     return poses
-
-
-def _read_yaml(path: Path) -> Any:
-    from tpuaf.maps.mapfile import read_yaml
-    from tpuaf.maps.model import MapError
-
-    try:
-        return read_yaml(path)
-    except MapError as err:
-        raise WorldError(str(err)) from None
 
 
 def parse_world(doc: Any, path: Path | None = None) -> WorldConfig:
@@ -336,4 +315,4 @@ def load_world(path: str | Path) -> WorldConfig:
     path = Path(path).expanduser()
     if not path.is_file():
         raise WorldError(f"{path}: world file not found")
-    return parse_world(_read_yaml(path), path)
+    return parse_world(yamlfile.read_yaml(path, WorldError), path)

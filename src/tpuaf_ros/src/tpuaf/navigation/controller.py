@@ -266,6 +266,11 @@ class LocalController:
     def failed(self) -> bool:
         return self._state == self._FAILED
 
+    @property
+    def recovering(self) -> bool:
+        """Backing off or waiting before a retry."""
+        return self._state in (self._BACK, self._WAIT)
+
 
 def wrap_angle(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi

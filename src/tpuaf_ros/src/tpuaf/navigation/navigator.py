@@ -23,25 +23,45 @@ class Event(Enum):
 
 
 class Navigator:
-    """Follows a `GraphRoute` with a `LocalController`.
+    """Follows a `GraphRoute` with a `LocalController`, along planned paths when it has a
+    `PathPlanner` (navigation/planner.py), else along the straight edges.
 
-    Pass-through waypoints count as reached within `waypoint_tolerance` [m], the goal within
-    `goal_tolerance` [m] (SPEC: 0.4 m). `step` returns (Command, Event, vertex): the vertex is
-    the waypoint or goal reached, or the goal that failed."""
+    Each leg (to the next vertex of the route) is the planner's path: the cached path of the
+    graph edge when the leg starts at a vertex, else a plan from the pose. The controller drives
+    to the path's corners one by one (reached within `corner_tolerance` [m]), then to the vertex.
+    After a recovery (the controller was stuck and backed off) the leg is replanned from the
+    pose, with the laser's points as obstacles for that plan (another robot, an unmapped
+    obstacle), so the robot takes another way when there is one. Pass-through waypoints count as
+    reached within `waypoint_tolerance` [m], the goal within `goal_tolerance` [m] (SPEC: 0.4 m).
+    `step` returns (Command, Event, vertex): the vertex is the waypoint or goal reached, or the
+    goal that failed."""
 
     def __init__(self, controller: LocalController, goal_tolerance: float = 0.4,
-                 waypoint_tolerance: float = 0.6):
+                 waypoint_tolerance: float = 0.6, planner=None, corner_tolerance: float = 0.3):
         self.controller = controller
         self.goal_tolerance = float(goal_tolerance)
         self.waypoint_tolerance = float(waypoint_tolerance)
+        self.corner_tolerance = float(corner_tolerance)
+        self.planner = planner
         self.route: GraphRoute | None = None
+        self._corners: list[tuple[float, float]] = []  # of the current leg, next first
+        self._leg_from: int | None = None  # vertex the leg starts at (edge path cache)
+        self._plan_pending = False
+        self._retries_seen = 0
+        self.replans = 0  # legs replanned after a recovery
+        self.unplanned_legs = 0  # legs without a path (driven straight)
 
     def set_route(self, route: GraphRoute, t: float) -> None:
         self.route = route
+        at_start = bool(route.waypoints) and route.waypoints[0] != route.start
+        self._new_leg(route.start if at_start else None)
+        self._retries_seen = 0
         self._aim(t, new_goal=True)
 
     def cancel(self) -> None:
         self.route = None
+        self._corners = []
+        self._plan_pending = False
         self.controller.target = None
 
     def pause(self) -> None:
@@ -52,21 +72,80 @@ class Navigator:
         the standstill does not count as being stuck."""
         self.controller.restart_progress(t)
 
+    @property
+    def corners(self) -> list[tuple[float, float]]:
+        """The corners [m] still ahead on the current leg."""
+        return list(self._corners)
+
+    def _new_leg(self, from_vertex: int | None) -> None:
+        self._corners = []
+        self._leg_from = from_vertex
+        self._plan_pending = self.planner is not None
+
     def _aim(self, t: float, new_goal: bool) -> None:
         route = self.route
+        if self._corners:
+            self.controller.set_target(self._corners[0], self.corner_tolerance, t,
+                                       new_goal=new_goal)
+            return
         tol = self.goal_tolerance if route.is_last else self.waypoint_tolerance
         self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
+
+    def _plan_leg(self, t: float, pose: tuple[float, float, float],
+                  points: np.ndarray | None = None) -> None:
+        """The corners from the pose to the next vertex of the route."""
+        self._plan_pending = False
+        route = self.route
+        goal = route.next_waypoint
+        target = route.next_position()
+        x, y = pose[0], pose[1]
+        path = None
+        u = self._leg_from
+        if u is not None and points is None:
+            p = route.positions[u]
+            if math.hypot(x - p[0], y - p[1]) <= self.waypoint_tolerance:
+                path = self.planner.edge_path(u, goal)
+        if path is None:
+            obstacles = _obstacle_discs(pose, points)
+            path = self.planner.plan((x, y), target, obstacles)
+            if path is None and obstacles is not None:
+                path = self.planner.plan((x, y), target)
+        if path is None:
+            self.unplanned_legs += 1
+            corners: list[tuple[float, float]] = []
+        else:
+            corners = [(float(px), float(py)) for px, py in path[1:-1]]
+        tol = self.corner_tolerance
+        while corners and math.hypot(corners[0][0] - x, corners[0][1] - y) <= tol:
+            corners.pop(0)
+        self._corners = corners
+        self._aim(t, new_goal=False)
 
     def step(self, t: float, pose: tuple[float, float, float],
              points: np.ndarray | None) -> tuple[Command, Event, int]:
         route = self.route
         if route is None:
             return Command(0.0, 0.0, Status.REACHED), Event.NONE, -1
-        cmd = self.controller.step(t, pose, points)
+        ctl = self.controller
+        if self._plan_pending:
+            self._plan_leg(t, pose)
+        elif (self.planner is not None and ctl.retries > self._retries_seen
+              and not ctl.recovering):
+            # Back from a recovery: another way round what blocked us, if there is one.
+            self._retries_seen = ctl.retries
+            self.replans += 1
+            self._plan_leg(t, pose, _map_points(pose, points))
+        cmd = ctl.step(t, pose, points)
         if cmd.status == Status.FAILED:
             goal = route.goal
             self.cancel()
             return cmd, Event.FAILED, goal
+        for _ in range(len(self._corners)):
+            if cmd.status != Status.REACHED or not self._corners:
+                break
+            self._corners.pop(0)  # a corner of the path: on to the next point
+            self._aim(t, new_goal=False)
+            cmd = ctl.step(t, pose, points)
         if cmd.status != Status.REACHED:
             return cmd, Event.NONE, -1
         last = route.is_last
@@ -74,10 +153,38 @@ class Navigator:
         if last:
             self.cancel()
             return cmd, Event.ARRIVED, vertex
-        self._aim(t, new_goal=False)
+        self._new_leg(vertex)
+        if self._plan_pending:
+            self._plan_leg(t, pose)
+        else:
+            self._aim(t, new_goal=False)
         # Steer toward the next waypoint right away (no standstill tick at a pass-through).
-        cmd = self.controller.step(t, pose, points)
+        cmd = ctl.step(t, pose, points)
         return cmd, Event.WAYPOINT, vertex
+
+
+OBSTACLE_RADIUS_M = 0.05  # [m] of one laser point as a temporary obstacle of a replan
+OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a replan
+
+
+def _map_points(pose: tuple[float, float, float], points: np.ndarray | None):
+    """Laser points (robot frame) within OBSTACLE_RANGE_M, in the map frame [m]."""
+    if points is None or len(points) == 0:
+        return None
+    near = points[np.hypot(points[:, 0], points[:, 1]) <= OBSTACLE_RANGE_M]
+    if len(near) == 0:
+        return None
+    x, y, th = pose
+    c, s = math.cos(th), math.sin(th)
+    return np.column_stack((x + c * near[:, 0] - s * near[:, 1],
+                            y + s * near[:, 0] + c * near[:, 1]))
+
+
+def _obstacle_discs(pose: tuple[float, float, float], map_points: np.ndarray | None):
+    """(k, 3) discs (x, y, radius) of map-frame points, or None."""
+    if map_points is None or len(map_points) == 0:
+        return None
+    return np.column_stack((map_points, np.full(len(map_points), OBSTACLE_RADIUS_M)))
 
 
 # ---------------------------------------------------------------------------------------------

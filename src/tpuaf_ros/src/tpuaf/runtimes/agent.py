@@ -45,13 +45,15 @@ class AgentRuntime:
                  publish_team: Callable[[Any], None],
                  publish_event: Callable[[int, int, int, float], None],
                  controller: ControllerConfig | None = None, heartbeat_period_s: float = 1.0,
-                 waypoint_tolerance_m: float = 0.6):
+                 waypoint_tolerance_m: float = 0.6, planner: Any = None):
         self._publish_team = publish_team
         self._publish_event = publish_event
         self.heartbeat_period_s = float(heartbeat_period_s)
         self.goal_tolerance = float(patrol_map.settings.goal_tolerance)
+        # planner: a navigation.PathPlanner (paths on the occupancy grid) or None (straight
+        # edges, e.g. a map without walls in the tests).
         self.navigator = Navigator(LocalController(controller), self.goal_tolerance,
-                                   waypoint_tolerance_m)
+                                   waypoint_tolerance_m, planner)
         self._graph = patrol_map.graph
         self._positions = np.asarray(patrol_map.positions, dtype=float)
         self._now = 0.0

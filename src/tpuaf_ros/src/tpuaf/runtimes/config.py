@@ -101,6 +101,7 @@ class PhysicsConfig(RunConfig):
     robot: str = "auto"  # robot preset (tpuaf_stage.presets) or auto (as `tpuaf fleet --robot`)
     physics_step_s: float = PHYSICS_STEP_S
     control_period_s: float = CONTROL_PERIOD_S
+    planner: bool = True  # navigator on planned paths (False: straight edges, as before)
 
     def validate(self) -> None:
         super().validate()

@@ -36,6 +36,7 @@ from tpuaf.navigation import (
     retry_wait_for,
     scan_points_batch,
 )
+from tpuaf.navigation.planner import shared_planner
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.base import TeamRun
@@ -79,10 +80,13 @@ class PhysicsRun(TeamRun):
         self.world = self.world_config.build()
         self._record(self.robot_choice.speed_mps)
         cls = REGISTRY.get(config.strategy)
+        # One planner (costmap and edge paths) for the team: they share the footprint.
+        self.planner = shared_planner(pm, robot_model.radius) if config.planner else None
         self.agents = [
             AgentRuntime(pm, cls(config.strategy_params), i, n, self.seed,
                          self._publisher(i), self.visit_listener(i),
-                         controller_config(i, self.robot_choice.speed_mps, robot_model.radius))
+                         controller_config(i, self.robot_choice.speed_mps, robot_model.radius),
+                         planner=self.planner)
             for i in range(n)
         ]
         self._team([a.machine for a in self.agents])
@@ -187,11 +191,15 @@ class PhysicsRun(TeamRun):
             robot_model={"preset": rc.preset, "radius_m": rc.radius_m,
                          "max_linear_speed_mps": rc.speed_mps, "note": rc.note},
             controller=asdict(self.agents[0].navigator.controller.config),
+            planner=(asdict(self.planner.config) if self.planner is not None else None),
             motion=(f"C++ world, {self.config.physics_step_s:g} s steps; agents' navigator "
-                    f"at {1 / self.config.control_period_s:g} Hz on ground-truth poses"))
+                    f"at {1 / self.config.control_period_s:g} Hz on ground-truth poses, "
+                    + ("along planned paths" if self.planner is not None
+                       else "along straight edges")))
 
     def summary(self) -> dict:
         summary = super().summary()
+        summary["replans"] = int(sum(a.navigator.replans for a in self.agents))
         summary["collisions"] = int(sum(self.world.contact_counts()))
         summary["goal_failures"] = int(sum(a.machine.failures for a in self.agents))
         return summary
