@@ -494,51 +494,29 @@ double GridPlanner::segment_cost(const Eigen::Vector2d& a, const Eigen::Vector2d
 }
 
 void GridPlanner::smooth(std::vector<Eigen::Vector2d>& pts, std::size_t first) const {
+  // Cheapest polyline (weighted length) whose corners are points of the cell path at most
+  // kWindow apart and whose segments cross no lethal cell (dynamic programming), then tightened.
+  constexpr std::size_t kWindow = 16;
   const std::size_t n = pts.size();
   if (n <= first + 2) return;
-  std::vector<double> along(n, 0.0);  // weighted length of the original path to each point [m]
-  for (std::size_t i = first + 1; i < n; ++i)
-    along[i] = along[i - 1] + segment_cost(pts[i - 1], pts[i], false);
-  std::vector<Eigen::Vector2d> out(pts.begin(), pts.begin() + first + 1);
-  // A shortcut a -> j is valid if it crosses no lethal cell and costs no more than the path.
-  auto valid = [&](std::size_t a, std::size_t j) {
-    const double c = segment_cost(pts[a], pts[j], true);
-    const double original = along[j] - along[a];
-    return std::isfinite(c) && c <= original + kTol * (1.0 + original);
-  };
-  std::size_t a = first;
-  while (a + 1 < n) {
-    // Galloping search of the farthest valid j (doubling steps, then bisection), assuming
-    // validity mostly holds up to some j and fails beyond: O(log n) segment walks per corner.
-    std::size_t good = a + 1, step = 1;
-    std::size_t bad = n;  // first known invalid
-    while (good + step < n) {
-      if (valid(a, good + step)) {
-        good += step;
-        step *= 2;
-      } else {
-        bad = good + step;
-        break;
+  std::vector<double> best(n, kInf);  // weighted length from pts[first] [m]
+  std::vector<std::size_t> from(n, first);
+  best[first] = 0.0;
+  for (std::size_t j = first + 1; j < n; ++j) {
+    best[j] = best[j - 1] + segment_cost(pts[j - 1], pts[j], false);  // the cell path itself
+    from[j] = j - 1;
+    for (std::size_t i = j > first + kWindow ? j - kWindow : first; i + 1 < j; ++i) {
+      const double c = best[i] + segment_cost(pts[i], pts[j], true);
+      if (c < best[j] - kTol) {
+        best[j] = c;
+        from[j] = i;
       }
     }
-    if (bad == n && good + 1 < n) {  // ran past the end: try the rest up to the last point
-      if (valid(a, n - 1)) {
-        good = n - 1;
-      } else {
-        bad = n - 1;
-      }
-    }
-    while (bad < n && bad - good > 1) {
-      const std::size_t mid = good + (bad - good) / 2;
-      if (valid(a, mid)) {
-        good = mid;
-      } else {
-        bad = mid;
-      }
-    }
-    out.push_back(pts[good]);
-    a = good;
   }
+  std::vector<std::size_t> corners;
+  for (std::size_t j = n - 1; j > first; j = from[j]) corners.push_back(j);
+  std::vector<Eigen::Vector2d> out(pts.begin(), pts.begin() + first + 1);
+  for (auto it = corners.rbegin(); it != corners.rend(); ++it) out.push_back(pts[*it]);
   pts.swap(out);
   tighten(pts, first);
 }

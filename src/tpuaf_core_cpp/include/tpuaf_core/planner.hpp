@@ -127,10 +127,13 @@ struct PlannerOptions {
 };
 
 // 8-connected A* (octile heuristic, no corner cutting) on the planning grid. A step between
-// cells a and b of length l [m] costs l (1 + cost_weight (cost_a + cost_b) / 2). Smoothing takes
-// a shortcut only if it crosses no lethal cell and its weighted length is not above that of the
-// sub-path it replaces. "No path" is a status; std::invalid_argument is for invalid arguments
-// (non-finite coordinates, non-positive disc radii, unknown vertices).
+// cells a and b of length l [m] costs l (1 + cost_weight (cost_a + cost_b) / 2). Smoothing
+// minimises the same weighted length (integral of 1 + cost_weight cost) over polylines whose
+// segments cross no lethal cell: the cheapest one with corners on the cell path (dynamic
+// programming over a window of 16 cells), then corners pulled towards their chords while the
+// weighted length falls; it never costs more than the cell path. "No path" is a status;
+// std::invalid_argument is for invalid arguments (non-finite coordinates, non-positive disc
+// radii, unknown vertices).
 class GridPlanner {
  public:
   explicit GridPlanner(std::shared_ptr<const Costmap> costmap, const PlannerOptions& options = {});

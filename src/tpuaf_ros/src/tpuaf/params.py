@@ -82,6 +82,23 @@ def opt(default: Any, kind: type):
     return field(default=default, metadata={"type": kind})
 
 
+@dataclass(frozen=True)
+class ControllerDefaults:
+    """Defaults of the local controller, in one place: `tpuaf.navigation.ControllerConfig` and
+    the agent node's parameters that set it (AgentParams) both read them."""
+
+    max_angular_speed: float = 2.84  # [rad/s] (TurtleBot3 Burger)
+    safety_margin: float = 0.08  # [m]
+    plan_margin: float = 0.3  # [m]
+    stuck_timeout_s: float = 6.0  # [s]
+    backoff_s: float = 1.5  # [s]
+    max_retries: int = 2
+
+
+CONTROLLER_DEFAULTS = ControllerDefaults()
+_C = CONTROLLER_DEFAULTS
+
+
 @dataclass
 class AgentParams:
     """Private parameters of patrol_agent (units in the comments)."""
@@ -102,13 +119,13 @@ class AgentParams:
     move_base_action: str = "move_base"  # MoveBaseAction server name (relative to the namespace)
     move_base_timeout: float = 60.0  # [s] without progress toward a move_base goal: goal failed
     max_linear_speed: float = 0.0  # [m/s]; 0 = the map's nominal speed
-    max_angular_speed: float = 2.84  # [rad/s]
+    max_angular_speed: float = _C.max_angular_speed  # [rad/s]
     robot_radius: float = 0.0  # [m]; 0 = the map's robot radius
-    safety_margin: float = 0.08  # [m]
-    plan_margin: float = 0.3  # [m]
-    stuck_timeout: float = 6.0  # [s] without progress before a recovery
-    backoff_time: float = 1.5  # [s] reversing in a recovery
-    max_retries: int = 2  # recoveries before the goal is reported failed
+    safety_margin: float = _C.safety_margin  # [m]
+    plan_margin: float = _C.plan_margin  # [m]
+    stuck_timeout: float = _C.stuck_timeout_s  # [s] without progress before a recovery
+    backoff_time: float = _C.backoff_s  # [s] reversing in a recovery
+    max_retries: int = _C.max_retries  # recoveries before the goal is reported failed
     waypoint_tolerance: float = 0.6  # [m] pass-through vertices
     scan_beams: int = 180  # laser beams used by the controller at most (the scan is subsampled)
     heartbeat_period: float = 1.0  # [s] AgentEvent HEARTBEAT period
@@ -127,10 +144,10 @@ class AgentParams:
         "robot_index": (">=", 0), "robots": (">=", 1), "seed": (">=", 0),
         "move_base_timeout": (">", 0), "max_linear_speed": (">=", 0),
         "max_angular_speed": (">", 0), "robot_radius": (">=", 0), "safety_margin": (">=", 0),
-        "plan_margin": (">=", 0), "stuck_timeout": (">", 0), "backoff_time": (">=", 0),
-        "max_retries": (">=", 0), "waypoint_tolerance": (">", 0), "scan_beams": (">=", 1),
+        "plan_margin": (">=", 0), "stuck_timeout": (">", 0), "backoff_time": (">", 0),
+        "max_retries": (">=", 0), "waypoint_tolerance": (">", 0), "scan_beams": (">=", 8),
         "heartbeat_period": (">", 0), "input_timeout": (">", 0), "teammate_timeout": (">", 0),
-        "skew_warn": (">=", 0), "max_skew": (">", 0), "start_wait": (">=", 0),
+        "skew_warn": (">", 0), "max_skew": (">", 0), "start_wait": (">=", 0),
     }
 
 
@@ -165,8 +182,9 @@ class MonitorParams:
 
 
 def params_help(cls: type) -> str:
-    """One line per parameter of a params dataclass: name, type, default and the comment (or
-    `req` doc) written beside it in the source, so the docs cannot drift from the code."""
+    """One line per parameter of a params dataclass: name, type, default, the comment (or `req`
+    doc) written beside it in the source and its limit from `cls.ranges`, so the docs cannot
+    drift from the code."""
     comments = {}
     for line in inspect.getsource(cls).splitlines():
         match = re.match(r"\s+(\w+): [^=]+=.*?#\s*(.*)$", line)
@@ -177,6 +195,9 @@ def params_help(cls: type) -> str:
         default = f.default if f.default is not MISSING else f.default_factory()
         kind = f.metadata.get("type", type(default)).__name__
         doc = f.metadata.get("doc") or comments.get(f.name, "")
+        limit = getattr(cls, "ranges", {}).get(f.name)
+        if limit is not None:
+            doc += f"; must be {limit[0]} {limit[1]:g}"
         required = " (required)" if f.metadata.get("required") else ""
         rows.append(f"  ~{f.name:<20} {kind:<6} {default!r:<14} {doc}{required}")
     return "\n".join(rows)

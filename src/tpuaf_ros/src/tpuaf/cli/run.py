@@ -155,6 +155,11 @@ def add_runtime_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robot", default="auto",
                    help="physics runtime: robot preset (burger, waffle_pi, patrolling_sim) or "
                         "auto (a preset that drives the map's nominal speed)")
+    p.add_argument("--travel", choices=("declared", "planned"), default="declared",
+                   help="edge lengths the strategies plan with and the graph runtime drives: "
+                        "declared (the map's, as published comparisons use; default) or planned "
+                        "(collision-free path lengths on the occupancy grid for the robot's "
+                        "footprint: what a robot achieves)")
     p.add_argument("--fail", action="append", default=[], metavar="ROBOT@TIME",
                    help="robot ROBOT (index) dies at TIME [s] (repeatable)")
     p.add_argument("--fail-random", type=non_negative_int, default=0, metavar="K",
@@ -173,7 +178,8 @@ def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
     except FaultError as err:
         raise CliError(str(err)) from None
     kwargs = dict(config_kwargs, fail=fail, stall=stall,
-                  fail_random=int(getattr(args, "fail_random", 0)))
+                  fail_random=int(getattr(args, "fail_random", 0)),
+                  travel=getattr(args, "travel", "declared"))
     if getattr(args, "runtime", "graph") != "physics" and getattr(args, "robot", "auto") != "auto":
         raise CliError(f"--robot {args.robot}: a robot preset needs --runtime physics (the graph "
                        "runtime moves at the map's nominal speed)")

@@ -23,72 +23,27 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Hashable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import yaml
+from tpuaf_core import yamlfile
 
 from tpuaf.errors import MapError
 from tpuaf.maps.model import MapSettings, PatrolMap
 from tpuaf.maps.occupancy import load_occupancy
 
 
-class _LineDict(dict):
-    line = 0
-
-
-class _LineList(list):
-    line = 0
-
-
-class _Loader(yaml.SafeLoader):
-    """Safe YAML loader that records the line of every mapping and sequence and refuses
-    duplicate keys."""
-
-
-def _construct_map(loader: _Loader, node: yaml.MappingNode) -> _LineDict:
-    out = _LineDict()
-    out.line = node.start_mark.line + 1
-    for key_node, value_node in node.value:
-        key = loader.construct_object(key_node, deep=True)
-        if key in out:
-            raise MapError(f"{node.start_mark.name}:{key_node.start_mark.line + 1}: duplicate key {key!r}")
-        out[key] = loader.construct_object(value_node, deep=True)
-    return out
-
-
-def _construct_seq(loader: _Loader, node: yaml.SequenceNode) -> _LineList:
-    out = _LineList(loader.construct_object(child, deep=True) for child in node.value)
-    out.line = node.start_mark.line + 1
-    return out
-
-
-_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_map)
-_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_seq)
-
-
 def read_yaml(path: Path) -> Any:
-    try:
-        text = path.read_text()
-    except OSError as err:
-        raise MapError(f"{path}: cannot read: {err.strerror}") from None
-    try:
-        loader = _Loader(text)
-        loader.name = str(path)
-        try:
-            return loader.get_single_data()
-        finally:
-            loader.dispose()
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f":{mark.line + 1}" if mark is not None else ""
-        raise MapError(f"{path}{where}: invalid YAML: {getattr(err, 'problem', None) or err}") from None
+    """The document of a map or graph file: mappings and sequences carry their line; duplicate
+    and non-scalar keys are refused (MapError naming the file and line)."""
+    return yamlfile.read_yaml(path, MapError)
 
 
 def _at(path: Path, node: Any) -> str:
-    line = getattr(node, "line", 0)
-    return f"{path}:{line}" if line else str(path)
+    return yamlfile.where(path, node)
 
 
 def _num(path: Path, node: Any, key: str, value: Any, *, minimum: float | None = None,
@@ -103,14 +58,7 @@ def _num(path: Path, node: Any, key: str, value: Any, *, minimum: float | None =
 
 
 def _check_keys(path: Path, node: Any, allowed: set[str], what: str) -> None:
-    if not isinstance(node, dict):
-        raise MapError(f"{_at(path, node)}: {what} must be a mapping, got {type(node).__name__}")
-    unknown = sorted(str(k) for k in set(node) - allowed)
-    if unknown:
-        raise MapError(
-            f"{_at(path, node)}: unknown key(s) {', '.join(unknown)} in {what} "
-            f"(valid: {', '.join(sorted(allowed))})"
-        )
+    yamlfile.check_keys(node, allowed, what, _at(path, node), MapError)
 
 
 MAP_KEYS = {"name", "description", "graph", "occupancy", "corridor_width", "bounds", "settings"}
@@ -204,7 +152,7 @@ def parse_graph_yaml(path: Path, settings: MapSettings) -> dict:
                            f"[u, v] or [u, v, length_m], got {e!r}")
         u, w = e[0], e[1]
         for vid in (u, w):
-            if vid not in index:
+            if not isinstance(vid, Hashable) or vid not in index:  # e.g. a list: no vertex id
                 raise MapError(f"{_at(path, e)}: edge {u}-{w} names unknown vertex {vid!r}")
         if u == w:
             raise MapError(f"{_at(path, e)}: self-loop at vertex {u}")
@@ -231,7 +179,7 @@ def load_map_folder(folder: str | Path) -> PatrolMap:
     name = doc.get("name")
     if not isinstance(name, str) or not name:
         raise MapError(f"{_at(path, doc)}: 'name' (a non-empty string) is required")
-    settings = _parse_settings(path, doc.get("settings", _LineDict()))
+    settings = _parse_settings(path, doc.get("settings", {}))
     graph_name = doc.get("graph", "graph.yaml")
     graph_path = folder / str(graph_name)
     if not graph_path.is_file():

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 import yaml
+from tpuaf_core import yamlfile
 
 from tpuaf.errors import MapError
 
@@ -164,18 +165,10 @@ def load_occupancy(yaml_path: str | Path, image_fallbacks: tuple[Path, ...] = ()
         text = path.read_text()
     except OSError as err:
         raise MapError(f"{path}: cannot read map YAML: {err.strerror}") from None
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f":{mark.line + 1}" if mark is not None else ""
-        raise MapError(f"{path}{where}: invalid YAML: {getattr(err, 'problem', err)}") from None
+    doc = yamlfile.parse_yaml(text, path, MapError, lines=False)  # as map_server reads it
     if not isinstance(doc, dict):
         raise MapError(f"{path}: expected a map_server YAML mapping")
-    unknown = sorted(str(k) for k in set(doc) - _MAP_SERVER_KEYS)
-    if unknown:
-        raise MapError(f"{path}: unknown key(s) {', '.join(map(str, unknown))} "
-                       f"(valid: {', '.join(sorted(_MAP_SERVER_KEYS))})")
+    yamlfile.check_keys(doc, _MAP_SERVER_KEYS, None, str(path), MapError)
     for key in ("image", "resolution", "origin"):
         if key not in doc:
             raise MapError(f"{path}: missing key '{key}'")

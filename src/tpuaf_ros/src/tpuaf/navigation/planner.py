@@ -145,3 +145,29 @@ def shared_planner(patrol_map: Any, robot_radius_m: float,
     if wanted not in planners:
         planners[wanted] = PathPlanner(patrol_map, robot_radius_m, wanted[1])
     return planners[wanted]
+
+
+def with_planned_lengths(patrol_map: Any, robot_radius_m: float,
+                         config: PlannerConfig | None = None) -> Any:
+    """A copy of `patrol_map` whose edge lengths are the planned path lengths [m] of a robot
+    of radius `robot_radius_m`: travel times a robot can achieve. MapError when an edge has no
+    collision-free path."""
+    from dataclasses import replace
+
+    from tpuaf.errors import MapError
+
+    checks = shared_planner(patrol_map, robot_radius_m, config).check_edges()
+    ids = patrol_map.vertex_ids
+    blocked = [f"{ids[c.u]}-{ids[c.v]}" for c in checks if not math.isfinite(c.planned_m)]
+    if blocked:
+        raise MapError(f"map '{patrol_map.name}': no collision-free path for a robot of radius "
+                       f"{robot_radius_m:g} m along edge(s) {', '.join(blocked[:10])}"
+                       + (f" and {len(blocked) - 10} more" if len(blocked) > 10 else ""))
+    planned = {(c.u, c.v): c.planned_m for c in checks}
+    edges = []
+    for i, j, _ in patrol_map.edges:
+        key = (min(i, j), max(i, j))
+        edges.append((i, j, planned[key]))
+    return replace(patrol_map, edges=edges,
+                   notes=[*patrol_map.notes, f"edge lengths: planned paths of a robot of radius "
+                                             f"{robot_radius_m:g} m"])

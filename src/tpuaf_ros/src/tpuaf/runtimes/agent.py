@@ -35,6 +35,8 @@ from tpuaf.topics import HEARTBEAT
 
 __all__ = ["DEFAULT_RETRY_S", "STAY_S", "AgentRuntime"]
 
+MAX_EVENTS_PER_TICK = 4  # navigator events handled in one control tick
+
 
 class AgentRuntime:
     """Driver of one robot's `RobotMachine` (see the module docstring). Attributes of the
@@ -189,18 +191,22 @@ class AgentRuntime:
                 return 0.0, 0.0
             self._stay_until = None
             m.on_vertex(m.current_vertex, True)
-        if self.navigator.route is None:
-            return 0.0, 0.0
-        cmd, event, vertex = self.navigator.step(self._now, self._pose, points)
-        if event == Event.WAYPOINT:
-            m.on_vertex(vertex, False)
-        elif event == Event.ARRIVED:
-            m.on_vertex(vertex, True)
+        # A goal reached at once on the way to the next (a vertex within tolerance of the one
+        # just visited) is an event too: step again, a few times at most.
+        for _ in range(MAX_EVENTS_PER_TICK):
             if self.navigator.route is None:
                 return 0.0, 0.0
-            cmd, _, _ = self.navigator.step(self._now, self._pose, points)
-        elif event == Event.FAILED:
-            m.on_goal_failed(vertex, m.patrol_map.nearest_vertex(*self.position))
+            cmd, event, vertex = self.navigator.step(self._now, self._pose, points)
+            if event == Event.WAYPOINT:
+                m.on_vertex(vertex, False)
+            elif event == Event.ARRIVED:
+                m.on_vertex(vertex, True)
+                continue
+            elif event == Event.FAILED:
+                m.on_goal_failed(vertex, m.patrol_map.nearest_vertex(*self.position))
+                return 0.0, 0.0
+            break
+        else:
             return 0.0, 0.0
         return cmd.v, cmd.w
 

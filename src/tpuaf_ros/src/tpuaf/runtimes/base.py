@@ -19,7 +19,7 @@ import numpy as np
 from tpuaf.maps import load_map
 from tpuaf.measure.metrics import RunRecorder
 from tpuaf.robot.machine import RobotMachine
-from tpuaf.runtimes.config import RunConfig
+from tpuaf.runtimes.config import RunConfig, travel_map
 from tpuaf.runtimes.faults import DEATH, Fault
 from tpuaf.team.bus import TeamBus
 from tpuaf.topics import REACHED, START
@@ -31,7 +31,8 @@ class TeamRun:
     def __init__(self, config: RunConfig, patrol_map=None):
         config.validate()
         self.config = config
-        self.patrol_map = patrol_map if patrol_map is not None else load_map(config.map)
+        self.patrol_map = travel_map(config, patrol_map if patrol_map is not None
+                                     else load_map(config.map))
         self.seed = int(config.seed)
         self.now = 0.0
         self.bus = TeamBus(config.robots, config.delay_s, config.loss,

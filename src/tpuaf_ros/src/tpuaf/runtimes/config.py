@@ -13,6 +13,19 @@ from tpuaf.errors import TpuafError
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.faults import Fault, FaultError, resolve_faults
 
+TRAVELS = ("declared", "planned")
+
+
+def travel_map(config: RunConfig, patrol_map):
+    """The map a run travels on: `patrol_map`, or with planned edge lengths (config.travel) for
+    the robot the physics runtime would use (`choose_robot(config.robot or 'auto')`)."""
+    if config.travel != "planned":
+        return patrol_map
+    from tpuaf.navigation.planner import with_planned_lengths
+
+    robot = choose_robot(getattr(config, "robot", "auto"), patrol_map.settings)
+    return with_planned_lengths(patrol_map, robot.radius_m)
+
 
 class ConfigError(TpuafError):
     """An invalid run configuration; the message names the field and the valid choices."""
@@ -37,6 +50,10 @@ class RunConfig:
     # [s] a silent teammate is lost after this (the agent node's heartbeat timeout): robots are
     # heard while alive, so teammates get on_teammate_lost this long after a death.
     teammate_timeout_s: float = 10.0
+    # Edge travel of the graph runtime: "declared" (the map's edge lengths, as published
+    # comparisons use them) or "planned" (path lengths on the occupancy grid for the robot's
+    # footprint: what a robot can achieve; navigation/planner.py).
+    travel: str = "declared"
 
     def validate(self) -> None:
         names = REGISTRY.names()
@@ -57,6 +74,8 @@ class RunConfig:
             raise ConfigError(f"sample period must be > 0 s, got {self.sample_period_s}")
         if not (self.teammate_timeout_s > 0 and math.isfinite(self.teammate_timeout_s)):
             raise ConfigError(f"teammate timeout must be > 0 s, got {self.teammate_timeout_s}")
+        if self.travel not in TRAVELS:
+            raise ConfigError(f"travel must be one of {', '.join(TRAVELS)}, got {self.travel!r}")
         self.faults()
 
     def faults(self) -> list[Fault]:

@@ -29,7 +29,7 @@ import numpy as np
 from tpuaf.maps import load_map, start_vertices
 from tpuaf.measure.metrics import RunRecorder, build_summary
 from tpuaf.policies import REGISTRY, Policy, RobotContextBase
-from tpuaf.runtimes.config import RunConfig, run_description
+from tpuaf.runtimes.config import RunConfig, run_description, travel_map
 from tpuaf.runtimes.graph import DEFAULT_RETRY_S, STAY_S, BatchRun
 from tpuaf.team.bus import BusStats
 
@@ -327,7 +327,8 @@ class NativeRun:
         if missing:
             raise EngineChoiceError(f"the native engine does not support {', '.join(missing)}")
         self.config = config
-        self.patrol_map = patrol_map if patrol_map is not None else load_map(config.map)
+        self.patrol_map = travel_map(config, patrol_map if patrol_map is not None
+                                     else load_map(config.map))
         self.graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
         s = self.patrol_map.settings
         self.speed = float(s.nominal_speed)
