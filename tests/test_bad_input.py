@@ -305,3 +305,28 @@ def test_an_inherited_ignored_signal_stays_ignored():
             assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL
     finally:
         signal.signal(signal.SIGHUP, previous)
+
+
+@pytest.mark.parametrize("name, value, rule", [
+    ("skew_warn", 0.0, "> 0"), ("scan_beams", 7, ">= 8"), ("start_wait", -1.0, ">= 0"),
+    ("input_timeout", 0.0, "> 0"), ("max_skew", 0.0, "> 0"), ("move_base_timeout", 0.0, "> 0"),
+    ("backoff_time", 0.0, "> 0"),
+])
+def test_agent_limits_are_one_rule_checked_by_the_parser_and_shown_by_help(name, value, rule):
+    from tpuaf.params import params_help
+
+    values = {"map": "grid", "robot_index": 0, "robots": 2, name: value}
+    with pytest.raises(NodeParamError, match=re.escape(f"patrol_agent: ~{name} must be {rule}, "
+                                                       f"got {value!r}")):
+        parse(AgentParams, values, "patrol_agent")
+    line = next(r for r in params_help(AgentParams).splitlines() if r.split()[0] == f"~{name}")
+    assert line.endswith(f"must be {rule}"), line
+
+
+def test_agent_controller_defaults_are_the_controllers():
+    from tpuaf.navigation import ControllerConfig
+
+    c, p = ControllerConfig(), AgentParams()
+    assert (p.max_angular_speed, p.safety_margin, p.plan_margin, p.stuck_timeout, p.backoff_time,
+            p.max_retries) == (c.max_angular_speed, c.safety_margin, c.plan_margin,
+                               c.stuck_timeout_s, c.backoff_s, c.max_retries)

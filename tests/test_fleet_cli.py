@@ -8,8 +8,9 @@ import time
 from pathlib import Path
 
 import pytest
-from tpuaf.cli.fleet import RECORD_GROUPS, choose_robot, record_regex
+from tpuaf.cli.fleet import RECORD_GROUPS, record_regex
 from tpuaf.errors import CliError
+from tpuaf.runtimes.config import ConfigError, choose_robot
 from tpuaf.maps import load_map
 from tpuaf.team.relay import RelayModel
 
@@ -49,7 +50,7 @@ def test_robot_is_never_made_faster_than_its_preset():
                                                                         1.0, "")
     lab = load_map("lab").settings
     assert choose_robot("auto", lab).preset == "burger"
-    with pytest.raises(CliError, match="unknown robot preset"):
+    with pytest.raises(ConfigError, match="unknown robot preset"):
         choose_robot("tank", grid)
 
 

@@ -499,3 +499,35 @@ def test_geometry_cli_flag_and_one_line(tmp_path, capsys):
     assert main(["run", "--map", str(folder), "--duration", "5", "--quiet",
                  "--allow-occupied-vertices"]) == 0
     assert "warning" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("file, old, new, line, kind", [
+    ("map.yaml", "name: lab\n", "name: lab\n? [1, 2]\n: 3\n", 2, "list"),
+    ("map.yaml", "name: lab\n", "name: lab\n{a: 1}: 2\n", 2, "mapping"),
+    ("graph.yaml", "{id: 3, x: 2.1, y: 0.3}", "{id: 3, x: 2.1, y: 0.3, [z]: 1}", 7, "list"),
+], ids=["list-key", "mapping-key", "list-key-in-vertex"])
+def test_a_non_scalar_mapping_key_is_one_map_error_line(tmp_path, capsys, file, old, new, line,
+                                                        kind):
+    """Fuzzer regression: a list as a mapping key was `TypeError: unhashable type: '_LineList'`."""
+    from tpuaf.cli import main
+
+    folder = our_folder(tmp_path)
+    path = folder / file
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, 1))
+    msg = error_of(folder)
+    assert msg == f"{path}:{line}: a mapping key must be a scalar, got a {kind}", msg
+    assert main(["maps", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "must be a scalar" in err and "Traceback" not in err
+
+
+def test_a_list_as_edge_vertex_is_an_unknown_vertex(tmp_path):
+    """Fuzzer regression: `[[], 14]` as an edge was `TypeError: unhashable type: '_LineList'`."""
+    folder = our_folder(tmp_path)
+    path = folder / "graph.yaml"
+    text = path.read_text()
+    assert "  - [13, 14]" in text
+    path.write_text(text.replace("  - [13, 14]", "  - [[], 14]", 1))
+    assert re.search(r"graph\.yaml:\d+: edge \[\]-14 names unknown vertex \[\]$", error_of(folder))

@@ -93,6 +93,7 @@ class ControllerDefaults:
     stuck_timeout_s: float = 6.0  # [s]
     backoff_s: float = 1.5  # [s]
     max_retries: int = 2
+    scan_beams: int = 180  # laser beams the controller uses at most (the scan is subsampled)
 
 
 CONTROLLER_DEFAULTS = ControllerDefaults()
@@ -127,7 +128,8 @@ class AgentParams:
     backoff_time: float = _C.backoff_s  # [s] reversing in a recovery
     max_retries: int = _C.max_retries  # recoveries before the goal is reported failed
     waypoint_tolerance: float = 0.6  # [m] pass-through vertices
-    scan_beams: int = 180  # laser beams used by the controller at most (the scan is subsampled)
+    global_planner: bool = True  # builtin navigation: follow paths planned on the map's grid
+    scan_beams: int = _C.scan_beams  # laser beams used by the controller at most (the scan is subsampled)
     heartbeat_period: float = 1.0  # [s] AgentEvent HEARTBEAT period
     lockstep: bool = False  # answer every pose tick with TwistStamped on cmd_vel_stamped
     input_timeout: float = 2.0  # [s wall] pose, scan or clock not advancing this long: stop

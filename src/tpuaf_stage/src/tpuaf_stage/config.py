@@ -266,7 +266,7 @@ def _poses(path, node, doc) -> list[tuple[float, float, float]] | int:
 
 def parse_world(doc: Any, path: Path | None = None) -> WorldConfig:
     """A WorldConfig from a parsed world document; `path` for messages and relative paths."""
-    from tpuaf.maps import MapError, load_map, load_occupancy, start_vertices
+    from tpuaf.maps import MapError, load_map, load_occupancy, start_poses
 
     if not isinstance(doc, dict):
         raise WorldError(f"{_where(path, doc)}: a world file is a mapping, got "
@@ -299,8 +299,7 @@ def parse_world(doc: Any, path: Path | None = None) -> WorldConfig:
             grid = pm.occupancy_grid()
             description = f"patrol map {pm.name} ({pm.source or ref})"
             if isinstance(poses, int):
-                starts = start_vertices(pm, poses)
-                poses = [(float(pm.positions[v][0]), float(pm.positions[v][1]), 0.0) for v in starts]
+                poses = start_poses(pm, poses, robot.radius)  # footprints never overlap
     except MapError as err:
         raise WorldError(f"{_where(path, doc)}: {err}") from None
     return WorldConfig(

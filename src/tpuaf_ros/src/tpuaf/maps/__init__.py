@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ __all__ = [
     "load_map",
     "load_occupancy",
     "map_summary",
+    "start_poses",
     "start_vertices",
 ]
 
@@ -113,3 +115,57 @@ def map_summary(patrol_map: PatrolMap) -> dict:
     from tpuaf.maps.analysis import map_summary as _summary
 
     return _summary(patrol_map)
+
+
+START_CLEARANCE_M = 0.05  # [m] kept between two robots' discs, and between a disc and a wall
+START_SEARCH_M = 3.0  # [m] farthest a robot is moved from its start vertex to find room
+
+
+def start_poses(patrol_map: PatrolMap, n_robots: int, radius_m: float,
+                starts: list[int] | None = None) -> list[tuple[float, float, float]]:
+    """Start poses (x [m], y [m], yaw 0) of the robots: at their start vertices
+    (`start_vertices`), except where a robot's disc would overlap an earlier robot's or a wall:
+    it is moved to the nearest free spot on rings around its vertex (0.1 m apart), so that two
+    footprints never start on top of each other. MapError when no room is found."""
+    starts = start_vertices(patrol_map, n_robots) if starts is None else starts
+    grid = patrol_map.occupancy_grid()
+    res = float(grid.resolution)
+    reach = radius_m + START_CLEARANCE_M
+    k = int(math.ceil(reach / res))
+    dr, dc = np.mgrid[-k:k + 1, -k:k + 1]
+    disc = (np.hypot(dr, dc) * res <= reach + 0.5 * res)
+    offsets = np.column_stack((dr[disc], dc[disc]))
+
+    def wall_free(x: float, y: float) -> bool:
+        row, col = grid.cell_of(x, y)
+        rows, cols = offsets[:, 0] + row, offsets[:, 1] + col
+        if rows.min() < 0 or cols.min() < 0 or rows.max() >= grid.height or \
+                cols.max() >= grid.width:
+            return False
+        return not bool(grid.occupied[rows, cols].any())
+
+    placed: list[tuple[float, float, float]] = []
+    spacing = 2.0 * radius_m + START_CLEARANCE_M
+    for v in starts:
+        px, py = (float(c) for c in patrol_map.positions[v])
+        found = None
+        for ring in range(int(START_SEARCH_M / 0.1) + 1):
+            d = 0.1 * ring
+            count = 1 if ring == 0 else max(8, int(2 * math.pi * d / 0.1))
+            for j in range(count):
+                a = 2.0 * math.pi * j / count
+                x, y = px + d * math.cos(a), py + d * math.sin(a)
+                apart = all(math.hypot(x - q[0], y - q[1]) >= spacing for q in placed)
+                # The vertex itself as the map gives it (the world checks its walls); a spot
+                # beside it only with room for the disc.
+                if apart and (ring == 0 or wall_free(x, y)):
+                    found = (x, y, 0.0)
+                    break
+            if found:
+                break
+        if found is None:
+            raise MapError(f"map '{patrol_map.name}': no room for robot {len(placed)} (radius "
+                           f"{radius_m:g} m) within {START_SEARCH_M:g} m of vertex "
+                           f"{patrol_map.vertex_ids[v]}")
+        placed.append(found)
+    return placed

@@ -13,7 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-DEFAULT_SCAN_BEAMS = 180  # beams the controller uses at most (the scan is subsampled)
+from tpuaf.params import CONTROLLER_DEFAULTS
+
+DEFAULT_SCAN_BEAMS = CONTROLLER_DEFAULTS.scan_beams  # beams the controller uses at most
 
 
 @dataclass(frozen=True)

@@ -35,6 +35,7 @@ from tpuaf.navigation import (
     scan_points,
 )
 from tpuaf.navigation.frames import FrameChain
+from tpuaf.navigation.planner import PathPlanner
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
 from tpuaf.ros import convert
@@ -136,9 +137,12 @@ class AgentNode:
         self.event = AgentEvent()
         self.event.robot = name
         self.event.robot_index = p.robot_index
+        # Built-in navigation plans on the map's occupancy grid, as the physics runtime does.
+        planner = (PathPlanner(patrol_map, cfg.robot_radius)
+                   if p.navigation == "builtin" and p.global_planner else None)
         self.runtime = AgentRuntime(patrol_map, policy, p.robot_index, p.robots, p.seed,
                                     self.publish_team, self.publish_event, cfg,
-                                    p.heartbeat_period, p.waypoint_tolerance)
+                                    p.heartbeat_period, p.waypoint_tolerance, planner)
         # [m] laser points farther from the base than this cannot matter to the controller
         self.points_within_m = self.runtime.navigator.controller.reach_m
         if p.navigation == "move_base":

@@ -29,7 +29,7 @@ from dataclasses import asdict
 
 import numpy as np
 
-from tpuaf.maps import start_vertices
+from tpuaf.maps import start_poses, start_vertices
 from tpuaf.navigation import (
     ControllerConfig,
     LaserMount,
@@ -74,7 +74,7 @@ class PhysicsRun(TeamRun):
             resolution=float(grid.resolution), origin=(float(grid.origin[0]),
                                                        float(grid.origin[1])),
             robot=robot_model, laser=laser,
-            poses=[(float(pm.positions[v][0]), float(pm.positions[v][1]), 0.0) for v in starts],
+            poses=start_poses(pm, n, robot_model.radius, starts),
             seed=self.seed, map_description=f"patrol map {pm.name}", robot_preset=preset,
             laser_preset=laser_preset)
         self.world = self.world_config.build()
