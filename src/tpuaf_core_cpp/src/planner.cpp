@@ -290,11 +290,7 @@ GridPlanner::GridPlanner(std::shared_ptr<const Costmap> costmap, const PlannerOp
       const std::size_t i = static_cast<std::size_t>(r) * cm_->width() + c;
       if (!cm_->lethal()[i]) mult_[padded(r, c)] = static_cast<float>(1.0 + weight_ * cm_->costs()[i]);
     }
-  g_.assign(n, 0.0);
-  parent_.assign(n, -1);
-  seen_.assign(n, 0);
-  closed_.assign(n, 0);
-  target_.assign(n, 0);
+  state_.assign(n, CellState{});
   const int dcol[8] = {1, -1, 0, 0, 1, -1, 1, -1};
   const int drow[8] = {0, 0, 1, -1, 1, 1, -1, -1};
   for (int k = 0; k < 8; ++k) {
@@ -320,9 +316,7 @@ Eigen::Vector2d GridPlanner::centre_of(int cell) const {
 
 void GridPlanner::next_generation() {
   if (++gen_ == 0) {  // wrapped: clear the stamps once every 2^32 searches
-    std::fill(seen_.begin(), seen_.end(), 0);
-    std::fill(closed_.begin(), closed_.end(), 0);
-    std::fill(target_.begin(), target_.end(), 0);
+    std::fill(state_.begin(), state_.end(), CellState{});
     gen_ = 1;
   }
 }
@@ -408,8 +402,8 @@ int GridPlanner::search(int start, const std::vector<int>& targets) {
   int remaining = 0;
   std::vector<std::pair<int, int>> goals;  // padded (col, row) of each target
   for (int t : targets) {
-    if (target_[t] == gen_) continue;
-    target_[t] = gen_;
+    if (state_[t].target == gen_) continue;
+    state_[t].target = gen_;
     ++remaining;
     goals.emplace_back(t % pw_, t / pw_);
   }
@@ -429,9 +423,9 @@ int GridPlanner::search(int start, const std::vector<int>& targets) {
     if (a.h != b.h) return a.h > b.h;
     return a.cell > b.cell;
   };
-  g_[start] = 0.0;
-  parent_[start] = -1;
-  seen_[start] = gen_;
+  state_[start].g = 0.0;
+  state_[start].parent = -1;
+  state_[start].seen = gen_;
   {
     const float h = static_cast<float>(heuristic(start % pw_, start / pw_));
     heap_.push_back({h, h, start});
@@ -441,23 +435,25 @@ int GridPlanner::search(int start, const std::vector<int>& targets) {
     std::pop_heap(heap_.begin(), heap_.end(), later);
     const int u = heap_.back().cell;
     heap_.pop_back();
-    if (closed_[u] == gen_) continue;
-    closed_[u] = gen_;
+    CellState& su = state_[u];
+    if (su.closed == gen_) continue;
+    su.closed = gen_;
     ++expanded;
-    if (target_[u] == gen_ && --remaining == 0) break;
+    if (su.target == gen_ && --remaining == 0) break;
     const int ru = u / pw_, cu = u - ru * pw_;
-    const double gu = g_[u], mu = mult_[u];
+    const double gu = su.g, mu = mult_[u];
     for (int k = 0; k < 8; ++k) {
       const int v = u + offsets_[k];
       const float mv = mult_[v];
-      if (mv >= kLethal || closed_[v] == gen_) continue;
+      CellState& sv = state_[v];
+      if (mv >= kLethal || sv.closed == gen_) continue;
       if (k >= 4 && (mult_[u + side_col_[k]] >= kLethal || mult_[u + side_row_[k]] >= kLethal))
         continue;  // no corner cutting
       const double ng = gu + steps_[k] * 0.5 * (mu + mv);
-      if (seen_[v] == gen_ && ng >= g_[v]) continue;
-      seen_[v] = gen_;
-      g_[v] = ng;
-      parent_[v] = u;
+      if (sv.seen == gen_ && ng >= sv.g) continue;
+      sv.seen = gen_;
+      sv.g = ng;
+      sv.parent = u;
       const double h = heuristic(cu + dcol_[k], ru + drow_[k]);
       heap_.push_back({ng + h, static_cast<float>(h), v});
       std::push_heap(heap_.begin(), heap_.end(), later);
@@ -468,7 +464,7 @@ int GridPlanner::search(int start, const std::vector<int>& targets) {
 
 std::vector<int> GridPlanner::cell_path(int target) const {
   std::vector<int> cells;
-  for (int c = target; c >= 0; c = parent_[c]) cells.push_back(c);
+  for (int c = target; c >= 0; c = state_[c].parent) cells.push_back(c);
   std::reverse(cells.begin(), cells.end());
   return cells;
 }
@@ -496,7 +492,7 @@ double GridPlanner::segment_cost(const Eigen::Vector2d& a, const Eigen::Vector2d
 void GridPlanner::smooth(std::vector<Eigen::Vector2d>& pts, std::size_t first) const {
   // Cheapest polyline (weighted length) whose corners are points of the cell path at most
   // kWindow apart and whose segments cross no lethal cell (dynamic programming), then tightened.
-  constexpr std::size_t kWindow = 16;
+  constexpr std::size_t kWindow = 8;
   const std::size_t n = pts.size();
   if (n <= first + 2) return;
   std::vector<double> best(n, kInf);  // weighted length from pts[first] [m]
@@ -525,7 +521,7 @@ void GridPlanner::tighten(std::vector<Eigen::Vector2d>& pts, std::size_t first) 
   // Pulls each corner towards the chord of its neighbours as far as the segments stay clear and
   // their weighted length does not grow (bisection), so the path hugs the lethal boundary
   // instead of the cell centres of the grid path; drops corners that become unnecessary.
-  constexpr int kPasses = 6, kSubdivisions = 2, kBisections = 6;
+  constexpr int kPasses = 2, kSubdivisions = 1, kBisections = 6;
   for (int pass = 0; pass < kPasses && pts.size() > first + 2; ++pass) {
     bool moved = false;
     if (pass < kSubdivisions) {  // midpoints: new corners that can slide around a bend

@@ -130,7 +130,7 @@ struct PlannerOptions {
 // cells a and b of length l [m] costs l (1 + cost_weight (cost_a + cost_b) / 2). Smoothing
 // minimises the same weighted length (integral of 1 + cost_weight cost) over polylines whose
 // segments cross no lethal cell: the cheapest one with corners on the cell path (dynamic
-// programming over a window of 16 cells), then corners pulled towards their chords while the
+// programming over a window of 8 cells), then corners pulled towards their chords while the
 // weighted length falls; it never costs more than the cell path. "No path" is a status;
 // std::invalid_argument is for invalid arguments (non-finite coordinates, non-positive disc
 // radii, unknown vertices).
@@ -160,6 +160,11 @@ class GridPlanner {
     bool snapped = false;
     Eigen::Vector2d point = Eigen::Vector2d::Zero();
   };
+  struct CellState {  // search state of one cell; stamps equal to gen_ are current
+    double g = 0.0;     // cost from the start [m]
+    int parent = -1;
+    std::uint32_t seen = 0, closed = 0, target = 0;
+  };
   struct Node {
     double f;  // g + h [m]
     float h;   // [m], tie-break
@@ -176,7 +181,7 @@ class GridPlanner {
   bool map_visible(const Eigen::Vector2d& from, const Eigen::Vector2d& to) const;
   // A* from start to every target (padded cells); returns the number expanded.
   int search(int start, const std::vector<int>& targets);
-  bool reached(int cell) const { return closed_[cell] == gen_; }
+  bool reached(int cell) const { return state_[cell].closed == gen_; }
   std::vector<int> cell_path(int target) const;  // start .. target
   // Walks the planning grid along segment a-b: weighted length [m], or +inf if it touches a
   // lethal cell (when check_lethal).
@@ -195,9 +200,7 @@ class GridPlanner {
   double res_, ox_, oy_, weight_;
   std::vector<float> mult_;     // 1 + weight cost per padded cell; kLethal when lethal
   std::vector<std::pair<int, float>> undo_;  // disc edits to revert
-  std::vector<double> g_;
-  std::vector<int> parent_;
-  std::vector<std::uint32_t> seen_, closed_, target_;  // generation stamps
+  std::vector<CellState> state_;  // per padded cell
   std::uint32_t gen_ = 0;
   std::vector<Node> heap_;
   int offsets_[8];                 // padded index offsets: E, W, N, S, NE, NW, SE, SW

@@ -27,6 +27,7 @@ from tpuaf.navigation.scan import (
     LaserMount,
     Scan,
     beam_step,
+    moved_points,
     scan_points,
     scan_points_batch,
 )
@@ -35,5 +36,5 @@ __all__ = [
     "APPROACH_MPS", "SNUG_MARGIN_M", "STOP_FAILED", "Command", "ControllerConfig", "Event",
     "GoalClient", "GoalNavigator", "GraphRoute", "LocalController", "Navigator", "Scan",
     "Status", "navigator_give_up_s", "retry_wait_for", "scan_points",
-    "DEFAULT_SCAN_BEAMS", "LaserMount", "beam_step", "scan_points_batch", "wrap_angle", "wrap_angle_array",
+    "DEFAULT_SCAN_BEAMS", "LaserMount", "beam_step", "moved_points", "scan_points_batch", "wrap_angle", "wrap_angle_array",
 ]

@@ -26,16 +26,18 @@ class PlannerConfig:
     inflation_m: float = 0.5  # [m] beyond the inscribed radius where the cost reaches 0
     cost_scaling_per_m: float = 5.0  # [1/m] exponential fall-off of the cost near walls
     cost_weight: float = 1.0  # extra metres per metre driven at cost 1 (keeps paths central)
-    planning_resolution_m: float = 0.1  # [m] planning grid (never finer than the map's)
+    # [m] planning grid (a whole number of map cells); 0 = auto: the coarsest whole number of
+    # map cells not above half the inscribed radius (the conservative coarsening then narrows
+    # a passage by less than that)
+    planning_resolution_m: float = 0.0
     snap_radius_m: float = 0.6  # [m] a start or goal in a lethal cell moves this far at most
 
     def __post_init__(self) -> None:
-        for name in ("inflation_m", "cost_scaling_per_m", "planning_resolution_m",
-                     "snap_radius_m"):
+        for name in ("inflation_m", "cost_scaling_per_m", "snap_radius_m"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"planner parameter {name} must be > 0, got {value!r}")
-        for name in ("safety_margin_m", "cost_weight"):
+        for name in ("safety_margin_m", "cost_weight", "planning_resolution_m"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"planner parameter {name} must be >= 0, got {value!r}")
@@ -69,7 +71,11 @@ class PathPlanner:
         inscribed = self.robot_radius_m + c.safety_margin_m
         spec = tpuaf_core.CostmapSpec(inscribed, inscribed + c.inflation_m, c.cost_scaling_per_m,
                                       c.cost_weight)
-        resolution = max(float(grid.resolution), c.planning_resolution_m)
+        res = float(grid.resolution)
+        if c.planning_resolution_m > 0:
+            resolution = max(res, c.planning_resolution_m)
+        else:
+            resolution = res * max(1, math.floor(0.5 * inscribed / res + 1e-9))
         self.costmap = tpuaf_core.Costmap(np.ascontiguousarray(grid.occupied, dtype=bool),
                                           float(grid.resolution),
                                           (float(grid.origin[0]), float(grid.origin[1])), spec,

@@ -89,3 +89,21 @@ def scan_points(scan: Scan, mount: LaserMount = LaserMount(),
     """(k, 2) obstacle points [m] in the base frame from one scan (see scan_points_batch)."""
     return scan_points_batch(scan.ranges, scan.angle_min, scan.angle_increment, scan.range_min,
                              scan.range_max, mount, max_beams, within_m)[0]
+
+
+def moved_points(points: np.ndarray | None, scan_pose: tuple[float, float, float],
+                 pose: tuple[float, float, float]) -> np.ndarray | None:
+    """Points (k, 2) [m] measured in the base frame at `scan_pose`, in the base frame at `pose`
+    (map-frame poses x, y [m], yaw [rad]): a scan older than the pose, motion-compensated."""
+    if points is None or len(points) == 0 or tuple(scan_pose) == tuple(pose):
+        return points
+    xs, ys, ts = scan_pose
+    x, y, th = pose
+    d = ts - th
+    c, s = math.cos(d), math.sin(d)
+    # offset of the scan pose seen from the current pose, in the current base frame
+    cth, sth = math.cos(th), math.sin(th)
+    ox = cth * (xs - x) + sth * (ys - y)
+    oy = -sth * (xs - x) + cth * (ys - y)
+    px, py = points[:, 0], points[:, 1]
+    return np.column_stack((ox + c * px - s * py, oy + s * px + c * py))

@@ -27,6 +27,7 @@ from tpuaf.navigation import (
     GraphRoute,
     LocalController,
     Navigator,
+    moved_points,
 )
 from tpuaf.policies import Policy
 from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, RobotMachine
@@ -162,9 +163,11 @@ class AgentRuntime:
         """Fault injection: the robot is dead from now on (no motion, no messages)."""
         self.machine.die()
 
-    def tick(self, t: float, points: np.ndarray | None) -> tuple[float, float]:
+    def tick(self, t: float, points: np.ndarray | None,
+             points_pose: tuple[float, float, float] | None = None) -> tuple[float, float]:
         """One control step at run time t [s] with laser points (k, 2) in the robot frame;
-        returns (v [m/s], w [rad/s])."""
+        returns (v [m/s], w [rad/s]). `points_pose`: the pose [m, m, rad] the points were
+        measured at, when older than the current pose (they are motion-compensated)."""
         self._now = max(self._now, float(t))
         m = self.machine
         if self._pose is None or not m.alive:
@@ -191,6 +194,8 @@ class AgentRuntime:
                 return 0.0, 0.0
             self._stay_until = None
             m.on_vertex(m.current_vertex, True)
+        if points_pose is not None:
+            points = moved_points(points, points_pose, self._pose)
         # A goal reached at once on the way to the next (a vertex within tolerance of the one
         # just visited) is an event too: step again, a few times at most.
         for _ in range(MAX_EVENTS_PER_TICK):

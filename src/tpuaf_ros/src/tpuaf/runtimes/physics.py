@@ -126,6 +126,7 @@ class PhysicsRun(TeamRun):
         faults = list(self.faults)
         commands = np.zeros((n, 2))
         points: list = [None] * n
+        scan_rows: list = [None] * n
         stopped = np.zeros(n, dtype=bool)  # dead or stalled: the world gets zero commands
         poses = np.asarray(world.poses(), dtype=float)
         self.recorder.record_positions(0.0, poses[:, :2])
@@ -152,6 +153,7 @@ class PhysicsRun(TeamRun):
                 self.recorder.record_positions(t, poses[:, :2])
             if k % self.scan_every == 0:
                 points = self._points(np.asarray(world.scan_all(), dtype=float))
+                scan_rows = poses.tolist()  # the poses the points were measured at
             if k == n_ticks:
                 break
             rows = poses.tolist()
@@ -161,7 +163,7 @@ class PhysicsRun(TeamRun):
                     continue
                 x, y, th = rows[i]
                 a.on_pose(t, x, y, th)
-                commands[i] = a.tick(t, points[i])
+                commands[i] = a.tick(t, points[i], scan_rows[i])
                 if self.bus.ready:
                     self.deliver_ready()
             if stopped.any():
