@@ -33,7 +33,8 @@ std::vector<Disc> discs_from(const py::object& obstacles) {
   if (a.ndim() != 2 || a.shape(1) != 3)
     throw py::value_error("obstacles: expected a (k, 3) array of (x, y, radius_m) rows");
   const double* d = a.data();
-  for (py::ssize_t i = 0; i < a.shape(0); ++i) out.push_back({d[3 * i], d[3 * i + 1], d[3 * i + 2]});
+  for (py::ssize_t i = 0; i < a.shape(0); ++i)
+    out.push_back({d[3 * i], d[3 * i + 1], d[3 * i + 2]});
   return out;
 }
 
@@ -122,8 +123,9 @@ void tpuaf::bindings::bind_planner(py::module_& m) {
            "origin (x, y) [m] of the lower-left corner of cell (0, 0); planning_resolution_m: "
            "rounded to whole map cells (0: the map's resolution).")
       .def_property_readonly("spec", &Costmap::spec)
-      .def_property_readonly("origin",
-                             [](const Costmap& c) { return py::make_tuple(c.origin_x(), c.origin_y()); })
+      .def_property_readonly(
+          "origin", [](const Costmap& c) { return py::make_tuple(c.origin_x(), c.origin_y()); },
+          "(x, y) [m] of the lower-left corner of cell (0, 0)")
       .def_property_readonly("map_width", &Costmap::map_width, "[cells]")
       .def_property_readonly("map_height", &Costmap::map_height, "[cells]")
       .def_property_readonly("map_resolution", &Costmap::map_resolution, "[m per cell]")
@@ -137,8 +139,11 @@ void tpuaf::bindings::bind_planner(py::module_& m) {
            "Is the planning cell of (x, y) lethal (outside the map: yes)?")
       .def("cost", &Costmap::cost, py::arg("x"), py::arg("y"),
            "Cost in [0, 1] of the planning cell of (x, y); 1 when lethal.")
-      .def("map_distances",
-           [](const Costmap& c) { return grid_array(c.map_distances(), c.map_height(), c.map_width()); },
+      .def(
+          "map_distances",
+          [](const Costmap& c) {
+            return grid_array(c.map_distances(), c.map_height(), c.map_width());
+          },
            "(map_height, map_width) float32 gaps [m] to the nearest occupied cell.")
       .def("costs", [](const Costmap& c) { return grid_array(c.costs(), c.height(), c.width()); },
            "(height, width) float32 costs of the planning grid.")
@@ -166,10 +171,12 @@ void tpuaf::bindings::bind_planner(py::module_& m) {
       .def_readonly("status", &Plan::status)
       .def_readonly("start_snapped", &Plan::start_snapped)
       .def_readonly("goal_snapped", &Plan::goal_snapped)
-      .def_property_readonly("start", [](const Plan& p) { return py::make_tuple(p.start.x(), p.start.y()); },
-                             "planned-from point (x, y) [m], snapped or as given")
-      .def_property_readonly("goal", [](const Plan& p) { return py::make_tuple(p.goal.x(), p.goal.y()); },
-                             "planned-to point (x, y) [m], snapped or as given")
+      .def_property_readonly(
+          "start", [](const Plan& p) { return py::make_tuple(p.start.x(), p.start.y()); },
+          "planned-from point (x, y) [m], snapped or as given")
+      .def_property_readonly(
+          "goal", [](const Plan& p) { return py::make_tuple(p.goal.x(), p.goal.y()); },
+          "planned-to point (x, y) [m], snapped or as given")
       .def_readonly("expanded", &Plan::expanded, "cells expanded by the search")
       .def_property_readonly("ok", &Plan::ok)
       .def("__bool__", &Plan::ok)
@@ -180,8 +187,8 @@ void tpuaf::bindings::bind_planner(py::module_& m) {
              return PlannerOptions{snap_radius_m, smooth};
            }),
            py::arg("snap_radius_m") = 0.5, py::arg("smooth") = true,
-           "snap_radius_m [m]: a lethal start or goal moves to the nearest free cell visible within "
-           "it; smooth: line-of-sight shortcuts.")
+           "snap_radius_m [m]: a lethal start or goal moves to the nearest free cell visible "
+           "within it; smooth: line-of-sight shortcuts.")
       .def_readwrite("snap_radius_m", &PlannerOptions::snap_radius_m)
       .def_readwrite("smooth", &PlannerOptions::smooth);
 

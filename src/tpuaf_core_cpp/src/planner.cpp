@@ -288,7 +288,8 @@ GridPlanner::GridPlanner(std::shared_ptr<const Costmap> costmap, const PlannerOp
   for (int r = 0; r < cm_->height(); ++r)
     for (int c = 0; c < cm_->width(); ++c) {
       const std::size_t i = static_cast<std::size_t>(r) * cm_->width() + c;
-      if (!cm_->lethal()[i]) mult_[padded(r, c)] = static_cast<float>(1.0 + weight_ * cm_->costs()[i]);
+      if (!cm_->lethal()[i])
+        mult_[padded(r, c)] = static_cast<float>(1.0 + weight_ * cm_->costs()[i]);
     }
   state_.assign(n, CellState{});
   const int dcol[8] = {1, -1, 0, 0, 1, -1, 1, -1};
@@ -378,7 +379,8 @@ bool GridPlanner::map_visible(const Eigen::Vector2d& from, const Eigen::Vector2d
 GridPlanner::Snap GridPlanner::snap(const Eigen::Vector2d& p) const {
   const int w = cm_->width(), h = cm_->height();
   const int c = cm_->col_of(p.x()), r = cm_->row_of(p.y());
-  if (r >= 0 && c >= 0 && r < h && c < w && free_cell(padded(r, c))) return {padded(r, c), false, p};
+  if (r >= 0 && c >= 0 && r < h && c < w && free_cell(padded(r, c)))
+    return {padded(r, c), false, p};
   const double radius = options_.snap_radius_m;
   const int reach = static_cast<int>(std::ceil(radius / res_)) + 1;
   std::vector<std::tuple<double, int, int>> candidates;  // distance [m], row, col
@@ -517,14 +519,62 @@ void GridPlanner::smooth(std::vector<Eigen::Vector2d>& pts, std::size_t first) c
   tighten(pts, first);
 }
 
+void GridPlanner::shortcut(std::vector<Eigen::Vector2d>& pts, std::size_t first) const {
+  // From each kept corner, the farthest later corner reachable by a straight segment that
+  // crosses no lethal cell and costs no more than the polyline it replaces (galloping search:
+  // doubling steps, then bisection; O(log n) segment walks per kept corner).
+  const std::size_t n = pts.size();
+  if (n <= first + 2) return;
+  std::vector<double> along(n, 0.0);  // weighted length along the polyline [m]
+  for (std::size_t i = first + 1; i < n; ++i)
+    along[i] = along[i - 1] + segment_cost(pts[i - 1], pts[i], false);
+  auto valid = [&](std::size_t a, std::size_t j) {
+    const double original = along[j] - along[a];
+    return segment_cost(pts[a], pts[j], true) <= original + kTol * (1.0 + original);
+  };
+  std::vector<Eigen::Vector2d> out(pts.begin(), pts.begin() + first + 1);
+  std::size_t a = first;
+  while (a + 1 < n) {
+    std::size_t good = a + 1, step = 1, bad = n;
+    while (good + step < n) {
+      if (!valid(a, good + step)) {
+        bad = good + step;
+        break;
+      }
+      good += step;
+      step *= 2;
+    }
+    if (bad == n && good + 1 < n) {  // ran past the end: try the last point
+      if (valid(a, n - 1)) {
+        good = n - 1;
+      } else {
+        bad = n - 1;
+      }
+    }
+    while (bad < n && bad - good > 1) {
+      const std::size_t mid = good + (bad - good) / 2;
+      if (valid(a, mid)) {
+        good = mid;
+      } else {
+        bad = mid;
+      }
+    }
+    out.push_back(pts[good]);
+    a = good;
+  }
+  pts.swap(out);
+}
+
 void GridPlanner::tighten(std::vector<Eigen::Vector2d>& pts, std::size_t first) const {
   // Pulls each corner towards the chord of its neighbours as far as the segments stay clear and
-  // their weighted length does not grow (bisection), so the path hugs the lethal boundary
-  // instead of the cell centres of the grid path; drops corners that become unnecessary.
-  constexpr int kPasses = 2, kSubdivisions = 1, kBisections = 6;
+  // their weighted length falls (bisection), so the path hugs the lethal boundary instead of
+  // the cell centres; midpoints added once become corners that can slide around a bend;
+  // corners that become unnecessary are dropped (shortcut).
+  constexpr int kPasses = 2, kSubdivisions = 1, kBisections = 4;
+  shortcut(pts, first);
   for (int pass = 0; pass < kPasses && pts.size() > first + 2; ++pass) {
     bool moved = false;
-    if (pass < kSubdivisions) {  // midpoints: new corners that can slide around a bend
+    if (pass < kSubdivisions) {
       std::vector<Eigen::Vector2d> finer(pts.begin(), pts.begin() + first + 1);
       for (std::size_t i = first + 1; i < pts.size(); ++i) {
         finer.push_back(0.5 * (pts[i - 1] + pts[i]));
@@ -534,11 +584,12 @@ void GridPlanner::tighten(std::vector<Eigen::Vector2d>& pts, std::size_t first) 
     }
     for (std::size_t i = first + 1; i + 1 < pts.size(); ++i) {
       const Eigen::Vector2d a = pts[i - 1], b = pts[i + 1], v = pts[i];
-      const double now = segment_cost(a, v, true) + segment_cost(v, b, true);
       const Eigen::Vector2d ab = b - a;
-      const double t = ab.squaredNorm() > 0 ? std::clamp((v - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+      const double len2 = ab.squaredNorm();
+      const double t = len2 > 0 ? std::clamp((v - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
       const Eigen::Vector2d q = a + t * ab;  // nearest point of the chord
-      double lo = 0.0, hi = 1.0, best = now;
+      if ((q - v).squaredNorm() < kTol * kTol) continue;  // already straight
+      double lo = 0.0, hi = 1.0, best = segment_cost(a, v, true) + segment_cost(v, b, true);
       for (int k = 0; k < kBisections; ++k) {
         const double mid = 0.5 * (lo + hi);
         const Eigen::Vector2d w = v + mid * (q - v);
@@ -555,13 +606,7 @@ void GridPlanner::tighten(std::vector<Eigen::Vector2d>& pts, std::size_t first) 
         moved = true;
       }
     }
-    for (std::size_t i = first + 1; i + 1 < pts.size(); ++i) {  // drop unnecessary corners
-      const double now = segment_cost(pts[i - 1], pts[i], true) + segment_cost(pts[i], pts[i + 1], true);
-      if (segment_cost(pts[i - 1], pts[i + 1], true) <= now + kTol * (1.0 + now)) {
-        pts.erase(pts.begin() + static_cast<std::ptrdiff_t>(i));
-        --i;
-      }
-    }
+    shortcut(pts, first);
     if (!moved) break;
   }
 }

@@ -29,7 +29,8 @@ double clearance(const GridMask& grid, const Eigen::Vector2d& p, double cap) {
   const int h = static_cast<int>(grid.rows()), w = static_cast<int>(grid.cols());
   double best = std::min({p.x(), p.y(), w * kRes - p.x(), h * kRes - p.y(), cap});
   const int reach = static_cast<int>(std::ceil(cap / kRes)) + 2;
-  const int c = static_cast<int>(std::floor(p.x() / kRes)), r = static_cast<int>(std::floor(p.y() / kRes));
+  const int c = static_cast<int>(std::floor(p.x() / kRes));
+  const int r = static_cast<int>(std::floor(p.y() / kRes));
   for (int rr = std::max(0, r - reach); rr <= std::min(h - 1, r + reach); ++rr)
     for (int cc = std::max(0, c - reach); cc <= std::min(w - 1, c + reach); ++cc) {
       if (!grid(rr, cc)) continue;

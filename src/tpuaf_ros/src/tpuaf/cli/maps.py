@@ -1,10 +1,14 @@
-"""`tpuaf maps [NAME_OR_PATH ...]`: statistics of maps (SPEC section 7)."""
+"""`tpuaf maps [NAME_OR_PATH ...]`: statistics of maps (SPEC section 7), and every edge checked
+against the map's robot footprint (planned paths on the occupancy grid, navigation/planner.py)."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
+
+import numpy as np
 
 from tpuaf.errors import CliError
 
@@ -57,6 +61,62 @@ def format_table(summaries: list[dict]) -> str:
     return "\n".join(lines)
 
 
+LONG_RATIO = 1.5  # planned / declared length above this: a warning
+SHOWN = 10  # blocked or long edges listed one by one per map; the rest are counted
+
+
+def edge_check(patrol_map) -> dict:
+    """Every edge of the map planned for a robot of the map's `settings.robot_radius` [m]:
+    counts, the edges without a collision-free path ("blocked"), those planned more than
+    LONG_RATIO x their declared length ("long"), median and max ratio planned / declared over
+    the drivable edges (None without any)."""
+    from tpuaf.navigation.planner import PathPlanner
+
+    radius = float(patrol_map.settings.robot_radius)
+    ids = patrol_map.vertex_ids
+    blocked, long, ratios = [], [], []
+    for c in PathPlanner(patrol_map, radius).check_edges():
+        edge = {"edge": f"{ids[c.u]}-{ids[c.v]}", "declared_m": c.declared_m}
+        if not math.isfinite(c.planned_m):
+            blocked.append(edge)
+            continue
+        ratios.append(c.ratio)
+        if c.ratio > LONG_RATIO:
+            long.append({**edge, "planned_m": c.planned_m, "ratio": c.ratio})
+    return {
+        "robot_radius_m": radius,
+        "edges": len(blocked) + len(ratios),
+        "blocked": blocked,
+        "long": long,
+        "median_ratio": float(np.median(ratios)) if ratios else None,
+        "max_ratio": float(max(ratios)) if ratios else None,
+    }
+
+
+def format_edge_check(name: str, check: dict) -> tuple[str, list[str], list[str]]:
+    """(summary line, error lines, warning lines) of one map's edge check."""
+    def ratio(key: str) -> str:
+        return "n/a" if check[key] is None else f"{check[key]:.2f}"
+
+    line = (f"edges of {name} for a robot of radius {check['robot_radius_m']:g} m: "
+            f"{check['edges']} checked, {len(check['blocked'])} without a collision-free path, "
+            f"{len(check['long'])} planned > {LONG_RATIO:g} x declared; planned / declared "
+            f"median {ratio('median_ratio')}, max {ratio('max_ratio')}")
+    errors = [f"tpuaf maps: error ({name}): edge {b['edge']} (declared {b['declared_m']:.2f} m): "
+              f"no collision-free path for a robot of radius {check['robot_radius_m']:g} m"
+              for b in check["blocked"][:SHOWN]]
+    if len(check["blocked"]) > SHOWN:
+        errors.append(f"tpuaf maps: error ({name}): and {len(check['blocked']) - SHOWN} more "
+                      "edges without a collision-free path")
+    warnings = [f"tpuaf maps: warning ({name}): edge {e['edge']} planned {e['planned_m']:.2f} m, "
+                f"{e['ratio']:.2f} x its declared {e['declared_m']:.2f} m"
+                for e in check["long"][:SHOWN]]
+    if len(check["long"]) > SHOWN:
+        warnings.append(f"tpuaf maps: warning ({name}): and {len(check['long']) - SHOWN} more "
+                        f"edges planned > {LONG_RATIO:g} x declared")
+    return line, errors, warnings
+
+
 def run(args: argparse.Namespace) -> int:
     from tpuaf.maps import MapError, builtin_map_names, load_map, map_summary
 
@@ -68,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
         except MapError as err:
             raise CliError(str(err)) from None
         summary = map_summary(pm)
+        summary["edge_check"] = edge_check(pm)
         if pm.notes:
             summary["notes"] = list(pm.notes)
         if pm.warnings:
@@ -82,4 +143,12 @@ def run(args: argparse.Namespace) -> int:
         for s in summaries:
             for note in s.get("notes", []):
                 print(f"note ({s['name']}): {note}")
-    return 0
+    blocked = False
+    for s in summaries:
+        line, errors, warnings = format_edge_check(s["name"], s["edge_check"])
+        if not args.json:
+            print(line, flush=True)
+        for text in errors + warnings:
+            print(text, file=sys.stderr, flush=True)
+        blocked = blocked or bool(errors)
+    return 2 if blocked else 0

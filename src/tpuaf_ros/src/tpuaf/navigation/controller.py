@@ -30,7 +30,8 @@ class ControllerConfig:
     safety_margin: float = _D.safety_margin  # [m] kept between the robot's disc and any laser return
     plan_margin: float = _D.plan_margin  # [m] wider clearance wanted when choosing a heading
     lookahead: float = 1.0  # [m] free length wanted along the chosen heading
-    slow_distance: float = 0.8  # [m] free length below which the speed drops linearly
+    slow_distance: float = 1.2  # [m] free length below which the speed drops linearly (0.8 m
+    # let robots meeting in a corridor close in faster than 5 Hz scans see: contacts)
     heading_gain: float = 2.5  # [1/s] w = gain * heading error
     turn_in_place: float = 1.0  # [rad] heading error above which the robot only turns
     keep_right: float = 0.2  # [rad] extra cost of passing an obstacle on its right side

@@ -106,7 +106,7 @@ class Navigator:
             if math.hypot(x - p[0], y - p[1]) <= self.waypoint_tolerance:
                 path = self.planner.edge_path(u, goal)
         if path is None:
-            obstacles = _obstacle_discs(pose, points)
+            obstacles = _obstacle_discs(self._unmapped(points))
             path = self.planner.plan((x, y), target, obstacles)
             if path is None and obstacles is not None:
                 path = self.planner.plan((x, y), target)
@@ -120,6 +120,15 @@ class Navigator:
             corners.pop(0)
         self._corners = corners
         self._aim(t, new_goal=False)
+
+    def _unmapped(self, map_points: np.ndarray | None) -> np.ndarray | None:
+        """The map-frame laser points the map does not explain (farther than
+        UNMAPPED_DISTANCE_M from every mapped obstacle): other robots, unmapped obstacles."""
+        if map_points is None or len(map_points) == 0:
+            return None
+        distance = self.planner.costmap.distance_to_obstacle
+        keep = [distance(float(x), float(y)) > UNMAPPED_DISTANCE_M for x, y in map_points]
+        return map_points[np.asarray(keep, dtype=bool)] if any(keep) else None
 
     def step(self, t: float, pose: tuple[float, float, float],
              points: np.ndarray | None) -> tuple[Command, Event, int]:
@@ -165,6 +174,7 @@ class Navigator:
 
 OBSTACLE_RADIUS_M = 0.05  # [m] of one laser point as a temporary obstacle of a replan
 OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a replan
+UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
 
 
 def _map_points(pose: tuple[float, float, float], points: np.ndarray | None):
@@ -180,7 +190,7 @@ def _map_points(pose: tuple[float, float, float], points: np.ndarray | None):
                             y + s * near[:, 0] + c * near[:, 1]))
 
 
-def _obstacle_discs(pose: tuple[float, float, float], map_points: np.ndarray | None):
+def _obstacle_discs(map_points: np.ndarray | None):
     """(k, 3) discs (x, y, radius) of map-frame points, or None."""
     if map_points is None or len(map_points) == 0:
         return None
