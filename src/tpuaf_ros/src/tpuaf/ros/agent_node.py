@@ -143,6 +143,7 @@ class AgentNode:
         self.runtime = AgentRuntime(patrol_map, policy, p.robot_index, p.robots, p.seed,
                                     self.publish_team, self.publish_event, cfg,
                                     p.heartbeat_period, p.waypoint_tolerance, planner)
+        self.runtime.on_stuck = self.report_stuck
         # [m] laser points farther from the base than this cannot matter to the controller
         self.points_within_m = self.runtime.navigator.controller.reach_m
         if p.navigation == "move_base":
@@ -313,6 +314,13 @@ class AgentNode:
                 self.inbox.observe(r, msg.stamp.to_sec() - self.epoch, now)
             if self.liveness.heard(r, now):
                 rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
+
+    def report_stuck(self, goal: int, retry: int, t: float) -> None:
+        """The navigator is stuck on its way (no progress for ~stuck_timeout): say so."""
+        vid = self.conv.patrol_map.vertex_ids[goal]
+        rospy.logwarn(f"{self.name}: stuck on the way to vertex {vid} at run time {t:.1f} s: "
+                      f"backing off and replanning (recovery {retry} of {self.p.max_retries}; "
+                      f"then the goal fails)")
 
     def on_scan(self, msg):
         self.inputs.fed("scan", msg.header.stamp.to_sec(), time.monotonic())

@@ -67,6 +67,11 @@ class AgentRuntime:
         self._decide_pending = False
         self._next_heartbeat = -math.inf
         self.start_at: float | None = 0.0  # [s] run time to begin patrolling; None = not yet known
+        # Called with (goal vertex, retry number, run time [s]) when the navigator starts a
+        # recovery (stuck: back off, wait, replan): the node logs it, the physics runtime counts.
+        self.on_stuck: Callable[[int, int, float], None] | None = None
+        self.recoveries = 0
+        self._retries_seen = 0
         rng = np.random.default_rng([int(seed), 2, int(robot)])  # as in the graph runtime
         self.machine = RobotMachine(self, robot, n_robots, patrol_map, policy, rng,
                                     emit=self._event)
@@ -202,6 +207,7 @@ class AgentRuntime:
             if self.navigator.route is None:
                 return 0.0, 0.0
             cmd, event, vertex = self.navigator.step(self._now, self._pose, points)
+            self._watch_recovery()
             if event == Event.WAYPOINT:
                 m.on_vertex(vertex, False)
             elif event == Event.ARRIVED:
@@ -216,5 +222,14 @@ class AgentRuntime:
         return cmd.v, cmd.w
 
     # --- internals ---
+    def _watch_recovery(self) -> None:
+        controller = getattr(self.navigator, "controller", None)
+        retries = getattr(controller, "retries", 0)
+        if retries > self._retries_seen:
+            self.recoveries += 1
+            if self.on_stuck is not None and self.machine.goal is not None:
+                self.on_stuck(int(self.machine.goal), int(retries), self._now)
+        self._retries_seen = retries
+
     def _event(self, kind: int, vertex: int, from_vertex: int, t: float | None = None) -> None:
         self._publish_event(kind, int(vertex), int(from_vertex), self._now if t is None else t)

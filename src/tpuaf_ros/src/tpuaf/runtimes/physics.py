@@ -202,6 +202,7 @@ class PhysicsRun(TeamRun):
     def summary(self) -> dict:
         summary = super().summary()
         summary["replans"] = int(sum(a.navigator.replans for a in self.agents))
+        summary["recoveries"] = int(sum(a.recoveries for a in self.agents))
         summary["collisions"] = int(sum(self.world.contact_counts()))
         summary["goal_failures"] = int(sum(a.machine.failures for a in self.agents))
         return summary
