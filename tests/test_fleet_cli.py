@@ -9,9 +9,8 @@ from pathlib import Path
 
 import pytest
 from tpuaf.cli.fleet import RECORD_GROUPS, record_regex
-from tpuaf.errors import CliError
-from tpuaf.runtimes.config import ConfigError, choose_robot
 from tpuaf.maps import load_map
+from tpuaf.runtimes.config import ConfigError, choose_robot
 from tpuaf.team.relay import RelayModel
 
 REPO = Path(__file__).resolve().parents[1]

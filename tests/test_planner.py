@@ -48,7 +48,7 @@ def samples(plan: tc.Plan, step: float) -> np.ndarray:
     """Points every `step` [m] along the plan, from its (snapped) start."""
     pts = plan.points[1:] if plan.start_snapped else plan.points
     out = [pts[:1]]
-    for a, b in zip(pts[:-1], pts[1:]):
+    for a, b in zip(pts[:-1], pts[1:], strict=True):
         n = max(1, int(math.ceil(np.linalg.norm(b - a) / step)))
         out.append(a + (b - a) * (np.arange(1, n + 1) / n)[:, None])
     return np.concatenate(out)
@@ -139,12 +139,12 @@ def test_plan_edges_and_invalid_arguments():
     edges = [(0, 1), (0, 2), (3, 1), (2, 3)]
     plans = planner.plan_edges(vertices, edges)
     assert [p.status for p in plans] == [tc.PlanStatus.ok] * 4
-    for (u, v), p in zip(edges, plans):
+    for (u, v), p in zip(edges, plans, strict=True):
         np.testing.assert_allclose(p.points[0], vertices[u])
         np.testing.assert_allclose(p.points[-1], vertices[v])
         assert p.length_m == pytest.approx(planner.path_length(vertices[u], vertices[v]), abs=0.1)
     again = planner.plan_edges(vertices, np.array(edges))
-    for a, b in zip(plans, again):
+    for a, b in zip(plans, again, strict=True):
         np.testing.assert_array_equal(a.points, b.points)  # deterministic
     assert planner.plan_edges(vertices, []) == []
     with pytest.raises(ValueError, match="unknown vertex 7"):
@@ -167,8 +167,9 @@ def test_every_edge_of_a_reference_map(shared_maps, name):
     planner = tc.GridPlanner(cm)
     edges = np.array([(u, v) for u, v, *_ in pm.edges])
     plans = planner.plan_edges(pm.positions, edges)
-    assert all(p.ok for p in plans), [(tuple(e), str(p.status)) for e, p in zip(edges, plans)]
-    for (u, v), p in zip(edges, plans):
+    failed = [(tuple(e), str(p.status)) for e, p in zip(edges, plans, strict=True) if not p.ok]
+    assert not failed
+    for (u, v), p in zip(edges, plans, strict=True):
         straight = np.linalg.norm(pm.positions[v] - pm.positions[u])
         assert p.length_m >= straight - 1e-9
         assert p.length_m < 3 * straight + 2.0  # an edge is a local connection

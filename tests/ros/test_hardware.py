@@ -135,6 +135,46 @@ def test_two_burgers_keep_visiting_on_the_wall_clock(tmp_path):
         assert bag.is_file() and bag.stat().st_size > 10_000
 
 
+# --- rehearsal on a map whose edges cross walls (issue 18) -----------------------------------
+
+WALLS_RUN_S = 150.0
+QUIET_S = 60.0  # [s] no robot goes this long without a visit or a stuck report
+
+
+def test_three_burgers_keep_visiting_where_edges_cross_walls(tmp_path, shared_maps):
+    """docs/HARDWARE.md's rehearsal (robot.launch, tf localisation, wall clock, a plain bag) on
+    patrolling_sim's `example`, 5 of whose 34 edges run straight through a wall: the built-in
+    navigator plans round them. Every robot keeps visiting, and none goes QUIET_S without a
+    visit or a stuck report."""
+    patrol_map = str(shared_maps / "example")
+    with ros_master(tmp_path / "walls") as ros:
+        start_world(ros, patrol_map, 3)
+        ros.start(["rosbag", "record", "-O", str(ros.home / "run.bag"), "/tf", "/tf_static",
+                   "/team/visits", "/team/intentions", "/fleet/agent_events", "/fleet/start"],
+                  name="rosbag")
+        for i in range(3):
+            start_robot(ros, patrol_map, 3, i)
+        start = wait_started(ros, 3, timeout=90.0)
+        time.sleep(max(0.0, WALLS_RUN_S - (time.time() - start)))
+        rows = events(ros)
+        logs = [ros.output(f"tb3_{i}") for i in range(3)]
+        ros.stop_all()
+    for i in range(3):
+        visits = reached(rows, i, start)
+        failed = [t for t, r, e, _ in rows if r == i and e == FAILED and t >= start]
+        stuck = [start + float(m) for m in re.findall(r"stuck on the way to vertex \d+ at run "
+                                                       r"time ([0-9.]+) s", logs[i])]
+        news = sorted([start] + [t for t, _ in visits] + failed + stuck + [start + WALLS_RUN_S])
+        print(f"walls rehearsal tb3_{i}: {len(visits)} visits, {len(failed)} failed goals, "
+              f"{len(stuck)} stuck reports in {WALLS_RUN_S:g} s; longest quiet "
+              f"{max_gap(news):.1f} s")
+        assert len(visits) >= 4, (i, visits, logs[i][-3000:])
+        assert visits[-1][0] > start + 0.6 * WALLS_RUN_S, (i, visits)
+        assert max_gap(news) < QUIET_S, (i, news, logs[i][-3000:])
+        assert "localisation tf map" in logs[i] and "wall clock" in logs[i]
+    assert (tmp_path / "walls" / "run.bag").is_file()
+
+
 # --- skew, malformed messages, a robot stopped -----------------------------------------------
 
 

@@ -67,18 +67,22 @@ SHOWN = 10  # blocked or long edges listed one by one per map; the rest are coun
 
 def edge_check(patrol_map) -> dict:
     """Every edge of the map planned for a robot of the map's `settings.robot_radius` [m]:
-    counts, the edges without a collision-free path ("blocked"), those planned more than
-    LONG_RATIO x their declared length ("long"), median and max ratio planned / declared over
-    the drivable edges (None without any)."""
+    counts, the edges without a collision-free path ("blocked", with the ids of their vertices
+    on occupied cells, if any), those planned more than LONG_RATIO x their declared length
+    ("long"), median and max ratio planned / declared over the drivable edges (None without
+    any)."""
     from tpuaf.navigation.planner import PathPlanner
 
     radius = float(patrol_map.settings.robot_radius)
     ids = patrol_map.vertex_ids
+    grid = patrol_map.occupancy_grid()
+    occupied = {i for i, (x, y) in enumerate(patrol_map.positions) if not grid.is_free(x, y)}
     blocked, long, ratios = [], [], []
     for c in PathPlanner(patrol_map, radius).check_edges():
         edge = {"edge": f"{ids[c.u]}-{ids[c.v]}", "declared_m": c.declared_m}
         if not math.isfinite(c.planned_m):
-            blocked.append(edge)
+            blocked.append({**edge, "occupied_vertices": [ids[i] for i in (c.u, c.v)
+                                                          if i in occupied]})
             continue
         ratios.append(c.ratio)
         if c.ratio > LONG_RATIO:
@@ -93,27 +97,47 @@ def edge_check(patrol_map) -> dict:
     }
 
 
-def format_edge_check(name: str, check: dict) -> tuple[str, list[str], list[str]]:
-    """(summary line, error lines, warning lines) of one map's edge check."""
+def format_edge_check(name: str, check: dict, allow_occupied_vertices: bool = False
+                      ) -> tuple[str, list[str], list[str]]:
+    """(summary line, error lines, warning lines) of one map's edge check; past SHOWN edges of
+    a kind, one line counts the rest. A blocked edge is a warning, not an error, when it ends
+    at a vertex on an occupied cell and such vertices are accepted (--allow-occupied-vertices).
+    """
+    radius = check["robot_radius_m"]
+
     def ratio(key: str) -> str:
         return "n/a" if check[key] is None else f"{check[key]:.2f}"
 
-    line = (f"edges of {name} for a robot of radius {check['robot_radius_m']:g} m: "
-            f"{check['edges']} checked, {len(check['blocked'])} without a collision-free path, "
-            f"{len(check['long'])} planned > {LONG_RATIO:g} x declared; planned / declared "
-            f"median {ratio('median_ratio')}, max {ratio('max_ratio')}")
-    errors = [f"tpuaf maps: error ({name}): edge {b['edge']} (declared {b['declared_m']:.2f} m): "
-              f"no collision-free path for a robot of radius {check['robot_radius_m']:g} m"
-              for b in check["blocked"][:SHOWN]]
-    if len(check["blocked"]) > SHOWN:
-        errors.append(f"tpuaf maps: error ({name}): and {len(check['blocked']) - SHOWN} more "
-                      "edges without a collision-free path")
-    warnings = [f"tpuaf maps: warning ({name}): edge {e['edge']} planned {e['planned_m']:.2f} m, "
-                f"{e['ratio']:.2f} x its declared {e['declared_m']:.2f} m"
-                for e in check["long"][:SHOWN]]
-    if len(check["long"]) > SHOWN:
-        warnings.append(f"tpuaf maps: warning ({name}): and {len(check['long']) - SHOWN} more "
-                        f"edges planned > {LONG_RATIO:g} x declared")
+    def accepted(b: dict) -> bool:
+        return allow_occupied_vertices and bool(b["occupied_vertices"])
+
+    def no_path(b: dict) -> str:
+        where = ""
+        if b["occupied_vertices"]:
+            where = (f" (vertex {', '.join(str(v) for v in b['occupied_vertices'])} on an "
+                     "occupied cell" + (", accepted)" if accepted(b) else ")"))
+        return (f"edge {b['edge']} (declared {b['declared_m']:.2f} m): no collision-free path "
+                f"for a robot of radius {radius:g} m{where}")
+
+    def listed(kind: str, texts: list[str], rest: str) -> list[str]:
+        lines = [f"tpuaf maps: {kind} ({name}): {t}" for t in texts[:SHOWN]]
+        if len(texts) > SHOWN:
+            lines.append(f"tpuaf maps: {kind} ({name}): and {len(texts) - SHOWN} more {rest}")
+        return lines
+
+    line = (f"edges of {name} for a robot of radius {radius:g} m: {check['edges']} checked, "
+            f"{len(check['blocked'])} without a collision-free path, {len(check['long'])} "
+            f"planned > {LONG_RATIO:g} x declared; planned / declared median "
+            f"{ratio('median_ratio')}, max {ratio('max_ratio')}")
+    no_path_rest = "edges without a collision-free path"
+    errors = listed("error", [no_path(b) for b in check["blocked"] if not accepted(b)],
+                    no_path_rest)
+    warnings = listed("warning", [no_path(b) for b in check["blocked"] if accepted(b)],
+                      no_path_rest + " (at accepted vertices)")
+    warnings += listed("warning", [f"edge {e['edge']} planned {e['planned_m']:.2f} m, "
+                                   f"{e['ratio']:.2f} x its declared {e['declared_m']:.2f} m"
+                                   for e in check["long"]],
+                       f"edges planned > {LONG_RATIO:g} x declared")
     return line, errors, warnings
 
 
@@ -145,7 +169,8 @@ def run(args: argparse.Namespace) -> int:
                 print(f"note ({s['name']}): {note}")
     blocked = False
     for s in summaries:
-        line, errors, warnings = format_edge_check(s["name"], s["edge_check"])
+        line, errors, warnings = format_edge_check(s["name"], s["edge_check"],
+                                                   args.allow_occupied_vertices)
         if not args.json:
             print(line, flush=True)
         for text in errors + warnings:
