@@ -519,59 +519,25 @@ void GridPlanner::smooth(std::vector<Eigen::Vector2d>& pts, std::size_t first) c
   tighten(pts, first);
 }
 
-void GridPlanner::shortcut(std::vector<Eigen::Vector2d>& pts, std::size_t first) const {
-  // From each kept corner, the farthest later corner reachable by a straight segment that
-  // crosses no lethal cell and costs no more than the polyline it replaces (galloping search:
-  // doubling steps, then bisection; O(log n) segment walks per kept corner).
-  const std::size_t n = pts.size();
-  if (n <= first + 2) return;
-  std::vector<double> along(n, 0.0);  // weighted length along the polyline [m]
-  for (std::size_t i = first + 1; i < n; ++i)
-    along[i] = along[i - 1] + segment_cost(pts[i - 1], pts[i], false);
-  auto valid = [&](std::size_t a, std::size_t j) {
-    const double original = along[j] - along[a];
-    return segment_cost(pts[a], pts[j], true) <= original + kTol * (1.0 + original);
-  };
-  std::vector<Eigen::Vector2d> out(pts.begin(), pts.begin() + first + 1);
-  std::size_t a = first;
-  while (a + 1 < n) {
-    std::size_t good = a + 1, step = 1, bad = n;
-    while (good + step < n) {
-      if (!valid(a, good + step)) {
-        bad = good + step;
-        break;
-      }
-      good += step;
-      step *= 2;
-    }
-    if (bad == n && good + 1 < n) {  // ran past the end: try the last point
-      if (valid(a, n - 1)) {
-        good = n - 1;
-      } else {
-        bad = n - 1;
-      }
-    }
-    while (bad < n && bad - good > 1) {
-      const std::size_t mid = good + (bad - good) / 2;
-      if (valid(a, mid)) {
-        good = mid;
-      } else {
-        bad = mid;
-      }
-    }
-    out.push_back(pts[good]);
-    a = good;
-  }
-  pts.swap(out);
-}
-
 void GridPlanner::tighten(std::vector<Eigen::Vector2d>& pts, std::size_t first) const {
   // Pulls each corner towards the chord of its neighbours as far as the segments stay clear and
   // their weighted length falls (bisection), so the path hugs the lethal boundary instead of
   // the cell centres; midpoints added once become corners that can slide around a bend;
-  // corners that become unnecessary are dropped (shortcut).
+  // corners that become unnecessary are dropped.
   constexpr int kPasses = 2, kSubdivisions = 1, kBisections = 4;
-  shortcut(pts, first);
+  {  // drop corners on the chord of their neighbours (straight runs of the cell path)
+    std::vector<Eigen::Vector2d> out(pts.begin(), pts.begin() + first + 1);
+    for (std::size_t i = first + 1; i + 1 < pts.size(); ++i) {
+      const Eigen::Vector2d a = out.back(), b = pts[i + 1], v = pts[i];
+      const Eigen::Vector2d ab = b - a;
+      const double cross = std::abs(ab.x() * (v - a).y() - ab.y() * (v - a).x());
+      const bool between = (v - a).dot(ab) >= 0 && (v - b).dot(-ab) >= 0;
+      if (between && cross <= 1e-9 * ab.norm()) continue;
+      out.push_back(v);
+    }
+    out.push_back(pts.back());
+    pts.swap(out);
+  }
   for (int pass = 0; pass < kPasses && pts.size() > first + 2; ++pass) {
     bool moved = false;
     if (pass < kSubdivisions) {
@@ -606,7 +572,14 @@ void GridPlanner::tighten(std::vector<Eigen::Vector2d>& pts, std::size_t first) 
         moved = true;
       }
     }
-    shortcut(pts, first);
+    for (std::size_t i = first + 1; i + 1 < pts.size(); ++i) {  // drop unnecessary corners
+      const double now =
+          segment_cost(pts[i - 1], pts[i], true) + segment_cost(pts[i], pts[i + 1], true);
+      if (segment_cost(pts[i - 1], pts[i + 1], true) <= now + kTol * (1.0 + now)) {
+        pts.erase(pts.begin() + static_cast<std::ptrdiff_t>(i));
+        --i;
+      }
+    }
     if (!moved) break;
   }
 }

@@ -189,7 +189,6 @@ class GridPlanner {
   Plan finish(const std::vector<int>& cells, const Eigen::Vector2d& start, const Snap& s,
               const Eigen::Vector2d& goal, const Snap& g, int expanded) const;
   void smooth(std::vector<Eigen::Vector2d>& pts, std::size_t first) const;
-  void shortcut(std::vector<Eigen::Vector2d>& pts, std::size_t first) const;
   void tighten(std::vector<Eigen::Vector2d>& pts, std::size_t first) const;
   void next_generation();
 

@@ -63,6 +63,7 @@ class AgentRuntime:
         self._pose: tuple[float, float, float] | None = None
         self._pose_t: float | None = None
         self._stay_until: float | None = None
+        self._stay_vertex = -1  # the vertex visited when the stay ends
         self._wakes: list[float] = []  # requested wake-up times [s] (a heap)
         self._decide_pending = False
         self._next_heartbeat = -math.inf
@@ -113,6 +114,14 @@ class AgentRuntime:
 
     def drive(self, robot: int, from_vertex: int, goal: int) -> None:
         self._stay_until = None
+        if goal != from_vertex and self.machine.at_vertex(goal):
+            # Already within the goal tolerance of another vertex (two vertices closer than
+            # it): stand there STAY_S, as on a goal equal to the current vertex, then visit it,
+            # instead of counting a visit every tick between the two.
+            self.navigator.cancel()
+            self._stay_until = self._now + STAY_S
+            self._stay_vertex = int(goal)
+            return
         route = GraphRoute(self._graph, self._positions, from_vertex, goal,
                            from_position=self.position, snap_m=self.navigator.waypoint_tolerance)
         self.navigator.set_route(route, self._now)
@@ -120,6 +129,12 @@ class AgentRuntime:
     def dwell(self, robot: int, vertex: int, duration_s: float) -> None:
         self.navigator.cancel()
         self._stay_until = self._now + duration_s
+        self._stay_vertex = int(vertex)
+
+    @property
+    def staying(self) -> bool:
+        """Standing at a vertex until a stay ends (a dwell, or a goal already within tolerance)."""
+        return self._stay_until is not None
 
     def halt(self, robot: int) -> None:
         self.navigator.cancel()
@@ -198,7 +213,7 @@ class AgentRuntime:
             if self._now < self._stay_until:
                 return 0.0, 0.0
             self._stay_until = None
-            m.on_vertex(m.current_vertex, True)
+            m.on_vertex(self._stay_vertex, True)
         if points_pose is not None:
             points = moved_points(points, points_pose, self._pose)
         # A goal reached at once on the way to the next (a vertex within tolerance of the one
