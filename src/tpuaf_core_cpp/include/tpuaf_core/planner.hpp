@@ -113,8 +113,9 @@ struct Plan {
   bool ok() const { return status == PlanStatus::ok; }
 };
 
-// A temporary obstacle (another robot, an unmapped obstacle seen by the laser): lethal and
-// inflated like a mapped one, for one plan only.
+// A temporary obstacle (another robot, an unmapped obstacle seen by the laser), inflated like a
+// mapped one for one plan only: cells closer than radius_m + the inscribed radius to its centre
+// are lethal, the cost falls off beyond.
 struct Disc {
   double x_m;
   double y_m;
