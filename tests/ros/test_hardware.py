@@ -146,8 +146,14 @@ def test_three_burgers_keep_visiting_where_edges_cross_walls(tmp_path, shared_ma
     """docs/HARDWARE.md's rehearsal (robot.launch, tf localisation, wall clock, a plain bag) on
     patrolling_sim's `example`, 5 of whose 34 edges run straight through a wall: the built-in
     navigator plans round them. Every robot keeps visiting, and none goes QUIET_S without a
-    visit or a stuck report."""
+    visit or a stuck report (or 1.2 x its longest edge's driving time, where one edge takes
+    longer than that)."""
+    from tpuaf.maps import load_map
+    from tpuaf.navigation.planner import PathPlanner
+
     patrol_map = str(shared_maps / "example")
+    longest_m = max(c.planned_m for c in PathPlanner(load_map(patrol_map), 0.105).check_edges())
+    quiet_s = max(QUIET_S, 1.2 * longest_m / BURGER_MPS)
     with ros_master(tmp_path / "walls") as ros:
         start_world(ros, patrol_map, 3)
         ros.start(["rosbag", "record", "-O", str(ros.home / "run.bag"), "/tf", "/tf_static",
