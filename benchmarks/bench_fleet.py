@@ -121,11 +121,12 @@ def fleet(map_ref: str, n: int, duration: float, out: Path, extra=()) -> dict:
             "tail": stdout[-600:]}
 
 
-def reference_visits(map_ref: str, n: int, duration: float, runtime: str) -> int | None:
+def reference_visits(map_ref: str, n: int, duration: float, runtime: str,
+                     travel: str = "declared") -> int | None:
     for _attempt in range(2):
         with tempfile.TemporaryDirectory() as tmp:
             cmd = [TPUAF, "run", "--map", map_ref, "--robots", str(n), "--duration",
-                   str(duration), "--seed", "0", "--out", f"{tmp}/ref"]
+                   str(duration), "--seed", "0", "--travel", travel, "--out", f"{tmp}/ref"]
             if runtime != "graph":
                 cmd += ["--runtime", runtime]
             proc = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, cwd=REPO)
@@ -179,6 +180,8 @@ def main() -> int:
             for n in ns:
                 wait_for_workspace()
                 ref_visits = reference_visits(ref, n, args.duration, runtime)
+                # The promise: the graph runtime on lengths a robot can drive.
+                graph_visits = reference_visits(ref, n, args.duration, "graph", "planned")
                 for load in loads:
                     wait_for_workspace()
                     hog = start_hog() if load == "hog" else []
@@ -188,8 +191,9 @@ def main() -> int:
                     finally:
                         stop_hog(hog)
                     r.update(map=name, n=n, load=load, loadavg=la, ref_visits=ref_visits,
-                             reference=runtime, started=started,
-                             health=r["visits"] / ref_visits if ref_visits else None)
+                             reference=runtime, started=started, graph_visits=graph_visits,
+                             health=r["visits"] / ref_visits if ref_visits else None,
+                             health_graph=r["visits"] / graph_visits if graph_visits else None)
                     rows.append(r)
                     print(json.dumps({k: v for k, v in r.items() if k != "tail" or not r["ok"]}),
                           flush=True)
@@ -213,18 +217,24 @@ def main() -> int:
              f"`{runtime}` runtime visits (same map, N, seed)"
              + ("" if runtime == "physics" else "; the physics runtime was not available, so "
                 "the reference is the graph runtime (ideal motion, no physics)") + ". "
+             "Health vs graph = fleet visits / graph runtime visits on planned path lengths "
+             "(`--travel planned`): what the patrol promises, against what the fleet delivers. "
              "Hog = 2 busy-loop processes (one per core) for the whole run.",
              "",
-             "| map | N | load | RTF | visits | ref visits | health | unresponsive | deaths | "
-             "agent CPU / tick | bag | load avg at start |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| map | N | load | RTF | visits | ref visits | health | graph visits | "
+             "health vs graph | unresponsive | deaths | agent CPU / tick | bag | "
+             "load avg at start |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         cpu = f"{r['agent_cpu_ms_per_tick']:.2f} ms" if r["agent_cpu_ms_per_tick"] else "-"
         bag = f"{r['bag_mb']:.1f} MB" if r["bag_mb"] else "-"
         rtf = f"{r['rtf']:.1f}x" if r["rtf"] else "failed"
         health = f"{r['health']:.3f}" if r["health"] is not None else "-"
+        hg = r.get("health_graph")
+        health_graph = f"{hg:.3f}" if hg is not None else "-"
         lines.append(f"| {r['map']} | {r['n']} | {r['load']} | {rtf} | {r['visits']} | "
-                     f"{r['ref_visits']} | {health} | {r['unresponsive']} | {r['deaths']} | "
+                     f"{r['ref_visits']} | {health} | {r.get('graph_visits', '-')} | "
+                     f"{health_graph} | {r['unresponsive']} | {r['deaths']} | "
                      f"{cpu} | {bag} | {r['loadavg']} |")
     lines += ["", f"Load average after: {uptime()}. The machine is shared with other "
               "developers: RTF moves with their load; health and visits should not (lock-step)."]
