@@ -58,8 +58,15 @@ def one(case: dict) -> dict:
     from tpuaf.runtimes.native import make_run
     from tpuaf.runtimes.physics import PhysicsRun
 
+    from dataclasses import replace
+
+    from tpuaf.runtimes.config import choose_robot
+
     pm = load_map(map_ref(case["map"]))
     n = pm.num_vertices
+    # The graph runtime drives at the robot's speed (a Burger is capped at 0.22 m/s).
+    speed = choose_robot(case["robot"], pm.settings).speed_mps
+    graph_map = replace(pm, settings=replace(pm.settings, nominal_speed=speed))
     common = dict(map=map_ref(case["map"]), strategy=case["strategy"], robots=case["robots"],
                   duration_s=case["duration"], seed=case["seed"])
     out = dict(case)
@@ -69,7 +76,7 @@ def one(case: dict) -> dict:
 
         base = RunConfig(**{k: getattr(cfg, k) for k in RunConfig.__dataclass_fields__})
         try:
-            run, _ = make_run(base, pm)
+            run, _ = make_run(base, graph_map)
             s = run.run()
         except Exception as err:  # a map whose edges cannot be driven: say so in the table
             out[label] = {"error": str(err)}
@@ -156,8 +163,9 @@ def main() -> int:
     text += (f"{len(cases)} cases, {args.duration:g} s each, seed {args.seed}; wall {wall:.0f} s "
              f"with {args.workers} workers; load average at the end {load[0]:.1f}.\n"
              "Ratios are physics / graph runtime on planned path lengths (declared lengths "
-             "where planning fails). Robot `auto` is the map's preset (as `tpuaf fleet`), "
-             "`burger` a TurtleBot3 Burger (0.22 m/s). Command: `.venv/bin/python "
+             "where planning fails), the graph runtime driving at the robot's speed. Robot "
+             "`auto` is the map's preset (as `tpuaf fleet`), `burger` a TurtleBot3 Burger "
+             "(0.22 m/s, or the map's speed if slower). Command: `.venv/bin/python "
              "benchmarks/bench_fidelity.py`.\n\n")
     text += table(results)
     if not args.quick:
