@@ -53,14 +53,12 @@ def worst_wait_after_first_visit(recorder, end_s: float, n_vertices: int) -> flo
 
 
 def one(case: dict) -> dict:
-    from tpuaf.maps import load_map
-    from tpuaf.runtimes.config import PhysicsConfig
-    from tpuaf.runtimes.native import make_run
-    from tpuaf.runtimes.physics import PhysicsRun
-
     from dataclasses import replace
 
-    from tpuaf.runtimes.config import choose_robot
+    from tpuaf.maps import load_map
+    from tpuaf.runtimes.config import PhysicsConfig, choose_robot
+    from tpuaf.runtimes.native import make_run
+    from tpuaf.runtimes.physics import PhysicsRun
 
     pm = load_map(map_ref(case["map"]))
     n = pm.num_vertices
