@@ -205,3 +205,24 @@ def test_compare_stops_on_sigterm_keeping_finished_runs(tmp_path):
     assert 2 <= len(finished) < 100
     for summary in finished:
         assert json.loads(summary.read_text())  # whole files only (written atomically)
+
+
+@pytest.mark.parametrize("package", ["tqdm", "rosbags"])
+def test_a_missing_pypi_package_is_one_line_naming_it_and_its_install_command(tmp_path, package):
+    """A catkin devel or install space run by /usr/bin/python3 may lack the PyPI packages: the
+    command says which one and how to install it, in one line, exit 2 (issue 20)."""
+    fake = tmp_path / "fake" / package
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text(
+        f"raise ModuleNotFoundError(\"No module named '{package}'\", name='{package}')\n")
+    env = dict(os.environ, PYTHONPATH=f"{tmp_path / 'fake'}:{os.environ.get('PYTHONPATH', '')}")
+    command = (["run", "--map", "grid", "--robots", "2", "--duration", "30"] if package == "tqdm"
+               else ["analyze", str(tmp_path / "x.bag"), "--map", "grid"])
+    (tmp_path / "x.bag").write_bytes(b"#ROSBAG V2.0\n")
+    script = REPO / "src" / "tpuaf_ros" / "scripts" / "tpuaf"  # the installed `tpuaf` command
+    proc = subprocess.run([sys.executable, str(script), *command], capture_output=True,
+                          text=True, env=env, cwd=tmp_path, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    errors = [line for line in proc.stderr.splitlines() if "error:" in line]
+    assert len(errors) == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert f"'{package}' is missing" in errors[0] and "pip install" in errors[0], errors[0]

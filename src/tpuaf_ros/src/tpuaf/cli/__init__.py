@@ -46,7 +46,39 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# Python packages that come from PyPI (requirements.txt), not from Debian's ROS packages: the
+# import name -> the pip requirement. A catkin devel or install space run by /usr/bin/python3
+# may lack them.
+PYPI_PACKAGES = {"rosbags": "rosbags==0.11.9", "tqdm": "tqdm==4.70.1",
+                 "dask": "dask[distributed]==2026.8.0", "distributed": "dask[distributed]==2026.8.0",
+                 "matplotlib": "matplotlib==3.8.4", "PIL": "pillow"}
+
+
+def missing_package_line(err: ModuleNotFoundError) -> str | None:
+    """One line naming a missing PyPI package and the command that installs it, or None."""
+    top = (err.name or "").split(".")[0]
+    if top not in PYPI_PACKAGES:
+        return None
+    return (f"the Python package '{top}' is missing for {sys.executable}: install it with "
+            f"`{sys.executable} -m pip install '{PYPI_PACKAGES[top]}'` (or run "
+            f"`bash launch_scripts/setup.sh` and use .venv/bin/tpuaf, which has every "
+            f"dependency of requirements.txt)")
+
+
 def main(argv: list[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except ModuleNotFoundError as err:
+        line = missing_package_line(err)
+        if line is None:
+            raise
+        command = next((a for a in (argv if argv is not None else sys.argv[1:])
+                        if not a.startswith("-")), "")
+        print(f"tpuaf{' ' + command if command else ''}: error: {line}", file=sys.stderr)
+        return 2
+
+
+def _main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "_handler", None):
