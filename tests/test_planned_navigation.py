@@ -15,7 +15,7 @@ import pytest
 import tpuaf_core
 from tpuaf.errors import MapError
 from tpuaf.maps import START_CLEARANCE_M, START_SEARCH_M, load_map, start_poses, start_vertices
-from tpuaf.navigation import Event, GraphRoute, LocalController, Navigator
+from tpuaf.navigation import ControllerConfig, Event, GraphRoute, LocalController, Navigator
 from tpuaf.navigation.planner import PathPlanner, PlannerConfig, with_planned_lengths
 from tpuaf.policies import REGISTRY
 from tpuaf.robot.machine import STAY_S
@@ -443,3 +443,50 @@ def test_maps_blocked_edge_at_an_accepted_occupied_vertex_is_a_warning(tmp_path,
     # A door too narrow is an error with the flag too.
     assert main(["maps", "--allow-occupied-vertices", str(narrow_door_map)]) == 2
     assert "error (narrow): edge 10-20" in capsys.readouterr().err
+
+
+class CorridorMap:
+    """Stands in for the costmap: walls along y = +-0.3 m (mapped), open space elsewhere."""
+
+    @staticmethod
+    def distance_to_obstacle(x, y):
+        return max(0.0, 0.3 - abs(y))
+
+
+class Recording(FixedPaths):
+    costmap = CorridorMap()
+
+    def plan(self, start_xy, goal_xy, obstacles=None):
+        self.plan_calls.append((tuple(start_xy), tuple(goal_xy),
+                                None if obstacles is None else np.asarray(obstacles)))
+        return np.array([start_xy, (1.0, 2.0), goal_xy])  # a detour by another corridor
+
+
+def test_a_robot_held_still_by_another_replans_round_it_after_its_staggered_wait():
+    """Head-on in a corridor (the other robot 0.35 m ahead, walls beside): the robot stops,
+    and after yield_after_s (1 s + its staggered retry wait) replans with the unmapped points
+    (the other robot), not the mapped walls, as obstacles, long before it would be stuck."""
+    fake = Recording({(0, 1): [(0, 0), (4, 0)]})
+    config = ControllerConfig(max_linear_speed=0.22, robot_radius=0.105, retry_wait_s=1.5)
+    nav = Navigator(LocalController(config), planner=fake)
+    assert nav.yield_after_s == pytest.approx(2.5)
+    nav.set_route(line_route(), 0.0)
+    ys = np.linspace(-0.28, 0.28, 15)
+    other = np.column_stack((np.full_like(ys, 0.35), ys))  # the other robot's front
+    walls = np.array([(x, s * 0.29) for x in np.linspace(-0.5, 1.0, 16) for s in (-1, 1)])
+    points = np.vstack((other, walls))
+    yielded_at = None
+    for k in range(60):
+        t = 0.1 * k
+        cmd, event, _ = nav.step(t, (0.0, 0.0, 0.0), points)
+        assert event == Event.NONE
+        assert abs(cmd.v) < 0.03  # held still: it never drives into the other robot
+        if nav.yields and yielded_at is None:
+            yielded_at = t
+    assert yielded_at is not None and 2.5 <= yielded_at <= 3.0, yielded_at
+    assert nav.controller.retries == 0  # not stuck: it gave way before the stuck timeout
+    obstacles = [c[2] for c in fake.plan_calls if c[2] is not None]
+    assert obstacles, fake.plan_calls
+    # The other robot's points, not the walls beside the robot.
+    assert all(abs(y) < 0.29 for _, y, _ in obstacles[0])
+    assert nav.corners[0] == pytest.approx((1.0, 2.0))  # on its detour

@@ -48,7 +48,12 @@ class Navigator:
         self._leg_from: int | None = None  # vertex the leg starts at (edge path cache)
         self._plan_pending = False
         self._retries_seen = 0
-        self.replans = 0  # legs replanned after a recovery
+        self.replans = 0  # legs replanned (after a recovery, or to give way)
+        self.yields = 0  # replans round a robot (or unmapped obstacle) that held us still
+        self._blocked_since: float | None = None
+        # [s] held still this long by an unmapped obstacle ahead: replan round it (1.5-3 s,
+        # staggered with the controller's retry wait)
+        self.yield_after_s = 1.0 + controller.config.retry_wait_s
         self.unplanned_legs = 0  # legs without a path (driven straight)
 
     def set_route(self, route: GraphRoute, t: float) -> None:
@@ -92,8 +97,10 @@ class Navigator:
         self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
 
     def _plan_leg(self, t: float, pose: tuple[float, float, float],
-                  points: np.ndarray | None = None) -> None:
-        """The corners from the pose to the next vertex of the route."""
+                  points: np.ndarray | None = None, keep_obstacles: bool = False) -> None:
+        """The corners from the pose to the next vertex of the route. `points`: map-frame
+        laser points, temporary obstacles (only those the map does not explain, unless
+        `keep_obstacles`: already filtered)."""
         self._plan_pending = False
         route = self.route
         goal = route.next_waypoint
@@ -106,7 +113,7 @@ class Navigator:
             if math.hypot(x - p[0], y - p[1]) <= self.waypoint_tolerance:
                 path = self.planner.edge_path(u, goal)
         if path is None:
-            obstacles = _obstacle_discs(self._unmapped(points))
+            obstacles = _obstacle_discs(points if keep_obstacles else self._unmapped(points))
             path = self.planner.plan((x, y), target, obstacles)
             if path is None and obstacles is not None:
                 path = self.planner.plan((x, y), target)
@@ -130,6 +137,32 @@ class Navigator:
         keep = [distance(float(x), float(y)) > UNMAPPED_DISTANCE_M for x, y in map_points]
         return map_points[np.asarray(keep, dtype=bool)] if any(keep) else None
 
+    def _watch_blocked(self, t: float, pose: tuple[float, float, float],
+                       points: np.ndarray | None, cmd: Command) -> None:
+        """The right of way between robots: a robot held still for `yield_after_s` (staggered
+        by its retry wait, so that of two robots face to face one acts first) by something
+        the map does not explain, ahead of it, replans round it (another corridor, if there
+        is one) without waiting to be stuck. The other then finds its way clear."""
+        if abs(cmd.v) >= BLOCKED_SPEED_MPS:
+            self._blocked_since = None
+            return
+        if self._blocked_since is None:
+            self._blocked_since = t
+            return
+        if t - self._blocked_since < self.yield_after_s:
+            return
+        self._blocked_since = t  # at most one such replan per yield_after_s
+        ahead = None
+        if points is not None and len(points):
+            near = points[(points[:, 0] > 0.0)
+                          & (np.hypot(points[:, 0], points[:, 1]) <= BLOCKING_RANGE_M)]
+            ahead = self._unmapped(_map_points(pose, near))
+        if ahead is None:
+            return
+        self.yields += 1
+        self.replans += 1
+        self._plan_leg(t, pose, ahead, keep_obstacles=True)
+
     def step(self, t: float, pose: tuple[float, float, float],
              points: np.ndarray | None) -> tuple[Command, Event, int]:
         route = self.route
@@ -149,6 +182,8 @@ class Navigator:
             goal = route.goal
             self.cancel()
             return cmd, Event.FAILED, goal
+        if self.planner is not None and cmd.status == Status.DRIVING:
+            self._watch_blocked(t, pose, points, cmd)
         for _ in range(len(self._corners)):
             if cmd.status != Status.REACHED or not self._corners:
                 break
@@ -175,6 +210,8 @@ class Navigator:
 OBSTACLE_RADIUS_M = 0.05  # [m] of one laser point as a temporary obstacle of a replan
 OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a replan
 UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
+BLOCKED_SPEED_MPS = 0.03  # [m/s] slower than this, the robot is held still
+BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
 
 
 def _map_points(pose: tuple[float, float, float], points: np.ndarray | None):
