@@ -531,3 +531,23 @@ def test_a_list_as_edge_vertex_is_an_unknown_vertex(tmp_path):
     assert "  - [13, 14]" in text
     path.write_text(text.replace("  - [13, 14]", "  - [[], 14]", 1))
     assert re.search(r"graph\.yaml:\d+: edge \[\]-14 names unknown vertex \[\]$", error_of(folder))
+
+
+@pytest.mark.parametrize("argv, path", [
+    (["maps", "./nope"], "./nope"),
+    (["run", "--map", "/tmp/nope-xyz", "--duration", "5", "--quiet"], "/tmp/nope-xyz"),
+], ids=["maps-relative", "run-absolute"])
+def test_a_missing_map_path_is_no_such_map_folder(capsys, argv, path):
+    """A map argument that is a path (has '/', starts with '.' or '~') and does not exist is
+    "no such map folder PATH", not "unknown map"; a bare name stays an unknown map."""
+    from tpuaf.cli import main
+
+    assert not Path(path).exists()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].endswith(f"no such map folder {path}"), err
+    assert "unknown map" not in err
+    with pytest.raises(MapError, match="^unknown map 'nope'"):
+        load_map("nope")

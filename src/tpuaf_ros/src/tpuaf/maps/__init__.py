@@ -61,6 +61,8 @@ def load_map(name_or_path: str | Path, allow_occupied_vertices: bool = False) ->
                 f"{path}: not a map (expected a folder with map.yaml, a patrolling_sim folder "
                 "with a .graph file, or a .graph file)"
             )
+        elif "/" in text or text.startswith((".", "~")):  # meant as a path, not a name
+            raise MapError(f"no such map folder {text}")
         else:
             raise MapError(
                 f"unknown map '{text}': built-in maps are {', '.join(builtin_map_names())}; "

@@ -39,7 +39,7 @@ from tpuaf.navigation.planner import PathPlanner
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
 from tpuaf.ros import convert
-from tpuaf.ros.node import private_params, run_node, yaw_of
+from tpuaf.ros.node import fatal, private_params, run_node, yaw_of
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.team.inbox import InboxConfig, TeamInbox
 from tpuaf.team.liveness import InputWatchdog, TeammateLiveness
@@ -540,8 +540,7 @@ def main():
         patrol_map = load_map(p.map)
         node = AgentNode(p, patrol_map, sim)
     except (NodeParamError, MapError, ParameterError, KeyError) as err:
-        rospy.logfatal(f"{rospy.get_name()}: {err}")
-        return 2
+        return fatal(err)
     rospy.loginfo(f"{rospy.get_name()}: {p.strategy} robot {p.robot_index}/{p.robots} on "
                   f"{patrol_map.name}, localisation {node.pose_input}, navigation "
                   f"{p.navigation}, {'sim time' if sim else 'wall clock'}, epoch "

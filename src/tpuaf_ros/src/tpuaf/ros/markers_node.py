@@ -27,7 +27,7 @@ from tpuaf.maps import load_map
 from tpuaf.measure.markers import MODES, Marker, PatrolView
 from tpuaf.measure.poses import POSE_SOURCES, feed_chains, robot_chains
 from tpuaf.params import NodeParamError, parse, req
-from tpuaf.ros.node import private_params, run_node, yaw_of
+from tpuaf.ros.node import fatal, private_params, run_node, yaw_of
 from tpuaf.team import messages
 from tpuaf.topics import AMCL_POSE, EVENTS_TOPIC, GOAL, GROUND_TRUTH, ODOM, REACHED, team_topic
 from tpuaf_ros.msg import AgentEvent, Intention, Visit
@@ -170,20 +170,19 @@ def main():
     try:
         p = parse(MarkersParams, private_params(), rospy.get_name())
         if p.pose_source not in POSE_SOURCES:
-            raise NodeParamError(f"{rospy.get_name()}: ~pose_source must be one of "
+            raise NodeParamError("~pose_source must be one of "
                                  f"{', '.join(POSE_SOURCES)}, got {p.pose_source!r}")
         if p.color_by not in MODES:
-            raise NodeParamError(f"{rospy.get_name()}: ~color_by must be one of "
+            raise NodeParamError("~color_by must be one of "
                                  f"{', '.join(MODES)}, got {p.color_by!r}")
         if p.robots < 1 or not p.rate > 0 or p.idleness_scale < 0:
-            raise NodeParamError(f"{rospy.get_name()}: ~robots >= 1, ~rate > 0 and "
+            raise NodeParamError("~robots >= 1, ~rate > 0 and "
                                  f"~idleness_scale >= 0 needed, got {p.robots}, {p.rate:g}, "
                                  f"{p.idleness_scale:g}")
         patrol_map = load_map(p.map)
         MarkersNode(p, patrol_map)
     except (NodeParamError, MapError, OSError) as err:
-        rospy.logfatal(f"{rospy.get_name()}: {err}")
-        return 2
+        return fatal(err)
     rospy.spin()
     return 0
 

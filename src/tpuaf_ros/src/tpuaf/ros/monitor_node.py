@@ -30,7 +30,7 @@ from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from tpuaf.params import MonitorParams, NodeParamError, parse
 from tpuaf.ros import convert
-from tpuaf.ros.node import private_params, run_node
+from tpuaf.ros.node import fatal, private_params, run_node
 from tpuaf.team import messages
 from tpuaf.topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
 from tpuaf_ros.msg import AgentEvent, Intention, LiveMetrics
@@ -213,17 +213,16 @@ def main():
     try:
         p = parse(MonitorParams, private_params(), rospy.get_name())
         if p.pose_source not in POSE_SOURCES:
-            raise NodeParamError(f"{rospy.get_name()}: ~pose_source must be one of "
+            raise NodeParamError("~pose_source must be one of "
                                  f"{', '.join(POSE_SOURCES)}, got {p.pose_source!r}")
         if p.robots < 1 or not p.duration > 0 or not p.death_timeout > 0:
-            raise NodeParamError(f"{rospy.get_name()}: ~robots >= 1, ~duration > 0 and "
+            raise NodeParamError("~robots >= 1, ~duration > 0 and "
                                  f"~death_timeout > 0 needed, got {p.robots}, {p.duration:g}, "
                                  f"{p.death_timeout:g}")
         patrol_map = load_map(p.map)
         node = MonitorNode(p, patrol_map)
     except (NodeParamError, MapError, OSError, yaml.YAMLError) as err:
-        rospy.logfatal(f"{rospy.get_name()}: {err}")
-        return 2
+        return fatal(err)
     rospy.on_shutdown(lambda: node.finish(interrupted=True))
     rospy.spin()
     return 0

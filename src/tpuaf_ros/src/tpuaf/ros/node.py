@@ -27,6 +27,21 @@ def yaw_of(q) -> float:
     return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
+def fatal(err: BaseException | str) -> int:
+    """Log `err` as this node's one-line fatal error, naming the node once; returns exit code 2.
+
+    Some messages name the node already (tpuaf.params.parse: "<node>: ~x must be ..."), most do
+    not (MapError, the nodes' own checks): the node's name is added only when it is not there."""
+    import rospy
+
+    name = rospy.get_name()
+    text = " ".join(str(err).split())  # one line
+    if not text.startswith(f"{name}: "):
+        text = f"{name}: {text}"
+    rospy.logfatal(text)
+    return 2
+
+
 def run_node(name: str, summary: str, params_class: type, main: Callable[[], int]) -> int:
     """`--help` / `-h` prints the node's parameters (no master needed); otherwise `main()`."""
     argv = [a for a in sys.argv[1:] if not a.startswith("__") and ":=" not in a]

@@ -17,7 +17,7 @@ from rosgraph_msgs.msg import Clock
 
 from tpuaf.params import NodeParamError, parse, req
 from tpuaf.ros.convert import ros_types
-from tpuaf.ros.node import private_params, run_node
+from tpuaf.ros.node import fatal, private_params, run_node
 from tpuaf.team.relay import RelayModel
 from tpuaf.topics import CLOCK_TOPIC, DEFAULT_TEAM_NS, TEAM_TOPICS
 
@@ -87,8 +87,7 @@ def main() -> int:
             raise NodeParamError(f"~loss must be in [0, 1], got {p.loss}")
         node = RelayNode(p)
     except NodeParamError as err:
-        rospy.logfatal(f"{rospy.get_name()}: {err}")
-        return 2
+        return fatal(err)
     rospy.loginfo(f"{NODE}: {p.robots} agents, delay {p.delay} s, loss {p.loss}")
     rospy.spin()
     s = node.model.stats
