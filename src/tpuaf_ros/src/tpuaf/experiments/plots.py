@@ -1,35 +1,63 @@
 """Per-run figures of a results folder (batch or fleet): idleness over time, and each vertex's
-idleness drawn on the map image. Headless (Agg). Inputs: the folder's timeseries.csv,
-visits.csv and config.yaml (the map); outputs PNG files in the folder (or `out`).
+idleness drawn on the map image. Headless: matplotlib's object-oriented API on its own Agg
+canvas (no pyplot state). Inputs: the folder's timeseries.csv, visits.csv and config.yaml (the
+map); outputs PNG files in the folder (or `out`).
 
     tpuaf.experiments.plots.run_figures(folder)  ->  [idleness_over_time.png, vertex_idleness_map.png]
+
+The map under the vertices (occupancy image and graph edges) is one image and one line
+collection, prepared once per map content (`map_background`) and reused by every figure.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import math
+import warnings
+from collections import OrderedDict
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
 
 from tpuaf.files import atomic_file, atomic_path
 
+_YAML_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # config.yaml: libyaml if present
 
-def headless_pyplot():
-    """matplotlib.pyplot on the headless Agg backend. Debian's mpl_toolkits beside the venv's
-    matplotlib makes it warn about 3-D axes; no figure here uses them."""
-    import warnings
 
-    import matplotlib
-
-    matplotlib.use("Agg")
+@contextmanager
+def _quiet_matplotlib_imports():
+    """Debian's mpl_toolkits beside the venv's matplotlib makes it warn about 3-D axes; no
+    figure here uses them."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Unable to import Axes3D")
         warnings.filterwarnings("ignore", message="Importing matplotlib.tri.triangulation")
+        yield
+
+
+def headless_pyplot():
+    """matplotlib.pyplot on the headless Agg backend (for the report's figures)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    with _quiet_matplotlib_imports():
         import matplotlib.pyplot as plt
     return plt
+
+
+def new_figure(**kwargs: Any):
+    """A matplotlib Figure on its own Agg canvas: no pyplot, no global figure list (nothing to
+    close; the figure goes with its last reference)."""
+    with _quiet_matplotlib_imports():
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    fig = Figure(**kwargs)
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def _read_csv(path: Path) -> list[dict]:
@@ -37,20 +65,148 @@ def _read_csv(path: Path) -> list[dict]:
         return list(csv.DictReader(f))
 
 
+def _columns(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The named columns of a CSV file of numbers (ours: no quotes), as arrays of strings
+    ("" = empty cell; a missing column: an empty array)."""
+    with open(path, newline="") as f:
+        head = next(csv.reader(f), [])
+    out = {name: np.array([], dtype=str) for name in names}
+    present = [name for name in names if name in head]
+    if not present:
+        return out
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # loadtxt warns about a file without rows
+            table = np.loadtxt(path, delimiter=",", skiprows=1, dtype=str, comments=None,
+                               usecols=[head.index(name) for name in present], ndmin=2,
+                               encoding="utf-8")
+    except ValueError:  # rows of other lengths: the csv module, short rows padded
+        with open(path, newline="") as f:
+            rows = list(csv.reader(f))[1:]
+        width = len(head)
+        table = np.array([(row + [""] * width)[:width] for row in rows], dtype=str)
+        table = table.reshape(-1, width)[:, [head.index(name) for name in present]]
+    for k, name in enumerate(present):
+        out[name] = table[:, k]
+    return out
+
+
+def _floats(values: np.ndarray) -> np.ndarray:
+    """Numbers of a CSV column; NaN for empty cells."""
+    out = np.full(len(values), np.nan)
+    filled = values != ""
+    out[filled] = values[filled].astype(float)
+    return out
+
+
+def _config(folder: Path) -> Any:
+    return yaml.load((Path(folder) / "config.yaml").read_text(), Loader=_YAML_LOADER)
+
+
+def _mean_interval_idleness(folder: Path, n: int) -> np.ndarray:
+    """Each vertex's mean interval idleness [s] (visits.csv); NaN for a vertex without one."""
+    path = Path(folder) / "visits.csv"
+    cols = _columns(path, ("vertex_index", "interval_idleness_s"))
+    vertex, idleness = cols["vertex_index"], cols["interval_idleness_s"]
+    if len(vertex) != len(idleness):  # a column missing: no intervals
+        vertex = idleness = np.array([], dtype=str)
+    filled = idleness != ""
+    vertex = vertex[filled].astype(np.int64)
+    idleness = idleness[filled].astype(float)
+    if len(vertex) and not (0 <= vertex.min() and vertex.max() < n):
+        raise ValueError(f"{path}: vertex_index outside the map's 0..{n - 1}")
+    sums = np.bincount(vertex, weights=idleness, minlength=n)
+    counts = np.bincount(vertex, minlength=n)
+    return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+
+
+# ------------------------------------------------------------------------------- map background
+# The occupancy image of a large map has millions of cells (grid1000: 4,500 x 2,800 at 5 cm);
+# drawn at a few hundred pixels, imshow's 'nearest' keeps one cell per pixel. The background
+# keeps every k-th cell (the same nearest sampling, at least 2x finer than any figure here
+# draws it), so a figure resamples an image of ~1,500 cells a side instead of the whole grid.
+
+BACKGROUND_CELLS = 1500  # cells on the long side of a map background, at most
+_BACKGROUNDS: OrderedDict[bytes, MapBackground] = OrderedDict()
+_MAX_BACKGROUNDS = 8  # maps kept (a sweep worker draws a few maps over and over)
+
+
+@dataclass(frozen=True)
+class MapBackground:
+    """What every map figure draws under the vertices: the occupancy image (True =
+    occupied, subsampled), its extent [m] (x0, x1, y0, y1) and the edges' end points [m]."""
+
+    occupied: np.ndarray  # (rows, cols) bool, row 0 at y0
+    extent: tuple[float, float, float, float]
+    segments: np.ndarray  # (edges, 2, 2): [[xa, ya], [xb, yb]]
+
+
+def _map_key(positions: np.ndarray, edges: np.ndarray, occupied: np.ndarray,
+             extent: tuple[float, ...]) -> bytes:
+    h = hashlib.blake2b(digest_size=16)
+    for part in (positions, edges, np.packbits(occupied), np.asarray(extent, dtype=float),
+                 np.asarray(occupied.shape)):
+        h.update(np.ascontiguousarray(part).tobytes())
+    return h.digest()
+
+
+def map_background(pm) -> MapBackground:
+    """The background of map `pm`, shared by maps of equal content (positions, edges and the
+    subsampled image)."""
+    grid = pm.occupancy_grid()
+    x0, y0 = grid.origin
+    extent = (float(x0), float(x0 + grid.width * grid.resolution), float(y0),
+              float(y0 + grid.height * grid.resolution))
+    step = max(1, math.ceil(max(grid.occupied.shape) / BACKGROUND_CELLS))
+    occupied = np.ascontiguousarray(grid.occupied[::step, ::step], dtype=bool)
+    xy = np.asarray(pm.positions, dtype=float)
+    edges = np.array([(a, b) for a, b, *_ in pm.edges], dtype=np.int64).reshape(-1, 2)
+    key = _map_key(xy, edges, occupied, extent)
+    cached = _BACKGROUNDS.get(key)
+    if cached is not None:
+        _BACKGROUNDS.move_to_end(key)
+        return cached
+    background = MapBackground(occupied, extent, xy[edges] if len(edges) else
+                               np.zeros((0, 2, 2)))
+    _BACKGROUNDS[key] = background
+    while len(_BACKGROUNDS) > _MAX_BACKGROUNDS:
+        _BACKGROUNDS.popitem(last=False)
+    return background
+
+
+def _draw_map(ax, pm, *, occupied_gray: float = 0.3, edge_color: str = "0.75",
+              ticks: bool = False) -> None:
+    """The occupancy image (free = white, occupied = `occupied_gray`) and the graph's edges, in
+    map metres: one image and one line collection."""
+    from matplotlib.collections import LineCollection
+
+    bg = map_background(pm)
+    ax.imshow(np.where(bg.occupied, occupied_gray, 1.0), cmap="gray", vmin=0, vmax=1,
+              origin="lower", extent=bg.extent, interpolation="nearest")
+    ax.add_collection(LineCollection(bg.segments, colors=edge_color, linewidths=0.8, zorder=1))
+    ax.autoscale_view()  # as ax.plot did: the edges count in the limits
+    ax.set_aspect("equal")
+    if not ticks:
+        ax.set_xticks([])
+        ax.set_yticks([])
+
+
+# ------------------------------------------------------------------------------- run figures
+
+
 def idleness_over_time(folder: Path, out: Path | None = None) -> Path:
     """Instantaneous (mean over vertices) and worst idleness [s] against run time [s]."""
     folder = Path(folder)
-    rows = _read_csv(folder / "timeseries.csv")
-    if not rows:
+    cols = _columns(folder / "timeseries.csv", ("time_s", "idleness_ins_s", "worst_idleness_s"))
+    if not len(cols["time_s"]):
         raise ValueError(f"{folder / 'timeseries.csv'}: no rows")
-    t = np.array([float(r["time_s"]) for r in rows])
+    t = _floats(cols["time_s"])
     t = t - t[0]
-    ins = np.array([float(r["idleness_ins_s"]) for r in rows])
-    worst = np.array([float(r["worst_idleness_s"]) for r in rows])
-    plt = headless_pyplot()
-    fig, ax = plt.subplots(figsize=(8, 4))
-    ax.plot(t, ins, label="instantaneous idleness (mean over vertices)")
-    ax.plot(t, worst, label="worst idleness", alpha=0.8)
+    fig = new_figure(figsize=(8, 4))
+    ax = fig.subplots()
+    ax.plot(t, _floats(cols["idleness_ins_s"]),
+            label="instantaneous idleness (mean over vertices)")
+    ax.plot(t, _floats(cols["worst_idleness_s"]), label="worst idleness", alpha=0.8)
     ax.set_xlabel("run time [s]")
     ax.set_ylabel("idleness [s]")
     ax.set_title(_title(folder))
@@ -59,7 +215,6 @@ def idleness_over_time(folder: Path, out: Path | None = None) -> Path:
     path = Path(out or folder) / "idleness_over_time.png"
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
@@ -68,26 +223,12 @@ def vertex_idleness_on_map(folder: Path, out: Path | None = None) -> Path:
     from tpuaf.maps import load_map
 
     folder = Path(folder)
-    config = yaml.safe_load((folder / "config.yaml").read_text())
-    pm = load_map(config["map"])
-    n = len(pm.positions)
-    sums, counts = np.zeros(n), np.zeros(n)
-    for r in _read_csv(folder / "visits.csv"):
-        if r.get("interval_idleness_s"):
-            v = int(r["vertex_index"])
-            sums[v] += float(r["interval_idleness_s"])
-            counts[v] += 1
-    mean = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
-    plt = headless_pyplot()
+    pm = load_map(_config(folder)["map"])
+    mean = _mean_interval_idleness(folder, len(pm.positions))
     grid = pm.occupancy_grid()
-    x0, y0 = grid.origin
-    extent = (x0, x0 + grid.width * grid.resolution, y0, y0 + grid.height * grid.resolution)
-    fig, ax = plt.subplots(figsize=(8, 8 * grid.height / max(grid.width, 1) + 0.5))
-    ax.imshow(np.where(grid.occupied, 0.25, 1.0), cmap="gray", vmin=0, vmax=1, origin="lower",
-              extent=extent, interpolation="nearest")
-    for a, b, *_ in pm.edges:
-        pa, pb = pm.positions[a], pm.positions[b]
-        ax.plot([pa[0], pb[0]], [pa[1], pb[1]], color="0.7", lw=0.8, zorder=1)
+    fig = new_figure(figsize=(8, 8 * grid.height / max(grid.width, 1) + 0.5))
+    ax = fig.subplots()
+    _draw_map(ax, pm, occupied_gray=0.25, edge_color="0.7", ticks=True)
     xy = np.asarray(pm.positions)
     seen = ~np.isnan(mean)
     sc = ax.scatter(xy[seen, 0], xy[seen, 1], c=mean[seen], cmap="viridis", s=70, zorder=3,
@@ -101,17 +242,15 @@ def vertex_idleness_on_map(folder: Path, out: Path | None = None) -> Path:
     ax.set_title(_title(folder) + ": idleness per vertex")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_aspect("equal")
     path = Path(out or folder) / "vertex_idleness_map.png"
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
 def _title(folder: Path) -> str:
     try:
-        c = yaml.safe_load((Path(folder) / "config.yaml").read_text())
+        c = _config(folder)
         return f"{c.get('strategy', '?')} on {c.get('map_name', c.get('map', '?'))}, N = {c.get('robots', '?')}"
     except (OSError, yaml.YAMLError, AttributeError):
         return Path(folder).name
@@ -132,34 +271,9 @@ def _map_of(folder: Path, patrol_map=None):
         return patrol_map
     from tpuaf.maps import load_map
 
-    config = yaml.safe_load((Path(folder) / "config.yaml").read_text()) or {}
+    config = _config(folder) or {}
     source = config.get("map_source")
     return load_map(source if source and source != "built-in" else config["map"])
-
-
-def _draw_map(ax, pm) -> None:
-    """The occupancy image (free = white) and the graph's edges, in map metres."""
-    grid = pm.occupancy_grid()
-    x0, y0 = grid.origin
-    extent = (x0, x0 + grid.width * grid.resolution, y0, y0 + grid.height * grid.resolution)
-    ax.imshow(np.where(grid.occupied, 0.3, 1.0), cmap="gray", vmin=0, vmax=1, origin="lower",
-              extent=extent, interpolation="nearest")
-    for a, b, *_ in pm.edges:
-        pa, pb = pm.positions[a], pm.positions[b]
-        ax.plot([pa[0], pb[0]], [pa[1], pb[1]], color="0.75", lw=0.8, zorder=1)
-    ax.set_aspect("equal")
-    ax.set_xticks([])
-    ax.set_yticks([])
-
-
-def _mean_interval_idleness(folder: Path, n: int) -> np.ndarray:
-    sums, counts = np.zeros(n), np.zeros(n)
-    for r in _read_csv(Path(folder) / "visits.csv"):
-        if r.get("interval_idleness_s"):
-            v = int(r["vertex_index"])
-            sums[v] += float(r["interval_idleness_s"])
-            counts[v] += 1
-    return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
 
 
 def summary_png(folder: Path, patrol_map=None, summary: dict | None = None,
@@ -167,17 +281,17 @@ def summary_png(folder: Path, patrol_map=None, summary: dict | None = None,
     """summary.png of a results folder (timeseries.csv, visits.csv, config.yaml); atomic."""
     folder = Path(folder)
     pm = _map_of(folder, patrol_map)
-    rows = _read_csv(folder / "timeseries.csv")
-    plt = headless_pyplot()
-    fig, (ax_t, ax_m) = plt.subplots(1, 2, figsize=(9.5, 3.8),
-                                     gridspec_kw={"width_ratios": [1.3, 1.0]})
-    if rows:
-        t = np.array([float(r["time_s"]) for r in rows])
+    cols = _columns(folder / "timeseries.csv",
+                    ("time_s", "idleness_ins_s", "worst_idleness_s", "uncertainty_mean"))
+    fig = new_figure(figsize=(9.5, 3.8))
+    ax_t, ax_m = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.3, 1.0]})
+    if len(cols["time_s"]):
+        t = _floats(cols["time_s"])
         t = t - t[0] + (t[1] - t[0] if len(t) > 1 else 0.0)
-        ax_t.plot(t, [float(r["idleness_ins_s"]) for r in rows], lw=1, label="I_ins (mean)")
-        ax_t.plot(t, [float(r["worst_idleness_s"]) for r in rows], lw=1, label="worst")
-        x = np.array([float(r["uncertainty_mean"]) if r.get("uncertainty_mean") else np.nan
-                      for r in rows])
+        ax_t.plot(t, _floats(cols["idleness_ins_s"]), lw=1, label="I_ins (mean)")
+        ax_t.plot(t, _floats(cols["worst_idleness_s"]), lw=1, label="worst")
+        x = _floats(cols["uncertainty_mean"]) if len(cols["uncertainty_mean"]) else \
+            np.full(len(t), np.nan)
         if np.isfinite(x).any():
             ax_x = ax_t.twinx()
             ax_x.plot(t, x, lw=0.8, color="tab:green", alpha=0.7, label="X (mean)")
@@ -212,7 +326,6 @@ def summary_png(folder: Path, patrol_map=None, summary: dict | None = None,
     path = Path(path or folder / "summary.png")
     with atomic_file(path) as f:
         fig.savefig(f, dpi=80, format="png")
-    plt.close(fig)
     return path
 
 
@@ -405,10 +518,10 @@ def render(folder: Path, out: Path | None = None, *, frames: int | None = None,
         clabel = "X (ground truth)"
         vmax = None
 
-    plt = headless_pyplot()
     grid = pm.occupancy_grid()
     aspect = grid.height / max(grid.width, 1)
-    fig, ax = plt.subplots(figsize=(6.0, max(2.5, 4.8 * aspect) + 0.4))
+    fig = new_figure(figsize=(6.0, max(2.5, 4.8 * aspect) + 0.4))
+    ax = fig.subplots()
     _draw_map(ax, pm)
     size = max(12.0, min(70.0, 3000.0 / max(nv, 1)))
     verts = ax.scatter(xy[:, 0], xy[:, 1], c=np.zeros(nv), cmap="inferno_r", vmin=0,
@@ -463,7 +576,6 @@ def render(folder: Path, out: Path | None = None, *, frames: int | None = None,
         from matplotlib import animation
 
         if not shutil.which("ffmpeg"):
-            plt.close(fig)
             raise ValueError("an .mp4 needs ffmpeg on the PATH; write a .gif instead")
         writer = animation.FFMpegWriter(fps=fps)
         with atomic_path(out, out.suffix) as tmp:  # ffmpeg picks the format by the name
@@ -473,7 +585,6 @@ def render(folder: Path, out: Path | None = None, *, frames: int | None = None,
                     prev_p = _without_dead(p, deaths, float(t))
                     prev_t = float(t)
                     writer.grab_frame()
-            plt.close(fig)
         return out, len(times)
     from PIL import Image
 
@@ -482,7 +593,6 @@ def render(folder: Path, out: Path | None = None, *, frames: int | None = None,
         prev_p = _without_dead(p, deaths, float(t))
         prev_t = float(t)
         images.append(Image.fromarray(rgb).quantize(colors=128, method=Image.Quantize.MEDIANCUT))
-    plt.close(fig)
     with atomic_file(out) as f:
         images[0].save(f, format="GIF", save_all=True, append_images=images[1:],
                        duration=max(20, int(round(1000.0 / fps))), loop=0, optimize=False,

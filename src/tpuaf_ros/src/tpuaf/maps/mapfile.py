@@ -16,7 +16,9 @@ graph.yaml:
       - [0, 1]                                          # length = Euclidean
       - [1, 2, 6.0]                                     # length [m]
 
-Unknown keys are refused; every error names the file and line.
+Unknown keys are refused; every error names the file and line. The files are parsed by libyaml
+(`yamlfile.read_yaml_fast`, no lines); on any problem the folder is read again with the
+line-tracking parser, whose documents hold the same data, for the message naming the line.
 """
 
 from __future__ import annotations
@@ -42,6 +44,11 @@ def read_yaml(path: Path) -> Any:
     return yamlfile.read_yaml(path, MapError)
 
 
+def _read(path: Path, fast: bool) -> Any:
+    """`read_yaml`, or with `fast` libyaml's parse without lines (MapError on any doubt)."""
+    return yamlfile.read_yaml_fast(path, MapError) if fast else read_yaml(path)
+
+
 def _at(path: Path, node: Any) -> str:
     return yamlfile.where(path, node)
 
@@ -58,6 +65,8 @@ def _num(path: Path, node: Any, key: str, value: Any, *, minimum: float | None =
 
 
 def _check_keys(path: Path, node: Any, allowed: set[str], what: str) -> None:
+    if isinstance(node, dict) and node.keys() <= allowed:
+        return  # the common case, without formatting a location
     yamlfile.check_keys(node, allowed, what, _at(path, node), MapError)
 
 
@@ -113,13 +122,16 @@ def _parse_settings(path: Path, node: Any) -> MapSettings:
     return s
 
 
-def parse_graph_yaml(path: Path, settings: MapSettings) -> dict:
-    doc = read_yaml(path)
+def parse_graph_yaml(path: Path, settings: MapSettings, *, fast: bool = False) -> dict:
+    """The graph file's vertices and edges, checked. `fast`: parsed by libyaml without lines
+    (a MapError without the line: see load_map_folder)."""
+    doc = _read(path, fast)
     _check_keys(path, doc, {"vertices", "edges"}, "graph file")
     verts = doc.get("vertices")
     if not isinstance(verts, list) or not verts:
         raise MapError(f"{_at(path, doc)}: 'vertices' must be a non-empty list")
     ids: list[int] = []
+    id_set: set[int] = set()
     pos: list[tuple[float, float]] = []
     imp: list[float] = []
     x0: list[float] = []
@@ -131,9 +143,10 @@ def parse_graph_yaml(path: Path, settings: MapSettings) -> dict:
         vid = v["id"]
         if isinstance(vid, bool) or not isinstance(vid, int):
             raise MapError(f"{_at(path, v)}: vertex id must be an integer, got {vid!r}")
-        if vid in ids:
+        if vid in id_set:
             raise MapError(f"{_at(path, v)}: duplicate vertex id {vid}")
         ids.append(vid)
+        id_set.add(vid)
         pos.append((_num(path, v, "x", v["x"]), _num(path, v, "y", v["y"])))
         imp.append(_num(path, v, "importance", v.get("importance", settings.default_importance),
                         minimum=0.0))
@@ -159,7 +172,7 @@ def parse_graph_yaml(path: Path, settings: MapSettings) -> dict:
         key = (min(index[u], index[w]), max(index[u], index[w]))
         if key in seen:
             raise MapError(f"{_at(path, e)}: edge {u}-{w} repeats the edge of line {seen[key]}")
-        seen[key] = e.line
+        seen[key] = yamlfile.line_of(e)
         length = math.nan
         if len(e) == 3:
             length = _num(path, e, "length", e[2], positive=True)
@@ -169,12 +182,23 @@ def parse_graph_yaml(path: Path, settings: MapSettings) -> dict:
 
 
 def load_map_folder(folder: str | Path) -> PatrolMap:
-    """Load one of our map folders (with map.yaml)."""
+    """Load one of our map folders (with map.yaml). Parsed by libyaml first; on any MapError
+    the folder is read again with the line-tracking parser: the same checks on the same data
+    then raise the message naming the file and line (or accept a text libyaml doubted)."""
     folder = Path(folder)
+    if yamlfile.HAS_LIBYAML:
+        try:
+            return _load_map_folder(folder, fast=True)
+        except MapError:
+            pass  # the line-tracking parse below names the file and line (or decides a doubt)
+    return _load_map_folder(folder, fast=False)
+
+
+def _load_map_folder(folder: Path, fast: bool) -> PatrolMap:
     path = folder / "map.yaml"
     if not path.is_file():
         raise MapError(f"{folder}: no map.yaml (not a tpuaf map folder)")
-    doc = read_yaml(path)
+    doc = _read(path, fast)
     _check_keys(path, doc, MAP_KEYS, "map.yaml")
     name = doc.get("name")
     if not isinstance(name, str) or not name:
@@ -184,7 +208,7 @@ def load_map_folder(folder: str | Path) -> PatrolMap:
     graph_path = folder / str(graph_name)
     if not graph_path.is_file():
         raise MapError(f"{_at(path, doc)}: graph file '{graph_name}' not found in {folder}")
-    g = parse_graph_yaml(graph_path, settings)
+    g = parse_graph_yaml(graph_path, settings, fast=fast)
     occupancy = None
     if doc.get("occupancy") is not None:
         occ_path = folder / str(doc["occupancy"])
