@@ -11,4 +11,15 @@ export ROS_HOME="${ROS_HOME:-$ROOT/build/ros_home}" ROS_IP=127.0.0.1
 .venv/bin/python -m ruff check src tests benchmarks
 # C++ unit tests of the core (gtest through ctest).
 ctest --test-dir build --output-on-failure
-exec .venv/bin/python -m pytest "$@"
+# pytest on parallel workers (pytest-xdist): on 2 cores about half of the time is ROS tests waiting
+# on the wall clock, so more workers than cores. --dist loadfile: a test file runs on one worker
+# (module fixtures computed once, a file's fleets one after another), files in collection order
+# (tests/ros first: the long wall-clock tests start at once). Not loadgroup: with pytest 9.2,
+# xdist 3.8 ignores xdist_group marks (pytest-dev/pytest-xdist#1386).
+# TPUAF_TEST_WORKERS=N sets the number; extra args come after ours (`-n 0`: no workers).
+# A background job inherits SIGINT ignored, which bash cannot undo: pytest and its workers get
+# SIGINT back at its default (KeyboardInterrupt), as in a terminal, before pytest starts.
+exec .venv/bin/python -c 'import os, signal, sys
+signal.signal(signal.SIGINT, signal.SIG_DFL)
+os.execv(sys.executable, [sys.executable, "-m", "pytest", *sys.argv[1:]])' \
+  -n "${TPUAF_TEST_WORKERS:-4}" --dist loadfile --no-loadscope-reorder "$@"

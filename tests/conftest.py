@@ -1,14 +1,23 @@
-"""Shared test fixtures: paths to the repository and to ../shared."""
+"""Shared test fixtures: paths to the repository and to ../shared; the Hypothesis profile."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 PATROLLING_SIM_MAPS = SHARED / "maps" / "patrolling_sim"
+
+# Fuzzers are deterministic: the same examples on every run and on every xdist worker (seeded
+# from each test's name), no example database in the tree (shared by parallel workers, and it
+# would replay old failures on one machine only). Loaded here, before the test modules build
+# their settings(...) objects, so these inherit it. HYPOTHESIS_PROFILE=default explores anew.
+settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 @pytest.fixture(scope="session")

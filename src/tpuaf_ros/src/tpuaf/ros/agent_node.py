@@ -146,6 +146,7 @@ class AgentNode:
         self.runtime.on_stuck = self.report_stuck
         # [m] laser points farther from the base than this cannot matter to the controller
         self.points_within_m = self.runtime.navigator.controller.reach_m
+        self.points_pose = None  # the pose [m, m, rad] the cached scan points were taken at
         if p.navigation == "move_base":
             from tpuaf.ros.move_base import MoveBaseClient
 
@@ -450,7 +451,9 @@ class AgentNode:
             pts = scan_points(Scan(s.ranges, s.angle_min, s.angle_increment, s.range_min,
                                    s.range_max), mount, self.p.scan_beams, self.points_within_m)
             self.points = pts
-        v, w = self.runtime.tick(self.run_time(stamp.to_sec()) if t is None else t, self.points)
+            self.points_pose = self.runtime.pose  # as the physics runtime: motion-compensated
+        v, w = self.runtime.tick(self.run_time(stamp.to_sec()) if t is None else t, self.points,
+                                 self.points_pose if self.points is not None else None)
         if not self.drives:
             return
         self.twist.linear.x, self.twist.angular.z = v, w

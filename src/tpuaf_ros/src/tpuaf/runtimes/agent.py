@@ -132,6 +132,11 @@ class AgentRuntime:
         self._stay_vertex = int(vertex)
 
     @property
+    def pose(self) -> tuple[float, float, float] | None:
+        """The last localisation (x [m], y [m], yaw [rad]), map frame; None before any."""
+        return self._pose
+
+    @property
     def staying(self) -> bool:
         """Standing at a vertex until a stay ends (a dwell, or a goal already within tolerance)."""
         return self._stay_until is not None
