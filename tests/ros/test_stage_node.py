@@ -301,7 +301,10 @@ def on_odom(msg, i):
         pubs[i].publish(answer)
 for i in range(N):
     rospy.Subscriber(f"/robot_{i}/odom", Odometry, on_odom, callback_args=i, queue_size=10)
-time.sleep(3.0)
+deadline = time.monotonic() + 60.0  # a loaded machine: wait for the first /clock, not 3 s
+while not clock and time.monotonic() < deadline:
+    time.sleep(0.1)
+time.sleep(2.0)
 gate = sorted(set(clock))
 for i in range(N):
     pubs[i] = rospy.Publisher(f"/robot_{i}/cmd_vel_stamped", TwistStamped, queue_size=10)
