@@ -456,6 +456,9 @@ class CorridorMap:
 class Recording(FixedPaths):
     costmap = CorridorMap()
 
+    def distances_to_obstacle(self, points):
+        return np.array([self.costmap.distance_to_obstacle(x, y) for x, y in points])
+
     def plan(self, start_xy, goal_xy, obstacles=None):
         self.plan_calls.append((tuple(start_xy), tuple(goal_xy),
                                 None if obstacles is None else np.asarray(obstacles)))

@@ -133,9 +133,8 @@ class Navigator:
         UNMAPPED_DISTANCE_M from every mapped obstacle): other robots, unmapped obstacles."""
         if map_points is None or len(map_points) == 0:
             return None
-        distance = self.planner.costmap.distance_to_obstacle
-        keep = [distance(float(x), float(y)) > UNMAPPED_DISTANCE_M for x, y in map_points]
-        return map_points[np.asarray(keep, dtype=bool)] if any(keep) else None
+        keep = self.planner.distances_to_obstacle(map_points) > UNMAPPED_DISTANCE_M
+        return map_points[keep] if keep.any() else None
 
     def _watch_blocked(self, t: float, pose: tuple[float, float, float],
                        points: np.ndarray | None, cmd: Command) -> None:

@@ -84,8 +84,24 @@ class PathPlanner:
         options.snap_radius_m = c.snap_radius_m
         self._planner = tpuaf_core.GridPlanner(self.costmap, options)
         self._positions = np.asarray(patrol_map.positions, dtype=float)
+        # Map-grid distances to the nearest obstacle [m] (row 0 the bottom row), for vectorised
+        # lookups of many points (the laser's) without a call per point.
+        self._distances = np.asarray(self.costmap.map_distances(), dtype=float)
         self._edges: dict[tuple[int, int], np.ndarray | None] = {}
         self.plans = 0  # plans made (edges and on the fly)
+
+    def distances_to_obstacle(self, points: np.ndarray) -> np.ndarray:
+        """[m] from each map-frame point (k, 2) to the nearest mapped obstacle (0 outside the
+        map): the costmap's distance transform, looked up for all points at once."""
+        ox, oy = self.costmap.origin
+        res = self.costmap.map_resolution
+        cols = np.floor((points[:, 0] - ox) / res).astype(int)
+        rows = np.floor((points[:, 1] - oy) / res).astype(int)
+        h, w = self._distances.shape
+        inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
+        out = np.zeros(len(points))
+        out[inside] = self._distances[rows[inside], cols[inside]]
+        return out
 
     @property
     def inscribed_radius_m(self) -> float:
@@ -109,7 +125,8 @@ class PathPlanner:
     def check_edges(self) -> list[EdgeCheck]:
         """Every graph edge: declared length and planned length (one search per vertex)."""
         graph = self.patrol_map.graph
-        edges = [(int(u), int(v)) for u, v in _edges_of(graph)]
+        edges = sorted({(min(int(i), int(j)), max(int(i), int(j)))
+                        for i, j, _ in self.patrol_map.edges})
         if not edges:
             return []
         plans = self._planner.plan_edges(self._positions, np.asarray(edges, dtype=np.int32))
@@ -121,16 +138,6 @@ class PathPlanner:
             out.append(EdgeCheck(u, v, float(graph.edge_length(u, v)),
                                  float(plan.length_m) if plan.ok else math.inf))
         return out
-
-
-def _edges_of(graph: Any) -> list[tuple[int, int]]:
-    """(u, v) with u < v of every undirected edge of the core graph."""
-    out = []
-    for u in range(int(graph.num_vertices)):
-        for v in graph.neighbours(u):
-            if u < int(v):
-                out.append((u, int(v)))
-    return out
 
 
 # One planner per map object and footprint, shared by the robots of a run (edge cache included).
