@@ -181,13 +181,7 @@ def main() -> int:
                   f"{row['replan_len']:.1f} m, with obstacles {row['obst_ms']:.2f} ms "
                   f"{row['obst_status']}", flush=True)
     text = report(rows, load0, os.getloadavg(), args)
-    if args.out.resolve() == (RESULTS / "planner.md").resolve():
-        write("planner.md", text)
-    else:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text)
-        print(text)
-        print(f"written to {args.out}")
+    write(args.out.resolve(), text)
     return 0
 
 

@@ -25,6 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import write  # noqa: E402
+
 REPO = Path(__file__).resolve().parents[1]
 CUMBERLAND = Path("/work/shared/maps/patrolling_sim/cumberland")
 N_ROBOTS = 12
@@ -263,10 +266,7 @@ def main() -> int:
               f"raw subscribers {node['raw_median']:.1f}x, typed subscribers "
               f"{node['typed_median']:.1f}x", flush=True)
     text = report(laser, node, m, args)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(text)
-    print(text)
-    print(f"written to {args.out}")
+    write(args.out.resolve(), text)
     return 0
 
 

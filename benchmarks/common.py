@@ -47,9 +47,10 @@ def header(title: str) -> str:
     )
 
 
-def write(name: str, text: str) -> Path:
-    RESULTS.mkdir(parents=True, exist_ok=True)
+def write(name: str | Path, text: str) -> Path:
+    """Write `text` to RESULTS/name (or to `name` itself when it is a path), print both."""
     path = RESULTS / name
+    path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
     print(text)
     print(f"written to {path}")
