@@ -427,7 +427,8 @@ def _run_facts(folder: Path) -> dict:
 
         summary = json.loads((folder / "summary.json").read_text())
     rows = _read_csv(folder / "timeseries.csv")
-    start = float(summary.get("start_time_s") or 0.0)
+    # Run-time files (summary `time_base`) start at 0; older ones hold ROS time from start_time_s.
+    start = 0.0 if summary.get("time_base") else float(summary.get("start_time_s") or 0.0)
     if summary.get("duration_s") is not None:
         end = start + float(summary["duration_s"])
     elif rows:
