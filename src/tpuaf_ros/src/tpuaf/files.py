@@ -10,6 +10,11 @@ removed and the old NAME is left as it was.
     atomic_write_text(path, text)
     with atomic_file(path) as f: fig.savefig(f, format="png")   # or "w" for text (csv)
     with atomic_path(path, ".mp4") as tmp: ...                 # writers that need a file name
+    with open_fresh(path, "w", newline="") as f: ...            # a streamed file, created anew
+
+No write follows a symbolic link: temporary files are created with O_EXCL | O_NOFOLLOW, a
+rename replaces a link itself (never its target), and `open_fresh` removes whatever NAME was
+(a link included) before creating it.
 """
 
 from __future__ import annotations
@@ -51,6 +56,31 @@ def _temporary(path: Path, suffix: str) -> Iterator[Path]:
         raise
 
 
+_NEW_FILE_FLAGS = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
+
+
+def _create(path: Path, mode: str, encoding: str | None, newline: str | None) -> IO[Any]:
+    """A new file at `path` (any earlier entry of that name, a link included, is removed
+    first); never follows a link."""
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(path)
+    fd = os.open(path, _NEW_FILE_FLAGS, 0o644)
+    try:
+        return open(fd, mode, encoding=encoding, newline=newline)  # noqa: SIM115
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def open_fresh(path: str | Path, mode: str = "w", *, encoding: str | None = None,
+               newline: str | None = None) -> IO[Any]:
+    """`open(path, mode)` for a file written from scratch ("w" or "wb"), created anew: a link
+    (or anything else) at `path` is removed, not followed."""
+    if mode not in ("w", "wb"):
+        raise ValueError(f"open_fresh: mode '{mode}' (expected 'w' or 'wb')")
+    return _create(Path(path), mode, encoding, newline)
+
+
 def _commit(tmp: Path, path: Path) -> None:
     os.replace(tmp, path)
     _fsync_folder(path.parent)
@@ -65,7 +95,7 @@ def atomic_file(path: str | Path, mode: str = "wb", *, encoding: str | None = No
         raise ValueError(f"atomic_file: mode '{mode}' (expected 'w' or 'wb')")
     path = Path(path)
     with _temporary(path, "") as tmp:
-        with open(tmp, mode, encoding=encoding, newline=newline) as f:
+        with _create(tmp, mode, encoding, newline) as f:
             yield f
             f.flush()
             os.fsync(f.fileno())

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
 from pathlib import Path
 
@@ -75,13 +77,21 @@ def run(args: argparse.Namespace) -> int:
                          scenarios=scenarios)
     except SweepError as err:
         raise CliError(str(err)) from None
+    from tpuaf.experiments.results import ResultsError, lock_folder
+
     try:  # a sweep folder is resumed, so it may exist: only check that it can be written
         args.out.mkdir(parents=True, exist_ok=True)
         probe = args.out / ".tpuaf-write-test"
-        probe.write_bytes(b"")
+        with contextlib.suppress(FileNotFoundError):
+            probe.unlink()
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644))
         probe.unlink()
     except OSError as err:
         raise CliError(f"--out {args.out}: cannot write there: {err.strerror or err}") from None
+    try:
+        lock_folder(args.out)  # one sweep per folder: a second is refused
+    except ResultsError as err:
+        raise CliError(str(err)) from None
     total = len(spec.keys())
     print(f"sweep: {len(spec.maps)} maps ({', '.join(m.label for m in spec.maps)}) x "
           f"{len(spec.strategies)} strategies ({', '.join(spec.strategies)}) x "

@@ -50,6 +50,12 @@ from tpuaf.topics import METRICS_TOPIC
 LAUNCH = ("tpuaf_ros", "fleet.launch")  # found by roslaunch through the package
 PREFIX = "robot_"
 
+# What a fleet folder holds (the manifest: --overwrite removes these, nothing else); the
+# monitor's ResultsWriter adds its own files.
+FLEET_FILES = ("world.yaml", "strategy_params.yaml", "fleet_config.yaml", "fleet_timing.json",
+               "roslaunch.log", "run.bag", "run.bag.active", "simulator.json",
+               "world.resolved.yaml", "world.occupancy.pgm", "ros_home/")
+
 # --record NAMES: topic groups added to the bag (the default bag holds what analysis needs).
 RECORD_GROUPS = {
     "scans": r"/{p}[0-9]+/base_scan",
@@ -215,10 +221,12 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
         raise CliError(err.args[0]) from None
     robot = choose_robot(args.robot, patrol_map.settings)
     faults = fault_plan(args)
-    from tpuaf.experiments.results import prepare_out_dir
+    from tpuaf.experiments.results import prepare_out_dir, record_written
+    from tpuaf.files import atomic_write_text
 
     prepare_out_dir(args.out, overwrite=args.overwrite)  # a file, unwritable, earlier results
     out = args.out.expanduser().resolve()
+    record_written(out, *FLEET_FILES)
     map_ref = args.map if args.map in builtin_map_names() else str(Path(args.map).expanduser().resolve())
     world = {
         "patrol_map": map_ref,
@@ -229,7 +237,7 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
         "robots": int(args.robots),
     }
     world_file = out / "world.yaml"
-    world_file.write_text(yaml.safe_dump(world, sort_keys=False))
+    atomic_write_text(world_file, yaml.safe_dump(world, sort_keys=False))
     try:
         resolved = write_resolved(parse_world(world, world_file), out)
     except WorldError as err:
@@ -238,7 +246,7 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     strategy_file = ""
     if given:
         strategy_file = str(out / "strategy_params.yaml")
-        Path(strategy_file).write_text(yaml.safe_dump(given, sort_keys=False))
+        atomic_write_text(strategy_file, yaml.safe_dump(given, sort_keys=False))
     starts = start_vertices(patrol_map, args.robots)
     relay = args.delay > 0 or args.loss > 0
     config = {
@@ -265,7 +273,7 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
         "bag": None if args.no_record else str(out / "run.bag"),
         "record_regex": None if args.no_record else record_regex(args.record),
     }
-    (out / "fleet_config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    atomic_write_text(out / "fleet_config.yaml", yaml.safe_dump(config, sort_keys=False))
     stalls = ",".join(f"{f['robot']}@{f['time_s']:g}" for f in faults if f["kind"] == "stall")
     launch_args = [
         f"map:={map_ref}", f"strategy:={cls.name}", f"robots:={args.robots}",
@@ -306,7 +314,9 @@ def ros_env(port: int, home: Path) -> dict[str, str]:
 
 
 def start(cmd: list[str], env: dict, log: Path) -> subprocess.Popen:
-    f = open(log, "wb")  # noqa: SIM115 - the child keeps it
+    from tpuaf.files import open_fresh
+
+    f = open_fresh(log, "wb")  # the child keeps it; never through a link
     # SIGINT at its default in the child even when tpuaf runs with it ignored (a background
     # job): `stop` relies on SIGINT to make roslaunch stop its nodes and close the bag.
     return subprocess.Popen(cmd, env=env, stdout=f, stderr=subprocess.STDOUT,
