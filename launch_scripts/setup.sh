@@ -17,7 +17,7 @@ APT_PACKAGES=(
   python3-move-base-msgs libeigen3-dev libfcl-dev libgtest-dev pybind11-dev python3-networkx python3-numpy
   python3-yaml python3-dev python3-venv python3-catkin-pkg
   libroscpp-dev libgeometry-msgs-dev libnav-msgs-dev libsensor-msgs-dev libros-rosgraph-msgs-dev
-  libstd-msgs-dev libstd-srvs-dev libtf2-msgs-dev libyaml-cpp-dev
+  libstd-msgs-dev libstd-srvs-dev libtf2-msgs-dev libtopic-tools-dev libyaml-cpp-dev
   rviz xvfb python3-pil  # RViz, its headless test (Xvfb) and screenshot (Pillow ImageGrab)
 )
 

@@ -19,17 +19,19 @@ from tpuaf.measure.bag import BagError, analyze, inspect
 
 REPO = Path(__file__).resolve().parents[1]
 MSG_DIR = REPO / "src" / "tpuaf_ros" / "msg"
+MSG_V1_DIR = REPO / "tests" / "data" / "msg_v1"  # the definitions of bags recorded before 2
 TPUAF = [str(REPO / ".venv" / "bin" / "tpuaf")]
 T0 = 1_700_000_000.0  # [s] wall-clock stamps, as on hardware
 
 
-def typestore():
-    """ROS 1 Noetic types plus tpuaf_ros's, from the package's .msg files."""
+def typestore(version: int = 2):
+    """ROS 1 Noetic types plus tpuaf_ros's, from the package's .msg files (version 2) or the
+    version 1 definitions (bare `time stamp`, run start as std_msgs/Float64)."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.ROS1_NOETIC)
     types = {}
-    for f in sorted(MSG_DIR.glob("*.msg")):
+    for f in sorted((MSG_DIR if version == 2 else MSG_V1_DIR).glob("*.msg")):
         types.update(get_types_from_msg(f.read_text(), f"tpuaf_ros/msg/{f.stem}"))
     if "tf2_msgs/msg/TFMessage" not in store.types:
         types.update(get_types_from_msg("geometry_msgs/TransformStamped[] transforms",
@@ -55,6 +57,8 @@ class PlainBag:
     t0: float = T0
     prefix: str = "tb3_"
     silent_after: dict = field(default_factory=dict)  # robot -> [s] it stops talking and moving
+    msg_version: int = 2  # 1: as recorded before the messages had a std_msgs/Header
+    starts: tuple = (0.0,)  # run starts on /fleet/start [s after t0] (several: a restart)
     visits: list = field(default_factory=list)  # (t, robot, vertex index) written
 
     def trajectory(self, r: int):
@@ -75,7 +79,7 @@ class PlainBag:
     def write(self, path: Path) -> Path:
         from rosbags.rosbag1 import Writer
 
-        store = typestore()
+        store = typestore(self.msg_version)
         T = store.types
         n = len(self.routes)
         ids = [int(v) for v in self.patrol_map.vertex_ids]
@@ -93,29 +97,34 @@ class PlainBag:
         def silent(r, t):
             return t >= self.silent_after.get(r, math.inf)
 
+        def team_msg(kind, t, **fields):
+            """A tpuaf_ros message stamped t: a header (version 2) or a bare stamp (1)."""
+            when = ({"header": header(t, "")} if self.msg_version == 2 else {"stamp": stamp(t)})
+            return T[f"tpuaf_ros/msg/{kind}"](**when, **fields)
+
         for r, (knots, arrivals) in enumerate(tracks):
             name = f"{self.prefix}{r}"
             for k, (t, v) in enumerate(arrivals):
                 if silent(r, t):
                     break
                 nxt = arrivals[k + 1][1] if k + 1 < len(arrivals) else -1
-                items.append((t, "/team/visits", T["tpuaf_ros/msg/Visit"](
-                    stamp=stamp(t), robot=name, robot_index=r, vertex=ids[v],
+                items.append((t, "/team/visits", team_msg(
+                    "Visit", t, robot=name, robot_index=r, vertex=ids[v],
                     next_vertex=ids[nxt] if nxt >= 0 else -1)))
                 self.visits.append((t, r, v))
                 if nxt >= 0:
-                    items.append((t + 0.01, "/team/intentions", T["tpuaf_ros/msg/Intention"](
-                        stamp=stamp(t + 0.01), robot=name, robot_index=r, from_vertex=ids[v],
+                    items.append((t + 0.01, "/team/intentions", team_msg(
+                        "Intention", t + 0.01, robot=name, robot_index=r, from_vertex=ids[v],
                         vertex=ids[nxt], expected_arrival=t + 5.0, travel_time=5.0)))
                 if self.events and self.visit_events:  # START (0), then REACHED (2)
-                    items.append((t, "/fleet/agent_events", T["tpuaf_ros/msg/AgentEvent"](
-                        stamp=stamp(t), robot=name, robot_index=r, event=0 if k == 0 else 2,
+                    items.append((t, "/fleet/agent_events", team_msg(
+                        "AgentEvent", t, robot=name, robot_index=r, event=0 if k == 0 else 2,
                         vertex=ids[v], from_vertex=-1)))
             if self.events:
                 for t in np.arange(self.t0, end, 1.0):
                     if not silent(r, t):
-                        items.append((t, "/fleet/agent_events", T["tpuaf_ros/msg/AgentEvent"](
-                            stamp=stamp(t), robot=name, robot_index=r, event=4, vertex=-1,
+                        items.append((t, "/fleet/agent_events", team_msg(
+                            "AgentEvent", t, robot=name, robot_index=r, event=4, vertex=-1,
                             from_vertex=-1)))
             if self.poses == "none":
                 continue
@@ -140,8 +149,17 @@ class PlainBag:
                         items.append((t, f"/{name}/amcl_pose",
                                       T["geometry_msgs/msg/PoseWithCovarianceStamped"](
                                           header=header(t, "map"), pose=p)))
-        # the first agent's run start (wall clock), latched on /fleet/start
-        items.append((self.t0 + 0.1, "/fleet/start", T["std_msgs/msg/Float64"](data=self.t0)))
+        # the first agent's run start (wall clock), latched on /fleet/start; a restarted agent
+        # of version 1 announced a new one
+        for k, offset in enumerate(self.starts):
+            epoch = self.t0 + offset
+            if self.msg_version == 1:
+                start = T["std_msgs/msg/Float64"](data=epoch)
+            else:
+                start = T["tpuaf_ros/msg/RunStart"](
+                    header=header(epoch, ""), announcer=f"/{self.prefix}{k}/patrol_agent",
+                    robots=n, team=[f"{self.prefix}{i}" for i in range(n)])
+            items.append((epoch + 0.1, "/fleet/start", start))
         items.sort(key=lambda item: item[0])
         path = Path(path)
         with Writer(path) as writer:

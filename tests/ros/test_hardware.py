@@ -195,16 +195,16 @@ pe = rospy.Publisher("/team/idleness", IdlenessEstimate, queue_size=10)
 time.sleep(2.0)
 now = rospy.Time.now()
 def visit(robot, index, vertex, stamp):
-    m = Visit(); m.robot, m.robot_index, m.vertex, m.next_vertex, m.stamp = robot, index, vertex, -1, stamp
+    m = Visit(); m.robot, m.robot_index, m.vertex, m.next_vertex, m.header.stamp = robot, index, vertex, -1, stamp
     return m
 for _ in range(3):
     pv.publish(visit("tb3_9", 9, 1, now))                         # unknown robot
     pv.publish(visit("tb3_1", 1, 999, now))                       # vertex not on the map
     pv.publish(visit("tb3_1", 1, 1, now + genpy.Duration(1e6)))   # far future
     i = Intention(); i.robot, i.robot_index, i.from_vertex, i.vertex = "tb3_1", 1, 1, 2
-    i.stamp, i.expected_arrival, i.travel_time = now, math.nan, 3.0
+    i.header.stamp, i.expected_arrival, i.travel_time = now, math.nan, 3.0
     pi.publish(i)                                                 # non-finite arrival
-    e = IdlenessEstimate(); e.robot, e.robot_index, e.stamp = "tb3_1", 1, now
+    e = IdlenessEstimate(); e.robot, e.robot_index, e.header.stamp = "tb3_1", 1, now
     e.vertices, e.idleness, e.next_vertex = [1, 2], [0.0, 1.0], -1
     pe.publish(e)                                                 # wrong length
     time.sleep(0.3)

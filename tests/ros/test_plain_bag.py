@@ -41,11 +41,12 @@ with rosbag.Bag({str(bag)!r}) as b:
     for topic, msg, _t in b.read_messages(topics=["/team/visits", "/fleet/agent_events",
                                                   "/fleet/start"]):
         if topic == "/team/visits":
-            out["visits"].append((msg.robot_index, msg.stamp.to_sec()))
+            out["visits"].append((msg.robot_index, msg.header.stamp.to_sec()))
         elif topic == "/fleet/start":
-            out["start"] = msg.data if out["start"] is None else min(out["start"], msg.data)
+            epoch = msg.header.stamp.to_sec()  # tpuaf_ros/RunStart, re-latched by every agent
+            out["start"] = epoch if out["start"] is None else min(out["start"], epoch)
         elif msg.event in (0, 2) and msg.vertex >= 0:  # START, REACHED
-            out["events"].append((msg.robot_index, msg.stamp.to_sec()))
+            out["events"].append((msg.robot_index, msg.header.stamp.to_sec()))
 print(json.dumps(out))
 """
     from .conftest import VENV_PYTHON, workspace_env

@@ -5,8 +5,8 @@
 #include <geometry_msgs/TwistStamped.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
-#include <std_msgs/Float64.h>
 #include <std_srvs/Empty.h>
+#include <topic_tools/shape_shifter.h>
 
 #include <algorithm>
 #include <array>
@@ -33,6 +33,28 @@ namespace tpuaf_stage {
 namespace {
 
 constexpr const char* kStartTopic = "/fleet/start";  // = tpuaf.topics.START_TOPIC
+
+// [s of ROS time] the epoch of a run start on /fleet/start, read without depending on the
+// tpuaf_ros messages (they are built after this package): tpuaf_ros/RunStart begins with its
+// std_msgs/Header (uint32 seq, uint32 sec, uint32 nsec); version 1 was a std_msgs/Float64. NaN:
+// neither, or too short.
+double run_start_epoch(const topic_tools::ShapeShifter& msg) {
+  std::vector<uint8_t> raw(msg.size());
+  ros::serialization::OStream out(raw.data(), static_cast<uint32_t>(raw.size()));
+  msg.write(out);
+  if (msg.getDataType() == "tpuaf_ros/RunStart" && raw.size() >= 12) {
+    uint32_t sec = 0, nsec = 0;
+    std::memcpy(&sec, raw.data() + 4, 4);
+    std::memcpy(&nsec, raw.data() + 8, 4);
+    return sec + nsec * 1e-9;
+  }
+  if (msg.getDataType() == "std_msgs/Float64" && raw.size() >= 8) {
+    double data = 0;
+    std::memcpy(&data, raw.data(), 8);
+    return data;
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
 
 std::vector<std::string> robot_namespaces(const std::string& prefix, int n) {
   std::vector<std::string> ns;
@@ -85,7 +107,7 @@ class StageNode {
   void on_cmd(int i, const geometry_msgs::Twist::ConstPtr& msg);
   void on_cmd_stamped(int i, const geometry_msgs::TwistStamped::ConstPtr& msg);
   bool on_reset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
-  void on_start(const std_msgs::Float64::ConstPtr& msg) { run_start_ = msg->data; }
+  void on_start(const topic_tools::ShapeShifter::ConstPtr& msg);
 
   void advance();
   void publish_clock() { pubs_.clock(stamp()); }
@@ -125,7 +147,7 @@ class StageNode {
 
 // Inputs, per robot in its namespace: cmd_vel (geometry_msgs/Twist) and, in lock-step,
 // cmd_vel_stamped (geometry_msgs/TwistStamped, the answer to the odom tick of its stamp). Global:
-// /fleet/start (std_msgs/Float64, run start for ~stall), service reset_positions (std_srvs/Empty).
+// /fleet/start (tpuaf_ros/RunStart or std_msgs/Float64, run start for ~stall), service reset_positions (std_srvs/Empty).
 void StageNode::subscribe() {
   ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   for (int i = 0; i < n_; ++i) {
@@ -142,6 +164,13 @@ void StageNode::subscribe() {
   }
   if (!stalls_.empty()) start_sub_ = nh_.subscribe(kStartTopic, 1, &StageNode::on_start, this);
   reset_srv_ = nh_.advertiseService("reset_positions", &StageNode::on_reset, this);
+}
+
+// The earliest start heard: every agent re-latches the team's epoch.
+void StageNode::on_start(const topic_tools::ShapeShifter::ConstPtr& msg) {
+  const double start = run_start_epoch(*msg);
+  if (std::isfinite(start) && start >= 0 && (run_start_ < 0 || start < run_start_))
+    run_start_ = start;
 }
 
 void StageNode::on_cmd(int i, const geometry_msgs::Twist::ConstPtr& msg) {

@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from tpuaf.errors import TpuafError
-from tpuaf.measure.monitor import STAMP_EPS_S, FleetMonitor
+from tpuaf.measure.monitor import STAMP_EPS_S, FleetMonitor, with_epoch
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from tpuaf.team import messages as team_messages
 from tpuaf.topics import (
@@ -56,8 +56,11 @@ POSE_TOPIC = re.compile(
     rf"^/(?P<name>(?P<prefix>[^/]*?)(?P<index>\d+))/(?P<kind>{GROUND_TRUTH}|{AMCL_POSE}|{ODOM})$")
 POSE_KIND = {GROUND_TRUTH: "ground_truth", AMCL_POSE: "amcl", ODOM: "odom"}
 TF_TOPICS = ("/tf", "/tf_static")
-FLEET_TYPES = {(START_TOPIC, "std_msgs/Float64"), (METRICS_TOPIC, "tpuaf_ros/LiveMetrics"),
-               (EVENTS_TOPIC, "tpuaf_ros/AgentEvent")}
+# /fleet/start: tpuaf_ros/RunStart (messages version 2), std_msgs/Float64 in version 1 bags.
+FLEET_TYPES = {(START_TOPIC, "tpuaf_ros/RunStart"), (START_TOPIC, "std_msgs/Float64"),
+               (METRICS_TOPIC, "tpuaf_ros/LiveMetrics"), (EVENTS_TOPIC, "tpuaf_ros/AgentEvent")}
+# [s] run starts closer than this are one start (re-latched copies of it)
+SAME_START_S = 1e-3
 MAP_FRAME = "map"
 BASE_FRAME = "base_footprint"
 # Team topic basename -> message kind (the team namespace may differ from /team).
@@ -113,7 +116,9 @@ class BagInfo:
     robots: int = 0  # robots seen (max index + 1)
     names: dict[int, str] = field(default_factory=dict)  # robot index -> name (robot_0)
     prefix: str = "robot_"
-    fleet_start_s: float | None = None  # /fleet/start (a monitored run's start) [s]
+    fleet_start_s: float | None = None  # the run's start: the earliest in the span [s]
+    fleet_starts: list[tuple[float, str]] = field(default_factory=list)  # every distinct
+    # start on /fleet/start, (epoch [s], announcer), in time order
     fleet_duration_s: float | None = None  # /fleet/metrics duration [s]
     monitor_finished: bool = False
     monitor_final: dict | None = None
@@ -318,7 +323,7 @@ def inspect(path: str | Path) -> BagInfo:
         offsets: list[float] = []
         for conn, t_rec, msg in _stream(path, reader, store, small):
             if conn.topic == START_TOPIC:
-                info.fleet_start_s = float(msg.data)
+                _add_start(info, msg)
             elif conn.topic == METRICS_TOPIC:
                 info.fleet_duration_s = float(msg.duration)
                 if msg.finished:
@@ -346,6 +351,9 @@ def inspect(path: str | Path) -> BagInfo:
                 info.clock_offset_s = offset
                 info.start_s -= offset
                 info.end_s -= offset
+        inside = [s for s, _ in info.fleet_starts
+                  if info.start_s - STAMP_MARGIN_S <= s < info.end_s]
+        info.fleet_start_s = min(inside) if inside else None
         names = {r: info.names.get(r, f"{_prefix(info)}{r}") for r in range(info.robots)}
         info.prefix = _prefix(info)
         if tf_conns and names:
@@ -357,6 +365,41 @@ def inspect(path: str | Path) -> BagInfo:
                 if len(info.tf_robots) == len(chains):
                     break
     return info
+
+
+def _add_start(info: BagInfo, msg: Any) -> None:
+    """A run start on /fleet/start: RunStart (its header stamp) or, version 1, Float64."""
+    if hasattr(msg, "data"):
+        start, announcer = float(msg.data), ""
+    else:
+        start, announcer = _stamp(msg), str(msg.announcer)
+    if not math.isfinite(start):
+        return
+    if all(abs(start - s) > SAME_START_S for s, _ in info.fleet_starts):
+        info.fleet_starts.append((start, announcer))
+        info.fleet_starts.sort()
+
+
+def _start_notes(info: BagInfo, start_offset_s: float | None) -> list[str]:
+    """Notes on the bag's run starts: several (a robot that restarted and announced a new
+    run), or one outside the bag."""
+    if not info.fleet_starts:
+        return []
+
+    def when(s):
+        by = next((a for t, a in info.fleet_starts if t == s), "")
+        return f"{s - info.start_s:+.1f} s" + (f" (by {by})" if by else "")
+    if info.fleet_start_s is None:
+        return [f"the run start{'s' if len(info.fleet_starts) > 1 else ''} on {START_TOPIC} "
+                f"({', '.join(when(s) for s, _ in info.fleet_starts)} from the bag's beginning) "
+                "lie outside the bag: analysed from its beginning"]
+    if len(info.fleet_starts) == 1:
+        return []
+    used = ("--start" if start_offset_s is not None
+            else f"the earliest, {when(info.fleet_start_s)}")
+    return [f"the bag holds {len(info.fleet_starts)} different run starts on {START_TOPIC} "
+            f"({', '.join(when(s) for s, _ in info.fleet_starts)} from the bag's beginning; "
+            f"an agent that restarted and announced a new run?): analysed from {used}"]
 
 
 def _prefix(info: BagInfo) -> str:
@@ -397,6 +440,7 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
     if info.clock_offset_s:
         notes.append(f"the recorder's clock differs from the message stamps by "
                      f"{info.clock_offset_s:+.1f} s: the span is taken on the stamps' clock")
+    notes += _start_notes(info, start_offset_s)
     start, end = _span(info, start_offset_s, duration_s)
     if death_timeout_s is not None and not death_timeout_s > 0:
         raise BagError(f"death timeout must be > 0 s, got {death_timeout_s:g}")
@@ -462,7 +506,7 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
         summary = monitor.summary()
         start_used = monitor.start_time
     else:
-        summary = recorder.summary(end)
+        summary = with_epoch(recorder.summary(end - start), start)
         start_used = start
     end_used = start_used + summary["duration_s"]
     # reports inside the analysed span (a START before it is the first visit at its start)
@@ -635,7 +679,7 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
     """Reports only (no positions): visits and idleness straight into a RunRecorder."""
     from tpuaf.measure.metrics import RunRecorder
 
-    recorder = RunRecorder(patrol_map, n, ground_truth=False, start_time=start)
+    recorder = RunRecorder(patrol_map, n, ground_truth=False)  # run time: 0 at `start`
     heard = [start] * n  # last sign of life [s]
     alive = [True] * n
     reports: list[tuple[float, bool]] = []  # (stamp, is START) of the visit reports
@@ -645,7 +689,7 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
         for r in range(n):
             if alive[r] and t - heard[r] > timeout:
                 alive[r] = False
-                recorder.record_robot_death(r, heard[r] + timeout)
+                recorder.record_robot_death(r, heard[r] + timeout - start)
 
     for conn, _t, msg in _in_stamp_order(
             _stream(path, reader, store, _report_connections(reader, info, team))):
@@ -662,9 +706,9 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
             deaths_until(t)
         heard[r] = max(heard[r], t)
         if is_visit(kind, vertex):  # as FleetMonitor: a robot's reports count even if silent
-            recorder.record_visit(r, vertex, t)
+            recorder.record_visit(r, vertex, t - start)
             reports.append((t, kind == START))
     if liveness:
         deaths_until(end)
-    recorder.finish(end)
+    recorder.finish(end - start)
     return recorder, reports

@@ -21,6 +21,10 @@ Definitions (SPEC section 6):
 - `on_announcement(robot, vertex, t)`: a destination a robot announced in a team message
   (tpuaf.robot.machine.announced_vertex), for the recovery metrics' intentions;
 - the run ends at start + duration_s: `finished` becomes True and later input is ignored.
+
+Time base: inputs are ROS time (stamps); the recorder, and so every results file, works in run
+time, 0 at the run start (docs/RESULTS.md); the summary's `start_time_s` is the ROS time [s] of
+run time 0 and `time_base` says so.
 """
 
 from __future__ import annotations
@@ -36,6 +40,8 @@ from tpuaf.topics import REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
 STAMP_EPS_S = 1e-3
+# summary.json `time_base`: every time_s of the results is run time since start_time_s.
+TIME_BASE = "run time [s] since start_time_s (ROS time)"
 
 
 class FleetMonitor:
@@ -87,7 +93,7 @@ class FleetMonitor:
             if self.recorder is None:
                 self._announcements.append((int(robot), int(vertex), float(t)))
             else:
-                self.recorder.record_announcement(int(robot), int(vertex), float(t))
+                self.recorder.record_announcement(int(robot), int(vertex), self.run_time(t))
 
     def on_pose(self, robot: int, t: float, x: float, y: float) -> None:
         if self.finished or not 0 <= robot < self.n:
@@ -139,10 +145,11 @@ class FleetMonitor:
         silent = np.maximum(self._heard, self.start_time) < t - self.death_timeout_s
         for r in np.flatnonzero(silent & self._alive).tolist():
             self._alive[r] = False
-            self.recorder.record_robot_death(r, max(float(self._heard[r]), self.start_time))
+            self.recorder.record_robot_death(
+                r, self.run_time(max(float(self._heard[r]), self.start_time)))
             self.deaths.append((t, r))
         self._record_visits(t)
-        self.recorder.record_positions(t, self._last.copy())
+        self.recorder.record_positions(self.run_time(t), self._last.copy())
         self.now = t
         if t >= end:
             self.end(end)
@@ -155,33 +162,37 @@ class FleetMonitor:
         while k < len(q) and q[k][0] <= t + STAMP_EPS_S:
             stamp, robot, vertex, _ = q[k]
             if self.start_time - STAMP_EPS_S <= stamp <= end:
-                self.recorder.record_visit(robot, vertex, min(max(stamp, self.start_time), end))
+                self.recorder.record_visit(
+                    robot, vertex, self.run_time(min(max(stamp, self.start_time), end)))
             k += 1
         del q[:k]
 
     def _start(self, t: float) -> None:
         self.start_time = t
-        self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s,
-                                    start_time=t)
+        self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s)
         # START events before the run start: first visits at the start; REACHED before it
         # belong to no run.
         self._visits = sorted((max(s, t) if first else s, r, v, first)
                               for s, r, v, first in self._visits
                               if first or s >= t - STAMP_EPS_S)
         self._record_visits(t)
-        self.recorder.record_positions(t, self._last.copy())
+        self.recorder.record_positions(0.0, self._last.copy())
         for robot, vertex, stamp in self._announcements:
-            self.recorder.record_announcement(robot, vertex, stamp)
+            self.recorder.record_announcement(robot, vertex, self.run_time(stamp))
         self._announcements.clear()
         self.now = t
 
     def end(self, end_time: float) -> None:
         if not self.finished and self.recorder is not None:
-            self.recorder.finish(end_time)
+            self.recorder.finish(self.run_time(end_time))
             self.now = end_time
         self.finished = True
 
     # -- outputs ----------------------------------------------------------------------------
+
+    def run_time(self, t: float) -> float:
+        """Run time [s] of ROS time t [s] (0 at the run start)."""
+        return float(t) - self.start_time
 
     @property
     def started(self) -> bool:
@@ -228,4 +239,11 @@ class FleetMonitor:
         if self.recorder is None:
             raise RuntimeError("the run never started: no complete set of ground-truth poses")
         end = self.start_time + self.duration_s if self.finished else self.now
-        return self.recorder.summary(end)
+        return with_epoch(self.recorder.summary(self.run_time(end)), self.start_time)
+
+
+def with_epoch(summary: dict, epoch_s: float) -> dict:
+    """A run-time summary of a run whose run time 0 is ROS time `epoch_s` [s]."""
+    summary["start_time_s"] = float(epoch_s)
+    summary["time_base"] = TIME_BASE
+    return summary

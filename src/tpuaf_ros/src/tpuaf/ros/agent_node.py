@@ -21,7 +21,6 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rospy.numpy_msg import numpy_msg
 from sensor_msgs.msg import LaserScan
-from std_msgs.msg import Float64
 from tf2_msgs.msg import TFMessage
 
 from tpuaf import topics
@@ -41,9 +40,10 @@ from tpuaf.policies import REGISTRY, ParameterError
 from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, run_node, yaw_of
 from tpuaf.runtimes.agent import AgentRuntime
+from tpuaf.team.epoch import ADOPTED, INVALID, KEPT, RunEpoch
 from tpuaf.team.inbox import InboxConfig, TeamInbox
 from tpuaf.team.liveness import InputWatchdog, TeammateLiveness
-from tpuaf_ros.msg import AgentEvent
+from tpuaf_ros.msg import AgentEvent, RunStart
 
 NODE = "patrol_agent"
 LOCALIZATIONS = ("tf", "odom", "ground_truth", "amcl")
@@ -129,7 +129,9 @@ class AgentNode:
                 self.cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=None,
                                                tcp_nodelay=True)
         self.event_pub = rospy.Publisher(topics.EVENTS_TOPIC, AgentEvent, queue_size=None)
-        self.start_pub = None
+        # The run start the team agreed on, re-latched by every agent that knows it.
+        self.run_start = RunEpoch()
+        self.start_pub = rospy.Publisher(topics.START_TOPIC, RunStart, queue_size=1, latch=True)
         self.team_pub = {}
         for cls, ros_cls in self.conv.types.items():
             self.team_pub[cls] = rospy.Publisher(topics.team_topic(p.team_ns, cls), ros_cls,
@@ -174,7 +176,7 @@ class AgentNode:
             rospy.Subscriber(topics.team_topic(p.team_ns, cls), ros_cls, self.on_team,
                              queue_size=200)
         rospy.Subscriber(topics.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=200)
-        rospy.Subscriber(topics.START_TOPIC, Float64, self.on_start, queue_size=10)
+        rospy.Subscriber(topics.START_TOPIC, RunStart, self.on_start, queue_size=10)
         rospy.Subscriber(topics.SCAN, numpy_msg(LaserScan), self.on_scan, queue_size=1,
                          tcp_nodelay=True)
         self.chain = None
@@ -217,7 +219,7 @@ class AgentNode:
 
     def publish_event(self, kind, vertex, from_vertex, t):
         e = self.event
-        e.stamp = convert.stamp(t, self.epoch or 0.0)
+        e.header.stamp = convert.stamp(t, self.epoch or 0.0)
         e.event = kind
         e.vertex = self.conv.vid(vertex)
         e.from_vertex = self.conv.vid(from_vertex)
@@ -254,33 +256,45 @@ class AgentNode:
 
     # --- inputs ---
     def on_start(self, msg):
-        start = float(msg.data)
-        if not math.isfinite(start) or start < 0:
-            self.warn("start", f"ignored run start {msg.data!r} on {topics.START_TOPIC}")
-            return
+        """A run start on /fleet/start (any agent's or the monitor's latched copy): the
+        earliest wins; a new or earlier one is adopted and re-latched by us, so that a
+        restarted or late agent finds the running start (tpuaf.team.epoch)."""
+        start = convert.stamp_s(msg)
         with self.lock:
+            previous = self.run_start.epoch_s
+            result = self.run_start.offer(start, msg.announcer)
+            if result == INVALID:
+                self.warn("start", f"ignored run start {start!r} on {topics.START_TOPIC}")
+                return
+            if result == KEPT:
+                return
             if self.sim or self.p.epoch >= 0:
                 self.runtime.start_at = start - self.epoch
-                return
-            if self.epoch is not None and start >= self.epoch - 1e-6:
-                return  # the team takes the earliest announcement
-            if self.epoch is not None:
-                rospy.loginfo(f"{self.name}: earlier run start {start:.3f} announced; run time "
-                              f"moves forward by {self.epoch - start:.3f} s")
-            self.epoch = self.conv.epoch = start
-        rospy.loginfo(f"{self.name}: run start (epoch) {start:.3f} s of ROS time")
+            else:
+                if self.epoch is not None:
+                    rospy.loginfo(f"{self.name}: earlier run start {start:.3f} announced; run "
+                                  f"time moves forward by {self.epoch - start:.3f} s")
+                self.epoch = self.conv.epoch = start
+            self._latch_start()
+        if previous is None:
+            rospy.loginfo(f"{self.name}: run start {start:.3f} s of ROS time (announced by "
+                          f"{msg.announcer or 'an unnamed node'})")
 
     def announce_start(self):
         """Wall clock, nobody announced a start within ~start_wait: announce ours (latched)."""
         start = float(math.floor(self.ros_now()))
-        self.start_pub = rospy.Publisher(topics.START_TOPIC, Float64, queue_size=1, latch=True)
         with self.lock:
-            if self.epoch is not None:
+            if self.epoch is not None or self.run_start.offer(start, rospy.get_name()) != ADOPTED:
                 return
             self.epoch = self.conv.epoch = start
-        self.start_pub.publish(Float64(start))
+            self._latch_start()
         rospy.loginfo(f"{self.name}: announced the run start {start:.3f} s on "
                       f"{topics.START_TOPIC}")
+
+    def _latch_start(self):
+        """Latch the agreed run start on /fleet/start (with the lock held)."""
+        self.start_pub.publish(convert.run_start_message(
+            self.run_start.epoch_s, self.run_start.announcer, self.names))
 
     def on_team(self, msg):
         r = msg.robot_index
@@ -312,7 +326,7 @@ class AgentNode:
         now = self.ros_now() - self.epoch
         with self.lock:
             if msg.event == topics.HEARTBEAT:  # stamped "now" (a GOAL may be post-dated)
-                self.inbox.observe(r, msg.stamp.to_sec() - self.epoch, now)
+                self.inbox.observe(r, convert.stamp_s(msg) - self.epoch, now)
             if self.liveness.heard(r, now):
                 rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
 
@@ -510,7 +524,7 @@ class AgentNode:
                     if wall >= next_beat:  # "ready" for a monitor that announces the start
                         next_beat = wall + self.p.heartbeat_period
                         e = self.event
-                        e.stamp = rospy.Time.from_sec(max(t, 0.0))
+                        e.header.stamp = rospy.Time.from_sec(max(t, 0.0))
                         e.event, e.vertex, e.from_vertex = topics.HEARTBEAT, -1, -1
                         self.event_pub.publish(e)
                     if self.p.wait_for_start:

@@ -36,6 +36,27 @@ def stamp(t: float, epoch: float = 0.0):
     return genpy.Time.from_sec(max(0.0, float(t) + epoch))
 
 
+def stamp_s(ros_msg: Any) -> float:
+    """[s] ROS time of a tpuaf_ros message: its std_msgs/Header stamp (messages version 2) or
+    its bare `stamp` (version 1 bags); genpy or rosbags time."""
+    st = ros_msg.header.stamp if hasattr(ros_msg, "header") else ros_msg.stamp
+    if hasattr(st, "to_sec"):
+        return st.to_sec()
+    return st.sec + st.nanosec * 1e-9
+
+
+def run_start_message(epoch_s: float, announcer: str, team: list[str]):
+    """tpuaf_ros/RunStart: the run's epoch [s of ROS time], who announced it, the team."""
+    from tpuaf_ros.msg import RunStart
+
+    out = RunStart()
+    out.header.stamp = stamp(epoch_s)
+    out.announcer = announcer
+    out.robots = len(team)
+    out.team = list(team)
+    return out
+
+
 class Converter:
     """Converts team messages for one map and robot naming (`prefix` + index)."""
 
@@ -52,15 +73,16 @@ class Converter:
     def index(self, vertex_id: int) -> int:
         return -1 if vertex_id < 0 else self.patrol_map.index_of(vertex_id)
 
-    def time(self, ros_stamp) -> float:
-        return ros_stamp.to_sec() - self.epoch
+    def time(self, ros_msg) -> float:
+        """Run time [s] of a message's stamp."""
+        return stamp_s(ros_msg) - self.epoch
 
     def to_ros(self, message: Any):
         cls = self.types[type(message)]
         out = cls()
         out.robot = f"{self.prefix}{message.robot}"
         out.robot_index = int(message.robot)
-        out.stamp = stamp(message.time, self.epoch)
+        out.header.stamp = stamp(message.time, self.epoch)
         if isinstance(message, m.Visit):
             out.vertex, out.next_vertex = self.vid(message.vertex), self.vid(message.next_vertex)
         elif isinstance(message, m.Intention):
@@ -85,7 +107,7 @@ class Converter:
 
     def _from_ros(self, ros_msg: Any) -> Any:
         kind = type(ros_msg).__name__.rsplit("_", 1)[-1]  # rosbags names: tpuaf_ros__msg__Visit
-        t = self.time(ros_msg.stamp)
+        t = self.time(ros_msg)
         r = int(ros_msg.robot_index)
         if kind == "Visit":
             return m.Visit(r, self.index(ros_msg.vertex), t, self.index(ros_msg.next_vertex))

@@ -27,6 +27,7 @@ from tpuaf.maps import load_map
 from tpuaf.measure.markers import MODES, Marker, PatrolView
 from tpuaf.measure.poses import POSE_SOURCES, feed_chains, robot_chains
 from tpuaf.params import NodeParamError, parse, req
+from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, run_node, yaw_of
 from tpuaf.team import messages
 from tpuaf.topics import AMCL_POSE, EVENTS_TOPIC, GOAL, GROUND_TRUTH, ODOM, REACHED, team_topic
@@ -89,7 +90,7 @@ class MarkersNode:
         v = self.map.lookup_index(msg.vertex)
         if v is not None and v >= 0:
             with self.lock:
-                self.view.on_visit(msg.robot_index, v, msg.stamp.to_sec())
+                self.view.on_visit(msg.robot_index, v, convert.stamp_s(msg))
 
     def on_intention(self, msg):
         a, b = self.map.lookup_index(msg.from_vertex), self.map.lookup_index(msg.vertex)
@@ -105,7 +106,7 @@ class MarkersNode:
             if msg.event == GOAL:
                 self.view.on_goal(msg.robot_index, v)
             elif msg.event == REACHED and v >= 0:
-                self.view.on_visit(msg.robot_index, v, msg.stamp.to_sec())
+                self.view.on_visit(msg.robot_index, v, convert.stamp_s(msg))
 
     def on_pose(self, msg, i):
         pose = msg.pose.pose

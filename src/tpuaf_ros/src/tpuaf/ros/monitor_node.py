@@ -5,7 +5,7 @@ heartbeats also tell the living from the dead). Positions (X, interference) per 
 ground_truth /<robot_prefix><i>/base_pose_ground_truth (simulation), tf (hardware: /tf and
 /tf_static, map -> <robot_prefix><i>/base_footprint from any localiser), odom /<..><i>/odom or
 amcl /<..><i>/amcl_pose; poses at their own stamps are grouped on 0.1 s ticks (tpuaf.measure.poses).
-Publishes /fleet/start (std_msgs/Float64, latched: the run's start, ROS time [s]) once every
+Publishes /fleet/start (tpuaf_ros/RunStart, latched: the run's start, ROS time [s]) once every
 agent is ready (~announce_start false: follows the agents' announcement instead),
 /fleet/metrics (tpuaf_ros/LiveMetrics) at 1 Hz of run time and once more with finished = true
 after writing the results folder. Works on the wall clock (use_sim_time false) and on sim time.
@@ -22,7 +22,6 @@ import rospy
 import yaml
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
-from std_msgs.msg import Float64
 from tf2_msgs.msg import TFMessage
 
 from tpuaf.maps import MapError, load_map
@@ -32,8 +31,9 @@ from tpuaf.params import MonitorParams, NodeParamError, parse
 from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, run_node
 from tpuaf.team import messages
+from tpuaf.team.epoch import INVALID, KEPT, RunEpoch
 from tpuaf.topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
-from tpuaf_ros.msg import AgentEvent, Intention, LiveMetrics
+from tpuaf_ros.msg import AgentEvent, Intention, LiveMetrics, RunStart
 
 NODE = "monitor"
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
@@ -59,7 +59,8 @@ class MonitorNode:
                                death_timeout_s=p.death_timeout)
         self.metrics_pub = rospy.Publisher(convert.METRICS_TOPIC, LiveMetrics, queue_size=10,
                                            latch=True)
-        self.start_pub = rospy.Publisher(START_TOPIC, Float64, queue_size=1, latch=True)
+        self.start_pub = rospy.Publisher(START_TOPIC, RunStart, queue_size=1, latch=True)
+        self.run_start = RunEpoch()
         self.msg = LiveMetrics()
         self.msg.duration = p.duration
         self.next_metrics = -math.inf
@@ -75,7 +76,7 @@ class MonitorNode:
         rospy.Subscriber(team_topic(p.team_ns, messages.Intention), Intention,
                          self.on_intention, queue_size=500)
         if not p.announce_start:
-            rospy.Subscriber(START_TOPIC, Float64, self.on_start, queue_size=10)
+            rospy.Subscriber(START_TOPIC, RunStart, self.on_start, queue_size=10)
         # Poses at their own stamps (all but ground truth) are grouped on ticks.
         self.feed = MonitorFeed(self.fm, grouped=p.pose_source != "ground_truth")
         if p.pose_source == "tf":
@@ -93,7 +94,7 @@ class MonitorNode:
         with self.lock:
             r = msg.robot_index
             v = self.patrol_map.lookup_index(msg.vertex)  # not on the map: a sign of life only
-            self.fm.on_event(r, msg.event, -1 if v is None else v, msg.stamp.to_sec())
+            self.fm.on_event(r, msg.event, -1 if v is None else v, convert.stamp_s(msg))
             if 0 <= r < len(self.ready):
                 self.ready[r] = True
             if (self.p.announce_start and not self.announced and all(self.ready)
@@ -105,9 +106,11 @@ class MonitorNode:
                     return
                 # Never in the past of the poses already seen: a late event would otherwise
                 # announce a start the live monitor has passed (a bag replay starts there).
-                start = max(msg.stamp.to_sec(), self.fm.now) + self.p.start_delay
+                start = max(convert.stamp_s(msg), self.fm.now) + self.p.start_delay
                 self.fm.start_after = start
-                self.start_pub.publish(Float64(start))
+                self.run_start.offer(start, rospy.get_name())
+                self.start_pub.publish(convert.run_start_message(start, rospy.get_name(),
+                                                                 self.names))
                 self.announced = True
                 rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
                               f"{start:.2f} s for {self.p.duration:g} s")
@@ -116,22 +119,24 @@ class MonitorNode:
         v = self.patrol_map.lookup_index(msg.vertex)
         if v is not None and v >= 0:
             with self.lock:
-                self.fm.on_announcement(msg.robot_index, v, msg.stamp.to_sec())
+                self.fm.on_announcement(msg.robot_index, v, convert.stamp_s(msg))
 
     def on_start(self, msg):
-        """~announce_start false: the run starts at the earliest start the agents announce."""
-        start = float(msg.data)
-        if not math.isfinite(start) or start < 0:
-            rospy.logwarn(f"{NODE}: ignored run start {msg.data!r} on {START_TOPIC}")
-            return
+        """~announce_start false: the run starts at the earliest start the agents announce
+        (every agent re-latches the one it keeps: tpuaf.team.epoch)."""
+        start = convert.stamp_s(msg)
         with self.lock:
-            if self.fm.started:
+            result = self.run_start.offer(start, msg.announcer)
+            if result == INVALID:
+                rospy.logwarn(f"{NODE}: ignored run start {start!r} on {START_TOPIC}")
                 return
-            if not self.announced or start < self.fm.start_after:
-                self.fm.start_after = start
-                self.announced = True
-                rospy.loginfo(f"{NODE}: run starts at t = {start:.2f} s (announced on "
-                              f"{START_TOPIC}) for {self.p.duration:g} s")
+            if result == KEPT or self.fm.started:
+                return
+            self.fm.start_after = start
+            self.announced = True
+            rospy.loginfo(f"{NODE}: run starts at t = {start:.2f} s (announced on "
+                          f"{START_TOPIC} by {msg.announcer or 'an unnamed node'}) for "
+                          f"{self.p.duration:g} s")
 
     def recorder_ready(self):
         if not self.p.wait_for_recorder:
@@ -184,7 +189,7 @@ class MonitorNode:
 
     def publish_metrics(self, finished=False):
         m = self.msg
-        m.stamp = rospy.Time.from_sec(max(self.fm.now, 0.0))
+        m.header.stamp = rospy.Time.from_sec(max(self.fm.now, 0.0))
         for key, value in self.fm.live().items():
             setattr(m, key, value)
         m.finished = finished
