@@ -689,7 +689,7 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
         for r in range(n):
             if alive[r] and t - heard[r] > timeout:
                 alive[r] = False
-                recorder.record_robot_death(r, heard[r] + timeout - start)
+                recorder.record_robot_death(r, round(heard[r] + timeout - start, 9))
 
     for conn, _t, msg in _in_stamp_order(
             _stream(path, reader, store, _report_connections(reader, info, team))):
@@ -706,7 +706,7 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
             deaths_until(t)
         heard[r] = max(heard[r], t)
         if is_visit(kind, vertex):  # as FleetMonitor: a robot's reports count even if silent
-            recorder.record_visit(r, vertex, t - start)
+            recorder.record_visit(r, vertex, round(t - start, 9))
             reports.append((t, kind == START))
     if liveness:
         deaths_until(end)

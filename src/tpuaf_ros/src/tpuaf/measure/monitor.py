@@ -191,8 +191,8 @@ class FleetMonitor:
     # -- outputs ----------------------------------------------------------------------------
 
     def run_time(self, t: float) -> float:
-        """Run time [s] of ROS time t [s] (0 at the run start)."""
-        return float(t) - self.start_time
+        """Run time [s] of ROS time t [s] (0 at the run start), to the ns of the stamps."""
+        return round(float(t) - self.start_time, 9)
 
     @property
     def started(self) -> bool:
