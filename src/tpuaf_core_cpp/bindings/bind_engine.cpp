@@ -134,7 +134,11 @@ void wrap_strategies(py::module_& m) {
            }),
            py::arg("knowledge"), py::arg("form"), py::arg("any_vertex"), py::arg("rngs"),
            py::arg("colocation") = true)
-      .def("knowledge", &TpuafStrategy::knowledge, py::arg("robot"), py::return_value_policy::copy);
+      .def("knowledge", &TpuafStrategy::knowledge, py::arg("robot"),
+           "What robot `robot` knows (a copy).")
+      .def_property_readonly("shares_knowledge", &TpuafStrategy::shares_knowledge,
+                             "True if the team holds one knowledge (a bus without loss and "
+                             "delay).");
 
   py::class_<GbsStrategy, TeamStrategy>(m, "GbsStrategy",
                                         "GBS's decision path in C++ (tpuaf.policies.bayesian).")

@@ -46,6 +46,7 @@ void tpuaf::bindings::bind_knowledge(py::module_& m) {
       .def("utilities", &TpuafKnowledge::utilities, py::arg("graph"), py::arg("now_s"),
            py::arg("current_vertex"), py::arg("candidates"), py::arg("speed_mps"),
            py::arg("form") = UtilityForm::kEq13, py::arg("use_path_length") = false,
-           py::call_guard<py::gil_scoped_release>(),
-           "Eq. 6-14 for the candidates with this knowledge (drops stale entries first).");
+           py::arg("exclude_robot") = -1, py::call_guard<py::gil_scoped_release>(),
+           "Eq. 6-14 for the candidates with this knowledge (drops stale entries first); the "
+           "intention of exclude_robot (>= 0) is not counted.");
 }

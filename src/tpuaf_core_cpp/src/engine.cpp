@@ -657,6 +657,15 @@ void GraphEngine::deliver_batch_by_robot() {
 }
 
 void GraphEngine::deliver_ready() {
+  if (team_hears_alike()) {  // the strategy may hear a message once for the team
+    const long long mates = config_.robots - 1;
+    while (!ready_.empty() && ready_.front().all_but_sender &&
+           strategy_->on_team_message(*this, ready_.front().sender, ready_.front().message)) {
+      ready_.pop_front();
+      bus_.delivered += mates;
+    }
+    if (ready_.empty()) return;
+  }
   if (ready_.size() > 1 && strategy_->messages_are_local()) {
     deliver_batch_by_robot();
     return;

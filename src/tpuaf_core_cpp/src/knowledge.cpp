@@ -78,7 +78,30 @@ void TpuafKnowledge::hear_visit(int robot, int vertex, double time_s, double now
   Slot* s = slot(robot);  // throws for robot < 0
   s->last_heard_s = now_s;
   record_visit(vertex, time_s);
-  if (s->held && s->intention.vertex == vertex) s->held = false;
+  if (s->intention.vertex == vertex) s->held = s->open = false;
+}
+
+bool TpuafKnowledge::hear_team_visit(int robot, int vertex, double now_s) {
+  check_vertex(vertex);
+  Slot* s = slot(robot);  // throws for robot < 0
+  s->last_heard_s = now_s;
+  if (s->open && s->intention.vertex != vertex) return false;
+  if (s->intention.vertex == vertex) s->held = s->open = false;
+  return true;
+}
+
+bool TpuafKnowledge::hear_team_intention(const Intention& intention, double now_s) {
+  check_vertex(intention.vertex);
+  Slot* s = slot(intention.robot);  // throws for robot < 0
+  if (s->open) return false;  // held implies open: a closed slot is free in every robot's copy
+  *s = Slot{intention, next_order_++, true, true, now_s};
+  return true;
+}
+
+TpuafKnowledge TpuafKnowledge::as_robot(int robot) const {
+  TpuafKnowledge copy(*this);
+  copy.forget_intention(robot);
+  return copy;
 }
 
 void TpuafKnowledge::hear_intention(const Intention& intention, double now_s) {
@@ -89,7 +112,7 @@ void TpuafKnowledge::hear_intention(const Intention& intention, double now_s) {
     if (intention.sent_s >= s->intention.sent_s) s->intention = intention;
     return;
   }
-  *s = Slot{intention, next_order_++, true, now_s};
+  *s = Slot{intention, next_order_++, true, true, now_s};
 }
 
 void TpuafKnowledge::forget_intention(int robot) {
@@ -141,7 +164,8 @@ void TpuafKnowledge::announced(Eigen::VectorXd& arrival_s, Eigen::VectorXd& trav
 
 UtilityResult TpuafKnowledge::utilities(const PatrolGraph& graph, double now_s, int current_vertex,
                                         const std::vector<int>& candidates, double speed_mps,
-                                        UtilityForm form, bool use_path_length) {
+                                        UtilityForm form, bool use_path_length,
+                                        int exclude_robot) {
   if (graph.num_vertices() != size()) {
     throw std::invalid_argument("graph and knowledge disagree on the number of vertices");
   }
@@ -166,8 +190,9 @@ UtilityResult TpuafKnowledge::utilities(const PatrolGraph& graph, double now_s, 
   // Earliest announced arrival per vertex; ties go to the intention heard first.
   if (scratch_order_.size() != static_cast<std::size_t>(n)) scratch_order_.assign(n, 0);
   std::vector<int> touched;
-  for (const Slot& s : slots_) {
-    if (!s.held) continue;
+  for (std::size_t r = 0; r < slots_.size(); ++r) {
+    const Slot& s = slots_[r];
+    if (!s.held || static_cast<int>(r) == exclude_robot) continue;
     const int v = s.intention.vertex;
     const double a = s.intention.expected_arrival_s;
     const bool unset = std::isinf(scratch_arrival_[v]) && scratch_arrival_[v] > 0;

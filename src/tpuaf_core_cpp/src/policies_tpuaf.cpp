@@ -20,10 +20,11 @@ TpuafStrategy::TpuafStrategy(const TpuafKnowledge& knowledge, UtilityForm form, 
   knowledge_.assign(rngs_.size(), prototype_);
 }
 
-const TpuafKnowledge& TpuafStrategy::knowledge(int robot) const {
-  if (robot < 0 || robot >= static_cast<int>(knowledge_.size())) {
+TpuafKnowledge TpuafStrategy::knowledge(int robot) const {
+  if (robot < 0 || robot >= static_cast<int>(rngs_.size())) {
     throw std::out_of_range("unknown robot " + std::to_string(robot));
   }
+  if (shared_) return knowledge_[0].as_robot(robot);
   return knowledge_[static_cast<std::size_t>(robot)];
 }
 
@@ -33,7 +34,13 @@ void TpuafStrategy::start(GraphEngine& engine, int robot) {
                                 std::to_string(rngs_.size()) + " for " +
                                 std::to_string(engine.robots()) + " robots");
   }
-  knowledge_[static_cast<std::size_t>(robot)] = prototype_;
+  const bool shared = engine.team_hears_alike();
+  if (robot == 0 || shared != shared_) {  // a new run: the team's or every robot's copy
+    shared_ = shared;
+    knowledge_.assign(shared_ ? 1 : rngs_.size(), prototype_);
+  } else if (!shared_) {
+    knowledge_[static_cast<std::size_t>(robot)] = prototype_;
+  }
   Colocation& c = colocated_[static_cast<std::size_t>(robot)];
   c = Colocation{};
   c.shadows.assign(static_cast<std::size_t>(engine.robots()), 0);
@@ -41,8 +48,8 @@ void TpuafStrategy::start(GraphEngine& engine, int robot) {
 
 void TpuafStrategy::presume_choice(GraphEngine& engine, int robot, int mate) {
   // Teammate `mate`'s presumed choice here (argmax of the same utility, the first on ties)
-  // counts as its announced intention.
-  TpuafKnowledge& k = knowledge_[static_cast<std::size_t>(robot)];
+  // counts as its announced intention (only under delay: never with a shared knowledge).
+  TpuafKnowledge& k = knowledge_of(robot);
   const double now = engine.now();
   const int here = engine.current_vertex(robot);
   const UtilityResult result = k.utilities(engine.graph(), now, here, candidates_,
@@ -75,11 +82,14 @@ void TpuafStrategy::track_shadow(int robot, const TeamMessage& visit) {
 }
 
 int TpuafStrategy::decide(GraphEngine& engine, int robot) {
-  TpuafKnowledge& k = knowledge_[static_cast<std::size_t>(robot)];
+  TpuafKnowledge& k = knowledge_of(robot);
   const double now = engine.now();
   const int here = engine.current_vertex(robot);
-  k.record_visit(here, now);
-  k.forget_intention(robot);  // never count my own old intention
+  k.record_visit(here, now);  // shared: the teammates' hearing of it, too
+  // Never count my own old intention (a shared knowledge keeps it for the teammates and
+  // leaves it out of my utilities).
+  if (!shared_) k.forget_intention(robot);
+  const int exclude = shared_ ? robot : -1;
   const PatrolGraph& graph = engine.graph();
   candidates_.clear();
   if (any_vertex_) {
@@ -121,8 +131,9 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
       if (mate < robot) presume_choice(engine, robot, mate);
     }
   }
-  const UtilityResult result =
-      k.utilities(graph, now, here, candidates_, engine.average_speed(robot), form_, any_vertex_);
+  const UtilityResult result = k.utilities(graph, now, here, candidates_,
+                                           engine.average_speed(robot), form_, any_vertex_,
+                                           exclude);
   const Eigen::VectorXd& utility = result.utility;
   double top = utility[0];
   for (Eigen::Index j = 1; j < utility.size(); ++j) {
@@ -174,8 +185,30 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
   return target;
 }
 
+bool TpuafStrategy::on_team_message(GraphEngine& engine, int sender,
+                                    const TeamMessage& message) {
+  if (!shared_) return false;
+  TpuafKnowledge& k = knowledge_[0];
+  bool kept = true;
+  if (message.kind == TeamMessage::Kind::kVisit) {
+    kept = k.hear_team_visit(message.robot, message.vertex, engine.now());
+  } else if (message.kind == TeamMessage::Kind::kIntention) {
+    kept = k.hear_team_intention({message.robot, message.from_vertex, message.vertex,
+                                  message.expected_arrival_s, message.travel_time_s,
+                                  message.time_s},
+                                 engine.now());
+  }
+  // Without delay the latency is 0 and nothing of Colocation changes; other kinds are ignored
+  // as on_message ignores them.
+  if (!kept) {
+    throw std::logic_error("TPUAF's shared team knowledge: robot " + std::to_string(sender) +
+                           " sent a message out of the visit-then-intention pattern");
+  }
+  return true;
+}
+
 void TpuafStrategy::on_message(GraphEngine& engine, int robot, const TeamMessage& message) {
-  TpuafKnowledge& k = knowledge_[static_cast<std::size_t>(robot)];
+  TpuafKnowledge& k = knowledge_of(robot);
   if (message.kind == TeamMessage::Kind::kVisit || message.kind == TeamMessage::Kind::kIntention) {
     Colocation& c = colocated_[static_cast<std::size_t>(robot)];
     const double latency = engine.now() - message.time_s;

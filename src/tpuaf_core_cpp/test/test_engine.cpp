@@ -158,5 +158,72 @@ TEST(Engine, InterferenceEntryIsTheExactCrossingTime) {
   EXPECT_EQ(episodes[0].b, 1);
 }
 
+// A 6 x 5 lattice, 4 m apart, with irregular extra lengths: TPUAF has ties and long edges.
+PatrolGraph lattice_graph() {
+  Points p(30, 2);
+  std::vector<Edge> edges;
+  for (int c = 0; c < 6; ++c) {
+    for (int r = 0; r < 5; ++r) {
+      const int v = c * 5 + r;
+      p(v, 0) = 4.0 * c;
+      p(v, 1) = 4.0 * r;
+      if (r < 4) edges.push_back({v, v + 1, (v % 3 == 0) ? 9.0 : NAN});
+      if (c < 5) edges.push_back({v, v + 5, NAN});
+    }
+  }
+  return PatrolGraph(p, edges);
+}
+
+struct TpuafRun {
+  std::vector<VisitRecord> visits;
+  std::vector<SampleRow> rows;
+  long long delivered = 0;
+  bool shared = false;
+};
+
+// TPUAF with 8 robots for 900 s; short timeouts so that intentions go stale (dropped by some
+// robots' decisions and not by others').
+TpuafRun run_tpuaf(double loss, bool any_vertex, UtilityForm form) {
+  const PatrolGraph g = lattice_graph();
+  const int n = 8;
+  EngineConfig c = config(n, 900.0, {0, 0, 7, 12, 12, 19, 24, 29});
+  c.nominal_speed_mps = 1.0;
+  c.loss = loss;
+  GraphEngine engine(g, g.positions(), c, field_of(g), numpy_3_1());
+  const TpuafKnowledge prototype(Eigen::VectorXd::Constant(30, 0.01),
+                                 Eigen::VectorXd::Constant(30, 0.5), {}, 0.2, 2.0, 1.5, 6.0);
+  std::vector<NumpyPcg64> rngs;
+  for (int i = 0; i < n; ++i) rngs.push_back(NumpyPcg64(7, 11 + i, 13, 2 * i + 1));
+  TpuafStrategy strategy(prototype, form, any_vertex, rngs);
+  engine.set_strategy(&strategy);
+  engine.run();
+  engine.finish();
+  return {engine.recorder().visits(), engine.recorder().timeseries(),
+          engine.bus_stats().delivered, strategy.shares_knowledge()};
+}
+
+TEST(Engine, TeamKnowledgeWithoutLossOrDelayGivesTheRunOfPerRobotCopies) {
+  // loss = 1e-300 never loses a message but makes the bus deliver recipient by recipient
+  // into every robot's own copy: the same run, to the last digit.
+  for (const bool any_vertex : {false, true}) {
+    for (const UtilityForm form : {UtilityForm::kEq13, UtilityForm::kEq14}) {
+      const TpuafRun team = run_tpuaf(0.0, any_vertex, form);
+      const TpuafRun copies = run_tpuaf(1e-300, any_vertex, form);
+      EXPECT_TRUE(team.shared);
+      EXPECT_FALSE(copies.shared);
+      EXPECT_EQ(team.delivered, copies.delivered);
+      ASSERT_EQ(team.visits.size(), copies.visits.size());
+      ASSERT_GT(team.visits.size(), 100u);
+      for (std::size_t k = 0; k < team.visits.size(); ++k) {
+        EXPECT_EQ(team.visits[k].time_s, copies.visits[k].time_s) << k;
+        EXPECT_EQ(team.visits[k].robot, copies.visits[k].robot) << k;
+        ASSERT_EQ(team.visits[k].vertex, copies.visits[k].vertex) << k;
+      }
+      ASSERT_EQ(team.rows.size(), copies.rows.size());
+      EXPECT_EQ(team.rows.back().uncertainty_mean, copies.rows.back().uncertainty_mean);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace tpuaf

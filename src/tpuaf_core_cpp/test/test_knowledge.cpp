@@ -69,5 +69,26 @@ TEST(Knowledge, UnknownVertexIsRefused) {
   EXPECT_THROW(k.record_visit(7, 1.0), std::exception);
 }
 
+TEST(Knowledge, TeamKnowledgeLeavesOutTheDecidersOwnIntentionAndRefusesAnUnclosedOne) {
+  TpuafKnowledge team = three_vertices();
+  Intention in;
+  in.robot = 1;
+  in.from_vertex = 0;
+  in.vertex = 2;
+  in.expected_arrival_s = 15.0;
+  in.travel_time_s = 5.0;
+  in.sent_s = 10.0;
+  ASSERT_TRUE(team.hear_team_intention(in, 10.0));
+  EXPECT_EQ(team.intentions().size(), 1u);
+  EXPECT_TRUE(team.as_robot(1).intentions().empty());  // robot 1 never counts its own
+  EXPECT_EQ(team.as_robot(0).intentions().size(), 1u);
+  in.vertex = 1;
+  EXPECT_FALSE(team.hear_team_intention(in, 11.0));  // robot 1's intention for 2 still open
+  EXPECT_FALSE(team.hear_team_visit(1, 1, 12.0));    // a visit of another vertex
+  EXPECT_TRUE(team.hear_team_visit(1, 2, 15.0));     // closes it
+  EXPECT_TRUE(team.intentions().empty());
+  EXPECT_TRUE(team.hear_team_intention(in, 15.0));
+}
+
 }  // namespace
 }  // namespace tpuaf

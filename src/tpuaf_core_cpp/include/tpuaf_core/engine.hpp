@@ -82,6 +82,13 @@ class TeamStrategy {
   // then hand a batch of deliveries out robot by robot (each robot still gets them in order),
   // which keeps one robot's state in cache.
   virtual bool messages_are_local() const { return false; }
+  // A message that every teammate of `sender` receives now (GraphEngine::team_hears_alike()):
+  // the strategy may take it once for the whole team instead of once per recipient; true if it
+  // did (the engine then delivers it to nobody and counts it delivered to all).
+  virtual bool on_team_message(GraphEngine& /*engine*/, int /*sender*/,
+                               const TeamMessage& /*message*/) {
+    return false;
+  }
 };
 
 struct EngineConfig {
@@ -230,6 +237,8 @@ class GraphEngine {
   double average_speed(int robot) const;
   void position(int robot, double t, double& x, double& y) const;
   void send(int robot, TeamMessage message);
+  // No loss and no delay: every message reaches every teammate at the moment it is sent.
+  bool team_hears_alike() const { return config_.loss == 0 && config_.delay_s == 0; }
   void wake_at(int robot, double time_s);
   void change_goal(int robot, int vertex);
 
@@ -301,7 +310,9 @@ class GraphEngine {
 
 // TPUAF (tpuaf.policies.tpuaf.Tpuaf, and TpuafAnyVertex with any_vertex): every robot holds
 // a copy of `knowledge` (built as the Python policy builds it) and its own random stream
-// (numpy default_rng([seed, 2, robot])) for the tie-break.
+// (numpy default_rng([seed, 2, robot])) for the tie-break. On a bus without loss and delay the
+// copies would stay equal but for each robot's own intention: the team then holds one
+// knowledge (TpuafKnowledge::hear_team_*), so a message costs O(1), not O(robots).
 class TpuafStrategy : public TeamStrategy {
  public:
   // colocation: the Python policy's `colocation` parameter (robots that arrive together
@@ -312,9 +323,16 @@ class TpuafStrategy : public TeamStrategy {
   int decide(GraphEngine& engine, int robot) override;
   void on_message(GraphEngine& engine, int robot, const TeamMessage& message) override;
   bool messages_are_local() const override { return true; }
-  const TpuafKnowledge& knowledge(int robot) const;
+  bool on_team_message(GraphEngine& engine, int sender, const TeamMessage& message) override;
+  // What robot `robot` knows (a copy; the team's knowledge without its own intention when
+  // the team shares one).
+  TpuafKnowledge knowledge(int robot) const;
+  bool shares_knowledge() const { return shared_; }
 
  private:
+  TpuafKnowledge& knowledge_of(int robot) {
+    return knowledge_[shared_ ? 0 : static_cast<std::size_t>(robot)];
+  }
   struct Colocation {
     double latency_s = 0;  // largest message latency seen (receive - send) [s]
     std::unordered_map<int, std::deque<std::pair<double, int>>> my_visits;  // v -> (t, next)
@@ -327,7 +345,8 @@ class TpuafStrategy : public TeamStrategy {
   bool any_vertex_;
   std::vector<NumpyPcg64> rngs_;
   bool colocation_;
-  std::vector<TpuafKnowledge> knowledge_;
+  bool shared_ = false;                    // one knowledge for the team (knowledge_[0])
+  std::vector<TpuafKnowledge> knowledge_;  // per robot, or the team's
   std::vector<Colocation> colocated_;
   std::vector<int> candidates_;
 };

@@ -53,10 +53,23 @@ class TpuafKnowledge {
   // result instead of evaluating Eq. 2 again. Same numbers, one evaluation per team.
   void share_visit_results();
 
-  // Eq. 6-14 for `candidates` with this knowledge (stale entries dropped first).
+  // --- One knowledge for a whole team whose bus has no loss and no delay: every robot hears
+  // every teammate's message at once, so all robots know the same except their own intention
+  // (left out of their own utilities). The sender applies its visit with record_visit; its
+  // teammates take the messages through these two calls, once for the team. Each returns false
+  // if the messages leave the pattern that keeps the robots' copies equal: a robot's intention
+  // is closed by its visit of that vertex before its next intention (otherwise robots that
+  // dropped the intention as stale and robots that did not would disagree).
+  bool hear_team_visit(int robot, int vertex, double now_s);
+  bool hear_team_intention(const Intention& intention, double now_s);
+  // A copy as robot `robot` holds it: without its own intention.
+  TpuafKnowledge as_robot(int robot) const;
+
+  // Eq. 6-14 for `candidates` with this knowledge (stale entries dropped first); the intention
+  // of `exclude_robot` (>= 0: the deciding robot in a team knowledge) is not counted.
   UtilityResult utilities(const PatrolGraph& graph, double now_s, int current_vertex,
                           const std::vector<int>& candidates, double speed_mps, UtilityForm form,
-                          bool use_path_length);
+                          bool use_path_length, int exclude_robot = -1);
 
  private:
   void check_vertex(int v) const;
@@ -75,6 +88,7 @@ class TpuafKnowledge {
     Intention intention;
     std::uint64_t order = 0;
     bool held = false;
+    bool open = false;  // an intention not yet closed by the robot's visit of its vertex
     double last_heard_s = -std::numeric_limits<double>::infinity();  // that robot, any message
   };
   Slot* slot(int robot);
