@@ -11,7 +11,11 @@
 
 A runtime ("driver") owns the clock, the transport and the motion. It calls `start`, `decide`,
 `on_vertex` (a vertex of the route was reached), `on_goal_failed`, `on_wake`, `on_message`,
-`die` and `stall`; the machine calls back the driver (`RobotDriver`) to move, dwell, halt,
+`die` and `stall`, and feeds the robot's liveness (`TeammateLiveness`, team/liveness.py):
+`hear(robot, t)` for every team message and heartbeat delivered, `check_liveness(now)` when a
+check is due (the ROS agent node: 4 Hz; graph and physics: when a silence can end, from
+`HeartbeatLinks`), which calls the policy's `on_teammate_lost` for a teammate silent for the
+timeout; the machine calls back the driver (`RobotDriver`) to move, dwell, halt,
 send and schedule wake-ups, and reports what happened through `emit(kind, vertex, from_vertex,
 t)` with the AgentEvent kinds of tpuaf.topics: START, GOAL, REACHED (the one definition of a
 visit: arrival at the goal vertex within the goal tolerance), FAILED.
@@ -24,6 +28,7 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from tpuaf.policies import Policy, RobotContextBase
+from tpuaf.team.liveness import TeammateLiveness
 from tpuaf.team.messages import IdlenessEstimate, Intention, Visit
 from tpuaf.topics import FAILED, GOAL, REACHED, START
 
@@ -66,7 +71,7 @@ class RobotMachine(RobotContextBase):
 
     def __init__(self, driver: RobotDriver, robot: int, n_robots: int, patrol_map: Any,
                  policy: Policy, rng, emit: Callable[[int, int, int, float], None] | None = None,
-                 start_vertex: int | None = None):
+                 start_vertex: int | None = None, teammate_timeout_s: float = 10.0):
         self.driver = driver
         self.robot = int(robot)
         self.n_robots = int(n_robots)
@@ -93,6 +98,8 @@ class RobotMachine(RobotContextBase):
         self.visits = 0
         self.failures = 0
         self.decisions = 0
+        # [s] a teammate silent this long is lost (the agent node's ~teammate_timeout)
+        self.liveness = TeammateLiveness(self.n_robots, self.robot, teammate_timeout_s)
 
     def at_vertex(self, vertex: int) -> bool:
         """Is the robot within the map's goal tolerance [m] of `vertex` (a visit's distance)?"""
@@ -216,6 +223,22 @@ class RobotMachine(RobotContextBase):
         """A team message from another robot (never its own)."""
         if self.alive and self.started:
             self.policy.on_message(message, self)
+
+    def hear(self, robot: int, t: float) -> bool:
+        """Teammate `robot` was heard (a team message or a heartbeat delivered) at run time t
+        [s]. True when it had been reported lost (it is back; the policy is not told: it
+        hears the teammate's next message)."""
+        return self.alive and self.liveness.heard(robot, t)
+
+    def check_liveness(self, now: float) -> list[int]:
+        """Teammates silent for the timeout by run time `now` [s], each reported once: the
+        policy's `on_teammate_lost` is called for each (after the start)."""
+        if not self.alive:
+            return []
+        lost = self.liveness.check(now)
+        for robot in lost:
+            self.on_teammate_lost(robot)
+        return lost
 
     def on_teammate_lost(self, robot: int) -> None:
         """Teammate `robot` went silent for the liveness timeout (it may be dead)."""

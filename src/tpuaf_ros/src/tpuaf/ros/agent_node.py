@@ -42,7 +42,7 @@ from tpuaf.ros.node import fatal, private_params, run_node, yaw_of
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.team.epoch import ADOPTED, INVALID, KEPT, RunEpoch
 from tpuaf.team.inbox import InboxConfig, TeamInbox
-from tpuaf.team.liveness import InputWatchdog, TeammateLiveness
+from tpuaf.team.liveness import InputWatchdog
 from tpuaf_ros.msg import AgentEvent, RunStart
 
 NODE = "patrol_agent"
@@ -105,7 +105,6 @@ class AgentNode:
         policy = REGISTRY.create(p.strategy, p.strategy_params)
         self.inbox = TeamInbox(p.robots, patrol_map.num_vertices, p.robot_index, InboxConfig(
             skew_warn_s=p.skew_warn, max_skew_s=p.max_skew, correct_skew=not sim))
-        self.liveness = TeammateLiveness(p.robots, p.robot_index, p.teammate_timeout)
         pose_input = "tf " + p.map_frame if p.localization == "tf" else p.localization
         # amcl_pose comes on change only: a robot at rest would look stale.
         watched = ("scan", "clock") if p.localization == "amcl" else ("pose", "scan", "clock")
@@ -144,7 +143,9 @@ class AgentNode:
                    if p.navigation == "builtin" and p.global_planner else None)
         self.runtime = AgentRuntime(patrol_map, policy, p.robot_index, p.robots, p.seed,
                                     self.publish_team, self.publish_event, cfg,
-                                    p.heartbeat_period, p.waypoint_tolerance, planner)
+                                    p.heartbeat_period, p.waypoint_tolerance, planner,
+                                    teammate_timeout_s=p.teammate_timeout)
+        self.liveness = self.runtime.machine.liveness  # the machine's (RobotMachine.hear)
         self.runtime.on_stuck = self.report_stuck
         # [m] laser points farther from the base than this cannot matter to the controller
         self.points_within_m = self.runtime.navigator.controller.reach_m
@@ -315,7 +316,7 @@ class AgentNode:
                 self.warn(("bad", r, _shape(why)),
                           f"ignored a team message from {msg.robot!r}: {why}")
                 return
-            if self.liveness.heard(r, now):
+            if self.runtime.hear(r, now):
                 rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
             self.runtime.on_message(message)
 
@@ -327,7 +328,7 @@ class AgentNode:
         with self.lock:
             if msg.event == topics.HEARTBEAT:  # stamped "now" (a GOAL may be post-dated)
                 self.inbox.observe(r, convert.stamp_s(msg) - self.epoch, now)
-            if self.liveness.heard(r, now):
+            if self.runtime.hear(r, now):
                 rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
 
     def report_stuck(self, goal: int, retry: int, t: float) -> None:
@@ -533,9 +534,8 @@ class AgentNode:
                 continue
             now = t - self.epoch
             with self.lock:
-                lost = self.liveness.check(now)
+                lost = self.runtime.check_liveness(now)  # the policy is told
                 for r in lost:
-                    self.runtime.on_teammate_lost(r)
                     rospy.logwarn(f"{self.name}: teammate {self.names[r]} silent for "
                                   f"{self.liveness.silent_for(r, now):.1f} s: lost, its "
                                   "intentions dropped")

@@ -1,8 +1,10 @@
 """The agent runtime: one robot's policy and navigator on a live clock (ROS-free).
 
 The `patrol_agent` node (and the physics runtime, once per robot) feeds it poses (`on_pose`),
-team messages of the other robots (`on_message`) and control ticks with laser points (`tick`,
-which returns the velocity command). The robot protocol is the shared `RobotMachine`
+team messages of the other robots (`on_message`), what it hears of them for liveness (`hear`:
+every team message and heartbeat; `check_liveness` when due, which tells the policy of a
+teammate silent for `teammate_timeout_s`) and control ticks with laser points (`tick`, which
+returns the velocity command). The robot protocol is the shared `RobotMachine`
 (runtimes/robot.py): this class is its driver, with the run clock of the ticks, `publish_team`
 as transport and the `Navigator` (route + local controller) as motion. Times are seconds of run
 time (ROS time minus the run epoch).
@@ -31,6 +33,7 @@ from tpuaf.navigation import (
 )
 from tpuaf.policies import Policy
 from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, RobotMachine
+from tpuaf.team.liveness import HEARTBEAT_PERIOD_S
 from tpuaf.team.messages import well_formed
 from tpuaf.topics import HEARTBEAT
 
@@ -47,8 +50,9 @@ class AgentRuntime:
     def __init__(self, patrol_map: Any, policy: Policy, robot: int, n_robots: int, seed: int,
                  publish_team: Callable[[Any], None],
                  publish_event: Callable[[int, int, int, float], None],
-                 controller: ControllerConfig | None = None, heartbeat_period_s: float = 1.0,
-                 waypoint_tolerance_m: float = 0.6, planner: Any = None):
+                 controller: ControllerConfig | None = None,
+                 heartbeat_period_s: float = HEARTBEAT_PERIOD_S, waypoint_tolerance_m: float = 0.6,
+                 planner: Any = None, teammate_timeout_s: float = 10.0):
         self._publish_team = publish_team
         self._publish_event = publish_event
         self.heartbeat_period_s = float(heartbeat_period_s)
@@ -75,7 +79,7 @@ class AgentRuntime:
         self._retries_seen = 0
         rng = np.random.default_rng([int(seed), 2, int(robot)])  # as in the graph runtime
         self.machine = RobotMachine(self, robot, n_robots, patrol_map, policy, rng,
-                                    emit=self._event)
+                                    emit=self._event, teammate_timeout_s=teammate_timeout_s)
 
     def __getattr__(self, name: str) -> Any:
         # Only for names not found on the runtime: the machine's (RobotContext) attributes.
@@ -167,8 +171,16 @@ class AgentRuntime:
         if message.robot != m.robot:
             m.on_message(message)
 
+    def hear(self, robot: int, t: float) -> bool:
+        """Teammate `robot` heard at run time t [s] (a message or a heartbeat); True: back."""
+        return self.machine.hear(robot, t)
+
+    def check_liveness(self, now: float) -> list[int]:
+        """Teammates silent for the timeout by run time `now` [s] (their policy hook called)."""
+        return self.machine.check_liveness(now)
+
     def on_teammate_lost(self, robot: int) -> None:
-        """Teammate `robot` went silent (the transport's liveness timeout)."""
+        """Teammate `robot` went silent (the liveness timeout)."""
         self.machine.on_teammate_lost(robot)
 
     def begin(self, t: float) -> bool:

@@ -4,12 +4,22 @@
 robot what does not depend on how robots move: visits and announcements to the recorder,
 delivery of ready team messages to the live machines, the fault injection (death, stall) and
 the run summary. A runtime subclasses it and supplies motion through three hooks:
-`_stop_motion(i)` (a death: stop where it is), `_after_stall(i)` and `_notify_lost_at(t, i)`
-(tell the survivors at time t [s] that robot i went silent, as heartbeats would).
+`_stop_motion(i)` (a death: stop where it is), `_after_stall(i)` and `_liveness_at(t, i, token)`
+(call `liveness_due(i, token)` at run time t [s]).
+
+Liveness (runs with faults): every robot's machine is fed the team messages delivered to it and
+the heartbeats it hears (`HeartbeatLinks`: one a second from every live robot, with the bus's
+loss and delay), and checks its teammates' silence when one can reach the timeout
+(`config.teammate_timeout_s`, the agent node's ~teammate_timeout): a death is detected from what
+the survivors hear, later under loss; a stalled robot keeps its heartbeats. One pending check per
+robot (the earliest time a silence can end; messages only postpone it, so it is never late).
+Runs without faults carry no heartbeats (nothing can go silent but through loss), so they stay
+identical to the C++ loop's.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
@@ -22,6 +32,7 @@ from tpuaf.robot.machine import RobotMachine
 from tpuaf.runtimes.config import RunConfig, travel_map
 from tpuaf.runtimes.faults import DEATH, Fault
 from tpuaf.team.bus import TeamBus
+from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, HeartbeatLinks
 from tpuaf.topics import REACHED, START
 
 
@@ -40,6 +51,10 @@ class TeamRun:
         self.faults = config.faults()
         self.recorder: RunRecorder | None = None
         self.machines: list[RobotMachine] = []
+        self.links: HeartbeatLinks | None = None  # heartbeats, in runs with faults
+        self._liveness_token: list[int] = []  # per robot: the id of its one pending check
+        self.losses: list[tuple[float, int, int]] = []  # (t [s], observer, lost teammate)
+        self._died_at: dict[int, float] = {}
 
     def _record(self, speed_mps: float | None = None) -> RunRecorder:
         """The run's recorder (speed [m/s] of the robots when it differs from the map's)."""
@@ -55,6 +70,13 @@ class TeamRun:
         if self.faults:
             for machine in machines:
                 machine.on_announce = self.announcer(machine.robot)
+            cfg = self.config
+            self.links = HeartbeatLinks(cfg.robots, float(cfg.duration_s),
+                                        float(cfg.teammate_timeout_s), self.bus.delay_s,
+                                        self.bus.loss, self.seed, self.heartbeat_period_s)
+            self._liveness_token = [0] * len(machines)
+
+    heartbeat_period_s = HEARTBEAT_PERIOD_S  # [s] (the physics runtime: its agents')
 
     # --- recording ---
     def visit_listener(self, robot: int) -> Callable[[int, int, int, float], None]:
@@ -78,6 +100,9 @@ class TeamRun:
         ready = self.bus.ready
         machines = self.machines
         stats = self.bus.stats
+        if self.links is not None:
+            self._deliver_heard()
+            return
         while ready:
             message, recipients = ready.popleft()
             for r in recipients:
@@ -86,9 +111,66 @@ class TeamRun:
                     machine.on_message(message)
                     stats.delivered += 1
 
-    def teammate_lost(self, robot: int) -> None:
-        for machine in self.machines:
-            machine.on_teammate_lost(robot)
+    def _deliver_heard(self) -> None:
+        """deliver_ready, each message also heard by its recipient's liveness."""
+        ready = self.bus.ready
+        machines = self.machines
+        stats = self.bus.stats
+        while ready:
+            message, recipients = ready.popleft()
+            sender = getattr(message, "robot", -1)
+            for r in recipients:
+                machine = machines[r]
+                if machine.alive:
+                    if machine.hear(sender, self.now):
+                        self._plan_liveness(r)  # back: its next silence may come sooner
+                    machine.on_message(message)
+                    stats.delivered += 1
+
+    # --- liveness (runs with faults) ---
+    def start_liveness(self) -> None:
+        """Plan every robot's first liveness check (after the start, at run time now)."""
+        if self.links is not None:
+            for machine in self.machines:
+                self._plan_liveness(machine.robot)
+
+    def _feed_heartbeats(self, robot: int) -> None:
+        """Robot `robot` hears the last heartbeat of every teammate that reached it by now."""
+        machine = self.machines[robot]
+        last_arrival = self.links.last_arrival_s
+        now = self.now
+        for j in range(len(self.machines)):
+            t = last_arrival(robot, j, now)
+            if t > -math.inf:
+                machine.hear(j, t)
+
+    def _plan_liveness(self, robot: int) -> None:
+        """Schedule robot `robot`'s next liveness check (the earliest time any teammate's
+        silence can reach the timeout, or one can be heard again)."""
+        machine = self.machines[robot]
+        if not machine.alive:
+            return
+        self._feed_heartbeats(robot)
+        live = machine.liveness
+        next_check = self.links.next_check_s
+        now = self.now
+        due = min((next_check(robot, j, live.last_heard[j], j in live.lost, now)
+                   for j in range(len(self.machines)) if j != robot), default=math.inf)
+        self._liveness_token[robot] += 1
+        if math.isfinite(due):
+            self._liveness_at(max(due, now), robot, self._liveness_token[robot])
+
+    def liveness_due(self, robot: int, token: int) -> None:
+        """A planned liveness check of robot `robot` (stale when `token` is not its latest)."""
+        if token != self._liveness_token[robot] or not self.machines[robot].alive:
+            return
+        self._feed_heartbeats(robot)
+        for lost in self.machines[robot].check_liveness(self.now):
+            self.losses.append((self.now, robot, lost))
+        self._plan_liveness(robot)
+
+    def _liveness_at(self, time_s: float, robot: int, token: int) -> None:  # pragma: no cover
+        raise NotImplementedError
 
     # --- faults ---
     def inject(self, fault: Fault) -> None:
@@ -101,7 +183,10 @@ class TeamRun:
             machine.die()
             self.bus.alive[i] = False
             self.recorder.record_robot_death(i, self.now)
-            self._notify_lost_at(self.now + self.config.teammate_timeout_s, i)
+            self._died_at[i] = self.now
+            self.links.died(i, self.now)  # its heartbeats stop: every survivor's checks move
+            for machine in self.machines:
+                self._plan_liveness(machine.robot)
             return
         machine.stall()
         self.recorder.record_robot_stall(i, self.now)
@@ -113,12 +198,28 @@ class TeamRun:
     def _after_stall(self, robot: int) -> None:
         """A stall: the robot no longer moves (its machine keeps deciding)."""
 
-    def _notify_lost_at(self, time_s: float, robot: int) -> None:  # pragma: no cover
-        raise NotImplementedError
-
     # --- results ---
     def summary(self) -> dict[str, Any]:
         summary = self.recorder.summary(self.now)
         summary["messages"] = asdict(self.bus.stats)
         summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
+        if self.links is not None:
+            summary["liveness"] = self.liveness_summary()
         return summary
+
+    def liveness_summary(self) -> dict[str, Any]:
+        """How the survivors noticed each death (detection delays [s] after the death, over
+        the robots alive when they noticed) and how often a live teammate was taken for lost
+        (a silence of the timeout under loss)."""
+        deaths = []
+        for robot, died in sorted(self._died_at.items(), key=lambda kv: (kv[1], kv[0])):
+            delays = [t - died for t, _, lost in self.losses if lost == robot and t >= died]
+            deaths.append({
+                "robot": robot, "time_s": died, "noticed_by": len(delays),
+                "first_delay_s": min(delays) if delays else None,
+                "last_delay_s": max(delays) if delays else None,
+            })
+        false = sum(1 for t, _, lost in self.losses if t < self._died_at.get(lost, math.inf))
+        return {"teammate_timeout_s": float(self.config.teammate_timeout_s),
+                "heartbeat_period_s": self.links.period_s, "deaths": deaths,
+                "false_losses": false}

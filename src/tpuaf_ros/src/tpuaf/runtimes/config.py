@@ -47,8 +47,8 @@ class RunConfig:
     fail: list = field(default_factory=list)
     fail_random: int = 0
     stall: list = field(default_factory=list)
-    # [s] a silent teammate is lost after this (the agent node's heartbeat timeout): robots are
-    # heard while alive, so teammates get on_teammate_lost this long after a death.
+    # [s] a teammate silent this long is lost (the agent node's ~teammate_timeout): in runs with
+    # faults, robots notice a death from the heartbeats and messages they stop hearing.
     teammate_timeout_s: float = 10.0
     # Edge travel of the graph runtime: "declared" (the map's edge lengths, as published
     # comparisons use them) or "planned" (path lengths on the occupancy grid for the robot's

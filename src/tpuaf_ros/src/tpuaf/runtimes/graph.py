@@ -5,8 +5,10 @@ vertex positions, each taking edge length / speed). Each robot is a `RobotMachin
 (robot/machine.py, shared with the physics and agent runtimes); this module is its driver:
 event queue clock and segment motion; `TeamRun` (runtimes/base.py) holds the `TeamBus`
 (delay, loss), the recorder and the faults. Ground truth (uncertainty, idleness, interference)
-is measured by `tpuaf.measure.metrics.RunRecorder` from the true, piecewise-linear positions; visits are the machines' REACHED events. Faults (death, stall) are
-injected at configured times (runtimes/faults.py). Runs are deterministic for a seed.
+is measured by `tpuaf.measure.metrics.RunRecorder` from the true, piecewise-linear positions;
+visits are the machines' REACHED events. Faults (death, stall) are injected at configured times
+(runtimes/faults.py); the survivors notice a death from what they stop hearing (heartbeats and
+messages: `TeamRun` liveness, one queued check per robot). Runs are deterministic for a seed.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from tpuaf.runtimes.config import RunConfig, run_description
 
 __all__ = ["DEFAULT_RETRY_S", "STAY_S", "BatchRun"]
 
-_ARRIVE, _WAKE, _DELIVER, _FAULT, _GIVE_UP, _LOST = 0, 1, 2, 3, 4, 5
+_ARRIVE, _WAKE, _DELIVER, _FAULT, _GIVE_UP, _LIVENESS = 0, 1, 2, 3, 4, 5
 
 
 class BatchRun(TeamRun):
@@ -157,8 +159,8 @@ class BatchRun(TeamRun):
             if self.robots[i].goal is not None:
                 self._give_up_later(i)
 
-    def _notify_lost_at(self, time_s: float, i: int) -> None:
-        self.push(time_s, _LOST, i)
+    def _liveness_at(self, time_s: float, i: int, token: int) -> None:
+        self.push(time_s, _LIVENESS, (i, token))
 
     def _give_up(self, i: int) -> None:
         robot = self.robots[i]
@@ -185,6 +187,7 @@ class BatchRun(TeamRun):
         for robot in self.robots:
             robot.decide()
             self.deliver_ready()
+        self.start_liveness()
         next_progress = 0.0
         events = self._events
         robots = self.robots
@@ -213,8 +216,8 @@ class BatchRun(TeamRun):
                 robots[payload].on_wake()
             elif kind == _FAULT:
                 self.inject(payload)
-            elif kind == _LOST:
-                self.teammate_lost(payload)
+            elif kind == _LIVENESS:
+                self.liveness_due(*payload)
             elif kind == _GIVE_UP:
                 if pending[payload] == seq:
                     self._give_up(payload)

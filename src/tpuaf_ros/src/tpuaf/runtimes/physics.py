@@ -16,13 +16,15 @@ index order gets its pose and its latest scan and answers a command (messages se
 are delivered before the next robot's turn when the bus has no delay), then the world steps.
 Deterministic per seed: world noise [seed], bus [seed, 1], policies [seed, 2, i].
 
-Liveness: the fleet's agents hear each other's heartbeats; here a robot is heard while alive,
-so a dead robot's teammates are told it is lost (`on_teammate_lost`) `teammate_timeout_s`
-after its death, as heartbeats would. A stalled robot keeps its heartbeats.
+Liveness (runs with faults): as the fleet's agents, every robot hears its teammates' heartbeats
+(one per `heartbeat_period_s`, with the bus's loss and delay: `HeartbeatLinks`) and team
+messages, and takes a teammate silent for `teammate_timeout_s` for lost (`TeamRun`); checks
+fall on the control ticks. A stalled robot keeps its heartbeats.
 """
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections.abc import Callable
 from dataclasses import asdict
@@ -86,11 +88,12 @@ class PhysicsRun(TeamRun):
             AgentRuntime(pm, cls(config.strategy_params), i, n, self.seed,
                          self._publisher(i), self.visit_listener(i),
                          controller_config(i, self.robot_choice.speed_mps, robot_model.radius),
-                         planner=self.planner)
+                         planner=self.planner, teammate_timeout_s=config.teammate_timeout_s)
             for i in range(n)
         ]
+        self.heartbeat_period_s = self.agents[0].heartbeat_period_s if n else 1.0
+        self._liveness_checks: list[tuple[float, int, int]] = []  # heap: (t [s], robot, token)
         self._team([a.machine for a in self.agents])
-        self._lost: list[tuple[float, int]] = []
         self.steps_per_control = round(config.control_period_s / config.physics_step_s)
         # Scans at the laser rate, on control ticks (LDS-01 5 Hz: every other 10 Hz tick).
         self.scan_every = max(1, round(1.0 / (laser.rate * config.control_period_s)))
@@ -102,8 +105,8 @@ class PhysicsRun(TeamRun):
 
         return publish
 
-    def _notify_lost_at(self, time_s: float, robot: int) -> None:
-        self._lost.append((time_s, robot))
+    def _liveness_at(self, time_s: float, robot: int, token: int) -> None:
+        heapq.heappush(self._liveness_checks, (time_s, robot, token))
 
     def _points(self, ranges: np.ndarray) -> list[np.ndarray]:
         """Laser points (k, 2) in the base frame per robot: the agent node's scan step
@@ -135,6 +138,8 @@ class PhysicsRun(TeamRun):
         for a in agents:
             a.begin(0.0)
             self.deliver_ready()
+        self.start_liveness()
+        checks = self._liveness_checks
         n_ticks = int(math.floor(end / period + 1e-9))
         next_progress = 0.0
         for k in range(n_ticks + 1):
@@ -144,10 +149,12 @@ class PhysicsRun(TeamRun):
                 fault = faults.pop(0)
                 self.inject(fault)
                 stopped[fault.robot] = True
-            while self._lost and self._lost[0][0] <= t + 1e-9:
-                self.teammate_lost(self._lost.pop(0)[1])
             self.bus.release_due(t)
             self.deliver_ready()
+            while checks and checks[0][0] <= t + 1e-9:  # after the messages due by now
+                _, robot, token = heapq.heappop(checks)
+                self.liveness_due(robot, token)
+                self.deliver_ready()
             if k:
                 poses = np.asarray(world.poses(), dtype=float)
                 self.recorder.record_positions(t, poses[:, :2])
