@@ -151,3 +151,32 @@ def test_reference_tours_reports_both_and_the_better():
     )
     with pytest.raises(ValueError, match="speed"):
         tours.reference_tours(m, 4, 0.0)
+
+
+def test_closed_walk_refuses_a_disconnected_vertex_set():
+    m = grid_map(3, 1.0)  # 0 1 2 / 3 4 5 / 6 7 8: the corners 0 and 2 are not adjacent
+    with pytest.raises(ValueError, match="not connected"):
+        tours.closed_walk(m.graph, [0, 2])
+    walk, length = tours.closed_walk(m.graph, [0, 1, 2])
+    assert length == pytest.approx(4.0) and set(walk) == {0, 1, 2}
+
+
+def test_plans_are_identical_on_a_fresh_map_object():
+    a, b = grid_map(7, 1.0), grid_map(7, 1.0)  # two objects: no shared in-memory cache
+    assert tours.cyclic_tour(a).walk == tours.cyclic_tour(b).walk
+    pa, pb = tours.partition_tours(a, 5), tours.partition_tours(b, 5)
+    assert pa.parts == pb.parts and [t.walk for t in pa.tours] == [t.walk for t in pb.tours]
+
+
+def test_disk_cache_is_keyed_by_the_map_content(tmp_path, monkeypatch):
+    monkeypatch.setenv(tours.CACHE_ENV, str(tmp_path))
+    m = grid_map(6, 1.0)
+    first = tours.partition_tours(m, 3)
+    files = sorted(tmp_path.glob("plan-*.json"))
+    assert len(files) == 1
+    again = tours.partition_tours(grid_map(6, 1.0), 3)  # read back from disk
+    assert again.parts == first.parts and again.robots_per_part == first.robots_per_part
+    tours.partition_tours(grid_map(6, 1.5), 3)  # other edge lengths: another key
+    assert len(list(tmp_path.glob("plan-*.json"))) == 2
+    files[0].write_text("{not json")  # a damaged file is searched again, not trusted
+    assert tours.partition_tours(grid_map(6, 1.0), 3).parts == first.parts

@@ -10,4 +10,5 @@ void bind_knowledge(pybind11::module_& m);
 void bind_world(pybind11::module_& m);
 void bind_engine(pybind11::module_& m);
 void bind_planner(pybind11::module_& m);
+void bind_tours(pybind11::module_& m);
 }  // namespace tpuaf::bindings

@@ -1,12 +1,14 @@
 """Reference tours (not online strategies): the cyclic tour and the k-partition tour (SPEC sec. 5).
 
 - cyclic: one short closed walk through all vertices (a TSP tour on the metric closure of the
-  graph, nearest neighbour + 2-opt + Or-opt, expanded into a vertex walk); N robots evenly
+  graph, nearest neighbour + 2-opt + Or-opt with kicks, expanded into a vertex walk); N robots evenly
   spaced along it. Worst idleness = L / (N v) when some vertex is passed once per lap.
 - partition: the graph split into connected parts, each toured (inside its own induced
   subgraph) by its robot(s). Worst idleness = max over parts of L_p / (m_p v).
 
-Both are computed deterministically (no run seed), so every robot of a team gets the same tours.
+The searches run in the C++ core (tpuaf_core/tours.hpp). Both are computed deterministically
+(a fixed search seed, no run seed), so every robot of a team gets the same tours; they are
+cached per map object, and on disk in $TPUAF_PLAN_CACHE when it names a folder.
 Idleness figures are analytic, steady state, at speed v [m/s]:
 - worst [s]: the longest interval between two visits of any vertex;
 - average "time" [s]: mean over vertices of the time average of (t - last visit);
@@ -16,17 +18,35 @@ Visits of one vertex at the same instant (two robots) count once.
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
+import sys
+import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import tpuaf_core
 
+from tpuaf.files import atomic_write_text
+
 _EPS = 1e-9
 
 
-# ---------------------------------------------------------------- TSP on a distance matrix
+# ---------------------------------------------------------------- search (the C++ core)
+
+# Search effort. The cyclic tour gets many kicks (it is computed once per map); part walks
+# scored inside the partition search get few (thousands are scored); final part walks as many
+# as the cycle's per vertex. All use the fixed seed: every robot computes the same plan.
+SEED = 12345
+PART_SCORE = (3, 4)  # (nearest-neighbour starts, kicks) while searching partitions
+
+
+def _kicks(n_vertices: int) -> int:
+    return max(30, 10 * n_vertices)
 
 
 def _order_length(dist: np.ndarray, order: list[int]) -> float:
@@ -36,117 +56,36 @@ def _order_length(dist: np.ndarray, order: list[int]) -> float:
     return float(dist[idx, np.roll(idx, -1)].sum())
 
 
-def _nearest_neighbour(dist: np.ndarray, start: int) -> list[int]:
-    n = dist.shape[0]
-    unvisited = np.ones(n, dtype=bool)
-    unvisited[start] = False
-    order = [start]
-    for _ in range(n - 1):
-        row = np.where(unvisited, dist[order[-1]], np.inf)
-        nxt = int(np.argmin(row))
-        order.append(nxt)
-        unvisited[nxt] = False
-    return order
-
-
-def _two_opt(dist: np.ndarray, order: list[int]) -> bool:
-    """Best-improvement 2-opt passes until none improves; True when something changed."""
-    n = len(order)
-    changed = False
-    if n < 4:
-        return False
-    while True:
-        idx = np.asarray(order)
-        best_delta, best = -_EPS, None
-        for i in range(n - 2):
-            a, b = idx[i], idx[i + 1]
-            js = np.arange(i + 2, n if i > 0 else n - 1)
-            if js.size == 0:
-                continue
-            c, d = idx[js], idx[(js + 1) % n]
-            delta = dist[a, c] + dist[b, d] - dist[a, b] - dist[c, d]
-            k = int(np.argmin(delta))
-            if delta[k] < best_delta:
-                best_delta, best = float(delta[k]), (i, int(js[k]))
-        if best is None:
-            return changed
-        i, j = best
-        order[i + 1 : j + 1] = order[i + 1 : j + 1][::-1]
-        changed = True
-
-
-def _or_opt(dist: np.ndarray, order: list[int]) -> bool:
-    """Move a segment of 1-3 vertices (maybe reversed) elsewhere; first improvement."""
-    n = len(order)
-    changed = False
-    improved = True
-    while improved:
-        improved = False
-        for seg_len in (1, 2, 3):
-            if n < seg_len + 3:
-                continue
-            for i in range(n):
-                rot = order[i:] + order[:i]
-                seg, rest = rot[:seg_len], rot[seg_len:]
-                prev, nxt = rest[-1], rest[0]
-                gain = dist[prev, seg[0]] + dist[seg[-1], nxt] - dist[prev, nxt]
-                r = np.asarray(rest)
-                a, b = r[:-1], r[1:]
-                fwd = dist[a, seg[0]] + dist[seg[-1], b] - dist[a, b]
-                rev = dist[a, seg[-1]] + dist[seg[0], b] - dist[a, b]
-                kf, kr = int(np.argmin(fwd)), int(np.argmin(rev))
-                if min(fwd[kf], rev[kr]) < gain - _EPS:
-                    if fwd[kf] <= rev[kr]:
-                        k, ins = kf, seg
-                    else:
-                        k, ins = kr, seg[::-1]
-                    order[:] = rest[: k + 1] + ins + rest[k + 1 :]
-                    improved = changed = True
-                    break
-            if improved:
-                break
-    return changed
-
-
-def _local_search(dist: np.ndarray, order: list[int]) -> list[int]:
-    order = list(order)
-    while True:
-        a = _two_opt(dist, order)
-        b = _or_opt(dist, order)
-        if not (a or b):
-            return order
-
-
-def _double_bridge(order: list[int], rng: np.random.Generator) -> list[int]:
-    n = len(order)
-    i, j, k = sorted(rng.choice(np.arange(1, n), size=3, replace=False))
-    return order[:i] + order[j:k] + order[i:j] + order[k:]
-
-
 def tsp_order(dist: np.ndarray, starts: int = 12, kicks: int = 30) -> list[int]:
-    """A short cyclic order of all rows of the symmetric metric `dist` (indices 0..k-1).
-
-    Nearest neighbour from up to `starts` start vertices, each improved by 2-opt + Or-opt,
-    then `kicks` double-bridge perturbations of the best (iterated local search, fixed seed).
-    """
+    """A short cyclic order of all rows of the symmetric metric `dist` (indices 0..k-1):
+    nearest neighbour from up to `starts` start rows, 2-opt + Or-opt on neighbour lists, then
+    `kicks` local double-bridge kicks of the best (iterated local search, fixed seed; C++ core)."""
     dist = np.asarray(dist, dtype=float)
-    n = dist.shape[0]
-    if n <= 3:
-        return list(range(n))
-    best, best_len = None, np.inf
-    for s in np.linspace(0, n - 1, min(starts, n)).astype(int):
-        cand = _local_search(dist, _nearest_neighbour(dist, int(s)))
-        length = _order_length(dist, cand)
-        if length < best_len - _EPS:
-            best, best_len = cand, length
-    if n >= 8:
-        rng = np.random.default_rng(12345)  # fixed: tours must be identical for every robot
-        for _ in range(kicks):
-            cand = _local_search(dist, _double_bridge(best, rng))
-            length = _order_length(dist, cand)
-            if length < best_len - _EPS:
-                best, best_len = cand, length
-    return best
+    return list(tpuaf_core.tsp_order(dist, starts, kicks, SEED))
+
+
+class _Progress:
+    """Progress of a long plan search on a terminal: one updated stderr line after 2 s."""
+
+    def __init__(self, what: str):
+        self.what = what
+        self.t0 = time.monotonic()
+        self.last = self.t0
+        self.shown = False
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        now = time.monotonic()
+        if now - self.t0 < 2.0 or now - self.last < 0.5 or not sys.stderr.isatty():
+            return
+        self.last, self.shown = now, True
+        pct = 100.0 * done / max(total, 1)
+        sys.stderr.write(f"\rplanning {self.what}: {stage} {pct:3.0f} % "
+                         f"({now - self.t0:.0f} s)")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.shown:
+            sys.stderr.write("\n")
 
 
 # ---------------------------------------------------------------- walks and their idleness
@@ -162,57 +101,19 @@ def _adjacency(graph: Any) -> dict[int, dict[int, float]]:
     return adj
 
 
-def _arcs(adj: dict[int, dict[int, float]]) -> tuple[list[int], list[int], list[float]]:
-    """Directed arcs (tails, heads, lengths [m]) of an adjacency, for tpuaf_core.dijkstra."""
-    tails, heads, weights = [], [], []
-    for u, nbrs in adj.items():
-        for w, c in nbrs.items():
-            tails.append(u)
-            heads.append(w)
-            weights.append(c)
-    return tails, heads, weights
-
-
-def _dijkstra(arcs, n: int, source: int, allowed: set[int]) -> tuple[dict, dict]:
-    """Shortest paths from `source` inside `allowed` (the core's search): reached vertices'
-    distances [m] and parents."""
-    mask = [v in allowed for v in range(n)]
-    dist, parent, _ = tpuaf_core.dijkstra(n, *arcs, [source], -_EPS, mask)
-    reached = {v: d for v, d in enumerate(dist) if d < np.inf}
-    return reached, {v: p for v, p in enumerate(parent) if p >= 0}
-
-
 def closed_walk(
-    graph: Any, vertices: list[int], adj=None, starts: int = 12, kicks: int = 30
+    graph: Any, vertices: list[int], adj=None, starts: int = 12, kicks: int | None = None
 ) -> tuple[list[int], float]:
     """Shortest closed walk found through `vertices`, moving only inside them (their induced
-    subgraph, which must be connected). Returns (walk without the repeated first vertex, length m)."""
+    subgraph, which must be connected). Returns (walk without the repeated first vertex, length m).
+    `adj` is accepted for compatibility (the core reads the graph itself)."""
     vertices = sorted(set(int(v) for v in vertices))
-    if len(vertices) == 1:
-        return vertices, 0.0
-    adj = adj if adj is not None else _adjacency(graph)
-    allowed = set(vertices)
-    k = len(vertices)
-    dist = np.zeros((k, k))
-    prevs = []
-    arcs = _arcs(adj)
-    for a, va in enumerate(vertices):
-        d, prev = _dijkstra(arcs, graph.num_vertices, va, allowed)
-        if len(d) < k:
-            raise ValueError(f"vertex set {vertices} is not connected")
-        dist[a] = [d[vb] for vb in vertices]
-        prevs.append(prev)
-    order = tsp_order(dist, starts, kicks)
-    walk: list[int] = []
-    for i, a in enumerate(order):
-        b = order[(i + 1) % k]
-        # path vertices[a] -> vertices[b] from the predecessor tree of vertices[a]
-        target, src, prev = vertices[b], vertices[a], prevs[a]
-        seg = [target]
-        while seg[-1] != src:
-            seg.append(prev[seg[-1]])
-        walk.extend(reversed(seg[1:]))  # src .. before target
-    return walk, _order_length(dist, order)
+    kicks = _kicks(len(vertices)) if kicks is None else kicks
+    try:
+        walk, length = tpuaf_core.closed_walk(graph, vertices, starts, kicks, SEED)
+    except ValueError as e:
+        raise ValueError(f"vertex set {vertices} is not connected ({e})") from None
+    return list(walk), float(length)
 
 
 def walk_length(graph: Any, walk: list[int]) -> float:
@@ -282,6 +183,35 @@ class Partition:
 
 
 _CACHE: OrderedDict[tuple, Any] = OrderedDict()
+CACHE_ENV = "TPUAF_PLAN_CACHE"  # a folder: plans are also kept there, keyed by the map's content
+_SEARCH_VERSION = "cpp-1"  # part of the disk key: a changed search never reads old plans
+
+
+def _content_key(graph: Any, key: tuple) -> str:
+    """Hash of what a plan depends on: the graph's vertices and edge lengths, the search."""
+    h = hashlib.sha256()
+    h.update(f"{_SEARCH_VERSION} {graph.num_vertices} {key!r}".encode())
+    for u, v, length in graph.edges:
+        h.update(f"{u} {v} {float(length)!r};".encode())
+    return h.hexdigest()[:32]
+
+
+def _disk_cached(graph: Any, key: tuple, compute, encode, decode):
+    folder = os.environ.get(CACHE_ENV)
+    if not folder:
+        return compute()
+    path = Path(folder) / f"plan-{_content_key(graph, key)}.json"
+    try:
+        return decode(json.loads(path.read_text()))
+    except (OSError, ValueError, KeyError, TypeError):
+        pass  # missing or unreadable: compute it again
+    value = compute()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(path, json.dumps(encode(value)))
+    except OSError:
+        pass  # a read-only cache folder only costs the search
+    return value
 
 
 def _cached(key: tuple, patrol_map: Any, compute):
@@ -298,21 +228,18 @@ def _cached(key: tuple, patrol_map: Any, compute):
 
 
 def cyclic_tour(patrol_map: Any) -> Tour:
-    """Shortest closed walk found through all vertices (cached per map object)."""
+    """Shortest closed walk found through all vertices (cached per map object, and on disk
+    when $TPUAF_PLAN_CACHE names a folder)."""
 
     def compute() -> Tour:
         graph = patrol_map.graph
-        walk, length = closed_walk(graph, list(range(graph.num_vertices)))
-        return Tour(walk, length)
+        return _disk_cached(
+            graph, ("cyclic",),
+            lambda: Tour(*closed_walk(graph, list(range(graph.num_vertices)))),
+            lambda t: {"walk": t.walk, "length": t.length},
+            lambda d: Tour([int(v) for v in d["walk"]], float(d["length"])))
 
     return _cached(("cyclic",), patrol_map, compute)
-
-
-def _voronoi(adj, seeds: list[int], n: int) -> list[int]:
-    """Multi-source search (the core's): each vertex to its nearest seed (parts come out
-    connected); nearly equal paths compete, the settling order (distance, seed) decides."""
-    _, _, owner = tpuaf_core.dijkstra(n, *_arcs(adj), list(seeds), _EPS)
-    return list(owner)
 
 
 def _connected(adj, vertices: set[int]) -> bool:
@@ -331,71 +258,45 @@ def _connected(adj, vertices: set[int]) -> bool:
 
 def robots_per_part(lengths: list[float], n_robots: int) -> list[int]:
     """One robot per part, extra robots to the part with the largest L_p / m_p."""
-    m = [1] * len(lengths)
-    for _ in range(n_robots - len(lengths)):
-        worst = int(np.argmax([length / k for length, k in zip(lengths, m, strict=True)]))
-        m[worst] += 1
-    return m
+    return list(tpuaf_core.robots_per_part([float(x) for x in lengths], int(n_robots)))
 
 
-def _balanced_partition(graph: Any, k: int, max_moves: int) -> list[list[int]]:
-    n = graph.num_vertices
-    adj = _adjacency(graph)
-    dist = np.asarray(graph.distances)
-    tour_cache: dict[frozenset, float] = {}
-
-    def cost(part: set[int]) -> float:
-        key = frozenset(part)
-        if key not in tour_cache:
-            tour_cache[key] = closed_walk(graph, sorted(part), adj, starts=3, kicks=4)[1]
-        return tour_cache[key]
-
-    best_parts, best_cost = None, np.inf
-    first_seeds = sorted({int(np.argmax(dist.sum(axis=1))), int(np.argmin(dist.sum(axis=1))), 0})
-    for first in first_seeds:
-        seeds = [first]
-        while len(seeds) < k:  # farthest-point seeding
-            seeds.append(int(np.argmax(dist[seeds].min(axis=0))))
-        owner = _voronoi(adj, seeds, n)
-        parts = [{v for v in range(n) if owner[v] == p} for p in range(k)]
-        costs = [cost(p) for p in parts]
-        for _ in range(max_moves):
-            p = int(np.argmax(costs))
-            best_move, best_max = None, costs[p] - 1e-6
-            for u in sorted(parts[p]):
-                if len(parts[p]) == 1 or not _connected(adj, parts[p] - {u}):
-                    continue
-                for q in sorted({owner[w] for w in adj[u]} - {p}):
-                    new_p, new_q = cost(parts[p] - {u}), cost(parts[q] | {u})
-                    new_max = max(new_p, new_q)
-                    if new_max < best_max:
-                        best_move, best_max = (u, q, new_p, new_q), new_max
-            if best_move is None:
-                break
-            u, q, new_p, new_q = best_move
-            parts[p].discard(u)
-            parts[q].add(u)
-            owner[u] = q
-            costs[p], costs[q] = new_p, new_q
-        if max(costs) < best_cost - _EPS:
-            best_parts, best_cost = [sorted(part) for part in parts], max(costs)
-    return best_parts
+def default_max_moves(k: int) -> int:
+    """Vertex moves allowed per seeding of a k-part search: more parts need more moves."""
+    return max(400, 8 * k)
 
 
-def partition_tours(patrol_map: Any, n_robots: int, max_moves: int = 400) -> Partition:
-    """min(N, |V|) connected parts balanced by tour length; each part's closed walk (cached)."""
+def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None) -> Partition:
+    """min(N, |V|) connected parts balanced by tour length; each part's closed walk (cached per
+    map object, and on disk when $TPUAF_PLAN_CACHE names a folder). The search (C++ core):
+    nearest-seed parts from farthest-point seeds, then single-vertex moves off the part of the
+    longest walk while that lowers it."""
     if n_robots < 1:
         raise ValueError(f"n_robots must be >= 1, got {n_robots}")
+    graph = patrol_map.graph
+    k = min(n_robots, graph.num_vertices)
+    moves = default_max_moves(k) if max_moves is None else max_moves
 
-    def compute() -> Partition:
-        graph = patrol_map.graph
-        k = min(n_robots, graph.num_vertices)
-        adj = _adjacency(graph)
-        parts = _balanced_partition(graph, k, max_moves)
-        tours = [Tour(*closed_walk(graph, part, adj)) for part in parts]
+    def search() -> Partition:
+        progress = _Progress(f"{k} parts of {graph.num_vertices} vertices")
+        try:
+            parts = tpuaf_core.balanced_partition(graph, k, moves, *PART_SCORE, SEED, progress)
+        finally:
+            progress.close()
+        tours = [Tour(*closed_walk(graph, part)) for part in parts]
         return Partition(parts, tours, robots_per_part([t.length for t in tours], n_robots))
 
-    return _cached(("partition", n_robots, max_moves), patrol_map, compute)
+    def compute() -> Partition:
+        return _disk_cached(
+            graph, ("partition", n_robots, moves), search,
+            lambda p: {"parts": p.parts, "walks": [t.walk for t in p.tours],
+                       "lengths": [t.length for t in p.tours], "robots": p.robots_per_part},
+            lambda d: Partition([[int(v) for v in q] for q in d["parts"]],
+                                [Tour([int(v) for v in w], float(x))
+                                 for w, x in zip(d["walks"], d["lengths"], strict=True)],
+                                [int(m) for m in d["robots"]]))
+
+    return _cached(("partition", n_robots, moves), patrol_map, compute)
 
 
 def assign_parts(
