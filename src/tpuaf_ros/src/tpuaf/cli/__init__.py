@@ -52,6 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
 PYPI_PACKAGES = {"rosbags": "rosbags==0.11.9", "tqdm": "tqdm==4.70.1",
                  "dask": "dask[distributed]==2026.8.0", "distributed": "dask[distributed]==2026.8.0",
                  "matplotlib": "matplotlib==3.8.4", "PIL": "pillow"}
+# The Debian package (rosdep key) of those Debian packages at a version that works here.
+DEBIAN_PACKAGES = {"tqdm": "python3-tqdm", "matplotlib": "python3-matplotlib",
+                   "PIL": "python3-pil"}
 
 
 def missing_package_line(err: ModuleNotFoundError) -> str | None:
@@ -59,10 +62,16 @@ def missing_package_line(err: ModuleNotFoundError) -> str | None:
     top = (err.name or "").split(".")[0]
     if top not in PYPI_PACKAGES:
         return None
+    if top in DEBIAN_PACKAGES and sys.executable.startswith("/usr/bin/"):
+        how = f"`sudo apt-get install {DEBIAN_PACKAGES[top]}` (rosdep key {DEBIAN_PACKAGES[top]})"
+    elif sys.executable.startswith("/usr/bin/"):  # Debian's Python: pip refuses system-wide
+        how = (f"`{sys.executable} -m pip install --user --break-system-packages "
+               f"'{PYPI_PACKAGES[top]}'` (PyPI only)")
+    else:
+        how = f"`{sys.executable} -m pip install '{PYPI_PACKAGES[top]}'`"
     return (f"the Python package '{top}' is missing for {sys.executable}: install it with "
-            f"`{sys.executable} -m pip install '{PYPI_PACKAGES[top]}'` (or run "
-            f"`bash launch_scripts/setup.sh` and use .venv/bin/tpuaf, which has every "
-            f"dependency of requirements.txt)")
+            f"{how}, or use the project's .venv/bin/tpuaf (`bash launch_scripts/setup.sh` "
+            "makes it, with every dependency of requirements.txt)")
 
 
 def main(argv: list[str] | None = None) -> int:
