@@ -89,43 +89,58 @@ PatrolGraph::PatrolGraph(const Points& positions, const std::vector<Edge>& edges
   }
   if (edges_.empty() && n > 1) throw std::invalid_argument("patrol graph has no edges");
 
-  // Shortest paths: Dijkstra from every vertex [m]; hop counts by breadth-first search.
-  dist_ = Eigen::MatrixXd::Constant(n, n, kInf);
-  next_hop_ = Eigen::MatrixXi::Constant(n, n, -1);
-  hops_ = Eigen::MatrixXi::Constant(n, n, -1);
+  // Shortest paths: Dijkstra from every vertex [m]; hop counts by breadth-first search. Each
+  // source fills one contiguous column of the transposed matrices (transposed once at the end).
+  Eigen::MatrixXd dist_t = Eigen::MatrixXd::Constant(n, n, kInf);
+  Eigen::MatrixXi next_t = Eigen::MatrixXi::Constant(n, n, -1);
+  Eigen::MatrixXi hops_t = Eigen::MatrixXi::Constant(n, n, -1);
   ArcLists arcs(n);
   for (int u = 0; u < n; ++u) {
     for (std::size_t k = 0; k < adjacency_[u].size(); ++k) {
       arcs[u].push_back({adjacency_[u][k], adjacency_length_[u][k]});
     }
   }
+  std::vector<int> chain, frontier;
   for (int s = 0; s < n; ++s) {
     const ShortestPathTree tree = dijkstra(arcs, {s});
     const std::vector<int>& parent = tree.parent;
-    for (int t = 0; t < n; ++t) dist_(s, t) = tree.distance[t];
+    double* dist_s = dist_t.col(s).data();
+    int* next_s = next_t.col(s).data();
+    for (int t = 0; t < n; ++t) dist_s[t] = tree.distance[t];
     for (int t = 0; t < n; ++t) {
-      if (t == s) continue;
+      if (t == s || next_s[t] >= 0) continue;
       if (parent[t] < 0) {
         throw std::invalid_argument("patrol graph is disconnected: vertex " + vertex_name(t) +
                                     " cannot be reached from vertex " + vertex_name(s));
       }
-      // Walk back from t to find the first hop after s.
+      // The first hop after s: walk back from t to s or to a vertex whose first hop is known,
+      // then hand it down the walked chain (each vertex walked once per source).
+      chain.clear();
       int step = t;
-      while (parent[step] != s) step = parent[step];
-      next_hop_(s, t) = step;
+      while (parent[step] != s && next_s[step] < 0) {
+        chain.push_back(step);
+        step = parent[step];
+      }
+      const int first = parent[step] == s ? step : next_s[step];
+      next_s[step] = first;
+      for (int v : chain) next_s[v] = first;
     }
-    std::vector<int> frontier{s};
-    hops_(s, s) = 0;
+    int* hops_s = hops_t.col(s).data();
+    frontier.assign(1, s);
+    hops_s[s] = 0;
     for (std::size_t head = 0; head < frontier.size(); ++head) {
       const int u = frontier[head];
       for (int w : adjacency_[u]) {
-        if (hops_(s, w) < 0) {
-          hops_(s, w) = hops_(s, u) + 1;
+        if (hops_s[w] < 0) {
+          hops_s[w] = hops_s[u] + 1;
           frontier.push_back(w);
         }
       }
     }
   }
+  dist_ = dist_t.transpose();
+  next_hop_ = next_t.transpose();
+  hops_ = hops_t.transpose();
   for (const Edge& e : edges_) total_edge_length_ += e.length_m;
   if (!edges_.empty()) {
     mean_edge_length_ = total_edge_length_ / static_cast<double>(edges_.size());

@@ -150,10 +150,30 @@ def _map_key(positions: np.ndarray, edges: np.ndarray, occupied: np.ndarray,
     return h.digest()
 
 
+def _background_grid(pm):
+    """The grid a background samples: the map's image or its grid already built, else the
+    corridors generated right at the background's cell size (a full-resolution grid of a large
+    map costs a quarter second and ~10 MB only to be subsampled; the map keeps none)."""
+    if pm.occupancy is not None:
+        return pm.occupancy
+    from tpuaf.maps.occupancy import corridors_from_graph, default_corridor_width
+
+    width = float(pm.corridor_width or default_corridor_width(pm))
+    pos = np.asarray(pm.positions, dtype=float).reshape(-1, 2)
+    if pm.bounds is not None:
+        span = max(pm.bounds[2] - pm.bounds[0], pm.bounds[3] - pm.bounds[1])
+    else:
+        span = float((pos.max(axis=0) - pos.min(axis=0)).max()) + 2.0 * width
+    cell = span / BACKGROUND_CELLS  # [m]
+    if cell <= min(0.05, width / 8.0):  # a small map: its own grid is as cheap
+        return pm.occupancy_grid()
+    return corridors_from_graph(pm, resolution_m=cell)
+
+
 def map_background(pm) -> MapBackground:
     """The background of map `pm`, shared by maps of equal content (positions, edges and the
     subsampled image)."""
-    grid = pm.occupancy_grid()
+    grid = _background_grid(pm)
     x0, y0 = grid.origin
     extent = (float(x0), float(x0 + grid.width * grid.resolution), float(y0),
               float(y0 + grid.height * grid.resolution))
@@ -225,8 +245,8 @@ def vertex_idleness_on_map(folder: Path, out: Path | None = None) -> Path:
     folder = Path(folder)
     pm = load_map(_config(folder)["map"])
     mean = _mean_interval_idleness(folder, len(pm.positions))
-    grid = pm.occupancy_grid()
-    fig = new_figure(figsize=(8, 8 * grid.height / max(grid.width, 1) + 0.5))
+    rows, cols = map_background(pm).occupied.shape
+    fig = new_figure(figsize=(8, 8 * rows / max(cols, 1) + 0.5))
     ax = fig.subplots()
     _draw_map(ax, pm, occupied_gray=0.25, edge_color="0.7", ticks=True)
     xy = np.asarray(pm.positions)
@@ -519,8 +539,8 @@ def render(folder: Path, out: Path | None = None, *, frames: int | None = None,
         clabel = "X (ground truth)"
         vmax = None
 
-    grid = pm.occupancy_grid()
-    aspect = grid.height / max(grid.width, 1)
+    rows, cols = map_background(pm).occupied.shape
+    aspect = rows / max(cols, 1)
     fig = new_figure(figsize=(6.0, max(2.5, 4.8 * aspect) + 0.4))
     ax = fig.subplots()
     _draw_map(ax, pm)

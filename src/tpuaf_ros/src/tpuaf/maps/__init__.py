@@ -36,8 +36,9 @@ def load_map(name_or_path: str | Path, allow_occupied_vertices: bool = False) ->
     """A built-in map by name (`grid`, `lab`), or a path: a folder of ours (with map.yaml), a
     patrolling_sim folder (with a .graph file) or a .graph file. Every map is checked
     (connected graph, valid lengths) and comes with an occupancy grid (from its image, or
-    corridors generated from the graph), and its geometry is checked (tpuaf.maps.geometry:
-    vertices on free cells, unless `allow_occupied_vertices`; doubts in `warnings`)."""
+    corridors generated from the graph when first asked for: `occupancy_grid()`), and its
+    geometry is checked (tpuaf.maps.geometry: vertices on free cells, unless
+    `allow_occupied_vertices`; doubts in `warnings`)."""
     from tpuaf.maps.builtin import BUILTIN_MAPS_DIR, GENERATORS
     from tpuaf.maps.mapfile import load_map_folder
     from tpuaf.maps.patrolling_sim import load_patrolling_sim
@@ -73,8 +74,7 @@ def load_map(name_or_path: str | Path, allow_occupied_vertices: bool = False) ->
 
     pm.graph  # noqa: B018 - validate now
     check_coordinates(pm)  # before a grid is generated from them
-    pm.occupancy_grid()
-    check_geometry(pm, allow_occupied_vertices)
+    check_geometry(pm, allow_occupied_vertices)  # builds the grid only if a check needs it
     return pm
 
 

@@ -42,9 +42,18 @@ def check_coordinates(patrol_map) -> None:
         )
 
 
+def grid_holds_every_vertex(patrol_map) -> bool:
+    """True when the grid is still to be generated from the graph over the vertices' own
+    bounding box: its corridors put a free disc of one corridor width (at least 4 cells) round
+    every vertex, so no vertex can be outside it or occupied (and no grid need be built)."""
+    return patrol_map.occupancy is None and patrol_map.bounds is None
+
+
 def check_vertices_free(patrol_map, allow_occupied: bool = False) -> list[str]:
     """Vertices outside the occupancy grid or on an occupied cell: MapError, or warnings when
     `allow_occupied`. Returns the warnings."""
+    if grid_holds_every_vertex(patrol_map):
+        return []
     grid = patrol_map.occupancy_grid()
     outside, occupied = [], []
     for i, (x, y) in enumerate(np.asarray(patrol_map.positions, dtype=float)):
@@ -113,10 +122,9 @@ def check_geometry(patrol_map, allow_occupied_vertices: bool = False) -> list[st
     check_starts(patrol_map)
     warnings = check_vertices_free(patrol_map, allow_occupied_vertices)
     warnings += check_edges(patrol_map)
-    grid = patrol_map.occupancy_grid()
-    x0, y0, x1, y1 = grid.extent
     if patrol_map.bounds is not None and patrol_map.occupancy is not None and \
             getattr(patrol_map.occupancy, "source", None) is not None:
+        x0, y0, x1, y1 = patrol_map.occupancy.extent
         bx0, by0, bx1, by1 = patrol_map.bounds
         if bx0 < x0 or by0 < y0 or bx1 > x1 or by1 > y1:
             warnings.append(f"bounds {list(patrol_map.bounds)} m exceed the image "
