@@ -250,7 +250,8 @@ class ResultsWriter:
     `finish(None, recorder_last_synced, interrupted=True)` when a recorder was synced.
     """
 
-    def __init__(self, out_dir: str | Path, config: Mapping[str, Any]):
+    def __init__(self, out_dir: str | Path, config: Mapping[str, Any], plots: bool = True):
+        self.plots = plots  # False: no summary.png (`tpuaf run --no-plots`)
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
         self.config = plain(dict(config))
@@ -330,6 +331,7 @@ class ResultsWriter:
         self._ts_f.close()
         if recorder is not None:
             self._write_patrolling_sim(summary, recorder, interrupted, timeresults_period_s)
+        if recorder is not None and self.plots:
             from tpuaf.experiments.plots import (
                 write_summary_png,  # never raises: a note when it cannot draw
             )
