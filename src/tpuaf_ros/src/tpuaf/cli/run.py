@@ -143,6 +143,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "the strategy has a C++ decision path and every option is supported; "
                         "same results either way, runtimes/native.py)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--no-plots", action="store_true",
+                   help="no summary.png in the --out folder (scripted sweeps of many runs)")
     p.add_argument("--list", action="store_true", help="list strategies and maps, then exit")
 
 
@@ -279,10 +281,10 @@ def run(args: argparse.Namespace) -> int:
         from tpuaf.experiments.results import prepare_out_dir
 
         args.out = prepare_out_dir(args.out, overwrite=args.overwrite)
-    return execute(engine, args.out, quiet=args.quiet)
+    return execute(engine, args.out, quiet=args.quiet, plots=not args.no_plots)
 
 
-def execute(engine, out: Path | None, quiet: bool = False) -> int:
+def execute(engine, out: Path | None, quiet: bool = False, plots: bool = True) -> int:
     """Run with a progress bar, write the results folder, print the summary table."""
     from tqdm import tqdm
 
@@ -295,7 +297,7 @@ def execute(engine, out: Path | None, quiet: bool = False) -> int:
         f"{config.duration_s:g} s, seed {config.seed}"
         + ("" if getattr(engine, "runtime", "graph") == "graph" else f", {engine.runtime} runtime")
     )
-    writer = ResultsWriter(out, engine.effective_config()) if out else None
+    writer = ResultsWriter(out, engine.effective_config(), plots=plots) if out else None
     bar = tqdm(
         total=config.duration_s,
         unit="sim s",
