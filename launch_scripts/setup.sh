@@ -16,7 +16,7 @@ APT_PACKAGES=(
   python3-std-srvs python3-rosgraph-msgs python3-visualization-msgs python3-actionlib
   python3-move-base-msgs libeigen3-dev libfcl-dev libgtest-dev pybind11-dev python3-networkx python3-numpy
   python3-yaml python3-dev python3-venv python3-catkin-pkg
-  python3-tqdm python3-matplotlib  # `tpuaf run`/`fleet` of a catkin devel or install space (Debian python)
+  python3-scipy python3-tqdm python3-matplotlib  # tours; `tpuaf run`/`fleet` of a catkin workspace
   libroscpp-dev libgeometry-msgs-dev libnav-msgs-dev libsensor-msgs-dev libros-rosgraph-msgs-dev
   libstd-msgs-dev libstd-srvs-dev libtf2-msgs-dev libtopic-tools-dev libyaml-cpp-dev
   rviz xvfb python3-pil  # RViz, its headless test (Xvfb) and screenshot (Pillow ImageGrab)
