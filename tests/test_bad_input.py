@@ -269,6 +269,10 @@ def test_every_subcommand_stops_on_signals_like_ctrl_c(capsys, monkeypatch, sig)
 
     number = getattr(signals_module, sig)
     seen = {}
+    # Not the inherited disposition: a suite run from a background job has SIGINT ignored.
+    inherited = signals_module.signal(number, signals_module.default_int_handler
+                                      if number == signals_module.SIGINT else signals_module.SIG_DFL)
+    request = {"finalizer": lambda: signals_module.signal(number, inherited)}
 
     def handler(args):
         try:
@@ -289,6 +293,7 @@ def test_every_subcommand_stops_on_signals_like_ctrl_c(capsys, monkeypatch, sig)
         assert seen.pop("shielded") and "not interrupted" not in seen
     # the handlers are restored afterwards
     assert signals_module.getsignal(signals_module.SIGTERM) == signals_module.SIG_DFL
+    request["finalizer"]()
 
 
 def test_an_inherited_ignored_signal_stays_ignored():

@@ -12,22 +12,31 @@ tpuaf) share one reader and one unknown-key check:
 - `where(name, node)`: "file:line" for messages;
 - `check_keys`: a mapping with only the allowed keys.
 
+Files are data, not trusted: only regular files are read (`read_regular_bytes`: no FIFO,
+device or link loop), at most MAX_YAML_BYTES, as UTF-8 (a bad byte is named with its line);
+documents nest at most MAX_NESTING levels.
+
 Every error is one line naming the file (and line), raised as the caller's error class (a
 TpuafError subclass).
 """
 
 from __future__ import annotations
 
+import os
 import re
-import threading
+import stat
 from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-__all__ = ["HAS_LIBYAML", "check_keys", "line_of", "parse_yaml", "parse_yaml_fast", "read_yaml",
-           "read_yaml_fast", "where"]
+__all__ = ["HAS_LIBYAML", "MAX_NESTING", "MAX_YAML_BYTES", "check_keys", "decode_utf8", "line_of",
+           "parse_yaml", "parse_yaml_fast", "read_regular_bytes", "read_yaml", "read_yaml_fast",
+           "shorten", "where"]
+
+MAX_YAML_BYTES = 64 << 20  # a 10,000-vertex graph file is about 1 MB
+MAX_NESTING = 64  # mappings and sequences inside each other (our files: 5 at most)
 
 HAS_LIBYAML = bool(getattr(yaml, "__with_libyaml__", False)) and hasattr(yaml, "CSafeLoader")
 
@@ -40,7 +49,27 @@ class _LineList(list):
     line = 0  # 1-based line of the sequence in its file; 0: unknown
 
 
-class _Loader(yaml.SafeLoader):
+class _NestingCap:
+    """compose_node with at most MAX_NESTING levels (deeper: error_class naming the line,
+    before Python's recursion limit is reached)."""
+
+    error_class: type[Exception] = ValueError
+    name = ""
+    _depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self._depth += 1
+        try:
+            if self._depth > MAX_NESTING:
+                mark = self.peek_event().start_mark
+                raise self.error_class(f"{self.name}:{mark.line + 1}: invalid YAML: nested more "
+                                       f"than {MAX_NESTING} levels deep")
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+class _Loader(_NestingCap, yaml.SafeLoader):
     """Safe YAML loader that records the line of every mapping and sequence and refuses
     duplicate and unhashable (list, mapping, set) keys with `error_class`."""
 
@@ -56,7 +85,7 @@ class _Loader(yaml.SafeLoader):
         except (ValueError, TypeError, OverflowError) as err:
             what = f"{node.value!r} " if isinstance(node, yaml.ScalarNode) else ""
             raise self.error_class(f"{self.name}:{node.start_mark.line + 1}: invalid YAML: "
-                                   f"cannot read {what}as {node.tag.rsplit(':', 1)[-1]} "
+                                   f"cannot read {shorten(what)}as {node.tag.rsplit(':', 1)[-1]} "
                                    f"({err})") from None
 
 
@@ -93,6 +122,10 @@ _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _constru
 _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_seq)
 
 
+class _PlainLoader(_NestingCap, yaml.SafeLoader):
+    """yaml.safe_load's loader (the last of two equal keys wins) with the nesting cap."""
+
+
 def parse_yaml(text: str, name: str | Path, error_class: type[Exception], *,
                lines: bool = True) -> Any:
     """The YAML document in `text` (from file `name`, for messages).
@@ -100,9 +133,7 @@ def parse_yaml(text: str, name: str | Path, error_class: type[Exception], *,
     `lines`: the strict line-tracking loader (above); False: plain `yaml.safe_load` (duplicate
     keys allowed, the last one wins, as ROS map_server reads its files; no lines)."""
     try:
-        if not lines:
-            return yaml.safe_load(text)
-        loader = _Loader(text)
+        loader = (_Loader if lines else _PlainLoader)(text)
         loader.name = str(name)  # the marks' file name
         loader.error_class = error_class
         try:
@@ -112,8 +143,8 @@ def parse_yaml(text: str, name: str | Path, error_class: type[Exception], *,
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         at = f":{mark.line + 1}" if mark is not None else ""
-        raise error_class(f"{name}{at}: invalid YAML: {getattr(err, 'problem', None) or err}") \
-            from None
+        raise error_class(f"{name}{at}: invalid YAML: "
+                          f"{shorten(str(getattr(err, 'problem', None) or err))}") from None
     except RecursionError:
         raise error_class(f"{name}: invalid YAML: collections nested too deeply") from None
 
@@ -124,10 +155,80 @@ def read_yaml(path: str | Path, error_class: type[Exception]) -> Any:
 
 
 def _read_text(path: str | Path, error_class: type[Exception]) -> str:
+    return decode_utf8(read_regular_bytes(path, error_class, max_bytes=MAX_YAML_BYTES), path,
+                       error_class)
+
+
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))
+
+
+def _not_regular(mode: int) -> str | None:
+    if stat.S_ISREG(mode):
+        return None
+    return next((kind for test, kind in _KINDS if test(mode)), "not a regular file")
+
+
+def read_regular_bytes(path: str | Path, error_class: type[Exception], *, max_bytes: int,
+                       what: str = "file") -> bytes:
+    """The bytes of the regular file at `path` (a link to one is fine), at most `max_bytes`.
+    A FIFO, device, socket or folder, a link loop or a larger file is `error_class` in one
+    line, without blocking (the file is opened non-blocking and checked again once open)."""
     try:
-        return Path(path).read_text()
+        mode = os.stat(path).st_mode  # follows links; a loop is ELOOP
+        kind = _not_regular(mode)
+        if kind is None:
+            fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+        else:
+            fd = -1
     except OSError as err:
-        raise error_class(f"{path}: cannot read: {err.strerror}") from None
+        raise error_class(f"{path}: cannot read {what}: {err.strerror or err}") from None
+    if fd < 0:
+        raise error_class(f"{path}: is {kind}, not a regular {what}")
+    try:
+        st = os.fstat(fd)
+        kind = _not_regular(st.st_mode)  # swapped between stat and open
+        if kind is not None:
+            raise error_class(f"{path}: is {kind}, not a regular {what}")
+        if st.st_size > max_bytes:
+            raise error_class(f"{path}: {st.st_size:,} bytes, more than the {max_bytes:,} a "
+                              f"{what} may have")
+        chunks, total = [], 0
+        while total <= max_bytes:
+            chunk = os.read(fd, min(1 << 20, max_bytes + 1 - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+        if total > max_bytes:
+            raise error_class(f"{path}: more than the {max_bytes:,} bytes a {what} may have")
+        return b"".join(chunks)
+    except OSError as err:
+        raise error_class(f"{path}: cannot read {what}: {err.strerror or err}") from None
+    finally:
+        os.close(fd)
+
+
+def decode_utf8(data: bytes, path: str | Path, error_class: type[Exception]) -> str:
+    """`data` as UTF-8 text; a byte that is not is `error_class` naming the line and column."""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line = data.count(b"\n", 0, err.start) + 1
+        column = err.start - (data.rfind(b"\n", 0, err.start) + 1) + 1
+        raise error_class(f"{path}:{line}: not UTF-8 text (byte 0x{data[err.start]:02x} at "
+                          f"column {column})") from None
+
+
+def shorten(text: str, limit: int = 80) -> str:
+    """`text` with every run of more than `limit` characters without a space cut to its start
+    and its length, for messages that quote a user's token."""
+    if len(text) <= limit:
+        return text
+    return re.sub(rf"\S{{{limit + 1},}}",
+                  lambda m: f"{m.group(0)[:limit // 2]}... ({len(m.group(0)):,} characters)",
+                  text)
 
 
 # ------------------------------------------------------------------------------- fast reader
@@ -184,18 +285,21 @@ if HAS_LIBYAML:
 _NOT_PLAIN = re.compile(r"[^\n\r -~]|[?!%@`]")
 
 
-# libyaml's composer recurses on the C stack (about 250 bytes a level): a document nested
-# some 30,000 levels deep overflows a thread's 8 MB stack. Nesting depth <= the flow openers
-# ('[' '{') plus two block levels per column of the longest line; beyond _MAX_DEPTH_HERE the
-# C parser runs in a thread with a stack sized for that bound.
-_MAX_DEPTH_HERE = 10_000
-_STACK_BYTES_PER_LEVEL = 1024  # [B], four times what a level takes
-_MAX_STACK_BYTES = 1 << 30
+# libyaml's composer recurses on the C stack; the fast reader takes only texts whose nesting
+# is surely within MAX_NESTING: at most the deepest flow nesting ('[' '{', quoted ones
+# counted too) plus the longest run of indentation and '- ' starting a line. Anything deeper
+# goes to the strict reader, which counts exactly.
+_FLOW = re.compile(r"[^\[\]{}]+")
+_BLOCK = re.compile(r"^[ -]*", re.M)
 
 
-def _depth_bound(text: str) -> int:
-    longest = max(map(len, text.splitlines()), default=0)
-    return text.count("[") + text.count("{") + 2 * (longest + 1)
+def _nesting_bound(text: str) -> int:
+    depth = deepest = 0
+    for c in _FLOW.sub("", text):
+        depth += 1 if c in "[{" else -1
+        deepest = max(deepest, depth)
+    block = max(map(len, _BLOCK.findall(text)), default=0)
+    return deepest + block + 1
 
 
 def _fast_load(text: str) -> Any:
@@ -204,28 +308,6 @@ def _fast_load(text: str) -> Any:
         return loader.get_single_data()
     finally:
         loader.dispose()
-
-
-def _fast_load_deep(text: str, depth: int) -> Any:
-    """_fast_load in a thread whose stack holds `depth` levels of nesting."""
-    result: dict[str, Any] = {}
-
-    def work() -> None:
-        try:
-            result["doc"] = _fast_load(text)
-        except BaseException as err:  # noqa: BLE001 - handed to the calling thread
-            result["error"] = err
-
-    previous = threading.stack_size(depth * _STACK_BYTES_PER_LEVEL + (1 << 20))
-    try:
-        thread = threading.Thread(target=work, name="yaml-deep", daemon=True)
-        thread.start()
-    finally:
-        threading.stack_size(previous)
-    thread.join()
-    if "error" in result:
-        raise result["error"]
-    return result["doc"]
 
 
 def parse_yaml_fast(text: str, name: str | Path, error_class: type[Exception]) -> Any:
@@ -237,19 +319,14 @@ def parse_yaml_fast(text: str, name: str | Path, error_class: type[Exception]) -
     differently: invalid YAML, duplicate or non-scalar keys, any failure to build a value. A
     caller that meets an error (here or in its own checks of the document) re-reads with
     `parse_yaml` for the message naming the line."""
-    if not HAS_LIBYAML or _NOT_PLAIN.search(text):
+    if not HAS_LIBYAML or _NOT_PLAIN.search(text) or _nesting_bound(text) > MAX_NESTING:
         return parse_yaml(text, name, error_class)
     try:
-        depth = _depth_bound(text)
-        if depth <= _MAX_DEPTH_HERE:
-            return _fast_load(text)
-        if depth * _STACK_BYTES_PER_LEVEL <= _MAX_STACK_BYTES:
-            return _fast_load_deep(text, depth)
+        return _fast_load(text)
     except Exception as err:  # noqa: BLE001 - any doubt: the strict reader decides
         problem = getattr(err, "problem", None) or err
-        raise error_class(f"{name}: not read by libyaml ({problem}); read it with read_yaml "
-                          "for the line") from None
-    return parse_yaml(text, name, error_class)  # too deep for any sensible stack
+        raise error_class(f"{name}: not read by libyaml ({shorten(str(problem))}); read it "
+                          "with read_yaml for the line") from None
 
 
 def read_yaml_fast(path: str | Path, error_class: type[Exception]) -> Any:

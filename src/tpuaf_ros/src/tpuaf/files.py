@@ -25,6 +25,10 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
+from tpuaf_core import yamlfile
+
+from tpuaf.errors import TpuafError
+
 
 def _temp_path(path: Path, suffix: str = "") -> Path:
     """`.NAME.PID.tmp[suffix]` beside `path` (the pid keeps concurrent writers apart)."""
@@ -141,3 +145,31 @@ def atomic_write_text(path: str | Path, text: str, *, encoding: str | None = Non
     if not isinstance(text, str):
         raise TypeError(f"atomic_write_text: text is {type(text).__name__}, not str")
     atomic_write(path, text, encoding=encoding)
+
+
+def available_bytes() -> int:
+    """Memory this machine can still give [B]: MemAvailable of /proc/meminfo (Linux), else the
+    physical memory, else 4 GiB. For the estimates made before allocating (cli/limits.py, map
+    images)."""
+    try:
+        with open("/proc/meminfo", "rb") as f:
+            for line in f:
+                if line.startswith(b"MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return 4 << 30
+
+
+class InputFileError(TpuafError):
+    """An input file that is no regular file, too large, or unreadable (one line)."""
+
+
+def read_regular(path: str | Path, *, max_bytes: int, what: str = "file",
+                 error_class: type[Exception] = InputFileError) -> bytes:
+    """The bytes of the regular file at `path` (never a FIFO, device or link loop; at most
+    `max_bytes`), else `error_class` in one line naming the path."""
+    return yamlfile.read_regular_bytes(path, error_class, max_bytes=max_bytes, what=what)

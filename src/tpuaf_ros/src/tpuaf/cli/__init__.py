@@ -2,10 +2,37 @@
 
 from __future__ import annotations
 
-import argparse
+import os
+import signal
 import sys
 
-from tpuaf import __version__
+
+def _stopped_early(signum: int, _frame) -> None:
+    """A stop signal before a subcommand runs (imports, option parsing): nothing is written
+    yet, so one line and exit 128 + n at once (no KeyboardInterrupt traceback)."""
+    name = signal.Signals(signum).name
+    os.write(2, f"tpuaf: interrupted ({name}) before it started\n".encode())
+    os._exit(128 + signum)
+
+
+def install_early_handlers() -> None:
+    """SIGINT, SIGTERM and SIGHUP handled from the first instruction of the `tpuaf` program
+    (before any heavy import); signals inherited as ignored stay ignored. `main` replaces
+    these with `signals.stop_signals` while a subcommand runs."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        try:
+            if signal.getsignal(sig) != signal.SIG_IGN:
+                signal.signal(sig, _stopped_early)
+        except ValueError:  # not the main thread
+            return
+
+
+if os.path.basename(sys.argv[0] if sys.argv else "") == "tpuaf":  # the program, not a test
+    install_early_handlers()
+
+import argparse  # noqa: E402
+
+from tpuaf import __version__  # noqa: E402
 
 # (name, module, help): modules define add_arguments(parser) and run(args) -> int.
 SUBCOMMANDS: list[tuple[str, str, str]] = [
@@ -109,11 +136,21 @@ def _main(argv: list[str] | None = None) -> int:
         return 2
 
 
+MAX_TOKEN_CHARS = 120  # a longer run of non-space characters is shortened in messages
+
+
 def one_line(err: Exception | str) -> str:
     """The error's message on one line: continuation lines joined with '; ', other control
-    characters (e.g. from a garbled file or option) escaped."""
-    text = "; ".join(line.strip() for line in str(err).splitlines() if line.strip())
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    characters (e.g. from a garbled file or option) escaped, and tokens longer than
+    MAX_TOKEN_CHARS (a 5 MB option value) cut to their start and length."""
+    from tpuaf_core.yamlfile import shorten
+
+    text = str(err)
+    if len(text) > 100_000:
+        text = text[:100_000]
+    text = "; ".join(line.strip() for line in text.splitlines() if line.strip())
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return shorten(text, MAX_TOKEN_CHARS)
 
 
 if __name__ == "__main__":

@@ -12,10 +12,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
-import yaml
-
+from tpuaf.cli.run import team_size
 from tpuaf.errors import CliError
 
 # Compared keys and their tolerance: (absolute, relative); a key agrees if within either.
@@ -49,8 +49,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "monitored run's, else up to the bag's end)")
     p.add_argument("--death-timeout", type=float, default=None,
                    help="[s] silence that makes an agent dead (default: the run's, else 5)")
-    p.add_argument("--robots", type=int, default=None,
+    p.add_argument("--robots", type=team_size, default=None,
                    help="team size (default: config.yaml, else the robots seen in the bag)")
+    p.add_argument("--force", action="store_true",
+                   help="a bag that does not match the map (vertex ids, team size, positions "
+                        "outside it) is a warning, not an error")
     p.add_argument("--poses", choices=POSE_CHOICES, default="auto",
                    help="position source for X and interference (default: the best in the "
                         "bag: ground truth, tf, amcl_pose, odom)")
@@ -84,7 +87,108 @@ def check_options(args: argparse.Namespace) -> None:
         raise CliError(f"--robots must be >= 1, got {args.robots}")
 
 
+class _UnknownIds:
+    """Wraps a map's `lookup_index` for one analysis: counts the vertex ids of the bag's reports
+    that the map does not have (its readers ignore them silently)."""
+
+    def __init__(self, patrol_map):
+        self.map, self.lookup = patrol_map, patrol_map.lookup_index
+        self.unknown: dict[int, int] = {}
+
+    def __call__(self, vertex_id: int) -> int | None:
+        index = self.lookup(vertex_id)
+        if index is None:
+            self.unknown[int(vertex_id)] = self.unknown.get(int(vertex_id), 0) + 1
+        return index
+
+    def __enter__(self):
+        self.map.lookup_index = self  # an instance attribute, removed on exit
+        return self
+
+    def __exit__(self, *exc) -> None:
+        del self.map.lookup_index
+
+
+OFF_GRAPH_M = 3.0  # [m] a patrolling robot is on an edge's corridor: farther, another map
+
+
+def off_the_graph_m(patrol_map, points):
+    """Distance [m] of each point (k x 2) to the nearest edge segment of the map."""
+    import numpy as np
+
+    xy = np.asarray(patrol_map.positions, dtype=float)
+    edges = np.array([(u, v) for u, v, *_ in patrol_map.edges], dtype=int).reshape(-1, 2)
+    if not len(edges):
+        return np.linalg.norm(points[:, None, :] - xy[None], axis=2).min(axis=1)
+    a, b = xy[edges[:, 0]], xy[edges[:, 1]]
+    d = b - a
+    t = np.einsum("pkj,kj->pk", points[:, None, :] - a[None], d) / np.maximum(
+        np.einsum("kj,kj->k", d, d), 1e-12)
+    closest = a[None] + np.clip(t, 0.0, 1.0)[..., None] * d[None]
+    return np.linalg.norm(closest - points[:, None, :], axis=2).min(axis=1)
+
+
+def pairing_problems(result, patrol_map, robots: int | None, unknown: dict[int, int],
+                     where: str) -> list[str]:
+    """Why the bag does not belong to `patrol_map` (or the team size given): vertex ids the
+    map lacks, more robots in the bag than the team, last positions outside the map."""
+    import numpy as np
+
+    problems = []
+    if unknown:
+        ids = sorted(unknown)
+        shown = ", ".join(str(v) for v in ids[:5]) + (", ..." if len(ids) > 5 else "")
+        problems.append(f"{sum(unknown.values())} visit report(s) name {len(ids)} vertex id(s) "
+                        f"that map '{patrol_map.name}' does not have ({shown})")
+    seen = int(getattr(result.info, "robots", 0) or 0)
+    if robots is not None and seen > robots:
+        problems.append(f"the bag holds {seen} robots, the team is {robots} ({where})")
+    pos = getattr(result.recorder, "_pos", None)
+    if pos is not None and len(pos):
+        p = np.asarray(pos, dtype=float)[:, :2]
+        p = p[np.all(np.isfinite(p), axis=1)]
+        if len(p):
+            far = off_the_graph_m(patrol_map, p)
+            limit = max(OFF_GRAPH_M, 2.0 * float(patrol_map.settings.interference_distance))
+            outside = np.flatnonzero(far > limit)
+            if len(outside):
+                i = int(outside[0])
+                problems.append(f"{len(outside)} robot(s) end up to {far.max():.1f} m away from "
+                                f"every edge of map '{patrol_map.name}' (e.g. at "
+                                f"({p[i][0]:.1f}, {p[i][1]:.1f}) m; at most {limit:g} m "
+                                "expected)")
+    return problems
+
+
+def _bag_path(path: Path) -> Path:
+    """The bag as a resolved path of a regular file (a link loop, FIFO or device refused)."""
+    import os
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+        resolved = Path(os.path.realpath(path))
+    except OSError as err:
+        raise CliError(f"{path}: cannot read the bag: {err.strerror or err}") from None
+    if stat.S_ISDIR(mode) or not stat.S_ISREG(mode):
+        raise CliError(f"{path}: {'a folder' if stat.S_ISDIR(mode) else 'not a regular file'}, "
+                       "not a bag")
+    return resolved
+
+
+def _config_beside(folder: Path) -> dict:
+    from tpuaf_core import yamlfile
+
+    for name in ("config.yaml", "fleet_config.yaml"):
+        path = folder / name
+        if path.is_file():
+            config = yamlfile.read_yaml_fast(path, CliError)
+            return config if isinstance(config, dict) else {}
+    return {}
+
+
 def run(args: argparse.Namespace) -> int:
+    from tpuaf.cli import limits
     from tpuaf.cli.run import format_summary
     from tpuaf.errors import TpuafError
     from tpuaf.experiments.results import ResultsWriter, prepare_out_dir
@@ -92,37 +196,58 @@ def run(args: argparse.Namespace) -> int:
     from tpuaf.measure.bag import BagError, analyze
 
     check_options(args)
-    bag = args.bag.expanduser().resolve()
-    if not bag.is_file():
-        raise CliError(f"{bag}: bag not found")
+    if not args.bag.expanduser().exists() and not args.bag.expanduser().is_symlink():
+        raise CliError(f"{args.bag}: bag not found")
+    bag = _bag_path(args.bag.expanduser())
     folder = bag.parent
-    config: dict = {}
-    for name in ("config.yaml", "fleet_config.yaml"):
-        if (folder / name).is_file():
-            try:
-                config = yaml.safe_load((folder / name).read_text()) or {}
-            except (OSError, yaml.YAMLError) as err:
-                raise CliError(f"{folder / name}: unreadable ({err})") from None
-            if not isinstance(config, dict):
-                config = {}
-            break
+    try:
+        config = _config_beside(folder)
+    except CliError:
+        try:  # the strict reader's message names the line
+            from tpuaf_core import yamlfile
+
+            yamlfile.read_yaml(folder / "config.yaml", CliError)
+        except CliError as err:
+            raise CliError(f"unreadable configuration beside the bag: {err}") from None
+        config = {}
     map_ref = args.map or config.get("map")
-    if not map_ref:
-        raise CliError(f"no config.yaml beside {bag}: give --map")
-    robots = args.robots or (int(config["robots"]) if isinstance(config.get("robots"), int)
-                             else None)
+    if not map_ref or not isinstance(map_ref, str):
+        raise CliError(f"no config.yaml naming the map beside {bag}: give --map")
+    given = config.get("robots")
+    robots = args.robots or (given if isinstance(given, int) and not isinstance(given, bool)
+                             and 0 < given <= 1_000 else None)
+    robots_from = "--robots" if args.robots else "config.yaml beside the bag"
     timeout = args.death_timeout
-    if timeout is None and isinstance(config.get("death_timeout_s"), (int, float)):
+    if timeout is None and isinstance(config.get("death_timeout_s"), (int, float)) \
+            and math.isfinite(config["death_timeout_s"]) and config["death_timeout_s"] > 0:
         timeout = float(config["death_timeout_s"])
     out = (args.out or folder / "analysis").expanduser()
+    created = not out.exists()
     try:
         patrol_map = load_map(map_ref)
-        result = analyze(bag, patrol_map, robots=robots, start_offset_s=args.start,
-                         duration_s=args.duration, death_timeout_s=timeout,
-                         pose_source=None if args.poses == "auto" else args.poses)
+        if robots is not None:
+            limits.check_team("recorder", robots, patrol_map.num_vertices, "--robots",
+                              patrol_map.name)
         out = prepare_out_dir(out, overwrite=args.overwrite)
-    except (BagError, TpuafError) as err:
+    except TpuafError as err:
         raise CliError(str(err)) from None
+    try:
+        with _UnknownIds(patrol_map) as ids:
+            result = analyze(bag, patrol_map, robots=robots, start_offset_s=args.start,
+                             duration_s=args.duration, death_timeout_s=timeout,
+                             pose_source=None if args.poses == "auto" else args.poses)
+        problems = pairing_problems(result, patrol_map, robots, ids.unknown, robots_from)
+        if problems and not args.force:
+            raise CliError(f"{bag} does not match map '{patrol_map.name}' ({map_ref}): "
+                           + "; ".join(problems) + " (give the right --map, or --force)")
+    except (BagError, TpuafError) as err:
+        _abandon(out, created)
+        raise CliError(str(err)) from None
+    except KeyboardInterrupt:
+        _interrupted(out, bag)
+        raise
+    for problem in problems:
+        print(f"tpuaf analyze: warning: {problem} (--force)", file=sys.stderr)
     summary = result.summary
     info = result.info
     summary["analysis"] = {
@@ -135,9 +260,13 @@ def run(args: argparse.Namespace) -> int:
     }
     cfg = {**config, "map": map_ref, "robots": result.robots, "analysis_of": str(bag),
            "runtime": "bag analysis (tpuaf analyze)", "start_time_s": result.start_s}
-    writer = ResultsWriter(out, cfg)
     complete = info.monitor_finished or not config  # a plain bag: the span is all there is
-    writer.finish(summary, result.recorder, interrupted=not complete)
+    try:
+        with ResultsWriter(out, cfg) as writer:
+            writer.finish(summary, result.recorder, interrupted=not complete)
+    except KeyboardInterrupt:
+        _interrupted(out, bag)
+        raise
     print(f"{bag}: {result.robots} robots; analysed {result.span_s:.1f} s of the bag's "
           f"{info.span_s:.1f} s (from t = {result.start_s - info.start_s:.1f} s to "
           f"{result.end_s - info.start_s:.1f} s)")
@@ -156,8 +285,47 @@ def run(args: argparse.Namespace) -> int:
             fx = f"{x:.3f}" if isinstance(x, float) and math.isfinite(x) else str(x)
             fy = f"{y:.3f}" if isinstance(y, float) and math.isfinite(y) else str(y)
             print(f"    {key:<22} monitor {fx:>12}  bag {fy:>12}  {'ok' if ok else 'DIFFERS'}")
-        (out / "comparison.json").write_text(json.dumps(
+        from tpuaf.experiments.results import record_written
+        from tpuaf.files import atomic_write_text
+
+        record_written(out, "comparison.json")
+        atomic_write_text(out / "comparison.json", json.dumps(
             [{"metric": k, "monitor": x, "bag": y, "agrees": ok} for k, x, y, ok in rows],
             indent=2) + "\n")
         return 1 if bad else 0
     return 0
+
+
+def _abandon(out: Path, created: bool) -> None:
+    """Leave no trace of a folder this command created for an analysis it refused."""
+    import contextlib
+    import os
+
+    from tpuaf.experiments.results import LOCK_FILE, MANIFEST, unlock_folder
+
+    if not created:
+        return
+    unlock_folder(out)
+    for name in (LOCK_FILE, MANIFEST):
+        with contextlib.suppress(OSError):
+            os.unlink(out / name)
+    with contextlib.suppress(OSError):
+        out.rmdir()  # only when empty
+
+
+def _interrupted(out: Path, bag: Path) -> None:
+    """An interrupted analysis: summary.json says so ("complete": false), whatever was
+    written before the signal."""
+    from tpuaf.experiments.results import record_written
+    from tpuaf.files import atomic_write_text
+
+    path = out / "summary.json"
+    try:
+        done = json.loads(path.read_text()) if path.is_file() else {}
+    except (OSError, ValueError):
+        done = {}
+    if isinstance(done, dict) and done.get("complete") is False:
+        return
+    record_written(out, "summary.json")
+    atomic_write_text(path, json.dumps({"complete": False, "interrupted": True,
+                                        "analysis": {"bag": str(bag)}}, indent=2) + "\n")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -59,7 +60,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                              "auto) as in `tpuaf run --robot`")
 
 
+# A Dask scheduler address: scheme://host:port or host:port.
+_ADDRESS = re.compile(r"^(?:(?:tcp|tls|ws|wss|ucx)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(\d{1,5})$")
+
+
+def check_scheduler(address: str | None) -> None:
+    """Refuse a --scheduler that is no address before Dask is asked (it raised a traceback)."""
+    if address is None:
+        return
+    m = _ADDRESS.match(address)
+    if not m or not 0 < int(m.group(2)) < 65536:
+        raise CliError(f"--scheduler {address}: not a scheduler address (expected "
+                       "tcp://HOST:PORT or HOST:PORT, e.g. tcp://127.0.0.1:8786)")
+
+
 def run(args: argparse.Namespace) -> int:
+    from tpuaf.cli import limits
     from tpuaf.experiments.sweep import SweepError, make_scenarios, make_spec, run_sweep
 
     if args.scheduler and args.workers:
@@ -69,9 +85,17 @@ def run(args: argparse.Namespace) -> int:
     if args.first_seed + args.seeds - 1 > MAX_SEED:
         raise CliError(f"--first-seed {args.first_seed} + --seeds {args.seeds} exceeds the "
                        f"largest seed {MAX_SEED}")
+    check_scheduler(args.scheduler)
+    if args.workers is not None and args.workers > limits.max_workers():
+        raise CliError(f"--workers {args.workers}: at most {limits.max_workers()} worker "
+                       f"processes fit this machine ({os.cpu_count() or 1} cores, "
+                       f"{limits.size_text(limits.budget_bytes())} of memory to give)")
     try:
         scenarios = make_scenarios(args.loss, args.delay, args.deaths, args.death_time,
                                    runtime=args.runtime, robot=args.robot)
+        per_seed = (len(set(args.maps)) * len(set(args.strategies)) * len(set(args.robots))
+                    * len(scenarios))
+        limits.check_runs(per_seed * args.seeds, per_seed, args.seeds)
         spec = make_spec(args.maps, args.strategies, args.robots, args.seeds,
                          duration_s=args.duration, first_seed=args.first_seed,
                          scenarios=scenarios)

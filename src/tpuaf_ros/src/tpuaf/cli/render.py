@@ -30,6 +30,61 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="also (re)write FOLDER/summary.png")
 
 
+FRAME_BYTES_PER_DPI2 = 64  # [B / dpi^2]: a 6 x ~7 in frame, RGB while drawn, 1 B/px kept
+
+
+def _span_s(folder: Path) -> float | None:
+    """The run's length [s] from summary.json or config.yaml (None when neither says)."""
+    import json
+
+    from tpuaf.files import read_regular
+
+    for name, key in (("summary.json", "duration_s"), ("config.yaml", "duration_s")):
+        path = folder / name
+        if not path.is_file():
+            continue
+        try:
+            text = read_regular(path, max_bytes=16 << 20).decode("utf-8", "replace")
+            doc = json.loads(text) if name.endswith(".json") else yaml_doc(path)
+        except (OSError, ValueError):
+            continue
+        value = doc.get(key) if isinstance(doc, dict) else None
+        if isinstance(value, int | float) and not isinstance(value, bool) and value > 0:
+            return float(value)
+    return None
+
+
+def yaml_doc(path: Path):
+    from tpuaf_core import yamlfile
+
+    return yamlfile.read_yaml_fast(path, CliError)
+
+
+def check_request(folder: Path, args: argparse.Namespace) -> None:
+    """Frames and their memory, before anything is drawn (cli/limits.py)."""
+    from tpuaf.cli import limits
+
+    frames = float(args.frames or 200)
+    if args.step is not None:
+        span = _span_s(folder)
+        if span is not None:
+            frames = span / args.step + 1
+            limits.check_frames(frames, f"--step {args.step:g}",
+                                f"--step {span / (limits.MAX_FRAMES - 1):.4g} or more fits "
+                                f"this {span:g} s run")
+    else:
+        limits.check_frames(frames, f"--frames {args.frames}",
+                            f"--frames {limits.MAX_FRAMES} or fewer")
+    need = frames * FRAME_BYTES_PER_DPI2 * float(args.dpi) ** 2 + limits.BASE_BYTES
+    budget = limits.budget_bytes()
+    if need > budget:
+        most = int(((budget - limits.BASE_BYTES) / (frames * FRAME_BYTES_PER_DPI2)) ** 0.5)
+        raise CliError(f"--dpi {args.dpi}: {frames:,.0f} frames need about "
+                       f"{limits.size_text(need)} of memory, more than the "
+                       f"{limits.size_text(budget)} this machine can give; --dpi {most} or "
+                       "less (or fewer frames) fits")
+
+
 def run(args: argparse.Namespace) -> int:
     from tpuaf.experiments.plots import render, summary_png
 
@@ -41,8 +96,7 @@ def run(args: argparse.Namespace) -> int:
             raise CliError(f"{folder}: no {name} (not a results folder of `tpuaf run --out`)")
     if args.out is not None and args.out.suffix.lower() not in (".gif", ".mp4"):
         raise CliError(f"--out {args.out}: the animation is a .gif or an .mp4 file")
-    if args.frames is not None and args.frames > 5000:
-        raise CliError(f"--frames {args.frames}: at most 5000 frames")
+    check_request(folder, args)
     try:
         if args.summary:
             print(f"summary: {summary_png(folder)}")

@@ -47,7 +47,9 @@ def finite_float(condition, wanted: str):
 
 
 MAX_SEED = 2**31 - 1  # seeds travel as ROS parameters (XML-RPC int32) in fleets
-MAX_ROBOTS = 10_000  # team size: beyond, memory and time explode (the paper's teams: 1-12)
+# Team size: every strategy runs a team of this size on this machine (24 GB; cli/limits.py
+# refuses, before allocating, a team whose memory would not fit). The paper's teams: 1-12.
+MAX_ROBOTS = 1_000
 
 
 def team_size(text: str) -> int:
@@ -270,8 +272,12 @@ def run(args: argparse.Namespace) -> int:
         loss=args.loss,
         strategy_params=parse_params(args.param),
     )
+    from tpuaf.cli import limits
+
     try:
         patrol_map = load_map(args.map, allow_occupied_vertices=args.allow_occupied_vertices)
+        limits.check_team(args.strategy, args.robots, patrol_map.num_vertices,
+                          map_name=patrol_map.name)
         engine = make_engine(args, config, patrol_map)
     except (MapError, ConfigError, ParameterError) as err:
         raise CliError(str(err)) from None

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Hashable
 from pathlib import Path
 from typing import Any
@@ -53,10 +54,23 @@ def _at(path: Path, node: Any) -> str:
     return yamlfile.where(path, node)
 
 
+MAX_COORDINATE_M = 1e6  # |x|, |y|, lengths and widths [m]: 1,000 km (beyond: float steps of mm)
+MAX_VERTEX_ID = 2**31 - 1  # ids travel as int32 in ROS parameters; -1 means "none" in messages
+# YAML 1.1 reads 1e6 (no dot) as a string; YAML 1.2 and every user as a number.
+_NUMBER_TEXT = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
+
+
 def _num(path: Path, node: Any, key: str, value: Any, *, minimum: float | None = None,
-         positive: bool = False) -> float:
+         positive: bool = False, maximum: float | None = MAX_COORDINATE_M,
+         owner: str = "") -> float:
+    if isinstance(value, str) and _NUMBER_TEXT.fullmatch(value.strip()):
+        value = float(value)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise MapError(f"{_at(path, node)}: '{key}' must be a finite number, got {value!r}")
+        raise MapError(f"{_at(path, node)}: '{key}' must be a finite number, got "
+                       f"{yamlfile.shorten(repr(value))}")
+    if maximum is not None and abs(value) > maximum:
+        raise MapError(f"{_at(path, node)}: {owner}'{key}' = {value:g} lies beyond the "
+                       f"+-{maximum:g} a map may span")
     if positive and not value > 0:
         raise MapError(f"{_at(path, node)}: '{key}' must be > 0, got {value}")
     if minimum is not None and value < minimum:
@@ -142,12 +156,17 @@ def parse_graph_yaml(path: Path, settings: MapSettings, *, fast: bool = False) -
                 raise MapError(f"{_at(path, v)}: vertex without '{key}'")
         vid = v["id"]
         if isinstance(vid, bool) or not isinstance(vid, int):
-            raise MapError(f"{_at(path, v)}: vertex id must be an integer, got {vid!r}")
+            raise MapError(f"{_at(path, v)}: vertex id must be an integer, got "
+                           f"{yamlfile.shorten(repr(vid))}")
+        if not 0 <= vid <= MAX_VERTEX_ID:
+            raise MapError(f"{_at(path, v)}: vertex id must be in 0 .. {MAX_VERTEX_ID}, got "
+                           f"{yamlfile.shorten(str(vid))}")
         if vid in id_set:
             raise MapError(f"{_at(path, v)}: duplicate vertex id {vid}")
         ids.append(vid)
         id_set.add(vid)
-        pos.append((_num(path, v, "x", v["x"]), _num(path, v, "y", v["y"])))
+        pos.append((_num(path, v, "x", v["x"], owner=f"vertex {vid}: "),
+                    _num(path, v, "y", v["y"], owner=f"vertex {vid}: ")))
         imp.append(_num(path, v, "importance", v.get("importance", settings.default_importance),
                         minimum=0.0))
         x0.append(_num(path, v, "initial_uncertainty",
@@ -162,11 +181,13 @@ def parse_graph_yaml(path: Path, settings: MapSettings, *, fast: bool = False) -
     for e in edges_node:
         if not isinstance(e, list) or len(e) not in (2, 3):
             raise MapError(f"{_at(path, e if isinstance(e, list) else edges_node)}: an edge is "
-                           f"[u, v] or [u, v, length_m], got {e!r}")
+                           f"[u, v] or [u, v, length_m], got {yamlfile.shorten(repr(e))}")
         u, w = e[0], e[1]
         for vid in (u, w):
             if not isinstance(vid, Hashable) or vid not in index:  # e.g. a list: no vertex id
-                raise MapError(f"{_at(path, e)}: edge {u}-{w} names unknown vertex {vid!r}")
+                short = yamlfile.shorten
+                raise MapError(f"{_at(path, e)}: edge {short(str(u))}-{short(str(w))} names "
+                               f"unknown vertex {short(repr(vid))}")
         if u == w:
             raise MapError(f"{_at(path, e)}: self-loop at vertex {u}")
         key = (min(index[u], index[w]), max(index[u], index[w]))

@@ -62,12 +62,39 @@ class OccupancyGrid:
 # Image readers
 
 
+MAX_IMAGE_BYTES = 1 << 30  # an image file [B]
+MAX_IMAGE_PIXELS = 200_000_000  # e.g. 14,000 x 14,000 px at 5 cm: a 700 m square
+BYTES_PER_PIXEL = 64  # peak while decoding: RGBA float32, its float64 copy, grey, masks
+
+
+def _read_bytes(path: Path) -> bytes:
+    return yamlfile.read_regular_bytes(path, MapError, max_bytes=MAX_IMAGE_BYTES, what="image")
+
+
+def check_pixels(path: Path, width: int, height: int) -> None:
+    """Refuse, before decoding, an image too large for MAX_IMAGE_PIXELS or this machine's
+    memory (the estimate: BYTES_PER_PIXEL per pixel)."""
+    from tpuaf.files import available_bytes
+
+    pixels = width * height
+    budget = available_bytes() * 3 // 4
+    most = min(MAX_IMAGE_PIXELS, budget // BYTES_PER_PIXEL)
+    if pixels > most:
+        raise MapError(f"{path}: a {width:,} x {height:,} px image ({pixels:,} px) would need "
+                       f"about {pixels * BYTES_PER_PIXEL / 1e9:,.1f} GB to decode; at most "
+                       f"{most:,} px fit (e.g. {int(most ** 0.5):,} x {int(most ** 0.5):,})")
+
+
+def _png_size(path: Path, data: bytes) -> tuple[int, int]:
+    """Width and height [px] from a PNG's IHDR chunk (read before decoding)."""
+    if data[:8] != b"\x89PNG\r\n\x1a\n" or data[12:16] != b"IHDR" or len(data) < 24:
+        raise MapError(f"{path}: not a PNG image (no PNG signature and IHDR header)")
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+
 def _read_pnm(path: Path) -> np.ndarray:
     """Grey values of a binary (P5) or ASCII (P2) PGM, in [0, 1], first row = image top."""
-    try:
-        data = path.read_bytes()
-    except OSError as err:
-        raise MapError(f"{path}: cannot read image: {err.strerror}") from None
+    data = _read_bytes(path)
     magic = data[:2]
     if magic not in (b"P5", b"P2"):
         raise MapError(f"{path}: not a PGM image (magic {magic!r}, expected P5 or P2)")
@@ -94,6 +121,7 @@ def _read_pnm(path: Path) -> np.ndarray:
     width, height, maxval = fields
     if width <= 0 or height <= 0 or not 0 < maxval < 65536:
         raise MapError(f"{path}: bad PGM size {width}x{height} or maxval {maxval}")
+    check_pixels(path, width, height)
     count = width * height
     if magic == b"P5":
         pos += 1  # exactly one whitespace byte after maxval
@@ -116,10 +144,14 @@ def _read_pnm(path: Path) -> np.ndarray:
 
 
 def _read_png(path: Path) -> np.ndarray:
+    data = _read_bytes(path)
+    check_pixels(path, *_png_size(path, data))
     try:
+        import io
+
         import matplotlib.image as mpimg
 
-        img = np.asarray(mpimg.imread(str(path)), dtype=float)
+        img = np.asarray(mpimg.imread(io.BytesIO(data), format="png"), dtype=float)
     except Exception as err:  # noqa: BLE001 - any decoder failure is a bad file
         raise MapError(f"{path}: cannot read PNG image: {err}") from None
     if img.ndim == 3:
@@ -148,7 +180,8 @@ _MAP_SERVER_KEYS = {"image", "resolution", "origin", "negate", "occupied_thresh"
 def _number(path: Path, key: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or \
             not math.isfinite(value):
-        raise MapError(f"{path}: '{key}' must be a finite number, got {value!r}")
+        raise MapError(f"{path}: '{key}' must be a finite number, got "
+                       f"{yamlfile.shorten(repr(value))}")
     return float(value)
 
 
@@ -161,10 +194,9 @@ def load_occupancy(yaml_path: str | Path, image_fallbacks: tuple[Path, ...] = ()
     in the YAML does not exist (used by the patrolling_sim importer).
     """
     path = Path(yaml_path)
-    try:
-        text = path.read_text()
-    except OSError as err:
-        raise MapError(f"{path}: cannot read map YAML: {err.strerror}") from None
+    data = yamlfile.read_regular_bytes(path, MapError, max_bytes=yamlfile.MAX_YAML_BYTES,
+                                       what="map YAML")
+    text = yamlfile.decode_utf8(data, path, MapError)
     doc = yamlfile.parse_yaml(text, path, MapError, lines=False)  # as map_server reads it
     if not isinstance(doc, dict):
         raise MapError(f"{path}: expected a map_server YAML mapping")
@@ -177,7 +209,8 @@ def load_occupancy(yaml_path: str | Path, image_fallbacks: tuple[Path, ...] = ()
         raise MapError(f"{path}: 'resolution' must be > 0, got {resolution}")
     origin = doc["origin"]
     if not isinstance(origin, list) or len(origin) < 2:
-        raise MapError(f"{path}: 'origin' must be [x, y, yaw], got {origin!r}")
+        raise MapError(f"{path}: 'origin' must be [x, y, yaw], got "
+                       f"{yamlfile.shorten(repr(origin))}")
     ox, oy = (_number(path, "origin", v) for v in origin[:2])
     if len(origin) > 2 and _number(path, "origin", origin[2]) != 0.0:
         raise MapError(f"{path}: rotated map origins (yaw != 0) are not supported")

@@ -21,6 +21,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+from tpuaf_core.yamlfile import decode_utf8, read_regular_bytes, shorten
 
 from tpuaf.errors import MapError
 from tpuaf.maps.model import MapSettings, PatrolMap
@@ -35,15 +36,22 @@ IMPORTED_SETTINGS = {
 }
 
 
+MAX_GRAPH_BYTES = 64 << 20  # the largest reference map's .graph is about 30 kB
+MAX_INTEGER = 2**31 - 1  # ids, counts and image sizes (int32 as in patrolling_sim)
+MAX_VERTICES = 1_000_000
+MAX_PIXELS = 1e7  # |coordinate| and cost [px]
+MAX_METRES = 1e6  # |coordinate| and edge length [m] of the metric map (mapfile's bound)
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+
 class _Tokens:
     """Tokens of a text file with their line numbers, for error messages."""
 
     def __init__(self, path: Path):
         self.path = path
-        try:
-            text = path.read_text(errors="replace")
-        except OSError as err:
-            raise MapError(f"{path}: cannot read graph file: {err.strerror}") from None
+        data = read_regular_bytes(path, MapError, max_bytes=MAX_GRAPH_BYTES, what="graph file")
+        text = decode_utf8(data, path, MapError)
         self.items: list[tuple[str, int]] = [
             (tok, lineno)
             for lineno, line in enumerate(text.splitlines(), start=1)
@@ -65,21 +73,28 @@ class _Tokens:
         self.pos += 1
         return tok
 
-    def integer(self, what: str) -> int:
+    def integer(self, what: str, low: int = -MAX_INTEGER, high: int = MAX_INTEGER) -> int:
+        """A plain ASCII decimal integer in low .. high (int() would take '2_39' and '２３９')."""
         tok = self.next(what)
-        try:
-            return int(tok)
-        except ValueError:
-            raise MapError(f"{self.where(self.pos - 1)}: expected an integer {what}, got {tok!r}") from None
+        if not _INTEGER.fullmatch(tok):
+            raise MapError(f"{self.where(self.pos - 1)}: expected an integer {what} (decimal "
+                           f"digits), got {shorten(repr(tok))}")
+        value = int(tok)
+        if not low <= value <= high:
+            raise MapError(f"{self.where(self.pos - 1)}: {what} must be in {low} .. {high}, "
+                           f"got {shorten(tok)}")
+        return value
 
-    def number(self, what: str) -> float:
+    def number(self, what: str, bound: float = MAX_PIXELS) -> float:
+        """A plain ASCII decimal number within +-bound (float() would take 'nan', '1_0')."""
         tok = self.next(what)
-        try:
-            value = float(tok)
-        except ValueError:
-            raise MapError(f"{self.where(self.pos - 1)}: expected a number {what}, got {tok!r}") from None
-        if not np.isfinite(value):
-            raise MapError(f"{self.where(self.pos - 1)}: {what} must be finite, got {tok!r}")
+        if not _NUMBER.fullmatch(tok):
+            raise MapError(f"{self.where(self.pos - 1)}: expected a number {what} (decimal "
+                           f"digits), got {shorten(repr(tok))}")
+        value = float(tok)
+        if not (np.isfinite(value) and abs(value) <= bound):
+            raise MapError(f"{self.where(self.pos - 1)}: {what} must be finite and within "
+                           f"+-{bound:g}, got {shorten(tok)}")
         return value
 
 
@@ -90,11 +105,9 @@ def parse_graph(path: str | Path) -> dict:
     """Parse a patrolling_sim .graph file. Returns header values, vertices and merged edges."""
     path = Path(path)
     tk = _Tokens(path)
-    n = tk.integer("vertex count")
-    if n <= 0:
-        raise MapError(f"{tk.where(0)}: vertex count must be > 0, got {n}")
-    width = tk.integer("image width [px]")
-    height = tk.integer("image height [px]")
+    n = tk.integer("vertex count", 1, MAX_VERTICES)
+    width = tk.integer("image width [px]", 0)
+    height = tk.integer("image height [px]", 0)
     res = tk.number("resolution [m/px]")
     if res <= 0:
         raise MapError(f"{tk.where(3)}: resolution must be > 0, got {res}")
@@ -106,24 +119,22 @@ def parse_graph(path: str | Path) -> dict:
     vertex_token: dict[int, int] = {}
     for k in range(n):
         start = tk.pos
-        vid = tk.integer(f"id of vertex {k + 1} of {n}")
+        vid = tk.integer(f"id of vertex {k + 1} of {n}", 0)
         if vid in vertex_token:
             raise MapError(f"{tk.where(start)}: duplicate vertex id {vid}")
         vertex_token[vid] = start
         x = tk.number(f"x [px] of vertex {vid}")
         y = tk.number(f"y [px] of vertex {vid}")
-        count = tk.integer(f"neighbour count of vertex {vid}")
-        if count < 0:
-            raise MapError(f"{tk.where(tk.pos - 1)}: negative neighbour count {count}")
+        count = tk.integer(f"neighbour count of vertex {vid}", 0, n * 8)
         nbrs = []
         for _ in range(count):
             at = tk.pos
-            nb = tk.integer(f"neighbour id of vertex {vid}")
+            nb = tk.integer(f"neighbour id of vertex {vid}", 0)
             direction = tk.next(f"direction to neighbour {nb} of vertex {vid}")
             if direction.upper() not in _DIRECTIONS:
                 raise MapError(
                     f"{tk.where(tk.pos - 1)}: expected a compass direction (N, NE, ...) "
-                    f"for edge {vid}-{nb}, got {direction!r}"
+                    f"for edge {vid}-{nb}, got {shorten(repr(direction))}"
                 )
             cost = tk.number(f"cost [px] of edge {vid}-{nb}")
             if cost <= 0:
@@ -176,6 +187,13 @@ def parse_graph(path: str | Path) -> dict:
                     "other: kept the shortest"
                 )
             edges.append((i, j, min(cost, back) * res))
+    positions = np.array(px, dtype=float) * res + np.array([off_x, off_y])
+    far = float(np.abs(positions).max()) if len(positions) else 0.0
+    longest = max((length for _, _, length in edges), default=0.0)
+    if far > MAX_METRES or longest > MAX_METRES:
+        what = f"a vertex at {far:g} m" if far > MAX_METRES else f"an edge of {longest:g} m"
+        raise MapError(f"{path}: {what} (pixels x resolution + offset): a map must lie within "
+                       f"+-{MAX_METRES:g} m, edges at most {MAX_METRES:g} m long")
     return {
         "n": n,
         "width_px": width,
@@ -184,7 +202,7 @@ def parse_graph(path: str | Path) -> dict:
         "offset": (off_x, off_y),
         "ids": ids,
         "pixels": np.array(px, dtype=float),
-        "positions": np.array(px, dtype=float) * res + np.array([off_x, off_y]),
+        "positions": positions,
         "edges": edges,
         "notes": notes,
         "directed_count": sum(len(a) for a in adjacency),
@@ -198,10 +216,8 @@ def read_initial_poses(path: str | Path, map_name: str) -> tuple[dict, dict]:
     Returns ({N: [(x, y), ...]}, {"<N>_<suffix>": [(x, y), ...]}) for keys with a suffix.
     """
     path = Path(path)
-    try:
-        lines = path.read_text(errors="replace").splitlines()
-    except OSError as err:
-        raise MapError(f"{path}: cannot read initial poses: {err.strerror}") from None
+    data = read_regular_bytes(path, MapError, max_bytes=MAX_GRAPH_BYTES, what="initial poses file")
+    lines = data.decode("utf-8", "replace").splitlines()
     poses: dict[int, list[tuple[float, float]]] = {}
     variants: dict[str, list[tuple[float, float]]] = {}
     section = None

@@ -1,0 +1,109 @@
+"""What a request will take, estimated before anything is allocated (issue 22).
+
+Every command checks here what it is asked for (robots x vertices, runs of a sweep, frames of
+an animation, pixels of a map image) against this machine's available memory and refuses, in
+one line, what cannot fit, saying what would. The estimates are upper bounds fitted on
+measurements (benchmarks/probe_hostile.py; grid, 2 cores, 24 GB): a request that passes may
+still be slow, but it does not take the machine's memory.
+"""
+
+from __future__ import annotations
+
+from tpuaf.errors import CliError
+from tpuaf.files import available_bytes
+
+BUDGET_FRACTION = 0.75  # of MemAvailable a command may plan to use (the rest: OS and others)
+BASE_BYTES = 150 << 20  # the interpreter, numpy, the core and a map: ~60-120 MB measured
+
+# Team memory [B] = BASE + n2 * N^2 + n3 * N^3 + nv * N * V (upper bounds of the measured
+# peak RSS; N robots, V vertices). Knowledge of the teammates' visits and intentions is N^2;
+# tpuaf_plus' slot assignment builds an (N(N-1)/2 x N) float64 matrix (and temporaries).
+# Measured (N = 150-600, grid): 2.9 kB per N^2 for the strategies on the Python event loop,
+# 10 B per N^2 on the C++ loop (tpuaf, gbs, dtag; 990 MB at N = 10,000).
+_TEAM_DEFAULT = {"n2": 3300.0, "n3": 0.0, "nv": 64.0}
+TEAM_COEFFS = {
+    "tpuaf": {"n2": 40.0, "n3": 0.0, "nv": 64.0},
+    "gbs": {"n2": 40.0, "n3": 0.0, "nv": 64.0},
+    "dtag": {"n2": 40.0, "n3": 0.0, "nv": 64.0},
+    "tpuaf_plus": {"n2": 3300.0, "n3": 8.0, "nv": 64.0},
+    "recorder": {"n2": 0.0, "n3": 0.0, "nv": 64.0},  # tpuaf analyze: the metrics alone
+}
+RECORDER_BYTES_PER_PAIR = 48.0  # pairwise robot distances for interference (measure/metrics)
+SWEEP_BYTES_PER_RUN = 24 << 10  # one run's key, task, future and results row in the driver
+WORKER_BYTES = 400 << 20  # one Dask worker process with a run in it
+MAX_FRAMES = 5000  # an animation's frames (each held by the GIF / MP4 writer)
+IMAGE_BYTES_PER_PIXEL = 12  # a decoded map image: RGB(A) bytes, float grid and free mask
+
+
+def budget_bytes() -> int:
+    """What one command may plan to use [B]."""
+    return int(available_bytes() * BUDGET_FRACTION)
+
+
+def size_text(n_bytes: float) -> str:
+    """1.5 GB, 320 MB, 12 kB (decimal units)."""
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n_bytes >= scale:
+            return f"{n_bytes / scale:,.1f} {unit}"
+    return f"{int(n_bytes)} B"
+
+
+def team_bytes(strategy: str, robots: int, vertices: int) -> float:
+    """Estimated peak memory [B] of a run of `robots` robots of `strategy` on `vertices`."""
+    c = TEAM_COEFFS.get(str(strategy).lower(), _TEAM_DEFAULT)
+    n, v = float(robots), float(vertices)
+    return (BASE_BYTES + c["n2"] * n * n + c["n3"] * n ** 3 + c["nv"] * n * v
+            + RECORDER_BYTES_PER_PAIR * n * n)
+
+
+def largest(fits, upper: int) -> int:
+    """The largest k in 0 .. upper with fits(k) (fits is monotone: true, then false)."""
+    lo, hi = 0, upper
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if fits(mid):
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
+
+
+def check_team(strategy: str, robots: int, vertices: int, option: str = "--robots",
+               map_name: str = "") -> None:
+    """Refuse a team whose estimated memory exceeds the budget, naming the largest that fits."""
+    budget = budget_bytes()
+    need = team_bytes(strategy, robots, vertices)
+    if need <= budget:
+        return
+    most = largest(lambda k: team_bytes(strategy, k, vertices) <= budget, robots)
+    on = f" on {map_name}" if map_name else ""
+    raise CliError(f"{option} {robots}: {strategy} with {robots:,} robots{on} ({vertices:,} "
+                   f"vertices) needs about {size_text(need)} of memory, more than the "
+                   f"{size_text(budget)} this machine can give; at most {most:,} robots fit")
+
+
+def check_runs(runs: int, per_seed: int, seeds: int) -> None:
+    """Refuse a sweep whose bookkeeping (per run) cannot fit; name the largest --seeds."""
+    budget = budget_bytes() - BASE_BYTES
+    need = float(runs) * SWEEP_BYTES_PER_RUN
+    if need <= budget:
+        return
+    most = max(0, budget // (SWEEP_BYTES_PER_RUN * max(per_seed, 1)))
+    raise CliError(f"--seeds {seeds}: {runs:,} runs need about {size_text(need)} of memory for "
+                   f"their bookkeeping alone, more than the {size_text(max(budget, 0))} this "
+                   f"machine can give; at most --seeds {most:,} fits"
+                   + ("" if most else " (fewer maps, strategies or team sizes)"))
+
+
+def max_workers() -> int:
+    """Local Dask worker processes this machine holds: 4 per core, and their memory."""
+    import os
+
+    return max(1, min(4 * (os.cpu_count() or 1), budget_bytes() // WORKER_BYTES))
+
+
+def check_frames(frames: float, option: str, what_fits: str) -> None:
+    """Refuse an animation of more than MAX_FRAMES frames."""
+    if frames > MAX_FRAMES:
+        raise CliError(f"{option}: {frames:,.0f} frames, more than the {MAX_FRAMES:,} an "
+                       f"animation may hold; {what_fits}")
