@@ -29,7 +29,9 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import functools
 import gzip
+import hashlib
 import io
 import json
 import math
@@ -90,6 +92,49 @@ REFERENCE_COLUMNS = [
 class MapSpec:
     label: str  # folder name and table label (the map's name)
     source: str  # built-in name or path, as given to load_map on the workers
+    content_hash: str = ""  # map_hash of what `source` held when the sweep started
+
+
+def _digest(*parts: Any) -> str:
+    h = hashlib.sha256()
+    for part in parts:
+        data = part.tobytes() if isinstance(part, np.ndarray) else \
+            json.dumps(plain(part), sort_keys=True, default=str).encode()
+        h.update(len(data).to_bytes(8, "little"))
+        h.update(data)
+    return h.hexdigest()[:16]
+
+
+def map_hash(pm: Any) -> str:
+    """A digest of everything a run reads from a map: graph, lengths, settings, image."""
+    import dataclasses
+
+    occ = pm.occupancy
+    grid = () if occ is None else (np.ascontiguousarray(occ.occupied), float(occ.resolution),
+                                   list(occ.origin))
+    return _digest(str(pm.name), [int(v) for v in pm.vertex_ids],
+                   np.ascontiguousarray(pm.positions, dtype=float),
+                   [[int(u), int(v), float(length)] for u, v, length in pm.edges],
+                   np.ascontiguousarray(pm.importance, dtype=float),
+                   np.ascontiguousarray(pm.initial_uncertainty, dtype=float),
+                   dataclasses.asdict(pm.settings), pm.corridor_width, pm.bounds, *grid)
+
+
+def params_hash(strategy: str, given: dict[str, Any]) -> str:
+    """A digest of a strategy's effective parameters (defaults and the values given)."""
+    return _params_hash(strategy, json.dumps(plain(given), sort_keys=True, default=str))
+
+
+@functools.lru_cache(maxsize=256)
+def _params_hash(strategy: str, given_json: str) -> str:
+    from tpuaf.policies import REGISTRY
+
+    given = json.loads(given_json)
+    try:
+        params = REGISTRY.get(strategy)(dict(given)).params
+    except Exception:  # noqa: BLE001 - refused later, by the run itself
+        params = given
+    return _digest(strategy, params)
 
 
 NOMINAL = "nominal"
@@ -255,7 +300,11 @@ class SweepSpec:
         sc = self.scenario(key.scenario)
         duration = self.duration_of(key)
         failures = sc.failures(key.robots, duration)
-        return {"map": key.map, "map_source": self.source_of(key.map), "strategy": key.strategy,
+        spec_of = next(m for m in self.maps if m.label == key.map)
+        return {"map": key.map, "map_source": spec_of.source, "map_hash": spec_of.content_hash,
+                "params_hash": params_hash(key.strategy,
+                                           self.strategy_params.get(key.strategy, {})),
+                "strategy": key.strategy,
                 "robots": key.robots, "seed": key.seed, "duration_s": duration,
                 "strategy_params": dict(self.strategy_params.get(key.strategy, {})),
                 "scenario": sc.name, "runtime": sc.runtime, "robot": sc.robot, "loss": sc.loss,
@@ -290,7 +339,7 @@ def resolve_maps(names: Iterable[str]) -> list[MapSpec]:
             if other == source:
                 continue  # the same map twice
             raise SweepError(f"maps '{other}' and '{text}' have the same name '{label}'")
-        specs.append(MapSpec(label, source))
+        specs.append(MapSpec(label, source, map_hash(pm)))
     if not specs:
         raise SweepError("no maps given")
     return specs
@@ -663,6 +712,15 @@ def check_existing(root: Path, spec: SweepSpec) -> list[RunKey]:
             raise SweepError(
                 f"{path.parent}: map '{key.map}' came from {source}, this sweep gives "
                 f"{spec.source_of(key.map)}; use another --out folder")
+        task = spec.task(key)
+        for field_name, what in (("map_hash", f"map '{key.map}' ({task['map_source']})"),
+                                 ("params_hash", f"the parameters of {key.strategy}")):
+            old = run.get(field_name)
+            if old is not None and old != task[field_name]:
+                raise SweepError(
+                    f"{path.parent}: {what} changed since this run was computed (content "
+                    f"{old}, now {task[field_name]}): results would mix; use another --out "
+                    "folder (or delete the runs of the old content)")
     return todo
 
 
