@@ -412,3 +412,28 @@ def test_messages_of_another_definition_are_one_line_errors_or_ignored(tmp_path)
         analyze(tmp_path / "old.bag", GRID)
     proc = cli(tmp_path / "old.bag", "--map", "grid", "--out", tmp_path / "res")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+@pytest.mark.parametrize("poses", ["odom", "amcl"])
+def test_poses_read_raw_equal_rosbags_deserialisation(tmp_path, poses):
+    """The analysis reads Odometry and PoseWithCovarianceStamped poses from their bytes (the
+    standard definitions only): the same stamps and positions as rosbags' deserialiser."""
+    from rosbags.rosbag1 import Reader
+    from tpuaf.measure.bag import _raw_pose, raw_pose_reader
+
+    plain_bag(tmp_path, poses=poses)
+    store = typestore()
+    checked = 0
+    with Reader(tmp_path / "run.bag") as reader:
+        for conn, _t, raw in reader.messages():
+            odometry = raw_pose_reader(conn)
+            if odometry is None:
+                continue
+            msg = store.deserialize_ros1(raw, conn.msgtype)
+            st, p = msg.header.stamp, msg.pose.pose.position
+            assert _raw_pose(raw, odometry) == (st.sec + st.nanosec * 1e-9, p.x, p.y)
+            checked += 1
+    assert checked > 100
+    # another definition of the same type name is not read raw
+    assert raw_pose_reader(type("C", (), {"msgtype": "nav_msgs/msg/Odometry",
+                                          "digest": "0" * 32})()) is None
