@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import io
 import math
 import warnings
 from collections import OrderedDict
@@ -91,6 +92,36 @@ def _columns(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
     return out
 
 
+def _number_columns(path: Path, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The named columns of a CSV file of numbers as floats (NaN for an empty cell; a missing
+    column: an empty array), read by numpy's C parser straight into numbers: `_columns` then
+    `_floats` costs ~3 us a cell in string conversions (0.2 s for 60,000 visits)."""
+    with open(path, "rb") as f:
+        head = next(csv.reader([f.readline().decode("utf-8")]), [])
+        body = f.read()
+    out = {name: np.zeros(0) for name in names}
+    present = [name for name in names if name in head]
+    if not present or not body.strip():
+        return out
+    body = body.replace(b"\r\n", b"\n")
+    while b",," in body:  # empty cells -> nan
+        body = body.replace(b",,", b",nan,")
+    body = body.replace(b",\n", b",nan\n").replace(b"\n,", b"\nnan,")
+    body = (b"nan" if body.startswith(b",") else b"") + body + \
+        (b"nan" if body.endswith(b",") else b"")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            table = np.loadtxt(io.BytesIO(body), delimiter=",", dtype=float, comments=None,
+                               usecols=[head.index(name) for name in present], ndmin=2)
+    except ValueError:  # rows of other lengths, or a cell that is no number: as _columns does
+        return {name: _floats(v) if len(v) else np.zeros(0)
+                for name, v in _columns(path, names).items()}
+    for k, name in enumerate(present):
+        out[name] = table[:, k]
+    return out
+
+
 def _floats(values: np.ndarray) -> np.ndarray:
     """Numbers of a CSV column; NaN for empty cells."""
     out = np.full(len(values), np.nan)
@@ -106,13 +137,15 @@ def _config(folder: Path) -> Any:
 def _mean_interval_idleness(folder: Path, n: int) -> np.ndarray:
     """Each vertex's mean interval idleness [s] (visits.csv); NaN for a vertex without one."""
     path = Path(folder) / "visits.csv"
-    cols = _columns(path, ("vertex_index", "interval_idleness_s"))
+    cols = _number_columns(path, ("vertex_index", "interval_idleness_s"))
     vertex, idleness = cols["vertex_index"], cols["interval_idleness_s"]
     if len(vertex) != len(idleness):  # a column missing: no intervals
-        vertex = idleness = np.array([], dtype=str)
-    filled = idleness != ""
+        vertex = idleness = np.zeros(0)
+    filled = ~np.isnan(idleness)
+    if np.isnan(vertex[filled]).any() or (vertex[filled] != np.round(vertex[filled])).any():
+        raise ValueError(f"{path}: vertex_index is not an integer")
     vertex = vertex[filled].astype(np.int64)
-    idleness = idleness[filled].astype(float)
+    idleness = idleness[filled]
     if len(vertex) and not (0 <= vertex.min() and vertex.max() < n):
         raise ValueError(f"{path}: vertex_index outside the map's 0..{n - 1}")
     sums = np.bincount(vertex, weights=idleness, minlength=n)
@@ -331,16 +364,16 @@ def summary_png(folder: Path, patrol_map=None, summary: dict | None = None,
     """summary.png of a results folder (timeseries.csv, visits.csv, config.yaml); atomic."""
     folder = Path(folder)
     pm = _map_of(folder, patrol_map)
-    cols = _columns(folder / "timeseries.csv",
-                    ("time_s", "idleness_ins_s", "worst_idleness_s", "uncertainty_mean"))
+    cols = _number_columns(folder / "timeseries.csv",
+                           ("time_s", "idleness_ins_s", "worst_idleness_s", "uncertainty_mean"))
     fig = new_figure(figsize=(9.5, 3.8))
     ax_t, ax_m = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.3, 1.0]})
     if len(cols["time_s"]):
-        t = _floats(cols["time_s"])
+        t = cols["time_s"]
         t = t - t[0] + (t[1] - t[0] if len(t) > 1 else 0.0)
-        ax_t.plot(t, _floats(cols["idleness_ins_s"]), lw=1, label="I_ins (mean)")
-        ax_t.plot(t, _floats(cols["worst_idleness_s"]), lw=1, label="worst")
-        x = _floats(cols["uncertainty_mean"]) if len(cols["uncertainty_mean"]) else \
+        ax_t.plot(t, cols["idleness_ins_s"], lw=1, label="I_ins (mean)")
+        ax_t.plot(t, cols["worst_idleness_s"], lw=1, label="worst")
+        x = cols["uncertainty_mean"] if len(cols["uncertainty_mean"]) else \
             np.full(len(t), np.nan)
         if np.isfinite(x).any():
             ax_x = ax_t.twinx()
