@@ -180,3 +180,14 @@ def test_disk_cache_is_keyed_by_the_map_content(tmp_path, monkeypatch):
     assert len(list(tmp_path.glob("plan-*.json"))) == 2
     files[0].write_text("{not json")  # a damaged file is searched again, not trusted
     assert tours.partition_tours(grid_map(6, 1.0), 3).parts == first.parts
+
+
+def test_first_coverage_bound_by_hand():
+    # path 0-1-2-3 of 10 m edges at 1 m/s
+    pos = np.array([(0, 0), (10, 0), (20, 0), (30, 0)], float)
+    m = PatrolMap("p", [0, 1, 2, 3], pos, [(0, 1, 10.0), (1, 2, 10.0), (2, 3, 10.0)],
+                  np.ones(4), np.ones(4))
+    assert tours.first_coverage_bound(m, [0], 1.0) == pytest.approx(30.0)
+    # from both ends: the forest 0-1-2 (+3) is 20 m for 2 robots; farthest vertex 10 m
+    assert tours.first_coverage_bound(m, [0, 3], 1.0) == pytest.approx(10.0)
+    assert tours.first_coverage_bound(m, [1, 1], 2.0) == pytest.approx(10.0)  # 20 m at 2 m/s

@@ -154,3 +154,27 @@ def test_grid_faults_stay_near_the_tour(fault):
                        **fault)
     summary = BatchRun(config, patrol_map=grid).run()
     assert summary["idleness_max_s"] <= 1.3 * 37.05  # best-known tour, grid N = 4
+
+
+def ring(n=12, starts=(0, 0, 0)) -> PatrolMap:
+    """Ring of n vertices and 1 m edges (L = n m), 1 m/s, every robot starting at vertex 0."""
+    a = 2 * np.pi * np.arange(n) / n
+    pos = np.c_[np.cos(a), np.sin(a)] * n / (2 * np.pi)
+    edges = [(i, (i + 1) % n, 1.0) for i in range(n)]
+    settings = MapSettings(initial_vertices={len(starts): list(starts)})
+    return PatrolMap("ring", list(range(n)), pos, edges, np.ones(n), np.ones(n), settings)
+
+
+def test_start_schedule_spreads_a_team_from_one_vertex():
+    pm = ring()
+    plan = make_plan(pm, (0, 1, 2), (0, 0, 0), "cycle")
+    # slots 4 m apart: one robot leaves vertex 0 at once, the others drive back 2 m and 4 m
+    # and leave with their slots (they never wait): virtual positions 0, 8, 4 m at t = 0
+    walk = plan.routes[0].walk
+    got = sorted((round(plan.schedule[r][1], 9), walk[plan.schedule[r][0]]) for r in range(3))
+    forward = walk[1] == 1
+    assert got == [(0.0, 0), (2.0, 10 if forward else 2), (4.0, 8 if forward else 4)]
+    _, summary = run(pm, 3, 300.0)
+    # every vertex seen by 8 s (entering in turn at vertex 0 would take 11 s); bound 6 s
+    assert summary["first_coverage_bound_s"] == pytest.approx(6.0)  # 12 m of forest / 3 robots
+    assert 6.0 <= summary["first_coverage_s"] <= 8.0 + 1e-9

@@ -316,6 +316,43 @@ def assign_parts(
     return out
 
 
+def first_coverage_bound(patrol_map: Any, starts: list[int], speed: float) -> float:
+    """Lower bound [s] on the time until every vertex has been visited once, for robots leaving
+    the vertices `starts` (graph indices) at t = 0 at `speed` [m/s], by any strategy:
+    the larger of
+    - the farthest vertex from every start: max_v min_r d(start_r, v) / v;
+    - the spanning forest: robots' walks from the starts cover the graph, so together they hold
+      a forest spanning every vertex with a start in each tree, of length >= the minimum one
+      (Kruskal with the starts merged); the longest walk is at least 1/N of it."""
+    if speed <= 0:
+        raise ValueError(f"speed must be > 0 m/s, got {speed}")
+    graph = patrol_map.graph
+    n = graph.num_vertices
+    walkers = len(starts)  # robots sharing a start vertex still walk apart
+    starts = sorted({int(s) for s in starts})
+    if not starts or n <= 1:
+        return 0.0
+    dist = np.asarray(graph.distances, dtype=float)
+    farthest = float(dist[starts].min(axis=0).max())
+    root = list(range(n))
+
+    def find(v: int) -> int:
+        while root[v] != v:
+            root[v] = root[root[v]]
+            v = root[v]
+        return v
+
+    for s in starts[1:]:
+        root[find(s)] = find(starts[0])
+    forest = 0.0
+    for u, v, length in sorted(graph.edges, key=lambda e: (float(e[2]), e[0], e[1])):
+        a, b = find(int(u)), find(int(v))
+        if a != b:
+            root[a] = b
+            forest += float(length)
+    return max(farthest, forest / walkers) / speed
+
+
 def reference_tours(patrol_map: Any, n_robots: int, speed: float) -> dict[str, Any]:
     """Both reference tours at `speed` [m/s] with `n_robots`, and which has the lower worst idleness.
 

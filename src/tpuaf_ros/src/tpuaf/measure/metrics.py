@@ -459,6 +459,11 @@ class RunRecorder:
     def visit_counts(self) -> list[int]:
         return [int(c) for c in self._visit_count]
 
+    @property
+    def first_visit_times(self) -> list[float]:
+        """Time [s] of each vertex's first visit (NaN: never visited)."""
+        return [times[0] if times else math.nan for times in self._vertex_times]
+
     def finish(self, end_time: float) -> None:
         """Bring every accumulator to `end_time` [s] (robots held at their last positions)."""
         end_time = float(end_time)
@@ -497,6 +502,28 @@ class RunRecorder:
             recovery=self.recovery(end_time) if self.deaths else None)
 
 
+def first_coverage(rec: Any, end_time: float) -> dict[str, float]:
+    """first_coverage_s: time [s] from the start until every vertex had been visited once (NaN
+    when some vertex was not by `end_time`); first_coverage_bound_s: the lower bound of any
+    strategy from the run's start vertices at nominal speed (tours.first_coverage_bound)."""
+    from tpuaf.maps import start_vertices
+    from tpuaf.maps.tours import first_coverage_bound
+
+    first = getattr(rec, "first_visit_times", None)
+    if first is None:  # a recorder without per-vertex times: from its visit log
+        first = [math.nan] * rec.n_vertices
+        for t, _, v in rec.visits:
+            if not t >= first[v]:  # NaN or later
+                first[v] = t
+    last = max(first, default=rec.start_time)
+    covered = all(t == t and t <= end_time for t in first)
+    pm = rec.patrol_map
+    bound = first_coverage_bound(pm, start_vertices(pm, rec.n_robots),
+                                 float(pm.settings.nominal_speed))
+    return {"first_coverage_s": last - rec.start_time if covered else math.nan,
+            "first_coverage_bound_s": bound}
+
+
 def build_summary(rec: Any, end_time: float, *, interval_samples, ins_sum: float, n_rows: int,
                   worst: float, x_sum: float, x_count: int, x_final: float,
                   n_interferences: int, n_visits: int, deaths=(), stalls=(),
@@ -532,6 +559,7 @@ def build_summary(rec: Any, end_time: float, *, interval_samples, ins_sum: float
         "visits_per_vertex": {str(v): c for v, c in zip(ids, counts, strict=True)},
         "unvisited_vertices": int(sum(1 for c in counts if c == 0)),
         "complete_cycles": complete_cycles(counts),
+        **first_coverage(rec, end_time),
         "deaths": len(deaths),
         "dead_robots": [r for _, r in deaths],
         **({"stalled_robots": [r for _, r in stalls]} if stalls else {}),

@@ -44,6 +44,7 @@ from tpuaf.team.messages import Intention, Visit
 
 _EPS = 1e-6
 SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
+START_GAP = 1.1  # the start schedule's largest gap between robots, over L / m
 STAY_S = 1.0  # [s] the runtimes' dwell for a goal equal to the current vertex (runtimes.graph)
 
 
@@ -111,30 +112,93 @@ def _entry_index(route: Route, vertex: int, dist) -> int:
     return route.walk.index(best)
 
 
+def _slot_departures(route: Route, start: int, dist, slots: np.ndarray):
+    """For a robot at vertex `start` and virtual slots at arc positions `slots` [m] at t = 0
+    (moving at the plan speed v): per slot, the earliest (v * departure time [m], walk index)
+    at which the robot, having driven the shortest route to a walk vertex, is there when the
+    slot passes it. With u_k = (arc_k - d_k) mod L the latest slot phase the robot catches at
+    index k on the slot's first pass, v t = d_k + u_k - s (+ L when s > u_k)."""
+    L = route.length
+    arc = np.asarray(route.arc)
+    d = np.asarray(dist[start, list(route.walk)], dtype=float)
+    u = np.mod(arc - d, L)
+    order = np.lexsort((np.arange(len(u)), u))
+    u_sorted, b_sorted = u[order], (d + u)[order]
+    # suffix / prefix minima of B = d + u over indices sorted by u (and where they are)
+    suf_idx = np.empty(len(u), dtype=int)
+    pre_idx = np.empty(len(u), dtype=int)
+    best = len(u) - 1
+    for i in range(len(u) - 1, -1, -1):
+        if b_sorted[i] <= b_sorted[best]:
+            best = i
+        suf_idx[i] = best
+    best = 0
+    for i in range(len(u)):
+        if b_sorted[i] < b_sorted[best]:
+            best = i
+        pre_idx[i] = best
+    pos = np.searchsorted(u_sorted, slots, side="left")  # first u >= s
+    out_t = np.full(len(slots), np.inf)
+    out_k = np.zeros(len(slots), dtype=int)
+    for j, (s, p) in enumerate(zip(slots, pos, strict=True)):
+        if p < len(u):
+            i = suf_idx[p]
+            out_t[j], out_k[j] = b_sorted[i] - s, order[i]
+        if p > 0:
+            i = pre_idx[p - 1]
+            t = b_sorted[i] + L - s
+            if t < out_t[j] - _EPS:
+                out_t[j], out_k[j] = t, order[i]
+    return out_t, out_k
+
+
 def _schedule(route: Route, starts: dict, dist, speed: float) -> dict:
-    """Robot -> (entry index, departure time): evenly spaced virtual slots moving at `speed`,
-    each robot leaving its entry vertex when its slot passes; the rotation of slots that
-    minimises the longest wait (robots only wait, never drive faster)."""
+    """Robot -> (entry index, departure time [s]): the team starts spread at once. m virtual
+    slots, evenly spaced along the walk and moving at `speed`, each pick up one robot: the robot
+    drives the shortest route to the walk vertex where its slot passes soonest after it can be
+    there, and leaves with the slot (robots only wait, never drive faster). Over slot phases,
+    robots are matched to slots (least squared departures) and the schedule kept is the one
+    whose walk vertices are all first visited soonest (then the least total wait); steady-state
+    spacing then holds from the start."""
     robots = list(route.robots)
     m, L = len(robots), route.length
-    entries = {r: _entry_index(route, starts[r], dist) for r in robots}
-    reach = {r: dist[starts[r], route.walk[entries[r]]] / speed for r in robots}  # [s]
     if m == 1 or L <= 0:
-        return {r: (entries[r], reach[r]) for r in robots}
-    # virtual arc at t = 0 of a robot that never waits
-    virt = {r: (route.arc[entries[r]] - speed * reach[r]) % L for r in robots}
-    order = sorted(robots, key=lambda r: (virt[r], r))
+        entries = {r: _entry_index(route, starts[r], dist) for r in robots}
+        return {r: (entries[r], dist[starts[r], route.walk[entries[r]]] / speed) for r in robots}
+    from scipy.optimize import linear_sum_assignment
+
+    arc = np.asarray(route.arc)
+    phases = max(4, min(16, 4000 // (m * m) + 4))
     best = None
-    for shift in range(m):
-        seq = [order[(shift + i) % m] for i in range(m)]
-        u = [virt[r] + (L if shift + i >= m else 0.0) for i, r in enumerate(seq)]
-        lead = [u[i] - i * L / m for i in range(m)]
-        phi0 = min(lead)
-        longest = max(lead) - phi0
-        if best is None or longest < best[0] - _EPS:
-            best = (longest, seq, [x - phi0 for x in lead])
-    _, seq, ahead = best
-    return {r: (entries[r], reach[r] + ahead[i] / speed) for i, r in enumerate(seq)}
+    for q in range(phases):
+        slots = (q / phases + np.arange(m)) * (L / m)
+        dep = np.empty((m, m))
+        ent = np.empty((m, m), dtype=int)
+        for i, r in enumerate(robots):
+            dep[i], ent[i] = _slot_departures(route, starts[r], dist, slots)
+        rows, cols = linear_sum_assignment((dep / L) ** 2)
+        k = ent[rows, cols]
+        entry_arc = arc[k]
+        reach = np.array([dist[starts[robots[i]], route.walk[kk]] for i, kk in zip(rows, k,
+                                                                                    strict=True)])
+        # leave with the slot (alpha = 1: even spacing) or earlier (the first lap sooner, the
+        # spacing rule evens the gaps later, slowly under message loss): earlier only while no
+        # gap exceeds START_GAP x L / m
+        for alpha in (1.0, 0.75, 0.5, 0.25, 0.0):
+            t_dep = reach + alpha * (dep[rows, cols] - reach)  # [m] of travel at v
+            # first visit [m at v] of every walk vertex: the first robot passing it
+            first = (t_dep[:, None] + np.mod(arc[None, :] - entry_arc[:, None], L)).min(axis=0)
+            virtual = np.sort(np.mod(entry_arc - t_dep, L))  # arc positions at t = 0 [m]
+            gap = float(np.max(np.diff(np.append(virtual, virtual[0] + L))))
+            if alpha < 1.0 and gap > START_GAP * L / m:
+                continue
+            score = (float(first.max()), float(t_dep.sum()))
+            if best is None or score[0] < best[0][0] - _EPS or (
+                    score[0] <= best[0][0] + _EPS and score[1] < best[0][1] - _EPS):
+                best = (score, rows, k, t_dep)
+    _, rows, k, t_dep = best
+    return {robots[i]: (int(kk), float(t) / speed)
+            for i, kk, t in zip(rows, k, t_dep, strict=True)}
 
 
 _PLANS: OrderedDict = OrderedDict()
@@ -422,8 +486,16 @@ class TpuafPlus(Policy):
 
     def _mate_arc(self, k: int, now: float) -> float | None:
         """Estimated arc position [m] of mate k on my walk now, None when unknown/off it."""
-        info = self.heard.get(k)
         route = self.route
+        scheduled = self.plan.schedule.get(k)
+        if scheduled is not None and k in route.robots and now < scheduled[1]:
+            # not started yet: on its start slot (its messages while it drives to its entry
+            # vertex place it off the slot)
+            entry, departure = scheduled
+            arc = (route.arc[entry] - self.speed * (departure - now)) % route.length
+            self.mate_arc[k] = arc
+            return arc
+        info = self.heard.get(k)
         if info is None:
             return None
         a, b, departure, _ = info
@@ -434,7 +506,9 @@ class TpuafPlus(Policy):
             hits = [i for i in range(n) if walk[i] == a and walk[(i + 1) % n] == b]
         if not hits:
             return None
-        moved = self.speed * max(0.0, now - departure)
+        # a mate dwelling until `departure` counts as driving behind its vertex: it will be there
+        # then, as a robot moving at v would
+        moved = self.speed * (now - departure)
         prev = self.mate_arc.get(k)
         if prev is None or len(hits) == 1:
             i = hits[0]
@@ -469,8 +543,13 @@ class TpuafPlus(Policy):
         if ahead is None:
             return 0.0
         wait = self.params["gain"] * (behind - ahead) / (2.0 * self.speed)
-        cap = L / (len(mates) + 1) / self.speed
-        return float(min(max(wait, 0.0), cap))
+        ideal = L / (len(mates) + 1)  # [m] the even gap
+        deadband = self.params["deadband_s"]
+        if behind > ahead + _EPS and behind > ideal + 2.0 * deadband * self.speed:
+            # gaps may step up by less than the deadband from robot to robot round the walk;
+            # a robot with a long gap behind it dwells at least past the deadband
+            wait = max(wait, deadband + 0.1)
+        return float(min(max(wait, 0.0), ideal / self.speed))
 
     # ------------------------------------------------------------------ decisions
 
