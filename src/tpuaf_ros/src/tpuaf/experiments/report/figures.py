@@ -1,17 +1,58 @@
 """The figures of the fault-free runs (PNG, headless): interval idleness box plots per strategy
-and N (paper Fig. 4), metrics against N, and the acceleration ratio against N (paper Fig. 8)."""
+and N (paper Fig. 4), metrics against N, and the acceleration ratio against N (paper Fig. 8).
+
+Drawn with matplotlib's object-oriented API (no pyplot state). Each PNG carries the key of what
+it shows (FIGURE_KEY: a hash of its maps' runs, samples and reference tours); a report written
+again redraws only the figures whose key changed (a sweep that gained runs of one map redraws
+that map's figures)."""
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from tpuaf.experiments.plots import headless_pyplot
+from tpuaf.experiments.plots import new_figure
 from tpuaf.experiments.report.common import FIGURES, _ratio, label
 from tpuaf.experiments.report.data import Data
 from tpuaf.experiments.report.tables import acceleration, acceleration_table
+
+FIGURE_KEY = "tpuaf-figure-key"  # PNG text field
+FIGURE_VERSION = "1"  # part of every key: a changed drawing redraws every figure
+
+
+def _key(kind: str, data: Data, maps: list[str]) -> str:
+    """Hash of what figure `kind` of `maps` shows: their runs, samples and reference tours."""
+    h = hashlib.sha256(f"{FIGURE_VERSION} {kind} {maps!r}".encode())
+    for r in data.rows:
+        if r["map"] in maps:
+            h.update(repr(sorted(r.items())).encode())
+    for k in sorted(data.samples):
+        if k[0] in maps:
+            h.update(repr(k).encode())
+            h.update(np.ascontiguousarray(data.samples[k], dtype=float).tobytes())
+    for k in sorted(data.reference):
+        if k[0] in maps:
+            h.update(repr((k, sorted(data.reference[k].items()))).encode())
+    return h.hexdigest()[:32]
+
+
+def _drawn(path: Path, key: str) -> bool:
+    """True if `path` is a PNG of this key already."""
+    try:
+        from PIL import Image
+
+        with Image.open(path) as image:
+            return getattr(image, "text", {}).get(FIGURE_KEY) == key
+    except Exception:  # noqa: BLE001 - missing, unreadable or no PNG: draw it
+        return False
+
+
+def _save(fig: Any, path: Path, key: str) -> Path:
+    fig.savefig(path, dpi=110, metadata={FIGURE_KEY: key})
+    return path
 
 
 def _colors(strategies: list[str]) -> dict[str, Any]:
@@ -25,14 +66,16 @@ def _colors(strategies: list[str]) -> dict[str, Any]:
 
 
 def box_figure(data: Data, m: str, path: Path) -> Path | None:
-    plt = headless_pyplot()
-
     ns = data.robots(m)
     strategies = data.strategies(m)
     if not any((m, s, n) in data.samples for s in strategies for n in ns):
         return None
+    key = _key("box", data, [m])
+    if _drawn(path, key):
+        return path
     width = 3.2 if len(strategies) <= 6 else 0.3 * len(strategies) + 0.6  # [in] per panel
-    fig, axes = plt.subplots(1, len(ns), figsize=(width * len(ns) + 1, 4.6), squeeze=False)
+    fig = new_figure(figsize=(width * len(ns) + 1, 4.6))
+    axes = fig.subplots(1, len(ns), squeeze=False)
     colors = _colors(strategies)
     for ax, n in zip(axes[0], ns, strict=True):
         values = [data.samples.get((m, s, n), np.zeros(0)) for s in strategies]
@@ -68,14 +111,13 @@ def box_figure(data: Data, m: str, path: Path) -> Path | None:
         fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)
     fig.suptitle(f"Interval idleness on {m} (all seeds pooled; x = mean, red = median)")
     fig.tight_layout(rect=(0, 0.07, 1, 1))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, key)
 
 
 def metrics_figure(data: Data, m: str, path: Path) -> Path:
-    plt = headless_pyplot()
-
+    key = _key("metrics", data, [m])
+    if _drawn(path, key):
+        return path
     panels = [("idleness_avg_s", "I_avg [s]", None),
               ("idleness_max_s", "I_max [s]", "worst_idleness_s"),
               ("idleness_ins_mean_s", "I_ins [s]", "avg_idleness_time_s"),
@@ -83,7 +125,8 @@ def metrics_figure(data: Data, m: str, path: Path) -> Path:
     ns = data.robots(m)
     strategies = data.strategies(m)
     colors = _colors(strategies)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7.5))
+    fig = new_figure(figsize=(10, 7.5))
+    axes = fig.subplots(2, 2)
     for ax, (col, name, ref_key) in zip(axes.flat, panels, strict=True):
         for k, s in enumerate(strategies):
             st = [data.stat(m, s, n, col) for n in ns]
@@ -107,18 +150,18 @@ def metrics_figure(data: Data, m: str, path: Path) -> Path:
     axes[0][0].legend(fontsize=8)
     fig.suptitle(f"Metrics against team size on {m} (mean ± 95 % CI over seeds)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, key)
 
 
 def acceleration_figure(data: Data, path: Path) -> Path | None:
-    plt = headless_pyplot()
-
     maps = [m for m in data.maps() if 1 in data.robots(m) and len(data.robots(m)) > 1]
     if not maps:
         return None
-    fig, axes = plt.subplots(1, len(maps), figsize=(5.5 * len(maps), 4.2), squeeze=False)
+    key = _key("acceleration", data, maps)
+    if _drawn(path, key):
+        return path
+    fig = new_figure(figsize=(5.5 * len(maps), 4.2))
+    axes = fig.subplots(1, len(maps), squeeze=False)
     for ax, m in zip(axes[0], maps, strict=True):
         ns = [n for n in data.robots(m) if n > 1]
         strategies = data.strategies(m)
@@ -143,9 +186,7 @@ def acceleration_figure(data: Data, path: Path) -> Path | None:
     axes[0][0].legend(fontsize=8)
     fig.suptitle("Acceleration ratio (mean ± 95 % CI over seeds)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, key)
 
 
 def figures_section(data: Data, figures: Path) -> list[str]:
