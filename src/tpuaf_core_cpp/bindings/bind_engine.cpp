@@ -249,9 +249,14 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
       .def(
           "timeseries",
           [](const GraphEngine& e, std::size_t first) {
-            const auto& rows = e.recorder().timeseries();
+            const auto& rec = e.recorder();
+            const auto& rows = rec.timeseries();
+            if (first < rec.rows_forgotten()) {
+              throw py::value_error("timeseries: rows before " +
+                                    std::to_string(rec.rows_forgotten()) + " were forgotten");
+            }
             py::list out;
-            for (std::size_t k = first; k < rows.size(); ++k) {
+            for (std::size_t k = first - rec.rows_forgotten(); k < rows.size(); ++k) {
               const SampleRow& r = rows[k];
               py::dict d;
               d["time_s"] = r.time_s;
@@ -266,7 +271,11 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
           },
           py::arg("first") = 0)
       .def_property_readonly("row_count",
-                             [](const GraphEngine& e) { return e.recorder().timeseries().size(); })
+                             [](const GraphEngine& e) { return e.recorder().row_count(); })
+      .def(
+          "forget_rows_before",
+          [](GraphEngine& e, std::size_t first) { e.recorder().forget_rows_before(first); },
+          py::arg("first"), "Drop the 1 Hz rows before index first (written to disk).")
       .def_property_readonly("interferences",
                              [](const GraphEngine& e) {
                                py::list out;

@@ -8,6 +8,7 @@
 // vertices are graph indices.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -139,7 +140,17 @@ class GroundTruthRecorder {
 
   const std::vector<VisitRecord>& visits() const { return visits_; }
   const std::vector<double>& visit_idleness() const { return visit_idleness_; }
+  // The 1 Hz rows still kept: rows rows_forgotten() .. row_count() - 1 (see forget_rows_before).
   const std::vector<SampleRow>& timeseries() const { return rows_; }
+  std::size_t row_count() const { return rows_forgotten_ + rows_.size(); }
+  std::size_t rows_forgotten() const { return rows_forgotten_; }
+  // Rows before index `first` are dropped (a results writer has them on disk): memory of a
+  // long run stays bounded; row indices and the sums (ins_sum) are unchanged.
+  void forget_rows_before(std::size_t first) {
+    const std::size_t drop = std::min(first, row_count()) - std::min(first, rows_forgotten_);
+    rows_.erase(rows_.begin(), rows_.begin() + static_cast<std::ptrdiff_t>(drop));
+    rows_forgotten_ += drop;
+  }
   const std::vector<InterferenceRecord>& interferences() const { return interferences_; }
   const std::vector<std::vector<double>>& vertex_times() const { return vertex_times_; }
   const Eigen::VectorXd& field_values() const { return values_; }
@@ -188,6 +199,7 @@ class GroundTruthRecorder {
   double next_sample_;
   long long sample_k_ = 1;
   std::vector<SampleRow> rows_;
+  std::size_t rows_forgotten_ = 0;
   double ins_sum_ = 0, x_sum_ = 0;
   long long x_count_ = 0;
 
@@ -243,6 +255,7 @@ class GraphEngine {
   void change_goal(int robot, int vertex);
 
   const GroundTruthRecorder& recorder() const { return recorder_; }
+  GroundTruthRecorder& recorder() { return recorder_; }
   const BusStats& bus_stats() const { return bus_; }
   long long events() const { return events_; }
 

@@ -290,6 +290,9 @@ def run(args: argparse.Namespace) -> int:
     return execute(engine, args.out, quiet=args.quiet, plots=not args.no_plots)
 
 
+END_FILES_AFTER_SIGNAL_S = 1.2  # [s] of end-file writing after the signal that stopped a run
+
+
 def execute(engine, out: Path | None, quiet: bool = False, plots: bool = True) -> int:
     """Run with a progress bar, write the results folder, print the summary table."""
     from tqdm import tqdm
@@ -316,7 +319,10 @@ def execute(engine, out: Path | None, quiet: bool = False, plots: bool = True) -
     def progress(now: float) -> None:
         bar.update(now - bar.n)
         if writer is not None:
-            writer.sync(engine.recorder)
+            with signals.shielded():  # rows are written whole and counted once
+                writer.sync(engine.recorder)
+            if signals.received() is not None:
+                raise KeyboardInterrupt(signals.received())
 
     wall = time.perf_counter()
     interrupted = False
@@ -330,8 +336,15 @@ def execute(engine, out: Path | None, quiet: bool = False, plots: bool = True) -
     wall = time.perf_counter() - wall
     summary["wall_time_s"] = wall
     if writer is not None:
-        with signals.shielded():  # a second signal must not cut the end files
-            writer.finish(summary, engine.recorder, interrupted=interrupted)
+        seen = signals.count()
+        # Stopped (by a signal now, or by the one that interrupted the run, after
+        # END_FILES_AFTER_SIGNAL_S): the end files not yet written are skipped, so that the
+        # command ends within about 2 s of a signal.
+        cutoff = time.monotonic() + (END_FILES_AFTER_SIGNAL_S if interrupted else math.inf)
+        with signals.shielded():
+            writer.finish(summary, engine.recorder, interrupted=interrupted,
+                          should_stop=lambda: signals.count() > seen
+                          or time.monotonic() > cutoff)
     print(f"\n{title}{' (interrupted)' if interrupted else ''}")
     print(format_summary(summary))
     print(

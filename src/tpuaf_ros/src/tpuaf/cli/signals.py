@@ -34,6 +34,11 @@ def received() -> int | None:
     return _received[0] if _received else None
 
 
+def count() -> int:
+    """How many stop signals arrived inside `stop_signals()` so far."""
+    return len(_received)
+
+
 def exit_code() -> int:
     """128 + the first signal received (130 when none was: Ctrl-C seen by Python itself)."""
     return 128 + (_received[0] if _received else signal.SIGINT)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import fcntl
+import itertools
 import json
 import math
 import os
@@ -28,7 +29,7 @@ import shutil
 import socket
 import stat
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -37,7 +38,7 @@ import numpy as np
 import yaml
 
 from tpuaf.errors import TpuafError
-from tpuaf.files import atomic_write_text, open_fresh
+from tpuaf.files import atomic_file, atomic_write_text, open_fresh
 from tpuaf.measure.metrics import TIMESERIES_COLUMNS
 from tpuaf.plain import plain
 
@@ -236,6 +237,64 @@ def _num(value: Any) -> str:
     return str(value)
 
 
+MAX_PICTURE_ROWS = 2_000_000  # summary.png reads all of timeseries.csv: not for longer runs
+VISIT_CHUNK = 100_000  # rows of visits.csv read back at a time for the end files
+
+
+class _Stopped(Exception):
+    """A stop signal arrived while the end files were written."""
+
+
+def _finite_or_empty(column: list) -> list:
+    """A column for the csv module: Python numbers (floats written repr-exact), None (an
+    empty cell) in place of None, NaN and infinities."""
+    try:
+        finite = bool(np.isfinite(np.asarray(column, dtype=float)).all())
+    except (TypeError, ValueError):
+        finite = False
+    if finite and all(type(v) in (int, float) for v in column[:1]) and \
+            len({type(v) for v in column}) == 1:
+        return column  # Python numbers as they are: the fast path of every long run
+    return [_cell(v) for v in column]
+
+
+def _cell(value: Any) -> Any:
+    if value is None:
+        return None
+    if isinstance(value, float | np.floating):
+        value = float(value)
+        return value if math.isfinite(value) else None
+    if isinstance(value, np.integer | np.bool_):
+        return int(value)
+    return value
+
+
+class _RunningStats:
+    """Min, mean, population std and max of samples added in batches (Chan et al.'s merge of
+    means and squared deviations)."""
+
+    def __init__(self) -> None:
+        self.n, self.mean, self.m2 = 0, 0.0, 0.0
+        self.lo, self.hi = math.inf, -math.inf
+
+    def add(self, values: np.ndarray) -> None:
+        if not len(values):
+            return
+        nb, mb = len(values), float(values.mean())
+        m2b = float(((values - mb) ** 2).sum())
+        n = self.n + nb
+        delta = mb - self.mean
+        self.mean += delta * nb / n
+        self.m2 += m2b + delta * delta * self.n * nb / n
+        self.n = n
+        self.lo, self.hi = min(self.lo, float(values.min())), max(self.hi, float(values.max()))
+
+    def row(self) -> tuple[float, float, float, float]:
+        if not self.n:
+            return (math.nan,) * 4
+        return self.lo, self.mean, math.sqrt(max(self.m2, 0.0) / self.n), self.hi
+
+
 def _f1(value: float | None) -> str:
     return "nan" if value is None or not math.isfinite(value) else f"{value:.1f}"
 
@@ -273,116 +332,172 @@ class ResultsWriter:
         self._ts_f.flush()
         self._n_visits = 0
         self._n_rows = 0
+        self._last_visit_s = -math.inf
         self._recorder: Any = None
         self.finished = False
 
     # -- streaming --------------------------------------------------------------------------
 
     def write_visits(self, rows: Iterable[tuple[float, int, int, int, float]]) -> None:
-        """Rows (time_s, robot, vertex_id, vertex_index, interval_idleness_s or NaN)."""
-        n = 0
-        for t, robot, vid, index, idl in rows:
-            self._visits.writerow([_num(float(t)), int(robot), int(vid), int(index), _num(idl)])
-            n += 1
-        if n:
-            self._visits_f.flush()
-        self._n_visits += n
+        """Rows (time_s, robot, vertex_id, vertex_index, interval_idleness_s or NaN), written
+        column-wise in one call of the csv module."""
+        rows = list(rows)
+        if not rows:
+            return
+        t, robot, vid, index, idl = (list(c) for c in zip(*rows, strict=True))
+        cols = [_finite_or_empty(t), [int(x) for x in robot], [int(x) for x in vid],
+                [int(x) for x in index], _finite_or_empty(idl)]
+        self._visits.writerows(zip(*cols, strict=True))
+        self._visits_f.flush()
+        self._n_visits += len(rows)
+        self._last_visit_s = max(self._last_visit_s, float(t[-1]))
 
     def write_timeseries(self, rows: Iterable[Mapping[str, Any]]) -> None:
-        n = 0
-        for row in rows:
-            self._ts.writerow([_num(row[c]) for c in TIMESERIES_COLUMNS])
-            n += 1
-        if n:
-            self._ts_f.flush()
-        self._n_rows += n
+        """1 Hz rows (mappings of TIMESERIES_COLUMNS), written column-wise in one call."""
+        rows = rows if isinstance(rows, list) else list(rows)
+        if not rows:
+            return
+        cols = [_finite_or_empty([row[c] for row in rows]) for c in TIMESERIES_COLUMNS]
+        self._ts.writerows(zip(*cols, strict=True))
+        self._ts_f.flush()
+        self._n_rows += len(rows)
 
     def sync(self, recorder: Any) -> None:
-        """Write the visits and 1 Hz rows the recorder gained since the last sync."""
+        """Write the visits and 1 Hz rows the recorder gained since the last sync. A recorder
+        that can forget its rows (`forget_timeseries_before`, the C++ loop's) drops them once
+        written: a long run's memory stays bounded."""
         self._recorder = recorder
         ids = recorder.patrol_map.vertex_ids
-        new_visits = recorder.visits[self._n_visits:]
-        idl = recorder.visit_idleness[self._n_visits:]
+        if hasattr(recorder, "visits_since"):
+            new_visits, idl = recorder.visits_since(self._n_visits)
+        else:
+            new_visits = recorder.visits[self._n_visits:]
+            idl = recorder.visit_idleness[self._n_visits:]
         self.write_visits(
             (t, r, ids[v], v, i) for (t, r, v), i in zip(new_visits, idl, strict=True)
         )
-        self.write_timeseries(recorder.timeseries[self._n_rows:])
+        if hasattr(recorder, "forget_timeseries_before"):
+            self.write_timeseries(recorder.timeseries_since(self._n_rows))
+            recorder.forget_timeseries_before(self._n_rows)
+        else:
+            self.write_timeseries(recorder.timeseries[self._n_rows:])
 
     # -- end ----------------------------------------------------------------------------------
 
     def finish(self, summary: Mapping[str, Any] | None, recorder: Any,
-               interrupted: bool = False, timeresults_period_s: float = 900.0) -> None:
+               interrupted: bool = False, timeresults_period_s: float = 900.0,
+               should_stop: Callable[[], bool] | None = None) -> None:
         """Write summary.json and the patrolling_sim files; close the streams.
 
         `summary`: recorder.summary(end_time) (computed here from the recorder's last time when
         None). timeresults.csv gets one row of cumulative global idleness per
-        `timeresults_period_s` of run time (patrolling_sim writes one per 900 s)."""
+        `timeresults_period_s` of run time (patrolling_sim writes one per 900 s). The end files
+        are made from the streamed visits.csv, in chunks (linear time, bounded memory);
+        `should_stop()` is asked between chunks: when it turns true (a signal while writing),
+        the files not yet written are skipped and summary.json says "complete": false."""
         if self.finished:
             return
+        stop = should_stop or (lambda: False)
         if recorder is not None:
             self.sync(recorder)
             if summary is None:
                 summary = recorder.summary(self._last_time(recorder))
                 self.sync(recorder)
         summary = dict(plain(summary or {}))
-        summary["complete"] = not interrupted
         summary["real_duration_s"] = time.time() - self._wall_start
         self._visits_f.close()
         self._ts_f.close()
+        cut = False
         if recorder is not None:
-            self._write_patrolling_sim(summary, recorder, interrupted, timeresults_period_s)
-        if recorder is not None and self.plots:
-            from tpuaf.experiments.plots import (
-                write_summary_png,  # never raises: a note when it cannot draw
-            )
+            try:
+                cut = not self._write_patrolling_sim(summary, recorder, interrupted,
+                                                     timeresults_period_s, stop)
+            except _Stopped:
+                cut = True
+            if not cut and not stop() and self.plots:
+                if self._n_rows > MAX_PICTURE_ROWS:
+                    summary["summary_png"] = (f"not drawn: {self._n_rows:,} rows of "
+                                              f"timeseries.csv (more than {MAX_PICTURE_ROWS:,})")
+                else:
+                    from tpuaf.experiments.plots import (
+                        write_summary_png,  # never raises: a note when it cannot draw
+                    )
 
-            write_summary_png(self.out_dir, recorder.patrol_map, summary)
+                    write_summary_png(self.out_dir, recorder.patrol_map, summary)
+        if stop():
+            cut = True
+        summary["complete"] = not interrupted and not cut
+        if cut:
+            summary["end_files"] = "cut short by a stop signal while they were written"
+        summary["real_duration_s"] = time.time() - self._wall_start
         # last: a summary.json means every other file is complete
         atomic_write_text(self.out_dir / "summary.json", json.dumps(summary, indent=2) + "\n")
         self.finished = True
 
-    @staticmethod
-    def _last_time(recorder: Any) -> float:
-        times = [recorder.start_time]
-        if recorder.visits:
-            times.append(recorder.visits[-1][0])
+    def _last_time(self, recorder: Any) -> float:
+        times = [recorder.start_time, self._last_visit_s]
         if getattr(recorder, "_pos_time", None) is not None:
             times.append(recorder._pos_time)
         return max(times)
 
+    def _visit_chunks(self) -> Iterator[tuple[np.ndarray, np.ndarray, list[str], np.ndarray]]:
+        """visits.csv back in chunks of VISIT_CHUNK rows: (time_s, robot, vertex_id (text),
+        interval idleness, NaN for a first visit)."""
+        with open(self.out_dir / "visits.csv", newline="") as f:
+            reader = csv.reader(f)
+            next(reader, None)
+            while True:
+                rows = list(itertools.islice(reader, VISIT_CHUNK))
+                if not rows:
+                    return
+                t = np.array([float(r[0]) for r in rows])
+                robot = np.array([int(r[1]) for r in rows])
+                idl = np.array([float(r[4]) if r[4] else math.nan for r in rows])
+                yield t, robot, [r[2] for r in rows], idl
+
     def _write_patrolling_sim(self, summary: dict, recorder: Any, interrupted: bool,
-                              period_s: float) -> None:
-        ids = recorder.patrol_map.vertex_ids
-        inter_times = [t for t, _, _ in recorder.interferences]
+                              period_s: float, stop: Callable[[], bool]) -> bool:
+        """idleness.csv, timeresults.csv and info.csv; False when `stop()` cut them short."""
+        inter_times = np.array([t for t, _, _ in recorder.interferences], dtype=float)
         start = recorder.start_time
-
-        def interferences_until(t: float) -> int:
-            return int(np.searchsorted(inter_times, t, side="right"))
-
-        lines = [";".join(PS_IDLENESS_HEADER) + "\n"]
-        for (t, r, v), idl in zip(recorder.visits, recorder.visit_idleness, strict=True):
-            if math.isnan(idl):
-                continue  # a vertex's first visit has no idleness (as in patrolling_sim)
-            lines.append(f"{t - start:.1f};{r};{ids[v]};{idl:.1f};{interferences_until(t)}\n")
-        atomic_write_text(self.out_dir / "idleness.csv", "".join(lines))
-
         duration = float(summary.get("duration_s") or 0.0)
-        lines = [";".join(PS_TIMERESULTS_HEADER) + "\n"]
-        samples = [(t, i) for (t, _, _), i in zip(recorder.visits, recorder.visit_idleness,
-                                                   strict=True) if not math.isnan(i)]
+        k_last = int(math.floor((duration + 1e-9) / period_s)) if period_s > 0 else 0
+        stats = _RunningStats()
+        timeresults = [";".join(PS_TIMERESULTS_HEADER) + "\n"]
         k = 1
-        while period_s > 0 and k * period_s <= duration + 1e-9:
-            tk = start + k * period_s
-            vals = np.array([i for t, i in samples if t <= tk])
-            if vals.size:
-                row = (vals.min(), vals.mean(), vals.std(), vals.max())
-            else:
-                row = (math.nan,) * 4
-            lines.append(f"{k * period_s:.1f};" + ";".join(_f1(float(x)) for x in row)
-                         + f";{interferences_until(tk)}\n")
-            k += 1
-        atomic_write_text(self.out_dir / "timeresults.csv", "".join(lines))
 
+        def emit_until(limit_s: float) -> None:  # rows k .. of the periods ending before limit
+            nonlocal k
+            while k <= k_last and start + k * period_s < limit_s:
+                tk = start + k * period_s
+                timeresults.append(f"{k * period_s:.1f};" + ";".join(_f1(x) for x in stats.row())
+                                   + f";{int(np.searchsorted(inter_times, tk, side='right'))}\n")
+                k += 1
+
+        with atomic_file(self.out_dir / "idleness.csv", "w", newline="") as f:
+            f.write(";".join(PS_IDLENESS_HEADER) + "\n")
+            for t, robot, vid, idl in self._visit_chunks():
+                if stop():
+                    raise _Stopped
+                keep = ~np.isnan(idl)  # a vertex's first visit has no idleness (patrolling_sim)
+                inter = np.searchsorted(inter_times, t, side="right")
+                f.write("".join(f"{t[j] - start:.1f};{robot[j]};{vid[j]};{idl[j]:.1f};"
+                                f"{inter[j]}\n" for j in np.flatnonzero(keep)))
+                ts, vals = t[keep], idl[keep]
+                pos = 0
+                while pos < len(ts):  # samples up to each period's end, then its row
+                    emit_until(float(ts[pos]))
+                    tk = start + k * period_s if k <= k_last else math.inf
+                    end = int(np.searchsorted(ts, tk, side="right"))
+                    stats.add(vals[pos:end])
+                    pos = end
+            emit_until(math.inf)
+        atomic_write_text(self.out_dir / "timeresults.csv", "".join(timeresults))
+        self._write_info(summary, recorder, interrupted, duration)
+        return True
+
+    def _write_info(self, summary: dict, recorder: Any, interrupted: bool,
+                    duration: float) -> None:
         cfg = self.config
         dead = bool(summary.get("deaths"))
         termination = "FAIL" if dead else ("ABORT" if interrupted else "TIMEOUT")

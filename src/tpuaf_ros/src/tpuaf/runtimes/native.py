@@ -274,6 +274,21 @@ class NativeRecorder:
             self._rows.extend(self._engine.timeseries(len(self._rows)))
         return self._rows
 
+    def timeseries_since(self, first: int) -> list[dict]:
+        """The 1 Hz rows from index `first` on, not cached here."""
+        return self._engine.timeseries(first)
+
+    def forget_timeseries_before(self, first: int) -> None:
+        """The engine drops the rows before index `first` (a results writer has them on
+        disk: a long run's memory stays bounded; `timeseries` can then no longer be read from
+        the start)."""
+        self._engine.forget_rows_before(first)
+        self._rows = []
+
+    def visits_since(self, first: int) -> tuple[list, list]:
+        """(visits, their idleness) from index `first` on, not cached here."""
+        return self._engine.visits(first), self._engine.visit_idleness(first)
+
     @property
     def interferences(self) -> list[tuple[float, int, int]]:
         return self._engine.interferences
