@@ -67,6 +67,9 @@ PRODUCT_FILES = frozenset({
     "simulator.json", "world.resolved.yaml", "world.occupancy.pgm", MANIFEST,
 })
 _HOUSEKEEPING = frozenset({LOCK_FILE})
+# Folders tpuaf creates whole (a manifest entry "name/" removes them); any other folder may
+# hold the user's files and is never removed, whatever a manifest says.
+WHOLE_FOLDERS = frozenset({"ros_home"})
 _LOCKS: dict[str, int] = {}  # folder (resolved) -> descriptor of its flock'ed lock file
 
 
@@ -130,7 +133,7 @@ def _remove_written(out_dir: Path) -> None:
         except FileNotFoundError:
             continue
         if stat.S_ISDIR(mode):
-            if folder_ok:
+            if folder_ok and bare in WHOLE_FOLDERS:
                 shutil.rmtree(path)
         else:
             path.unlink()
@@ -415,7 +418,10 @@ class ResultsWriter:
             except _Stopped:
                 cut = True
             if not cut and not stop() and self.plots:
-                if self._n_rows > MAX_PICTURE_ROWS:
+                if interrupted:  # a stopped run ends at once: the picture can come later
+                    summary["summary_png"] = ("not drawn: the run was interrupted (`tpuaf "
+                                              "render --summary` draws it)")
+                elif self._n_rows > MAX_PICTURE_ROWS:
                     summary["summary_png"] = (f"not drawn: {self._n_rows:,} rows of "
                                               f"timeseries.csv (more than {MAX_PICTURE_ROWS:,})")
                 else:
