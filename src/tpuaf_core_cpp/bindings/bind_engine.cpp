@@ -5,6 +5,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <memory>
 
 #include "bindings.hpp"
@@ -294,6 +295,14 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
                                }
                                return py::array_t<double>(static_cast<py::ssize_t>(out.size()),
                                                           out.data());
+                             })
+      .def_property_readonly("first_visit_times",
+                             [](const GraphEngine& e) {
+                               std::vector<double> out;  // [s] per vertex; NaN: never visited
+                               for (const auto& times : e.recorder().vertex_times()) {
+                                 out.push_back(times.empty() ? std::nan("") : times.front());
+                               }
+                               return out;
                              })
       .def_property_readonly("visit_counts",
                              [](const GraphEngine& e) {

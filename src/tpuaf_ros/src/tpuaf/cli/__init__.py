@@ -11,14 +11,19 @@ def _stopped_early(signum: int, _frame) -> None:
     """A stop signal before a subcommand runs (imports, option parsing): nothing is written
     yet, so one line and exit 128 + n at once (no KeyboardInterrupt traceback)."""
     name = signal.Signals(signum).name
-    os.write(2, f"tpuaf: interrupted ({name}) before it started\n".encode())
+    os.write(2, f"tpuaf: interrupted ({name})\n".encode())
     os._exit(128 + signum)
+
+
+_PROGRAM = False  # running as the `tpuaf` program (not imported by tests)
 
 
 def install_early_handlers() -> None:
     """SIGINT, SIGTERM and SIGHUP handled from the first instruction of the `tpuaf` program
     (before any heavy import); signals inherited as ignored stay ignored. `main` replaces
     these with `signals.stop_signals` while a subcommand runs."""
+    global _PROGRAM
+    _PROGRAM = True
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         try:
             if signal.getsignal(sig) != signal.SIG_IGN:
@@ -101,9 +106,28 @@ def missing_package_line(err: ModuleNotFoundError) -> str | None:
             "makes it, with every dependency of requirements.txt)")
 
 
+def _done() -> None:
+    """The command's work is done (files written, exit code known): a stop signal during the
+    interpreter's teardown is ignored (it used to kill the process with -2, no message)."""
+    if not _PROGRAM:
+        return
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        try:
+            signal.signal(sig, signal.SIG_IGN)
+        except ValueError:
+            return
+
+
 def main(argv: list[str] | None = None) -> int:
     try:
-        return _main(argv)
+        code = _main(argv)
+        _done()
+        return code
     except ModuleNotFoundError as err:
         line = missing_package_line(err)
         if line is None:

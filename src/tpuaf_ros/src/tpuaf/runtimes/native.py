@@ -298,6 +298,11 @@ class NativeRecorder:
         return self._engine.interval_samples.tolist()
 
     @property
+    def first_visit_times(self) -> list[float]:
+        """[s] each vertex's first visit (NaN: none), without reading the visit log."""
+        return list(self._engine.first_visit_times)
+
+    @property
     def visit_counts(self) -> list[int]:
         return [int(c) for c in self._engine.visit_counts]
 
