@@ -437,3 +437,17 @@ def test_poses_read_raw_equal_rosbags_deserialisation(tmp_path, poses):
     # another definition of the same type name is not read raw
     assert raw_pose_reader(type("C", (), {"msgtype": "nav_msgs/msg/Odometry",
                                           "digest": "0" * 32})()) is None
+
+
+def test_messages_come_in_rosbags_order_with_the_same_bytes(tmp_path):
+    """The analysis' own index walk (tpuaf.measure.bag._messages) yields what rosbags'
+    Reader.messages yields, in the same order, for any subset of connections."""
+    from rosbags.rosbag1 import Reader
+    from tpuaf.measure.bag import _messages
+
+    plain_bag(tmp_path, poses="odom", events=True)
+    with Reader(tmp_path / "run.bag") as reader:
+        for conns in (reader.connections, reader.connections[::2], reader.connections[1:2]):
+            ours = [(c.id, t, bytes(raw)) for c, t, raw in _messages(reader, list(conns))]
+            theirs = [(c.id, t, bytes(raw)) for c, t, raw in reader.messages(connections=conns)]
+            assert ours == theirs and len(ours) > 0

@@ -263,6 +263,72 @@ def raw_pose_reader(conn: Any) -> bool | None:
     return _RAW_POSES.get((conn.msgtype, conn.digest))
 
 
+_OP_MSGDATA, _OP_CONNECTION = 2, 7
+_CHUNKS_KEPT = 8
+
+
+def _record_fields(chunk: bytes, offset: int) -> tuple[dict[bytes, bytes], int]:
+    """The header fields of the record at `offset` of a chunk, and where its data starts."""
+    (size,) = _U32.unpack_from(chunk, offset)
+    pos, end = offset + 4, offset + 4 + size
+    fields = {}
+    while pos < end:
+        (n,) = _U32.unpack_from(chunk, pos)
+        name, _, value = chunk[pos + 4:pos + 4 + n].partition(b"=")
+        fields[name] = value
+        pos += 4 + n
+    if pos != end:
+        raise ValueError("a record header overruns its size")
+    return fields, end
+
+
+def _messages(reader: Any, connections: list) -> Iterator[tuple[Any, int, bytes]]:
+    """(connection, record time [ns], serialised message) of `connections`, in the order of
+    rosbags' `Reader.messages` (record time; ties: the connections' order, then each one's
+    index order), read from rosbags' index of the open bag at a few us a message instead of
+    its generic record parser (60 us): the order is one numpy lexsort of the index."""
+    import numpy as np
+
+    indexes = [reader.indexes[c.id] for c in connections]
+    count = sum(len(ix) for ix in indexes)
+    if not count:
+        return
+    times = np.fromiter((e.time for ix in indexes for e in ix), np.int64, count)
+    which = np.repeat(np.arange(len(indexes), dtype=np.int32), [len(ix) for ix in indexes])
+    rank = np.concatenate([np.arange(len(ix), dtype=np.int64) for ix in indexes])
+    order = np.lexsort((rank, which, times))
+    del times
+    connmap = {c.id: c for c in reader.connections}
+    # Neighbouring chunks overlap in record time (the recorder writes topics through separate
+    # queues): the last few decompressed chunks are kept (memory: _CHUNKS_KEPT x ~1 MB).
+    recent: dict[int, bytes] = {}
+    chunk_pos, chunk = None, b""
+    for k in order.tolist():
+        entry = indexes[which[k]][rank[k]]
+        if entry.chunk_pos != chunk_pos:
+            chunk_pos = entry.chunk_pos
+            chunk = recent.pop(chunk_pos, None)
+            if chunk is None:
+                info = reader.chunks[chunk_pos]
+                reader.bio.seek(info.datapos)
+                chunk = info.decompressor(reader.bio.read(info.datasize))
+                if len(recent) >= _CHUNKS_KEPT:
+                    recent.pop(next(iter(recent)))
+            recent[chunk_pos] = chunk
+        offset = entry.offset
+        while True:
+            fields, data_at = _record_fields(chunk, offset)
+            op = fields.get(b"op", b"\0")[0]
+            (size,) = _U32.unpack_from(chunk, data_at)
+            if op != _OP_CONNECTION:
+                break
+            offset = data_at + 4 + size
+        if op != _OP_MSGDATA:
+            raise ValueError("expected message data at an index entry")
+        (conn_id,) = _U32.unpack_from(fields[b"conn"])
+        yield connmap[conn_id], entry.time, chunk[data_at + 4:data_at + 4 + size]
+
+
 def _stream(path: Path, reader: Any, store: Any, connections: list,
             raw_poses: dict | None = None) -> Iterator[tuple]:
     """(connection, record time [s], message) in record order; a damaged chunk or message
@@ -271,7 +337,7 @@ def _stream(path: Path, reader: Any, store: Any, connections: list,
     if not connections:
         return
     raw_poses = raw_poses or {}
-    it = reader.messages(connections=connections)
+    it = _messages(reader, connections)
     while True:
         try:
             conn, t_ns, raw = next(it)
