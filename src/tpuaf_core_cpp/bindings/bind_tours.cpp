@@ -57,14 +57,17 @@ void tpuaf::bindings::bind_tours(py::module_& m) {
   m.def(
       "balanced_partition",
       [](const PatrolGraph& graph, int k, int max_moves, int starts, int kicks,
-         std::uint64_t seed, const Progress& progress) {
+         std::uint64_t seed, const Progress& progress, bool tree_score) {
         if (k < 1) throw py::value_error("balanced_partition: k must be >= 1");
-        return balanced_partition(graph, k, max_moves, search_of(starts, kicks, seed), progress);
+        return balanced_partition(graph, k, max_moves, search_of(starts, kicks, seed), progress,
+                                  tree_score);
       },
       py::arg("graph"), py::arg("k"), py::arg("max_moves") = 400, py::arg("starts") = 3,
       py::arg("kicks") = 4, py::arg("seed") = 12345, py::arg("progress") = nullptr,
-      "min(k, |V|) connected parts (sorted vertex lists) balanced by closed-walk length; "
-      "progress(stage, done, total) is called now and then.");
+      py::arg("tree_score") = false,
+      "min(k, |V|) connected parts (sorted vertex lists) balanced by closed-walk length (or, "
+      "tree_score, by spanning-tree length); progress(stage, done, total) is called now and "
+      "then.");
   m.def("robots_per_part", &robots_per_part, py::arg("lengths_m"), py::arg("n_robots"),
         "One robot per part, every extra robot to the part of largest length / robots.");
 }

@@ -306,6 +306,34 @@ SubsetPaths subset_paths(const PatrolGraph& graph, const std::vector<int>& input
   return out;
 }
 
+// Length [m] of a minimum spanning tree of the subgraph induced by the sorted `part` (Kruskal).
+double spanning_tree_length(const PatrolGraph& graph, const std::vector<int>& part) {
+  std::vector<std::pair<double, std::pair<int, int>>> edges;
+  for (int a = 0; a < static_cast<int>(part.size()); ++a) {
+    for (int w : graph.neighbours(part[a])) {
+      if (w <= part[a] || !std::binary_search(part.begin(), part.end(), w)) continue;
+      const int b = static_cast<int>(std::lower_bound(part.begin(), part.end(), w) - part.begin());
+      edges.push_back({graph.edge_length(part[a], w), {a, b}});
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::vector<int> root(part.size());
+  std::iota(root.begin(), root.end(), 0);
+  auto find = [&](int v) {
+    while (root[v] != v) v = root[v] = root[root[v]];
+    return v;
+  };
+  double total = 0.0;
+  for (const auto& [length, ends] : edges) {
+    const int a = find(ends.first), b = find(ends.second);
+    if (a != b) {
+      root[a] = b;
+      total += length;
+    }
+  }
+  return total;
+}
+
 }  // namespace
 
 double order_length(const std::vector<double>& dist, int n, const std::vector<int>& order) {
@@ -415,7 +443,7 @@ std::vector<int> robots_per_part(const std::vector<double>& lengths_m, int n_rob
 
 std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k, int max_moves,
                                                  const TourSearch& part_search,
-                                                 const Progress& progress) {
+                                                 const Progress& progress, bool tree_score) {
   const int n = graph.num_vertices();
   if (k < 1) throw std::invalid_argument("balanced_partition: k must be >= 1");
   k = std::min(k, n);
@@ -430,7 +458,8 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
   auto cost = [&](const std::vector<int>& part) {
     auto it = cost_cache.find(part);
     if (it != cost_cache.end()) return it->second;
-    const double c = closed_walk_length(graph, part, part_search);
+    const double c = tree_score ? spanning_tree_length(graph, part)
+                                : closed_walk_length(graph, part, part_search);
     cost_cache.emplace(part, c);
     return c;
   };

@@ -108,6 +108,13 @@ TEST(Tours, PathSplitsIntoTwoEqualHalves) {
   EXPECT_EQ(got, (std::set<std::vector<int>>{{0, 1, 2}, {3, 4, 5}}));
 }
 
+TEST(Tours, SpanningTreeScoresAlsoSplitAPathInHalves) {
+  const PatrolGraph g = path_graph(8);
+  const auto parts = balanced_partition(g, 2, 100, {3, 4, 12345}, nullptr, true);
+  std::set<std::vector<int>> got(parts.begin(), parts.end());
+  EXPECT_EQ(got, (std::set<std::vector<int>>{{0, 1, 2, 3}, {4, 5, 6, 7}}));
+}
+
 TEST(Tours, LatticePartsAreConnectedAndCoverEveryVertexOnce) {
   const PatrolGraph g = lattice(8, 6);
   const auto parts = balanced_partition(g, 5, 400);

@@ -49,10 +49,12 @@ double closed_walk_length(const PatrolGraph& graph, const std::vector<int>& vert
 // nearest-seed parts from farthest-point seeds (three first seeds), then single-vertex moves
 // from the part of the longest walk to an adjacent part while that lowers the longest walk,
 // at most `max_moves` moves per seeding (part walks scored with `part_search`). The seeding
-// with the lowest longest walk wins.
+// with the lowest longest walk wins. `tree_score`: parts are scored by the length of their
+// minimum spanning tree instead (large parts: a walk search per boundary vertex is too slow).
 std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k, int max_moves,
                                                  const TourSearch& part_search = {3, 4, 12345},
-                                                 const Progress& progress = nullptr);
+                                                 const Progress& progress = nullptr,
+                                                 bool tree_score = false);
 
 // Robots per part: one each, every extra robot to the part of largest length / robots.
 std::vector<int> robots_per_part(const std::vector<double>& lengths_m, int n_robots);

@@ -43,6 +43,7 @@ _EPS = 1e-9
 # as the cycle's per vertex. All use the fixed seed: every robot computes the same plan.
 SEED = 12345
 PART_SCORE = (3, 4)  # (nearest-neighbour starts, kicks) while searching partitions
+LARGE_PART = 40  # vertices per part: above, the search scores parts by their spanning tree
 
 
 def _kicks(n_vertices: int) -> int:
@@ -261,9 +262,13 @@ def robots_per_part(lengths: list[float], n_robots: int) -> list[int]:
     return list(tpuaf_core.robots_per_part([float(x) for x in lengths], int(n_robots)))
 
 
-def default_max_moves(k: int) -> int:
-    """Vertex moves allowed per seeding of a k-part search: more parts need more moves."""
-    return max(400, 8 * k)
+def default_max_moves(k: int, n_vertices: int) -> int:
+    """Vertex moves allowed per seeding of a k-part search: more parts need more moves; large
+    parts (each move costs a walk search per boundary vertex) get about their size."""
+    moves = max(400, 8 * k)
+    if n_vertices > LARGE_PART * k:
+        moves = min(moves, 2 * n_vertices // k)
+    return moves
 
 
 def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None) -> Partition:
@@ -275,12 +280,14 @@ def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None
         raise ValueError(f"n_robots must be >= 1, got {n_robots}")
     graph = patrol_map.graph
     k = min(n_robots, graph.num_vertices)
-    moves = default_max_moves(k) if max_moves is None else max_moves
+    moves = default_max_moves(k, graph.num_vertices) if max_moves is None else max_moves
+    large = graph.num_vertices > LARGE_PART * k  # parts scored by spanning-tree length
 
     def search() -> Partition:
         progress = _Progress(f"{k} parts of {graph.num_vertices} vertices")
         try:
-            parts = tpuaf_core.balanced_partition(graph, k, moves, *PART_SCORE, SEED, progress)
+            parts = tpuaf_core.balanced_partition(graph, k, moves, *PART_SCORE, SEED, progress,
+                                                  large)
         finally:
             progress.close()
         tours = [Tour(*closed_walk(graph, part)) for part in parts]

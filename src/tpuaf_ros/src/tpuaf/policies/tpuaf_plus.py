@@ -9,10 +9,12 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    (`tours.partition_tours`), whichever has the lower predicted steady-state worst
    idleness at nominal speed (`tours.walk_idleness`; a tie within 2 % goes to the lower
    predicted mean X, TPUAF's uncertainty model integrated over the plan's visit gaps).
-2. Start. Each robot enters its walk at its start vertex (or drives to the part's nearest
-   vertex); from every robot's start vertex, all robots compute the same start schedule:
-   evenly spaced virtual slots along each walk, the rotation minimising the longest wait.
-   A robot ahead of its slot dwells at its entry vertex until the slot reaches it.
+2. Start. From every robot's start vertex, all robots compute the same start schedule
+   (`_schedule`): evenly spaced virtual slots move along each walk and pick the robots up;
+   each robot drives the shortest route (serving the most uncertain vertices, step 6) to the
+   walk vertex where its slot passes soonest after it can be there, and leaves with it; the
+   slot phase and robot-to-slot matching are those under which every walk vertex is first
+   visited soonest. Until it leaves, a mate counts as on its slot.
 3. Spacing. After that, on reaching each walk vertex a robot estimates where its walk mates
    are (arc position from their latest timed message: departure vertex + departure time,
    extrapolated at nominal speed; messages carry the sender's clock, so delay does not bias
@@ -44,6 +46,7 @@ from tpuaf.team.messages import Intention, Visit
 
 _EPS = 1e-6
 SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
+FRESH_MARGIN = 1.15  # after a loss, merge unless a fresh plan's worst is lower by more than this
 START_GAP = 1.1  # the start schedule's largest gap between robots, over L / m
 STAY_S = 1.0  # [s] the runtimes' dwell for a goal equal to the current vertex (runtimes.graph)
 
@@ -257,7 +260,9 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     if not full and all_starts and repair != "replan":
         merged = _merge_repair(patrol_map, team, all_starts, mode)
         fresh_worst = part_worst if kind == "partition" else cyc_worst
-        if merged is not None and (repair == "merge" or merged.worst_s <= fresh_worst + _EPS):
+        # a fresh plan moves every survivor to a new part: it must be clearly better
+        if merged is not None and (repair == "merge" or merged.worst_s <= FRESH_MARGIN * fresh_worst
+                                   + _EPS):
             return merged
     if kind == "cycle" or part is None:
         route = _route(graph, cyc.walk, team)
@@ -369,8 +374,8 @@ class TpuafPlus(Policy):
         "repair": Parameter(
             "auto",
             "after a loss in a partition: 'merge' (orphan parts join a neighbouring part), "
-            "'replan' (a fresh plan for the survivors) or 'auto' (the lower predicted worst "
-            "idleness, merge on ties)",
+            "'replan' (a fresh plan for the survivors) or 'auto' (merge unless the fresh plan's "
+            "predicted worst idleness is lower by more than 15 %: it moves every survivor)",
             lambda v: v in ("auto", "merge", "replan"),
         ),
         "gain": Parameter(
