@@ -331,3 +331,23 @@ def test_a_sparse_terabyte_file_is_refused_by_its_size(tmp_path):
     folder = grid_copy(tmp_path)
     os.truncate(folder / "graph.yaml", 1 << 40)
     assert "bytes" in map_error(folder)
+
+
+# ------------------------------------------------------------------------ fleet clocks
+
+
+def test_fleet_prints_deaths_and_recovery_on_one_clock():
+    """`tpuaf fleet --fail 1@30` printed "death at 30.0 s", then "after robot 1 died at
+    135.1 s" (the monitor's ROS clock)."""
+    from tpuaf.cli.fleet import on_run_clock
+    from tpuaf.cli.run import format_faults
+
+    summary = {"start_time_s": 100.0,
+               "faults": [{"kind": "death", "robot": 1, "time_s": 30.0}],
+               "recovery": [{"robot": 1, "time_s": 135.1, "recovery_time_s": 12.0,
+                             "worst_idleness_after_s": 50.0, "survivors": 1,
+                             "ideal_worst_idleness_survivors_s": 40.0,
+                             "intentions_honoured": 0, "intentions": []}]}
+    text = format_faults(on_run_clock(summary))
+    assert "death of robot 1 at 30.0 s" in text and "died at 35.1 s" in text
+    assert on_run_clock({**summary, "time_base": "run"}) == {**summary, "time_base": "run"}

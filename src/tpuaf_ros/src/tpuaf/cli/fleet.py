@@ -291,6 +291,20 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     return launch_args, config
 
 
+def on_run_clock(summary: dict) -> dict:
+    """The summary with the recovery times [s] on the run's clock (from its start), as the
+    faults are given (--fail 1@30): the monitor stamps them on the ROS clock (one clock in
+    the printed table, not two)."""
+    start = summary.get("start_time_s")
+    if summary.get("time_base") or not isinstance(start, int | float) or not start:
+        return summary
+    shown = dict(summary)
+    shown["recovery"] = [{**r, "time_s": r["time_s"] - start}
+                         if isinstance(r.get("time_s"), int | float) else r
+                         for r in summary.get("recovery") or []]
+    return shown
+
+
 # ---------------------------------------------------------------------------------------------
 # Processes
 
@@ -474,7 +488,7 @@ def run(args: argparse.Namespace) -> int:
     write_json_atomic(summary_path, summary)
     state = "finished" if finished else ("interrupted" if interrupted else "stopped early")
     print(f"\n{title} ({state})")
-    print(format_summary(summary))
+    print(format_summary(on_run_clock(summary)))
     if rtf:
         print(f"  simulated {summary['duration_s']:,.0f} s in {wall_run:.1f} s wall from the start "
               f"({rtf:.1f}x real time); {wall:.1f} s wall in all")
