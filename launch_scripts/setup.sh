@@ -71,6 +71,12 @@ touch devel/CATKIN_IGNORE
 # Make the devel space importable from .venv and provide the `tpuaf` command.
 site="$(.venv/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
 echo "$ROOT/devel/lib/python3/dist-packages" > "$site/tpuaf_devel.pth"
+# The `tpuaf` program handles SIGINT, SIGTERM and SIGHUP from its first instruction: site runs
+# this line (the first .pth, builtin modules only) before any other import, in the tpuaf
+# program only (tpuaf.cli then takes over; a signal inherited as ignored stays ignored).
+cat > "$site/00-tpuaf-signals.pth" <<'PTH'
+import os, sys, _signal as _s; exec("def _tpuaf_stop(n, _f):\n    os.write(2, b'tpuaf: interrupted (' + {1: b'SIGHUP', 2: b'SIGINT', 15: b'SIGTERM'}[n] + b')\\n')\n    os._exit(128 + n)\nfor _n in (1, 2, 15):\n    if _s.getsignal(_n) != _s.SIG_IGN:\n        _s.signal(_n, _tpuaf_stop)") if os.path.basename(sys.argv[0] if sys.argv else "") == "tpuaf" else None
+PTH
 cat > .venv/bin/tpuaf <<WRAP
 #!$ROOT/.venv/bin/python
 # tpuaf command-line entry point (written by launch_scripts/setup.sh).
