@@ -106,9 +106,10 @@ def missing_package_line(err: ModuleNotFoundError) -> str | None:
             "makes it, with every dependency of requirements.txt)")
 
 
-def _done() -> None:
+def _done(code: int) -> None:
     """The command's work is done (files written, exit code known): a stop signal during the
-    interpreter's teardown is ignored (it used to kill the process with -2, no message)."""
+    interpreter's teardown ends the process at once with that code (it used to kill it with
+    -2 and no message)."""
     if not _PROGRAM:
         return
     for stream in (sys.stdout, sys.stderr):
@@ -116,9 +117,14 @@ def _done() -> None:
             stream.flush()
         except (OSError, ValueError):
             pass
+
+    def finished(_signum: int, _frame) -> None:
+        os._exit(code)
+
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         try:
-            signal.signal(sig, signal.SIG_IGN)
+            if signal.getsignal(sig) != signal.SIG_IGN:
+                signal.signal(sig, finished)
         except ValueError:
             return
 
@@ -126,7 +132,7 @@ def _done() -> None:
 def main(argv: list[str] | None = None) -> int:
     try:
         code = _main(argv)
-        _done()
+        _done(code)
         return code
     except ModuleNotFoundError as err:
         line = missing_package_line(err)
