@@ -10,7 +10,6 @@ import math
 import os
 import signal
 import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -18,9 +17,8 @@ from tpuaf.experiments.results import unlock_folder
 from tpuaf.maps import MapError, load_map
 
 from tests.test_bad_input import assert_one_line_error, cli
+from tests.test_cli_run import TPUAF  # noqa: E402 - the program as users start it
 
-TPUAF = [sys.executable, "-c", "import sys; sys.argv[0] = 'tpuaf'; from tpuaf.cli import main; "
-         "sys.exit(main())"]
 GRAPH = ("3\n40\n40\n0.1\n0\n0\n0\n5\n5\n1\n1\nE\n10\n"
          "1\n{x}\n5\n2\n0\nW\n10\n2\nE\n{c}\n2\n25\n5\n1\n1\nW\n{c}\n")
 
