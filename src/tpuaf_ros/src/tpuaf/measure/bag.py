@@ -22,8 +22,8 @@ Entry points (pure functions of a file; every problem is a BagError naming it):
 
 from __future__ import annotations
 
+import bisect
 import contextvars
-import heapq
 import math
 import re
 import statistics
@@ -257,6 +257,40 @@ def _raw_pose(raw: bytes, odometry: bool) -> tuple[float, float, float]:
     return sec + nsec * NS, x, y
 
 
+class RawEvent:
+    """A tpuaf_ros/AgentEvent (messages version 2) read from its bytes: the fields the
+    analysis uses, `t` its header stamp [s]."""
+
+    __slots__ = ("t", "robot", "robot_index", "event", "vertex", "from_vertex")
+
+    def __init__(self, raw: bytes):
+        sec, nsec, frame_len = _STAMP.unpack_from(raw, 4)
+        offset = 16 + frame_len
+        (name_len,) = _U32.unpack_from(raw, offset)
+        offset += 4
+        self.robot = raw[offset:offset + name_len].decode("utf-8", "replace")
+        (self.robot_index, self.event, self.vertex,
+         self.from_vertex) = _EVENT.unpack_from(raw, offset + name_len)
+        self.t = sec + nsec * NS
+
+
+_EVENT = struct.Struct("<iBqq")  # robot_index, event, vertex, from_vertex
+# The AgentEvent definition read raw (its md5 sum, version 2).
+_RAW_EVENT = ("tpuaf_ros/msg/AgentEvent", "3ce9ce20732c9c9397c66ce50f7f6d89")
+
+
+def raw_readers(connections: list) -> dict:
+    """connection id -> how `_stream` reads it raw: True / False (an Odometry or a
+    PoseWithCovarianceStamped pose), RawEvent; connections of other definitions are absent."""
+    out: dict = {}
+    for conn in connections:
+        if (conn.msgtype, conn.digest) == _RAW_EVENT:
+            out[conn.id] = RawEvent
+        elif raw_pose_reader(conn) is not None:
+            out[conn.id] = raw_pose_reader(conn)
+    return out
+
+
 def raw_pose_reader(conn: Any) -> bool | None:
     """For a pose connection of a standard definition: whether it is an Odometry (the raw
     reader applies), else None (rosbags deserialises it)."""
@@ -346,10 +380,10 @@ def _stream(path: Path, reader: Any, store: Any, connections: list,
         except Exception as err:  # noqa: BLE001 - decompression, truncation, bad index
             raise _damaged(path, err) from None
         try:
-            odometry = raw_poses.get(conn.id)
-            if odometry is not None:
+            how = raw_poses.get(conn.id)
+            if how is not None:
                 _CURRENT.set(f"{conn.topic} ({conn.msgtype}, t = {t_ns * NS:.3f} s)")
-                yield conn, t_ns * NS, _raw_pose(raw, odometry)
+                yield conn, t_ns * NS, how(raw) if how is RawEvent else _raw_pose(raw, how)
                 continue
             msg = store.deserialize_ros1(raw, conn.msgtype)
         except Exception as err:  # noqa: BLE001
@@ -360,6 +394,8 @@ def _stream(path: Path, reader: Any, store: Any, connections: list,
 
 
 def _stamp(msg: Any) -> float:
+    if type(msg) is RawEvent:
+        return msg.t
     st = msg.header.stamp if hasattr(msg, "header") else msg.stamp
     return st.sec + st.nanosec * NS
 
@@ -385,20 +421,26 @@ def _order_key(msg: Any, t_rec: float) -> float:
 
 def _in_stamp_order(stream: Iterator[tuple], window_s: float = REORDER_WINDOW_S
                     ) -> Iterator[tuple]:
-    """(connection, record time, message) of `stream` in stamp order, given that no message
-    is recorded more than `window_s` after one stamped later (a bounded reorder buffer)."""
-    held: list[tuple] = []
+    """(connection, record time, message) of `stream` in stamp order (ties: arrival order),
+    given that no message is recorded more than `window_s` after one stamped later: a bounded
+    reorder buffer, sorted in batches (Timsort on nearly sorted runs, instead of a heap
+    operation per message); it holds at most about two windows of messages."""
+    held: list[tuple] = []  # (key, seq, connection, record time, message)
     newest = -math.inf
+    next_sort = -math.inf
     for seq, (conn, t_rec, msg) in enumerate(stream):
         key = _order_key(msg, t_rec)
-        newest = max(newest, key)
-        heapq.heappush(held, (key, seq, conn, t_rec, msg))
-        while held[0][0] < newest - window_s:
-            _, _, c, t, m = heapq.heappop(held)
-            yield c, t, m
-    while held:
-        _, _, c, t, m = heapq.heappop(held)
-        yield c, t, m
+        if key > newest:
+            newest = key
+        held.append((key, seq, conn, t_rec, msg))
+        if newest >= next_sort:  # (key, seq) are unique: tuples compare on them alone
+            held.sort()
+            cut = bisect.bisect_left(held, (newest - window_s,))  # keys < newest - window
+            yield from ((c, t, m) for _, _, c, t, m in held[:cut])
+            del held[:cut]
+            next_sort = newest + window_s
+    held.sort()
+    yield from ((c, t, m) for _, _, c, t, m in held)
 
 
 def _team_kind(topic: str) -> str | None:
@@ -417,72 +459,76 @@ def inspect(path: str | Path) -> BagInfo:
 
     path = Path(path)
     with _open(path) as reader:
-        store = _typestore(reader)
-        if reader.message_count == 0:
-            raise BagError(f"{path}: the bag holds no messages")
-        info = BagInfo(path, reader.start_time * NS, reader.end_time * NS)
-        small, tf_conns = [], []
-        for conn in reader.connections:
-            info.topics[conn.topic] = info.topics.get(conn.topic, 0) + conn.msgcount
-            info.types[conn.topic] = conn.msgtype
-            m = POSE_TOPIC.match(conn.topic)
-            if m:
-                kind = POSE_KIND[m["kind"]]
-                if _is_type(conn, "geometry_msgs/PoseWithCovarianceStamped" if kind == "amcl"
-                            else "nav_msgs/Odometry"):
-                    info.pose_topics.setdefault(kind, {})[int(m["index"])] = conn.topic
-                    info.names.setdefault(int(m["index"]), m["name"])
-            elif conn.topic in TF_TOPICS and _is_type(conn, "tf2_msgs/TFMessage"):
-                tf_conns.append(conn)
-            elif (conn.topic, conn.msgtype.replace("/msg/", "/")) in FLEET_TYPES:
-                small.append(conn)
-            elif _team_kind(conn.topic) and conn.msgtype.startswith("tpuaf_ros/"):
-                info.team_topics[conn.topic] = _team_kind(conn.topic)
-                small.append(conn)
-        offsets: list[float] = []
-        for conn, t_rec, msg in _stream(path, reader, store, small):
-            if conn.topic == START_TOPIC:
-                _add_start(info, msg)
-            elif conn.topic == METRICS_TOPIC:
-                info.fleet_duration_s = float(msg.duration)
-                if msg.finished:
-                    info.monitor_finished = True
-                    info.monitor_final = {k: getattr(msg, k) for k in (
-                        "elapsed", "visits", "idleness_avg", "interferences", "robots_alive")}
-            else:  # agent events and team messages: robots, names, clock
-                r = int(msg.robot_index)
-                if 0 <= r < 10_000:
-                    info.robots = max(info.robots, r + 1)
-                    if msg.robot:
-                        info.names.setdefault(r, str(msg.robot).strip("/"))
-                if conn.topic == EVENTS_TOPIC:
-                    info.events += 1
-                    info.visit_events += is_visit(int(msg.event), int(msg.vertex))
-                elif info.team_topics[conn.topic] == "Visit":
-                    info.visit_messages += 1
-                if len(offsets) < 2001:
-                    offsets.append(t_rec - _stamp(msg))
-        if info.pose_topics:
-            info.robots = max(info.robots, max(max(d) for d in info.pose_topics.values()) + 1)
-        if offsets:
-            offset = statistics.median(offsets)
-            if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
-                info.clock_offset_s = offset
-                info.start_s -= offset
-                info.end_s -= offset
-        inside = [s for s, _ in info.fleet_starts
-                  if info.start_s - STAMP_MARGIN_S <= s < info.end_s]
-        info.fleet_start_s = min(inside) if inside else None
-        names = {r: info.names.get(r, f"{_prefix(info)}{r}") for r in range(info.robots)}
-        info.prefix = _prefix(info)
-        if tf_conns and names:
-            chains = robot_chains([names[r] for r in range(info.robots)], MAP_FRAME, BASE_FRAME)
-            for _conn, _t, msg in _stream(path, reader, store, tf_conns):
-                for r in feed_chains(chains, msg.transforms):
-                    if chains[r].pose() is not None:
-                        info.tf_robots.add(r)
-                if len(info.tf_robots) == len(chains):
-                    break
+        return _inspect(path, reader)
+
+
+def _inspect(path: Path, reader: Any) -> BagInfo:
+    store = _typestore(reader)
+    if reader.message_count == 0:
+        raise BagError(f"{path}: the bag holds no messages")
+    info = BagInfo(path, reader.start_time * NS, reader.end_time * NS)
+    small, tf_conns = [], []
+    for conn in reader.connections:
+        info.topics[conn.topic] = info.topics.get(conn.topic, 0) + conn.msgcount
+        info.types[conn.topic] = conn.msgtype
+        m = POSE_TOPIC.match(conn.topic)
+        if m:
+            kind = POSE_KIND[m["kind"]]
+            if _is_type(conn, "geometry_msgs/PoseWithCovarianceStamped" if kind == "amcl"
+                        else "nav_msgs/Odometry"):
+                info.pose_topics.setdefault(kind, {})[int(m["index"])] = conn.topic
+                info.names.setdefault(int(m["index"]), m["name"])
+        elif conn.topic in TF_TOPICS and _is_type(conn, "tf2_msgs/TFMessage"):
+            tf_conns.append(conn)
+        elif (conn.topic, conn.msgtype.replace("/msg/", "/")) in FLEET_TYPES:
+            small.append(conn)
+        elif _team_kind(conn.topic) and conn.msgtype.startswith("tpuaf_ros/"):
+            info.team_topics[conn.topic] = _team_kind(conn.topic)
+            small.append(conn)
+    offsets: list[float] = []
+    for conn, t_rec, msg in _stream(path, reader, store, small, raw_readers(small)):
+        if conn.topic == START_TOPIC:
+            _add_start(info, msg)
+        elif conn.topic == METRICS_TOPIC:
+            info.fleet_duration_s = float(msg.duration)
+            if msg.finished:
+                info.monitor_finished = True
+                info.monitor_final = {k: getattr(msg, k) for k in (
+                    "elapsed", "visits", "idleness_avg", "interferences", "robots_alive")}
+        else:  # agent events and team messages: robots, names, clock
+            r = int(msg.robot_index)
+            if 0 <= r < 10_000:
+                info.robots = max(info.robots, r + 1)
+                if msg.robot:
+                    info.names.setdefault(r, str(msg.robot).strip("/"))
+            if conn.topic == EVENTS_TOPIC:
+                info.events += 1
+                info.visit_events += is_visit(int(msg.event), int(msg.vertex))
+            elif info.team_topics[conn.topic] == "Visit":
+                info.visit_messages += 1
+            if len(offsets) < 2001:
+                offsets.append(t_rec - _stamp(msg))
+    if info.pose_topics:
+        info.robots = max(info.robots, max(max(d) for d in info.pose_topics.values()) + 1)
+    if offsets:
+        offset = statistics.median(offsets)
+        if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
+            info.clock_offset_s = offset
+            info.start_s -= offset
+            info.end_s -= offset
+    inside = [s for s, _ in info.fleet_starts
+              if info.start_s - STAMP_MARGIN_S <= s < info.end_s]
+    info.fleet_start_s = min(inside) if inside else None
+    names = {r: info.names.get(r, f"{_prefix(info)}{r}") for r in range(info.robots)}
+    info.prefix = _prefix(info)
+    if tf_conns and names:
+        chains = robot_chains([names[r] for r in range(info.robots)], MAP_FRAME, BASE_FRAME)
+        for _conn, _t, msg in _stream(path, reader, store, tf_conns):
+            for r in feed_chains(chains, msg.transforms):
+                if chains[r].pose() is not None:
+                    info.tf_robots.add(r)
+            if len(info.tf_robots) == len(chains):
+                break
     return info
 
 
@@ -547,7 +593,14 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
     pose_source: ground_truth | tf | amcl | odom (default: the best one the bag has)."""
 
     path = Path(path)
-    info = inspect(path)
+    with _open(path) as reader:  # one open: rosbags reads the whole index on opening
+        return _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s,
+                        death_timeout_s, pose_source, team_ns)
+
+
+def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death_timeout_s,
+             pose_source, team_ns) -> Analysis:
+    info = _inspect(path, reader)
     notes: list[str] = []
     n = int(robots) if robots else info.robots
     if n <= 0:
@@ -609,16 +662,15 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
     else:
         notes.append(f"positions (X, interference) from {POSE_SOURCES[source]}")
 
-    with _open(path) as reader:
-        store = _typestore(reader)
-        if source is None:
-            recorder, reports = _replay_reports(path, reader, store, info, patrol_map, n, start,
-                                                end, timeout, team, liveness)
-            monitor = None
-        else:
-            monitor, reports = _replay(path, reader, store, info, patrol_map, n, start, end,
-                                       timeout, team, source)
-            recorder = monitor.recorder
+    store = _typestore(reader)
+    if source is None:
+        recorder, reports = _replay_reports(path, reader, store, info, patrol_map, n, start,
+                                            end, timeout, team, liveness)
+        monitor = None
+    else:
+        monitor, reports = _replay(path, reader, store, info, patrol_map, n, start, end,
+                                   timeout, team, source)
+        recorder = monitor.recorder
     if info.out_of_span:
         notes.append(f"{info.out_of_span} message(s) stamped outside the bag's span ignored")
     if monitor is not None:
@@ -759,6 +811,7 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     reports: list[tuple[float, bool]] = []  # (stamp, is START) of the visit reports
     report_of = _Reports(info, patrol_map, n, team)
 
+    raw_poses.update(raw_readers([c for c in conns if c.topic == EVENTS_TOPIC]))
     for conn, _t_rec, msg in _in_stamp_order(_stream(path, reader, store, conns, raw_poses)):
         if conn.topic in TF_TOPICS:
             for r in feed_chains(chains, msg.transforms):
@@ -816,8 +869,9 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
                 alive[r] = False
                 recorder.record_robot_death(r, round(heard[r] + timeout - start, 9))
 
+    conns = _report_connections(reader, info, team)
     for conn, _t, msg in _in_stamp_order(
-            _stream(path, reader, store, _report_connections(reader, info, team))):
+            _stream(path, reader, store, conns, raw_readers(conns))):
         rep = report_of(conn, msg)
         if rep is None:
             continue

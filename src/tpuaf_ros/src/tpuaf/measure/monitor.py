@@ -62,6 +62,7 @@ class FleetMonitor:
         self.now = -math.inf  # time of the last processed pose group
         self.finished = False
         self._groups: dict[float, np.ndarray] = {}
+        self._oldest_group = math.inf  # the oldest time in _groups [s]
         self._counts: dict[float, int] = {}
         self._last = np.full((self.n, 2), np.nan)
         self._alive = np.ones(self.n, dtype=bool)
@@ -105,6 +106,7 @@ class FleetMonitor:
         if group is None:
             group = self._groups[t] = np.full((self.n, 2), np.nan)
             self._counts[t] = 0
+            self._oldest_group = min(self._oldest_group, t)
         if math.isnan(group[robot, 0]):
             self._counts[t] += 1
         group[robot] = (x, y)
@@ -117,11 +119,14 @@ class FleetMonitor:
         stamped up to a group's time have arrived by then, in the live node and in a bag alike,
         so the result does not depend on the order in which the two streams interleave."""
         limit = newest - self.lag_s
+        if limit < self._oldest_group:
+            return  # nothing old enough (most poses)
         for t in sorted(t for t in self._groups if t <= limit):
             group = self._groups.pop(t)
             count = self._counts.pop(t)
             if not self.finished:
                 self._process(t, group, count)
+        self._oldest_group = min(self._groups, default=math.inf)
 
     def _process(self, t: float, group: np.ndarray, count: int) -> None:
         seen = ~np.isnan(group[:, 0])
