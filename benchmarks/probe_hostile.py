@@ -7,8 +7,9 @@ benchmarks/results/hostile.md.
 
     .venv/bin/python benchmarks/probe_hostile.py [--quick] [--jobs 2] [--out FILE]
 
---quick runs every 10th case (a smoke test). Children start with SIGINT at its default (a
-background job inherits it ignored) and in their own session; each gets RLIMIT_AS of 8 GB so
+--quick runs every 10th case (a smoke test). Children start with SIGINT, SIGTERM and SIGHUP
+at their defaults (a background job inherits SIGINT ignored, `nohup` SIGHUP) and in their own
+session; each gets RLIMIT_AS of 8 GB so
 that a regression cannot take the machine's memory.
 """
 
@@ -83,8 +84,11 @@ class Result:
 
 
 def _child_setup() -> None:
+    """Own session; the stop signals at their defaults whatever the probe inherited (a
+    background job ignores SIGINT, `nohup` SIGHUP: a child would inherit that)."""
     os.setsid()
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
     resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_LIMIT_B, ADDRESS_LIMIT_B))
 
 
@@ -576,7 +580,7 @@ def report(results: list[Result], wall_s: float) -> str:
     totals = {"cases": len(results), "tracebacks": 0, "hangs": 0, "mixed": 0, "memory": 0,
               "slow stops": 0}
     lines = [header("Hostile inputs (issue 22): `benchmarks/probe_hostile.py`"),
-             f"Each case a `tpuaf` subprocess (own session, SIGINT at its default, RLIMIT_AS "
+             f"Each case a `tpuaf` subprocess (own session, stop signals at their defaults, RLIMIT_AS "
              f"{ADDRESS_LIMIT_B >> 30} GB), {TIMEOUT_S:g} s timeout; memory overrun = peak "
              f"RSS above {MEMORY_LIMIT_B >> 30} GB or an allocation error; mixed = a results "
              f"folder check failed (two writers, a file outside written, a user's file "
