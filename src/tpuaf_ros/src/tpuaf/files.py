@@ -54,9 +54,12 @@ def _temporary(path: Path, suffix: str) -> Iterator[Path]:
     tmp = _temp_path(path, suffix)
     try:
         yield tmp
-    except BaseException:
+    except BaseException as err:
         with contextlib.suppress(OSError):
             tmp.unlink()
+        if isinstance(err, OSError) and err.filename is None and err.errno is not None:
+            # e.g. ENOSPC from a write: the message names the file being written
+            raise OSError(err.errno, err.strerror or str(err), str(path)) from None
         raise
 
 
