@@ -349,3 +349,17 @@ def test_fleet_prints_deaths_and_recovery_on_one_clock():
     text = format_faults(on_run_clock(summary))
     assert "death of robot 1 at 30.0 s" in text and "died at 35.1 s" in text
     assert on_run_clock({**summary, "time_base": "run"}) == {**summary, "time_base": "run"}
+
+
+def test_a_full_disk_names_the_file_and_leaves_no_temporary(tmp_path):
+    """A full disk: a one-line error that named no file and left .summary.png.tmp behind."""
+    import errno
+
+    from tpuaf.files import atomic_file
+
+    target = tmp_path / "summary.png"
+    with pytest.raises(OSError) as err, atomic_file(target) as f:
+        f.write(b"half")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    assert err.value.filename == str(target) and err.value.errno == errno.ENOSPC
+    assert list(tmp_path.iterdir()) == []
