@@ -130,6 +130,11 @@ def test_silent_mate_is_dropped_and_cycle_respaced():
     assert survivor.plan.routes[0].robots == (0,)
     # after the death robot 0 tours alone: every vertex every 40 s, never worse
     assert 40.0 - 1e-6 <= summary["idleness_max_s"] <= 40.0 + 20.0
+    # the dead robot's vertices wait no longer than the survivor's own lap (ideal 40 s)
+    recovery = summary["recovery"][0]
+    assert recovery["ideal_worst_idleness_survivors_s"] == pytest.approx(40.0)
+    assert recovery["worst_idleness_after_s"] == pytest.approx(40.0)
+    assert recovery["recovery_time_s"] <= 40.0 + 1e-6
 
 
 def test_silence_timeout_without_runtime_report():

@@ -271,8 +271,8 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
         worst = cyc_worst
     else:
         slots = [p for p, k in enumerate(part.robots_per_part) for _ in range(k)]
-        if full:  # start: parts to robots by the least total distance from the start vertices
-            assignment = tours.assign_parts(part, list(all_starts), dist)
+        if full:  # start: parts to robots so that every part is covered soon
+            assignment = _assign_start_parts(part, list(all_starts), dist)
         elif not all_starts:  # start vertices unknown: robot order
             assignment = [slots[i % len(slots)] for i in range(m)]
         else:  # survivors: from the full team's plan, so every survivor agrees
@@ -289,6 +289,24 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
         for route in routes:
             schedule.update(_schedule(route, starts, dist, speed))
     return Plan(kind, routes, route_of, float(worst), schedule)
+
+
+def _assign_start_parts(part, starts: list[int], dist) -> list[int]:
+    """Part index per robot at the start: each part gets its `robots_per_part` robots, matched
+    so that the longest (drive to the part + L_p / m_p) is short: the time [m at v] until the
+    part has been covered once (Hungarian on its 4th power: nearly a bottleneck matching)."""
+    from scipy.optimize import linear_sum_assignment
+
+    slots = [p for p, m in enumerate(part.robots_per_part) for _ in range(m)]
+    d = np.asarray(dist)
+    share = [part.tours[p].length / part.robots_per_part[p] for p in slots]
+    cost = np.array([[d[s, part.parts[p]].min() + share[j] for j, p in enumerate(slots)]
+                     for s in starts])
+    rows, cols = linear_sum_assignment((cost / max(float(cost.max()), _EPS)) ** 4)
+    out = [0] * len(starts)
+    for r, c in zip(rows, cols, strict=True):
+        out[r] = slots[c]
+    return out
 
 
 def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
