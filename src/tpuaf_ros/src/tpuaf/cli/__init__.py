@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import sys
@@ -107,9 +108,9 @@ def missing_package_line(err: ModuleNotFoundError) -> str | None:
 
 
 def _done(code: int) -> None:
-    """The command's work is done (files written, exit code known): a stop signal during the
-    interpreter's teardown ends the process at once with that code (it used to kill it with
-    -2 and no message)."""
+    """The command's work is done (files written, exit code known): the `tpuaf` program ends
+    here, without the interpreter's teardown, where a late stop signal killed the process
+    with -2 and no message after complete results (imported by tests: nothing happens)."""
     if not _PROGRAM:
         return
     for stream in (sys.stdout, sys.stderr):
@@ -117,16 +118,8 @@ def _done(code: int) -> None:
             stream.flush()
         except (OSError, ValueError):
             pass
-
-    def finished(_signum: int, _frame) -> None:
-        os._exit(code)
-
-    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        try:
-            if signal.getsignal(sig) != signal.SIG_IGN:
-                signal.signal(sig, finished)
-        except ValueError:
-            return
+    logging.shutdown()
+    os._exit(code)
 
 
 def main(argv: list[str] | None = None) -> int:
