@@ -92,10 +92,11 @@ def _child_setup() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (ADDRESS_LIMIT_B, ADDRESS_LIMIT_B))
 
 
-def _spawn(argv: list[str], cwd: Path) -> subprocess.Popen:
+def _spawn(argv: list[str], cwd: Path, stderr) -> subprocess.Popen:
+    """The command with stderr to a file (a pipe would block a child that writes much)."""
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     return subprocess.Popen(argv, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, preexec_fn=_child_setup, env=env)
+                            stderr=stderr, preexec_fn=_child_setup, env=env)
 
 
 def _wait(proc: subprocess.Popen, deadline: float) -> tuple[int | None, int]:
@@ -123,7 +124,8 @@ def run_case(case: Case, scratch: Path) -> Result:
         argv = [a.replace("@", str(root) + "/", 1) if a.startswith("@") else a
                 for a in case.argv]
         start = time.monotonic()
-        procs = [_spawn(TPUAF + argv, root) for _ in range(2 if case.pair else 1)]
+        logs = [tempfile.TemporaryFile(dir=scratch) for _ in range(2 if case.pair else 1)]
+        procs = [_spawn(TPUAF + argv, root, log) for log in logs]
         if case.signal_after_s is not None:
             time.sleep(case.signal_after_s)
             sent = time.monotonic()
@@ -131,12 +133,13 @@ def run_case(case: Case, scratch: Path) -> Result:
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(p.pid, case.signal_number)
         errs = []
-        for p in procs:
+        for p, log in zip(procs, logs, strict=True):
             code, rss = _wait(p, start + TIMEOUT_S)
             result.codes.append(code)
             result.rss_b = max(result.rss_b, rss)
-            errs.append(p.stderr.read().decode("utf-8", "replace"))
-            p.stderr.close()
+            log.seek(0)
+            errs.append(log.read(1 << 20).decode("utf-8", "replace"))
+            log.close()
         result.wall_s = time.monotonic() - start
         if case.signal_after_s is not None:
             result.stop_s = time.monotonic() - sent
@@ -621,7 +624,7 @@ def report(results: list[Result], wall_s: float) -> str:
         lines.append("\n## Failures\n")
         for r in bad:
             last = [x for x in r.stderr.splitlines() if x.strip()][-1:] or [""]
-            lines.append(f"- {r.case.klass} / {r.case.name}: exit {r.code}, "
+            lines.append(f"- {r.case.klass} / {r.case.name[:80]}: exit {r.code}, "
                          f"{r.problem or ''} {'traceback ' if r.traceback else ''}"
                          f"stop {r.stop_s if r.stop_s is None else round(r.stop_s, 2)} s; "
                          f"`{last[0][:200]}`")
@@ -649,7 +652,7 @@ def main() -> int:
             for k, r in enumerate(pool.map(lambda c: run_case(c, scratch), todo)):
                 flag = ("TRACEBACK " if r.traceback else "") + ("HANG " if r.hang else "") + \
                     (f"MIXED({r.problem}) " if r.problem else "") + ("MEMORY " if r.memory else "")
-                print(f"[{k + 1}/{len(todo)}] {r.case.klass} / {r.case.name}: exit {r.code} "
+                print(f"[{k + 1}/{len(todo)}] {r.case.klass} / {r.case.name[:80]}: exit {r.code} "
                       f"{r.wall_s:.1f} s {flag}", file=sys.stderr)
                 results.append(r)
     finally:

@@ -363,3 +363,26 @@ def test_a_full_disk_names_the_file_and_leaves_no_temporary(tmp_path):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
     assert err.value.filename == str(target) and err.value.errno == errno.ENOSPC
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_tiny_edge_is_refused_not_stuck(tmp_path):
+    """An edge of 1e-300 px takes no time to travel: tpuaf_plus never left time 0."""
+    assert "at least 0.001 m" in map_error(graph_folder(tmp_path, c="1e-300"))
+    folder = grid_copy(tmp_path, "graph.yaml",
+                       lambda t: t.replace(b"- [0, 1]", b"- [0, 1, 1e-9]", 1))
+    assert "less than 0.001 m" in map_error(folder)
+
+
+def test_render_reads_a_hostile_results_folder_as_data(capsys, tmp_path):
+    out = tmp_path / "run"
+    assert cli(capsys, "run", "--duration", "5", "--quiet", "--out", str(out))[0] == 0
+    unlock_folder(out)
+    (out / "config.yaml").write_text("[" * 5000)
+    code, _, err = cli(capsys, "render", str(out), "--step", "1")
+    assert_one_line_error(code, err, "config.yaml", "nested")
+
+
+def test_a_file_name_too_long_is_one_short_line(capsys):
+    code, _, err = cli(capsys, "maps", "x" * 120_000)
+    assert_one_line_error(code, err)
+    assert len(err) < 2000

@@ -155,7 +155,8 @@ def _main(argv: list[str] | None = None) -> int:
         return 2
     except OSError as err:  # e.g. an unwritable results folder or a full disk
         where = f"{err.filename}: " if err.filename else ""
-        print(f"tpuaf {args.command}: error: {where}{err.strerror or err}", file=sys.stderr)
+        print(f"tpuaf {args.command}: error: {one_line(f'{where}{err.strerror or err}')}",
+              file=sys.stderr)
         return 2
 
 

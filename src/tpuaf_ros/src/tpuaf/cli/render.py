@@ -54,6 +54,28 @@ def _span_s(folder: Path) -> float | None:
     return None
 
 
+MAX_JSON_BYTES = 64 << 20
+
+
+def check_folder_files(folder: Path) -> None:
+    """config.yaml and summary.json of the folder are data: regular files, bounded in size
+    and nesting (the drawing code reads them as they are)."""
+    import json
+
+    from tpuaf.files import read_regular
+
+    yaml_doc(folder / "config.yaml")
+    path = folder / "summary.json"
+    if path.exists() or path.is_symlink():
+        text = read_regular(path, max_bytes=MAX_JSON_BYTES, error_class=CliError)
+        try:
+            json.loads(text)
+        except RecursionError:
+            raise CliError(f"{path}: nested too deeply") from None
+        except ValueError as err:
+            raise CliError(f"{path}: not JSON ({err})") from None
+
+
 def yaml_doc(path: Path):
     from tpuaf_core import yamlfile
 
@@ -96,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
             raise CliError(f"{folder}: no {name} (not a results folder of `tpuaf run --out`)")
     if args.out is not None and args.out.suffix.lower() not in (".gif", ".mp4"):
         raise CliError(f"--out {args.out}: the animation is a .gif or an .mp4 file")
+    check_folder_files(folder)
     check_request(folder, args)
     try:
         if args.summary:

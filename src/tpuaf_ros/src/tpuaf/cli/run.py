@@ -290,7 +290,7 @@ def run(args: argparse.Namespace) -> int:
     return execute(engine, args.out, quiet=args.quiet, plots=not args.no_plots)
 
 
-END_FILES_AFTER_SIGNAL_S = 1.2  # [s] of end-file writing after the signal that stopped a run
+END_FILES_AFTER_SIGNAL_S = 1.0  # [s] of end-file writing after the signal that stopped a run
 
 
 def execute(engine, out: Path | None, quiet: bool = False, plots: bool = True) -> int:

@@ -241,7 +241,7 @@ def _num(value: Any) -> str:
 
 
 MAX_PICTURE_ROWS = 2_000_000  # summary.png reads all of timeseries.csv: not for longer runs
-VISIT_CHUNK = 100_000  # rows of visits.csv read back at a time for the end files
+VISIT_CHUNK = 20_000  # rows of visits.csv read back at a time (a stop is seen between chunks)
 
 
 class _Stopped(Exception):

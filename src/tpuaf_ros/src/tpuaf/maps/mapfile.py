@@ -55,6 +55,7 @@ def _at(path: Path, node: Any) -> str:
 
 
 MAX_COORDINATE_M = 1e6  # |x|, |y|, lengths and widths [m]: 1,000 km (beyond: float steps of mm)
+MIN_EDGE_M = 1e-3  # [m] a shorter edge takes no time to travel: the run never advances
 MAX_VERTEX_ID = 2**31 - 1  # ids travel as int32 in ROS parameters; -1 means "none" in messages
 # YAML 1.1 reads 1e6 (no dot) as a string; YAML 1.2 and every user as a number.
 _NUMBER_TEXT = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
@@ -197,6 +198,9 @@ def parse_graph_yaml(path: Path, settings: MapSettings, *, fast: bool = False) -
         length = math.nan
         if len(e) == 3:
             length = _num(path, e, "length", e[2], positive=True)
+            if length < MIN_EDGE_M:
+                raise MapError(f"{_at(path, e)}: edge {u}-{w} is {length:g} m long, less than "
+                               f"{MIN_EDGE_M:g} m (travel would take no time)")
         edges.append((index[u], index[w], length))
     return {"ids": ids, "positions": np.array(pos, dtype=float), "importance": np.array(imp),
             "initial": np.array(x0), "edges": edges}

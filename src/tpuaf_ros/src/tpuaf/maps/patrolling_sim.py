@@ -41,6 +41,7 @@ MAX_INTEGER = 2**31 - 1  # ids, counts and image sizes (int32 as in patrolling_s
 MAX_VERTICES = 1_000_000
 MAX_PIXELS = 1e7  # |coordinate| and cost [px]
 MAX_METRES = 1e6  # |coordinate| and edge length [m] of the metric map (mapfile's bound)
+MIN_METRES = 1e-3  # shortest edge [m]: a shorter one takes no time, the run never advances
 _INTEGER = re.compile(r"[+-]?[0-9]+")
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 
@@ -190,6 +191,10 @@ def parse_graph(path: str | Path) -> dict:
     positions = np.array(px, dtype=float) * res + np.array([off_x, off_y])
     far = float(np.abs(positions).max()) if len(positions) else 0.0
     longest = max((length for _, _, length in edges), default=0.0)
+    shortest = min((length for _, _, length in edges), default=MIN_METRES)
+    if shortest < MIN_METRES:
+        raise MapError(f"{path}: an edge of {shortest:g} m (cost px x resolution): edges must "
+                       f"be at least {MIN_METRES:g} m long (travel would take no time)")
     if far > MAX_METRES or longest > MAX_METRES:
         what = f"a vertex at {far:g} m" if far > MAX_METRES else f"an edge of {longest:g} m"
         raise MapError(f"{path}: {what} (pixels x resolution + offset): a map must lie within "
