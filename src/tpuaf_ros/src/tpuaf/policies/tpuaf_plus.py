@@ -115,6 +115,20 @@ def _entry_index(route: Route, vertex: int, dist) -> int:
     return route.walk.index(best)
 
 
+def _urgent_entry(route: Route, vertex: int, dist, last_visit, now: float, speed: float) -> int:
+    """Walk index where a lone robot at `vertex` joins a new walk (after a loss): the one whose
+    first lap leaves the most idle vertex waiting least: min over entries k of max over walk
+    vertices of (now - last visit + drive to walk[k] + arc from k to it) [s]; ties to the
+    nearest entry. Its vertices (an orphaned part) must not wait a whole lap."""
+    walk = np.asarray(route.walk)
+    arc = np.asarray(route.arc)
+    idle = now - np.asarray(last_visit, dtype=float)[walk]  # [s] per walk entry
+    reach = np.asarray(dist[vertex, walk], dtype=float) / speed  # [s] to each entry
+    ahead = np.mod(arc[None, :] - arc[:, None], route.length) / speed  # [k, i] k -> i [s]
+    worst = (reach[:, None] + ahead + idle[None, :]).max(axis=1)
+    return int(np.lexsort((np.arange(len(walk)), reach, np.round(worst, 6)))[0])
+
+
 def _slot_departures(route: Route, start: int, dist, slots: np.ndarray):
     """For a robot at vertex `start` and virtual slots at arc positions `slots` [m] at t = 0
     (moving at the plan speed v): per slot, the earliest (v * departure time [m], walk index)
@@ -459,6 +473,10 @@ class TpuafPlus(Policy):
             self.idx = None
         elif old_route is not None and old_route.walk == self.route.walk:
             pass  # same walk (a cycle): keep my place on it
+        elif len(self.route.robots) == 1 and len(self.route.walk) > 1:  # a new part alone
+            self.entry = _urgent_entry(self.route, ctx.current_vertex, self.dist,
+                                       np.asarray(self.knowledge.last_visit), ctx.now, self.speed)
+            self.idx = None
         else:
             self.entry = _entry_index(self.route, ctx.current_vertex, self.dist)
             self.idx = None
