@@ -386,3 +386,14 @@ def test_a_file_name_too_long_is_one_short_line(capsys):
     code, _, err = cli(capsys, "maps", "x" * 120_000)
     assert_one_line_error(code, err)
     assert len(err) < 2000
+
+
+def test_the_documented_maximum_team_runs(capsys):
+    """`run --robots 10000` (the documented maximum then) was a std::bad_alloc traceback; the
+    maximum is now 1000, and a team of that size runs."""
+    from tpuaf.cli.run import MAX_ROBOTS
+
+    code, out, err = cli(capsys, "run", "--robots", str(MAX_ROBOTS), "--duration", "5",
+                         "--quiet")
+    assert code == 0, err
+    assert f"N = {MAX_ROBOTS:,}" in out or f"N = {MAX_ROBOTS}" in out
