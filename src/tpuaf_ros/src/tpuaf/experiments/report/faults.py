@@ -71,7 +71,10 @@ def faults_section(faults: dict[str, Data], nominal: Data) -> list[str]:
     md = ["## Fault scenarios", "",
           "Each table: the mean over seeds, **bold** = lowest of the column; in brackets "
           "the ratio to the same strategy's fault-free mean. Deaths: robots "
-          "floor(i N / K), i = 0..K-1, die at half the run (K = N/4, rounded down).", ""]
+          "floor(i N / K), i = 0..K-1, die at half the run (K = N/4, rounded down). "
+          "Nobody tells the survivors: each notices a death from the heartbeats (one a "
+          "second) and team messages it stops hearing, once silent for the teammate timeout "
+          "(10 s by default, the agent node's); loss can make that sooner, delay later.", ""]
     for sc, fd in faults.items():
         md += [f"### {FAULT_TITLES.get(sc, sc)} (`{sc}`)", "", "**I_max [s]**", "",
                fault_table(fd, nominal, "idleness_max_s"), "",
