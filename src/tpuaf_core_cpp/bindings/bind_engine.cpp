@@ -287,14 +287,19 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
                              })
       .def_property_readonly("interval_samples",
                              [](const GraphEngine& e) {
-                               std::vector<double> out;
+                               // Filled in place: no second copy of millions of samples.
+                               std::size_t count = 0;
+                               for (const auto& times : e.recorder().vertex_times()) {
+                                 count += times.empty() ? 0 : times.size() - 1;
+                               }
+                               py::array_t<double> out(static_cast<py::ssize_t>(count));
+                               double* data = out.mutable_data();
                                for (const auto& times : e.recorder().vertex_times()) {
                                  for (std::size_t k = 1; k < times.size(); ++k) {
-                                   out.push_back(times[k] - times[k - 1]);
+                                   *data++ = times[k] - times[k - 1];
                                  }
                                }
-                               return py::array_t<double>(static_cast<py::ssize_t>(out.size()),
-                                                          out.data());
+                               return out;
                              })
       .def_property_readonly("first_visit_times",
                              [](const GraphEngine& e) {
