@@ -34,10 +34,12 @@ def shared_maps() -> Path:
 
 
 def default_sigint() -> None:
-    """preexec_fn: SIGINT back to its default in the child, whatever the suite inherited."""
+    """preexec_fn: the stop signals (SIGINT, SIGTERM, SIGHUP) back to their defaults in the
+    child, whatever the suite inherited (a background job ignores SIGINT, nohup SIGHUP)."""
     import signal
 
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
 
 
 def stop_tree(proc, grace_s: float = 60.0) -> None:

@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from .conftest import REPO
+from .conftest import REPO, default_sigint
 
 TPUAF = [str(REPO / ".venv" / "bin" / "tpuaf")]
 
@@ -95,12 +95,6 @@ def test_malformed_map_folder_is_named(tmp_path):
     assert result.returncode == 2
     assert "bad.graph" in result.stderr
     assert "Traceback" not in result.stderr
-
-
-def default_sigint() -> None:
-    """In the child: SIGINT back to default (the suite may run with SIGINT ignored, as a
-    background job does, and a child inherits that)."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def start_long_run(out):
