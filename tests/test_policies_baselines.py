@@ -515,3 +515,13 @@ def test_every_baseline_keeps_moving_on_leaves_and_small_graphs(name, n_robots):
             visited.add(goal)
         if name != "rand":
             assert visited == set(range(m.num_vertices)), name
+
+
+def test_cbls_refuses_crossed_weight_clamps():
+    """weight_min > weight_max (or an initial weight outside them) is one ParameterError naming
+    the relation, not a run with clamps that cannot hold."""
+    with pytest.raises(ParameterError, match="weight_min <= weight_init <= weight_max"):
+        REGISTRY.create("cbls", {"weight_min": 3.0, "weight_max": 1.0})
+    with pytest.raises(ParameterError, match="weight_init = 5"):
+        REGISTRY.create("cbls", {"weight_init": 5.0})
+    assert REGISTRY.create("cbls", {"weight_min": 1.0, "weight_max": 1.0}).params["weight_max"] == 1.0

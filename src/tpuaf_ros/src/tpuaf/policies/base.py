@@ -137,9 +137,16 @@ class Policy(ABC):
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     parameters: ClassVar[Mapping[str, Parameter]] = {}
+    # Checks across parameters: (predicate on the resolved values, what it requires).
+    parameter_relations: ClassVar[tuple[tuple[Callable[[dict], bool], str], ...]] = ()
 
     def __init__(self, params: Mapping[str, Any] | None = None):
         self.params: dict[str, Any] = resolve_parameters(self.name, self.parameters, params or {})
+        for holds, requirement in self.parameter_relations:
+            if not holds(self.params):
+                raise ParameterError(f"parameters of strategy '{self.name}': {requirement}, got "
+                                     + ", ".join(f"{k} = {v!r}" for k, v in self.params.items()
+                                                 if k in requirement))
 
     def start(self, ctx: RobotContext) -> None:  # noqa: B027 - optional hook
         """Called once before the first decision."""

@@ -192,6 +192,10 @@ class ConcurrentBayesianLearning(_SharedIdleness):
             lambda x: x in ("reference", "intended"),
         ),
     }
+    parameter_relations = (
+        (lambda p: p["weight_min"] <= p["weight_init"] <= p["weight_max"],
+         "weight_min <= weight_init <= weight_max"),
+    )
 
     def start(self, ctx):
         super().start(ctx)
