@@ -16,10 +16,11 @@ ctest --test-dir build --output-on-failure
 # (module fixtures computed once, a file's fleets one after another), files in collection order
 # (tests/ros first: the long wall-clock tests start at once). Not loadgroup: with pytest 9.2,
 # xdist 3.8 ignores xdist_group marks (pytest-dev/pytest-xdist#1386).
-# TPUAF_TEST_WORKERS=N sets the number; extra args come after ours (`-n 0`: no workers).
+# TPUAF_TEST_WORKERS=N sets the number; extra args come after ours (`-n 0`: no workers). The 25
+# slowest tests are listed at the end (suite time budget: 20 min on 2 cores).
 # A background job inherits SIGINT ignored, which bash cannot undo: pytest and its workers get
 # SIGINT back at its default (KeyboardInterrupt), as in a terminal, before pytest starts.
 exec .venv/bin/python -c 'import os, signal, sys
 signal.signal(signal.SIGINT, signal.SIG_DFL)
 os.execv(sys.executable, [sys.executable, "-m", "pytest", *sys.argv[1:]])' \
-  -n "${TPUAF_TEST_WORKERS:-4}" --dist loadfile --no-loadscope-reorder "$@"
+  -n "${TPUAF_TEST_WORKERS:-4}" --dist loadfile --no-loadscope-reorder --durations=25 "$@"
