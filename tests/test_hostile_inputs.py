@@ -136,7 +136,7 @@ def test_running_stats_equal_numpy_on_batches():
 
 def test_streamed_rows_are_forgotten_by_the_engine(tmp_path):
     """A 10^7 s run kept every 1 Hz row in memory (9.8 GB); the writer now streams them and
-    the C++ loop forgets them."""
+    the C++ loop forgets them, and the visits too (3.5 M of them held 110 MB)."""
     from tpuaf.experiments.results import ResultsWriter
     from tpuaf.runtimes.config import RunConfig
     from tpuaf.runtimes.native import make_run
@@ -150,6 +150,11 @@ def test_streamed_rows_are_forgotten_by_the_engine(tmp_path):
     assert len(rows) - 1 == summary["timeseries_rows"] > 2900
     with pytest.raises(ValueError, match="forgotten"):
         run.recorder.timeseries_since(0)
+    visits = (tmp_path / "out" / "visits.csv").read_text().splitlines()
+    assert len(visits) - 1 == summary["visits"] == run._engine.visit_count > 100
+    assert run._engine.visits_kept == 0  # every visit is on disk, none in memory
+    with pytest.raises(ValueError, match="forgotten"):
+        run.recorder.visits_since(0)
     timeresults = (tmp_path / "out" / "timeresults.csv").read_text().splitlines()
     assert len(timeresults) == 1 + 3  # one row per 900 s
 

@@ -223,15 +223,26 @@ py::class_<GraphEngine> wrap_engine(py::module_& m) {
   return engine;
 }
 
+// Position in the kept visits of visit index `first` (clamped to the end); a forgotten visit
+// cannot be read again.
+std::size_t kept_visit_index(const GroundTruthRecorder& rec, std::size_t first) {
+  if (first < rec.visits_forgotten()) {
+    throw py::value_error("visits: visits before " + std::to_string(rec.visits_forgotten()) +
+                          " were forgotten");
+  }
+  return std::min(first - rec.visits_forgotten(), rec.visits().size());
+}
+
 // GraphEngine's recorder: visits, 1 Hz rows, interferences, visit intervals and sums.
 void wrap_recorder(py::class_<GraphEngine>& engine) {
   engine
       .def(
           "visits",
           [](const GraphEngine& e, std::size_t first) {
-            const auto& v = e.recorder().visits();
+            const auto& rec = e.recorder();
+            const auto& v = rec.visits();
             py::list out;
-            for (std::size_t k = first; k < v.size(); ++k) {
+            for (std::size_t k = kept_visit_index(rec, first); k < v.size(); ++k) {
               out.append(py::make_tuple(v[k].time_s, v[k].robot, v[k].vertex));
             }
             return out;
@@ -240,13 +251,21 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
       .def(
           "visit_idleness",
           [](const GraphEngine& e, std::size_t first) {
-            const auto& v = e.recorder().visit_idleness();
+            const auto& rec = e.recorder();
+            const auto& v = rec.visit_idleness();
             return std::vector<double>(
-                v.begin() + static_cast<std::ptrdiff_t>(std::min(first, v.size())), v.end());
+                v.begin() + static_cast<std::ptrdiff_t>(kept_visit_index(rec, first)), v.end());
           },
           py::arg("first") = 0)
       .def_property_readonly("visit_count",
-                             [](const GraphEngine& e) { return e.recorder().visits().size(); })
+                             [](const GraphEngine& e) { return e.recorder().visit_count(); })
+      .def_property_readonly(
+          "visits_kept", [](const GraphEngine& e) { return e.recorder().visits().size(); },
+          "Visits still held in memory (the others were forgotten: forget_visits_before).")
+      .def(
+          "forget_visits_before",
+          [](GraphEngine& e, std::size_t first) { e.recorder().forget_visits_before(first); },
+          py::arg("first"), "Drop the visits before index first (written to disk).")
       .def(
           "timeseries",
           [](const GraphEngine& e, std::size_t first) {

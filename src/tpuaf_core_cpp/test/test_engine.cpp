@@ -106,6 +106,28 @@ TEST(Engine, DrivesEdgesAtNominalSpeedDwellsAndRetries) {
   EXPECT_EQ(engine.recorder().timeseries().size(), 40u);  // 1 Hz rows t = 1..40 s
 }
 
+TEST(Engine, ForgottenVisitsKeepIndicesAndPerVertexTimes) {
+  const PatrolGraph g = line_graph();
+  GraphEngine engine(g, g.positions(), config(1, 40.0, {0}), field_of(g), numpy_3_1());
+  Script s;
+  s.goals = {{3, 3, -1}};  // visits: 0 at 0 s, 3 at 15 s, 3 at 16 s
+  engine.set_strategy(&s);
+  engine.run();
+  GroundTruthRecorder& rec = engine.recorder();
+  rec.forget_visits_before(2);
+  EXPECT_EQ(rec.visit_count(), 3u);
+  EXPECT_EQ(rec.visits_forgotten(), 2u);
+  ASSERT_EQ(rec.visits().size(), 1u);  // only the last one is still held
+  EXPECT_DOUBLE_EQ(rec.visits()[0].time_s, 16.0);
+  EXPECT_DOUBLE_EQ(rec.visit_idleness()[0], 1.0);  // 16 s - 15 s
+  rec.forget_visits_before(1);  // already forgotten: nothing changes
+  EXPECT_EQ(rec.visits_forgotten(), 2u);
+  rec.forget_visits_before(10);  // past the end: all of them
+  EXPECT_TRUE(rec.visits().empty());
+  EXPECT_EQ(rec.visit_count(), 3u);
+  EXPECT_EQ(rec.vertex_times()[3].size(), 2u);  // what the summary reads stays
+}
+
 TEST(Engine, BusDelaysAndLosesMessages) {
   const PatrolGraph g = line_graph();
   EngineConfig c = config(3, 30.0, {0, 1, 2});

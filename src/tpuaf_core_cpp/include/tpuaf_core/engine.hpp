@@ -138,8 +138,22 @@ class GroundTruthRecorder {
   void record_positions(double time_s, const Points& positions);
   void finish(double end_s);  // robots held at their last positions until end_s
 
+  // The visits still kept (and their interval idleness [s]): visits visits_forgotten() ..
+  // visit_count() - 1 (see forget_visits_before).
   const std::vector<VisitRecord>& visits() const { return visits_; }
   const std::vector<double>& visit_idleness() const { return visit_idleness_; }
+  std::size_t visit_count() const { return visits_forgotten_ + visits_.size(); }
+  std::size_t visits_forgotten() const { return visits_forgotten_; }
+  // Visits before index `first` are dropped (a results writer has them on disk): memory of a
+  // long run stays bounded; visit indices, the per-vertex times (vertex_times: intervals,
+  // counts, first visits, worst idleness) and the 1 Hz visit counts are unchanged.
+  void forget_visits_before(std::size_t first) {
+    const std::size_t drop = std::min(first, visit_count()) - std::min(first, visits_forgotten_);
+    visits_.erase(visits_.begin(), visits_.begin() + static_cast<std::ptrdiff_t>(drop));
+    visit_idleness_.erase(visit_idleness_.begin(),
+                          visit_idleness_.begin() + static_cast<std::ptrdiff_t>(drop));
+    visits_forgotten_ += drop;
+  }
   // The 1 Hz rows still kept: rows rows_forgotten() .. row_count() - 1 (see forget_rows_before).
   const std::vector<SampleRow>& timeseries() const { return rows_; }
   std::size_t row_count() const { return rows_forgotten_ + rows_.size(); }
@@ -191,6 +205,7 @@ class GroundTruthRecorder {
 
   std::vector<VisitRecord> visits_;
   std::vector<double> visit_idleness_;
+  std::size_t visits_forgotten_ = 0;
   std::vector<std::vector<double>> vertex_times_;
   std::deque<std::pair<double, int>> pending_;
   Eigen::VectorXd sample_last_;

@@ -367,8 +367,8 @@ class ResultsWriter:
 
     def sync(self, recorder: Any) -> None:
         """Write the visits and 1 Hz rows the recorder gained since the last sync. A recorder
-        that can forget its rows (`forget_timeseries_before`, the C++ loop's) drops them once
-        written: a long run's memory stays bounded."""
+        that can forget them (`forget_visits_before`, `forget_timeseries_before`: the C++
+        loop's) drops them once written: a long run's memory stays bounded."""
         self._recorder = recorder
         ids = recorder.patrol_map.vertex_ids
         if hasattr(recorder, "visits_since"):
@@ -379,6 +379,8 @@ class ResultsWriter:
         self.write_visits(
             (t, r, ids[v], v, i) for (t, r, v), i in zip(new_visits, idl, strict=True)
         )
+        if hasattr(recorder, "forget_visits_before"):
+            recorder.forget_visits_before(self._n_visits)
         if hasattr(recorder, "forget_timeseries_before"):
             self.write_timeseries(recorder.timeseries_since(self._n_rows))
             recorder.forget_timeseries_before(self._n_rows)

@@ -289,6 +289,14 @@ class NativeRecorder:
         """(visits, their idleness) from index `first` on, not cached here."""
         return self._engine.visits(first), self._engine.visit_idleness(first)
 
+    def forget_visits_before(self, first: int) -> None:
+        """The engine drops the visits before index `first` (a results writer has them in
+        visits.csv); the summary needs none of them (per-vertex times stay in the engine), but
+        `visits` can then no longer be read from the start."""
+        self._engine.forget_visits_before(first)
+        self._visits = []
+        self._idleness = []
+
     @property
     def interferences(self) -> list[tuple[float, int, int]]:
         return self._engine.interferences
