@@ -439,6 +439,7 @@ class TpuafPlus(Policy):
         from tpuaf.policies.cyclic import team_start_vertices
 
         self.all_starts = tuple(team_start_vertices(ctx))
+        self.robot = ctx.robot
         timeout = float(self.params["silence_timeout_s"])
         if timeout <= 0:
             longest = max((float(c) for _, _, c in self.graph.edges), default=0.0)
@@ -452,6 +453,7 @@ class TpuafPlus(Policy):
         self.heard: dict[int, tuple[int, int, float, float]] = {}
         self.mate_arc: dict[int, float] = {}  # last estimated arc [m] (disambiguates walks)
         self.hold_until: float | None = None  # planned departure while dwelling [s]
+        self.respace: tuple[float, float] | None = None  # after a loss: (target arc [m], at [s])
         self.waking = False
         self.last_announce = -np.inf
         self.plan = None
@@ -468,11 +470,14 @@ class TpuafPlus(Policy):
         )
         self.route = self.plan.routes[self.plan.route_of[ctx.robot]]
         self.departure: float | None = None
+        self.respace = None
         if initial and ctx.robot in self.plan.schedule:
             self.entry, self.departure = self.plan.schedule[ctx.robot]
             self.idx = None
         elif old_route is not None and old_route.walk == self.route.walk:
-            pass  # same walk (a cycle): keep my place on it
+            # same walk (a cycle): keep my place on it; after a loss, re-space at once
+            if len(self.route.robots) < len(old_route.robots):
+                self.respace = self._respace_target(ctx)
         elif len(self.route.robots) == 1 and len(self.route.walk) > 1:  # a new part alone
             self.entry = _urgent_entry(self.route, ctx.current_vertex, self.dist,
                                        np.asarray(self.knowledge.last_visit), ctx.now, self.speed)
@@ -481,6 +486,73 @@ class TpuafPlus(Policy):
             self.entry = _entry_index(self.route, ctx.current_vertex, self.dist)
             self.idx = None
         self.hold_until = None
+
+    def _respace_target(self, ctx) -> tuple[float, float] | None:
+        """After a loss on a shared walk: (my target arc [m], at time [s]) of the survivors'
+        even spacing L / m that keeps their cyclic order and asks the least dwell of anyone
+        (robots only wait). With survivors at unwrapped arcs p_0 <= ... < p_0 + L and
+        e_j = p_j - j L / m, survivor j dwells (e_j - min e) / v, once, at its next walk
+        vertex; the spacing rule then trims what my estimates of the mates got wrong."""
+        route, now = self.route, ctx.now
+        L, m = route.length, len(route.robots)
+        if self.idx is None or m < 2 or L <= 0:
+            return None
+        mine = route.arc[self.idx]
+        if self.hold_until is not None:  # dwelling counts as driving behind my vertex
+            mine -= self.speed * max(0.0, self.hold_until - now)
+        arcs = {ctx.robot: mine % L}
+        for k in route.robots:
+            if k != ctx.robot:
+                arc = self._mate_arc(k, now)
+                if arc is None:
+                    return None  # a mate I cannot place: leave it to the spacing rule
+                arcs[k] = arc
+        # cyclic order from my position (ties: lower robot index ahead, as in spacing_wait)
+        order = sorted(arcs, key=lambda k: ((arcs[k] - arcs[ctx.robot]) % L, -k))
+        unwrapped = np.array([arcs[ctx.robot] + (arcs[k] - arcs[ctx.robot]) % L for k in order])
+        e = unwrapped - np.arange(m) * (L / m)
+        # my target: where I would be after my dwell; it moves on at v from `now`
+        return float(mine - (e[0] - e.min())), now
+
+    def _idle_room(self, now: float) -> float:
+        """How long [s] I can dwell before some walk vertex ahead of me, up to the nearest mate
+        ahead (where it is now, dwelling or not) and within L / m, waits longer than the even
+        spacing's L / (m v) for me: min over them of L / (m v) - its idleness now (my visit
+        knowledge) - my drive to it; never negative."""
+        route = self.route
+        n, L = len(route.walk), route.length
+        here = route.arc[self.idx]
+        even = L / len(route.robots)  # [m]
+        reach = even
+        for k in route.robots:
+            arc = self._mate_arc(k, now) if k != self.robot else None
+            if arc is not None:
+                if k in self.heard:  # a dwelling mate is at its vertex, not behind it
+                    arc += self.speed * max(0.0, self.heard[k][2] - now)
+                reach = min(reach, (arc - here) % L)
+        last = self.knowledge.last_visit
+        room = np.inf
+        for step in range(1, n):
+            i = (self.idx + step) % n
+            d = (route.arc[i] - here) % L
+            if d > reach + _EPS:
+                break
+            room = min(room, (even - d) / self.speed - (now - float(last[route.walk[i]])))
+        return max(0.0, float(room)) if np.isfinite(room) else 0.0
+
+    def _respace_wait(self, ctx, now: float) -> float:
+        """Dwell [s] towards my re-spacing target after a loss: what is left of it, but never
+        so long that a vertex ahead of me waits longer than the even spacing allows (the robot
+        ahead dwells its share first; `_idle_room`). Done when less than the deadband is left
+        or after a lap."""
+        target, at = self.respace
+        L = self.route.length
+        behind = (self.route.arc[self.idx] - target - self.speed * (now - at)) % L  # [m]
+        left = behind / self.speed if behind < L / 2 else 0.0  # [s]
+        wait = min(left, self._idle_room(now))
+        if left - wait <= self.params["deadband_s"] or now - at > L / self.speed:
+            self.respace = None
+        return wait
 
     # ------------------------------------------------------------------ messages
 
@@ -560,12 +632,11 @@ class TpuafPlus(Policy):
         self.mate_arc[k] = arc
         return arc
 
-    def spacing_wait(self, ctx, now: float) -> float:
-        """Dwell [s] at the current walk vertex: gain * (gap_behind - gap_ahead) / (2 v)."""
+    def _gaps(self, ctx, now: float) -> tuple[float, float, float] | None:
+        """(gap ahead, gap behind, even gap L / m) [m] from the current walk vertex to the
+        nearest placed mates; None when no mate is placed."""
         route = self.route
         L = route.length
-        if L <= 0:
-            return 0.0
         me = ctx.robot
         here_arc = route.arc[self.idx]
         ahead = behind = None
@@ -582,9 +653,16 @@ class TpuafPlus(Policy):
             ahead = fwd if ahead is None else min(ahead, fwd)
             behind = back if behind is None else min(behind, back)
         if ahead is None:
+            return None
+        return ahead, behind, L / (len(mates) + 1)
+
+    def spacing_wait(self, ctx, now: float) -> float:
+        """Dwell [s] at the current walk vertex: gain * (gap_behind - gap_ahead) / (2 v)."""
+        gaps = self._gaps(ctx, now) if self.route.length > 0 else None
+        if gaps is None:
             return 0.0
+        ahead, behind, ideal = gaps
         wait = self.params["gain"] * (behind - ahead) / (2.0 * self.speed)
-        ideal = L / (len(mates) + 1)  # [m] the even gap
         deadband = self.params["deadband_s"]
         if behind > ahead + _EPS and behind > ideal + 2.0 * deadband * self.speed:
             # gaps may step up by less than the deadband from robot to robot round the walk;
@@ -650,6 +728,8 @@ class TpuafPlus(Policy):
         if self.hold_until is None:
             if self.departure is not None:  # the start schedule
                 wait, self.departure = max(0.0, self.departure - now), None
+            elif self.respace is not None:
+                wait = self._respace_wait(ctx, now)
             else:
                 wait = self.spacing_wait(ctx, now)
             if wait > self.params["deadband_s"]:
