@@ -161,6 +161,17 @@ def test_grid_faults_stay_near_the_tour(fault):
     assert summary["idleness_max_s"] <= 1.3 * 37.05  # best-known tour, grid N = 4
 
 
+def test_two_deaths_on_the_cycle_respaced_at_once():
+    """Grid, N = 8, robots 0 and 5 (not adjacent on the walk) die at 600 s: each leaves a gap
+    of 2 L / 8, so the vertex ahead of it waits 2 L / (8 v) = 1.5x the survivors' ideal
+    L / (6 v) whatever they do along the walk. Re-spacing at once, each dwell capped so no
+    vertex ahead waits beyond L / 6, stays on that figure; the gradual rule alone gave 1.70x."""
+    config = RunConfig(map="grid", strategy="tpuaf_plus", robots=8, duration_s=1200.0, seed=1,
+                       fail=[[0, 600.0], [5, 600.0]])
+    summary = BatchRun(config, patrol_map=load_map("grid")).run()
+    assert summary["recovery"][-1]["worst_idleness_ratio"] <= 1.52
+
+
 def ring(n=12, starts=(0, 0, 0)) -> PatrolMap:
     """Ring of n vertices and 1 m edges (L = n m), 1 m/s, every robot starting at vertex 0."""
     a = 2 * np.pi * np.arange(n) / n
