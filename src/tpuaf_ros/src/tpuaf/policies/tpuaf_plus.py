@@ -23,7 +23,9 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
 4. Dwelling. A dwelling robot re-visits its vertex every `dwell_revisit_s` (goal = its own
    vertex: it is physically there) and re-announces its departure time (a heartbeat).
 5. Faults. A mate not heard from for `silence_timeout_s` is presumed dead; every survivor
-   then recomputes the plan for the survivors (step 1); the cycle closes the gap by step 3,
+   then recomputes the plan for the survivors (step 1); a cycle re-spaces at once (each
+   survivor dwells its share of the survivors' even spacing, capped so that no vertex ahead
+   waits beyond L / (m v); `_respace_target`, `_idle_room`), then by step 3;
    a partition is recomputed and each survivor drives to its new part. A presumed-dead robot
    that speaks again rejoins. Stale information never blocks a vertex: nothing is reserved;
    an old message only places a mate on its walk, and it expires with the silence timeout.
