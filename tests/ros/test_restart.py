@@ -34,7 +34,7 @@ def wait_for(predicate, timeout: float, what: str):
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         value = predicate()
-        if value:
+        if value is not None and value is not False and value != set():
             return value
         time.sleep(0.5)
     raise AssertionError(f"timed out after {timeout:g} s waiting for {what}")

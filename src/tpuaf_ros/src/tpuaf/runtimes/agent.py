@@ -63,7 +63,10 @@ class AgentRuntime:
                                    waypoint_tolerance_m, planner)
         self._graph = patrol_map.graph
         self._positions = np.asarray(patrol_map.positions, dtype=float)
-        self._now = 0.0
+        # [s] run time of the last tick; negative before the start when the team's epoch lies
+        # ahead of our clock (a teammate whose clock is ahead announced it): heartbeats are then
+        # stamped with the true time, not the epoch (which looked like clock skew)
+        self._now = -math.inf
         self._pose: tuple[float, float, float] | None = None
         self._pose_t: float | None = None
         self._stay_until: float | None = None
@@ -90,7 +93,7 @@ class AgentRuntime:
     # --- the policy context, for callers that hand this runtime to a policy ---
     @property
     def now(self) -> float:
-        return self._now
+        return max(self._now, 0.0)  # the policies' clock starts at 0
 
     @property
     def position(self) -> tuple[float, float]:
