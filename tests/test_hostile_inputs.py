@@ -19,6 +19,8 @@ from tpuaf.maps import MapError, load_map
 from tests.test_bad_input import assert_one_line_error, cli
 from tests.test_cli_run import TPUAF  # noqa: E402 - the program as users start it
 
+from .conftest import default_sigint
+
 GRAPH = ("3\n40\n40\n0.1\n0\n0\n0\n5\n5\n1\n1\nE\n10\n"
          "1\n{x}\n5\n2\n0\nW\n10\n2\nE\n{c}\n2\n25\n5\n1\n1\nW\n{c}\n")
 
@@ -190,17 +192,13 @@ def test_a_bag_that_is_a_link_loop(capsys, tmp_path):
 # ------------------------------------------------------------------------ signals
 
 
-def sigint_default() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-
-
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_right_after_start_is_one_line(tmp_path, sig):
     """SIGINT 0.1 s after start: a 22-line KeyboardInterrupt traceback; SIGTERM: exit -15
     without a message. The child's handlers are set explicitly (not inherited)."""
     proc = subprocess.Popen([*TPUAF, "run", "--duration", "1e12", "--quiet", "--out",
                              str(tmp_path / "out")], stderr=subprocess.PIPE, text=True,
-                            stdout=subprocess.DEVNULL, preexec_fn=sigint_default)
+                            stdout=subprocess.DEVNULL, preexec_fn=default_sigint)
     try:
         import time
 
