@@ -389,53 +389,9 @@ class RunRecorder:
           the team messages it sent since its last visit (what its teammates may count on it
           for); intentions_honoured: how many of them a teammate visited after the death,
           intention_delays_s: after how long (None: never)."""
-        from tpuaf.maps.tours import reference_tours
-
-        end_time = float(end_time)
-        ids = list(self.patrol_map.vertex_ids)
-        speed = self.speed_mps
-        deaths = sorted(d for d in self.deaths if d[0] <= end_time)
-        out = []
-        for k, (td, robot) in enumerate(deaths):
-            until = deaths[k + 1][0] if k + 1 < len(deaths) else end_time
-            survivors = self.n_robots - (k + 1)
-            ideal = (reference_tours(self.patrol_map, survivors, speed)["best_worst_idleness_s"]
-                     if survivors > 0 else math.nan)
-            first_after, worst = [], 0.0
-            for times in self._vertex_times:
-                j = bisect.bisect_right(times, td)
-                first_after.append(times[j] if j < len(times) and times[j] <= end_time
-                                   else math.inf)
-                prev = times[j - 1] if j else self.start_time
-                for t in times[j:]:
-                    if t > until:
-                        break
-                    worst = max(worst, t - prev)
-                    prev = t
-                worst = max(worst, until - prev)
-            recovered = max(first_after) if first_after else td
-            last_own = max((t for t, r, _ in self.visits if r == robot and t <= td),
-                           default=self.start_time)
-            intentions = sorted({v for t, r, v in self.announcements
-                                 if r == robot and last_own <= t <= td})
-            delays = []
-            for v in intentions:
-                later = [t for t, r, vv in self.visits if vv == v and r != robot and td < t]
-                delays.append(min(later) - td if later else math.nan)
-            out.append({
-                "robot": robot,
-                "time_s": td,
-                "survivors": survivors,
-                "recovery_time_s": recovered - td if math.isfinite(recovered) else math.nan,
-                "worst_idleness_after_s": worst,
-                "window_end_s": until,
-                "ideal_worst_idleness_survivors_s": ideal,
-                "worst_idleness_ratio": worst / ideal if ideal > 0 else math.nan,
-                "intentions": [int(ids[v]) for v in intentions],
-                "intentions_honoured": sum(1 for d in delays if d == d),
-                "intention_delays_s": delays,
-            })
-        return out
+        return recovery_after_deaths(
+            self.patrol_map, self.n_robots, self.speed_mps, self.start_time, self._vertex_times,
+            self.visits, self.deaths, self.announcements, end_time)
 
     # -- results --------------------------------------------------------------------------
 
@@ -500,6 +456,61 @@ class RunRecorder:
             n_interferences=len(self.interferences), n_visits=len(self.visits),
             deaths=self.deaths, stalls=self.stalls,
             recovery=self.recovery(end_time) if self.deaths else None)
+
+
+def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, start_time: float,
+                          vertex_times, visits, deaths, announcements, end_time: float
+                          ) -> list[dict]:
+    """RunRecorder.recovery from a recorder's figures (the Python recorder's and the C++ event
+    loop's): vertex_times sorted visit times [s] per vertex, visits (t, robot, vertex),
+    deaths (t, robot), announcements (t, robot, vertex)."""
+    from tpuaf.maps.tours import reference_tours
+
+    end_time = float(end_time)
+    ids = list(patrol_map.vertex_ids)
+    speed = speed_mps
+    deaths = sorted(d for d in deaths if d[0] <= end_time)
+    out = []
+    for k, (td, robot) in enumerate(deaths):
+        until = deaths[k + 1][0] if k + 1 < len(deaths) else end_time
+        survivors = n_robots - (k + 1)
+        ideal = (reference_tours(patrol_map, survivors, speed)["best_worst_idleness_s"]
+                 if survivors > 0 else math.nan)
+        first_after, worst = [], 0.0
+        for times in vertex_times:
+            j = bisect.bisect_right(times, td)
+            first_after.append(times[j] if j < len(times) and times[j] <= end_time
+                               else math.inf)
+            prev = times[j - 1] if j else start_time
+            for t in times[j:]:
+                if t > until:
+                    break
+                worst = max(worst, t - prev)
+                prev = t
+            worst = max(worst, until - prev)
+        recovered = max(first_after) if first_after else td
+        last_own = max((t for t, r, _ in visits if r == robot and t <= td),
+                       default=start_time)
+        intentions = sorted({v for t, r, v in announcements
+                             if r == robot and last_own <= t <= td})
+        delays = []
+        for v in intentions:
+            later = [t for t, r, vv in visits if vv == v and r != robot and td < t]
+            delays.append(min(later) - td if later else math.nan)
+        out.append({
+            "robot": robot,
+            "time_s": td,
+            "survivors": survivors,
+            "recovery_time_s": recovered - td if math.isfinite(recovered) else math.nan,
+            "worst_idleness_after_s": worst,
+            "window_end_s": until,
+            "ideal_worst_idleness_survivors_s": ideal,
+            "worst_idleness_ratio": worst / ideal if ideal > 0 else math.nan,
+            "intentions": [int(ids[v]) for v in intentions],
+            "intentions_honoured": sum(1 for d in delays if d == d),
+            "intention_delays_s": delays,
+        })
+    return out
 
 
 def first_coverage(rec: Any, end_time: float) -> dict[str, float]:
