@@ -1,0 +1,161 @@
+"""Runs with faults: the native engine (C++ event loop) equals the Python graph runtime.
+
+Deaths (`--fail`, `--fail-random`), stalls (`--stall`), the heartbeats and the teammate
+liveness checks run in the C++ loop with the same event order and random draws as `BatchRun`:
+the same summary (faults, liveness, recovery included), visits, 1 Hz rows, interference
+episodes and liveness losses, for strategies with a C++ decision path (tpuaf, gbs, dtag) and
+for Python policies called back from C++ (tpuaf_plus, cgg).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from tpuaf.experiments.results import ResultsWriter
+from tpuaf.maps import load_map
+from tpuaf.runtimes.config import RunConfig
+from tpuaf.runtimes.graph import BatchRun
+from tpuaf.runtimes.native import NativeRun, make_run, unsupported_options
+
+DEATH = dict(fail=[(1, 200.0)])
+DEATHS_AT_ONCE = dict(fail=[(0, 150.0), (2, 150.0), (3, 150.0)])
+DEATHS_APART = dict(fail=[(3, 100.0), (1, 260.5)])
+RANDOM = dict(fail_random=2)
+STALL = dict(stall=[(2, 130.0)])
+STALL_AND_DEATH = dict(stall=[(0, 90.0)], fail=[(3, 240.0)])
+LOSSY = dict(fail=[(1, 200.0)], loss=0.3, delay_s=5.0)
+
+CASES = [
+    # (strategy, robots, faults and bus)
+    ("tpuaf", 4, DEATH),
+    ("tpuaf", 6, DEATHS_AT_ONCE),
+    ("tpuaf", 5, RANDOM),
+    ("tpuaf", 4, STALL),
+    ("tpuaf", 5, LOSSY),
+    ("gbs", 5, DEATHS_APART),
+    ("gbs", 6, RANDOM),
+    ("gbs", 4, STALL_AND_DEATH),
+    ("gbs", 5, LOSSY),
+    ("dtag", 6, DEATHS_AT_ONCE),
+    ("dtag", 4, STALL),
+    ("dtag", 5, LOSSY),
+    ("tpuaf_plus", 4, DEATH),
+    ("tpuaf_plus", 6, DEATHS_AT_ONCE),
+    ("tpuaf_plus", 4, STALL_AND_DEATH),
+    ("tpuaf_plus", 5, LOSSY),
+    ("cgg", 5, RANDOM),
+    ("cgg", 4, STALL_AND_DEATH),
+    ("cgg", 5, LOSSY),
+]
+
+
+@pytest.fixture(scope="module")
+def grid():
+    return load_map("grid")
+
+
+def _pair(patrol_map, **kwargs):
+    python = BatchRun(RunConfig(**kwargs), patrol_map)
+    native = NativeRun(RunConfig(**kwargs), patrol_map)
+    return python, python.run(), native, native.run()
+
+
+def _assert_same(python, sp, native, sn):
+    assert sn == sp  # every summary value, exactly (faults, liveness, recovery included)
+    assert native.recorder.visits == python.recorder.visits
+    assert native.recorder.timeseries == python.recorder.timeseries
+    assert native.recorder.interferences == python.recorder.interferences
+    assert np.array_equal(native.recorder.uncertainty(), python.recorder.uncertainty())
+    assert native.losses == python.losses
+    assert native.recorder.announcements == python.recorder.announcements
+    assert native.effective_config()["faults"] == python.effective_config()["faults"]
+    assert native.now == python.now
+
+
+@pytest.mark.parametrize(("strategy", "robots", "extra"), CASES)
+def test_native_engine_with_faults_equals_python_runtime(grid, strategy, robots, extra):
+    python, sp, native, sn = _pair(grid, map="grid", strategy=strategy, robots=robots,
+                                   duration_s=600, seed=robots + 7, **extra)
+    assert native.native_policy == (strategy in ("tpuaf", "gbs", "dtag"))
+    _assert_same(python, sp, native, sn)
+    # The faults did happen, and the survivors noticed every death.
+    deaths = [f for f in sp["faults"] if f["kind"] == "death"]
+    assert sp["deaths"] == len(deaths) == len(extra.get("fail", [])) + extra.get("fail_random", 0)
+    for death in sp["liveness"]["deaths"]:
+        assert death["noticed_by"] > 0
+    if deaths:
+        assert len(sp["recovery"]) == len(deaths)
+    if "stall" in extra:
+        stalled = [r for r, _ in extra["stall"]]
+        assert sp["stalled_robots"] == stalled
+        # the stalled robot's navigator gave up on a goal at least once (the GIVE_UP path)
+        assert sum(python.robots[r].failures for r in stalled) > 0
+    if extra.get("loss") and sp["messages"]["sent"]:  # cgg sends nothing: heartbeats only
+        assert sp["messages"]["lost"] > 0
+
+
+@pytest.mark.parametrize("strategy", ["tpuaf", "tpuaf_plus"])
+def test_false_losses_and_teammates_back_are_the_same(grid, strategy):
+    """A short timeout under heavy loss: live teammates are taken for lost and come back."""
+    python, sp, native, sn = _pair(grid, map="grid", strategy=strategy, robots=5, duration_s=400,
+                                   seed=3, loss=0.6, teammate_timeout_s=3.0,
+                                   fail=[(2, 120.0)], stall=[(4, 60.0)])
+    _assert_same(python, sp, native, sn)
+    assert sp["liveness"]["false_losses"] > 10
+    assert sp["liveness"]["teammate_timeout_s"] == 3.0
+
+
+def test_every_robot_dead(grid):
+    """The field grows uncovered once nobody is left; a death at t = 0 too."""
+    python, sp, native, sn = _pair(grid, map="grid", strategy="tpuaf", robots=3, duration_s=300,
+                                   seed=1, fail=[(0, 0.0), (1, 100.0), (2, 100.0)])
+    _assert_same(python, sp, native, sn)
+    assert sp["dead_robots"] == [0, 1, 2]
+    assert not [v for v in sp["visits_per_vertex"].values() if v > 50]
+
+
+def test_cumberland_twelve_robots_three_deaths(shared_maps):
+    cumberland = load_map(shared_maps / "cumberland")
+    for strategy in ("tpuaf", "tpuaf_plus"):
+        python, sp, native, sn = _pair(cumberland, map="cumberland", strategy=strategy,
+                                       robots=12, duration_s=900, seed=1,
+                                       fail=[(0, 450.0), (5, 450.0), (9, 450.0)])
+        _assert_same(python, sp, native, sn)
+        assert sp["interferences"] > 0
+
+
+def test_results_folders_with_faults_are_equal(grid, tmp_path):
+    kwargs = dict(map="grid", strategy="tpuaf", robots=4, duration_s=300, seed=2,
+                  fail=[(1, 120.0)], stall=[(3, 60.0)])
+    texts = []
+    for name, engine in (("python", BatchRun(RunConfig(**kwargs), grid)),
+                         ("native", NativeRun(RunConfig(**kwargs), grid))):
+        writer = ResultsWriter(tmp_path / name, engine.effective_config())
+        summary = engine.run()
+        writer.finish(summary, engine.recorder)
+        values = json.loads((tmp_path / name / "summary.json").read_text())
+        values.pop("real_duration_s", None)  # wall clock, not a result
+        texts.append(values)
+    assert texts[0] == texts[1]
+    assert texts[0]["recovery"] and texts[0]["liveness"]["deaths"]
+    for name in ("visits.csv", "config.yaml"):
+        if (tmp_path / "python" / name).exists():
+            python_text = (tmp_path / "python" / name).read_text()
+            native_text = (tmp_path / "native" / name).read_text()
+            if name == "config.yaml":  # the native run names its engine
+                native_text = "\n".join(line for line in native_text.splitlines()
+                                        if not line.startswith("engine:")) + "\n"
+            assert python_text == native_text
+
+
+def test_auto_engine_runs_faults_natively(grid):
+    config = RunConfig(map="grid", strategy="tpuaf", robots=3, fail=[(0, 10.0)],
+                       stall=[(1, 5.0)], fail_random=1)
+    assert unsupported_options(config) == []
+    run, why = make_run(config, grid)
+    assert isinstance(run, NativeRun) and run.native_policy and "native" in why
+    run, _ = make_run(RunConfig(map="grid", strategy="cgg", robots=3, fail=[(0, 10.0)]), grid,
+                      "native")
+    assert isinstance(run, NativeRun) and not run.native_policy
