@@ -133,8 +133,10 @@ def unsupported_options(config: RunConfig) -> list[str]:
 
 def make_run(config: RunConfig, patrol_map=None, engine: str = "auto"):
     """The graph runtime for `config`: 'python' (BatchRun), 'native' (NativeRun, C++ loop) or
-    'auto' (native when the strategy has a C++ decision path and every option is supported).
-    Returns (run, reason): reason says why auto chose what it chose."""
+    'auto' (native whenever every option is supported: with the strategy's C++ decision path,
+    or its Python policy called back from C++, which is still faster than BatchRun with the
+    same results; benchmarks/results/native_faults.md). Returns (run, reason): reason says why
+    auto chose what it chose."""
     if engine not in ENGINES:
         raise EngineChoiceError(f"unknown engine '{engine}' (valid: {', '.join(ENGINES)})")
     config.validate()
@@ -153,8 +155,9 @@ def make_run(config: RunConfig, patrol_map=None, engine: str = "auto"):
         )
     if native_builder(config.strategy) is not None:
         return NativeRun(config, patrol_map), "native engine, C++ decision path"
-    return BatchRun(config, patrol_map), (
-        f"python engine: strategy '{config.strategy}' has no C++ decision path"
+    return NativeRun(config, patrol_map), (
+        f"native engine, strategy '{config.strategy}' called back in Python (no C++ decision "
+        "path; faster than the python engine, same results)"
     )
 
 
