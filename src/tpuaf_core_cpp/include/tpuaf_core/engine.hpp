@@ -116,10 +116,10 @@ struct EngineConfig {
   double sensing_radius_m = 5.0;
   std::vector<int> start_vertices;
   // Runs with faults (GraphEngine::set_faults):
-  double goal_tolerance_m = 0.0;    // a stalled robot dwells only within this of its goal
-  double stall_give_up_s = 60.0;    // a stalled robot's navigator gives up a drive after [s]
+  double goal_tolerance_m = 0.0;     // a stalled robot dwells only within this of its goal
+  double stall_give_up_s = 60.0;     // a stalled robot's navigator gives up a drive after [s]
   double teammate_timeout_s = 10.0;  // a teammate silent this long is lost [s]
-  double heartbeat_period_s = 1.0;  // every live robot sends a heartbeat this often [s]
+  double heartbeat_period_s = 1.0;   // every live robot sends a heartbeat this often [s]
 };
 
 // A robot fault at time_s [s] (tpuaf.runtimes.faults): death, or stall (stops moving for good).
@@ -149,9 +149,7 @@ class HeartbeatLinks {
     std::vector<std::int32_t> received;  // heartbeat indices heard, ascending
     std::vector<std::int32_t> silences;  // positions p: received[p + 1] comes after a timeout
   };
-  double arrival(std::int64_t k) const {
-    return static_cast<double>(k) * period_s_ + delay_s_;
-  }
+  double arrival(std::int64_t k) const { return static_cast<double>(k) * period_s_ + delay_s_; }
   const Link& link(int recipient, int sender);
   std::int64_t heard_by(const Link& l, int sender, double t) const;
   void silences_of(Link& l) const;
@@ -369,8 +367,8 @@ class GraphEngine {
     bool wake_pending = false;
     bool alive = true, stalled = false, dwelling = false;
     double p0x = 0, p0y = 0, vx = 0, vy = 0, t0 = 0, t1 = 0;  // current straight segment
-    std::uint64_t pending = 0;   // seq of its one awaited ARRIVE or GIVE_UP (0: none)
-    std::uint64_t liveness = 0;  // seq of its one pending liveness check (0: none)
+    std::uint64_t pending = 0;       // seq of its one awaited ARRIVE or GIVE_UP (0: none)
+    std::uint64_t liveness = 0;      // seq of its one pending liveness check (0: none)
     std::vector<double> last_heard;  // [s] per teammate (TeammateLiveness), runs with faults
     std::vector<char> lost;          // per teammate: reported lost
   };
