@@ -11,7 +11,13 @@ motion, same bus (numpy's PCG64 stream reproduced in C++), same recorder arithme
   to 1 ulp; its decisions compare probabilities with a 1e-9 tolerance, so runs agree unless
   one lands within 1 ulp of that threshold (the golden test checks several configurations);
 - any other strategy stays the Python `Policy` it is, called back from C++ only at its
-  decisions and message deliveries, with a RobotContext like the Python runtime's.
+  decisions, message deliveries, goal failures and lost teammates, with a RobotContext like
+  the Python runtime's.
+
+Faults (deaths, `--fail-random` resolved here as BatchRun resolves it, stalls), the heartbeats
+(`HeartbeatLinks`, loss draws from the streams [seed, 4, sender]) and the teammate liveness
+checks run in the C++ loop as in `TeamRun` / `BatchRun`; the summary's faults, liveness and
+recovery are BatchRun's.
 
 `NativeRun` has BatchRun's interface (config, patrol_map, now, recorder, run(progress),
 summary(), effective_config()). Select the runtime with `make_run(config, engine=...)`.
@@ -464,7 +470,8 @@ class NativeRun:
 
     @property
     def events(self) -> int:
-        """Events processed by the loop (arrivals, wake-ups, deliveries)."""
+        """Events processed by the loop (arrivals, wake-ups, deliveries, faults, give-ups,
+        liveness checks; stale ones included)."""
         return self._engine.events
 
     def run(self, progress: Callable[[float], None] | None = None) -> dict:
