@@ -133,6 +133,22 @@ void wrap_config(py::module_& m) {
       .def_readwrite("heartbeat_period_s", &EngineConfig::heartbeat_period_s);
 }
 
+// HeartbeatLinks: the heartbeats of runs with faults (tpuaf.team.liveness.HeartbeatLinks).
+void wrap_heartbeats(py::module_& m) {
+  py::class_<HeartbeatLinks>(m, "HeartbeatLinks",
+                             "Heartbeats of a run with faults, as "
+                             "tpuaf.team.liveness.HeartbeatLinks (rngs: default_rng([seed, 4, "
+                             "sender]) per sender, needed with loss).")
+      .def(py::init<int, double, double, double, double, double, std::vector<NumpyPcg64>>(),
+           py::arg("robots"), py::arg("duration_s"), py::arg("timeout_s"), py::arg("delay_s"),
+           py::arg("loss"), py::arg("period_s"), py::arg("rngs"))
+      .def("died", &HeartbeatLinks::died, py::arg("robot"), py::arg("t"))
+      .def("last_arrival_s", &HeartbeatLinks::last_arrival_s, py::arg("recipient"),
+           py::arg("sender"), py::arg("t"))
+      .def("next_check_s", &HeartbeatLinks::next_check_s, py::arg("recipient"), py::arg("sender"),
+           py::arg("last_heard"), py::arg("lost"), py::arg("now"));
+}
+
 // TeamStrategy and its Python, TPUAF, GBS and DTAG decision paths.
 void wrap_strategies(py::module_& m) {
   py::class_<TeamStrategy>(m, "TeamStrategy", "A team's decision makers, one per robot.");
@@ -441,6 +457,7 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
 void tpuaf::bindings::bind_engine(py::module_& m) {
   wrap_numpy(m);
   wrap_config(m);
+  wrap_heartbeats(m);
   wrap_strategies(m);
   py::class_<GraphEngine> engine = wrap_engine(m);
   wrap_recorder(engine);
