@@ -828,6 +828,7 @@ void GraphEngine::set_faults(std::vector<EngineFault> faults,
     r.last_heard.assign(static_cast<std::size_t>(n), -kInf);
     r.lost.assign(static_cast<std::size_t>(n), 0);
   }
+  lost_by_.assign(static_cast<std::size_t>(n), 0);
 }
 
 void GraphEngine::send(int robot, TeamMessage message) {
@@ -915,6 +916,7 @@ void GraphEngine::deliver_batch_by_robot() {
   }
   batch_cursor_.assign(batch_.size(), 0);
   const int n = config_.robots;
+  const bool faults = !faults_.empty();
   for (int r = 0; r < n; ++r) {
     for (std::size_t k = 0; k < batch_.size(); ++k) {
       Delivery& d = batch_[k];
@@ -923,13 +925,19 @@ void GraphEngine::deliver_batch_by_robot() {
       } else {
         std::size_t& c = batch_cursor_[k];
         if (c < d.recipients.size() && d.recipients[c] == r) {  // recipients are ascending
-          strategy_->on_message(*this, r, d.message);
           ++c;
+          if (faults) {  // deliver_heard's steps (hear cannot bring a teammate back here)
+            if (!robots_[static_cast<std::size_t>(r)].alive) continue;
+            hear(r, d.message.robot, now_);
+            ++bus_.delivered;
+          }
+          strategy_->on_message(*this, r, d.message);
         }
       }
     }
   }
   for (const Delivery& d : batch_) {
+    if (faults) break;  // counted per live recipient above
     bus_.delivered += d.all_but_sender ? n - 1 : static_cast<long long>(d.recipients.size());
   }
   batch_.clear();
@@ -953,7 +961,20 @@ void GraphEngine::deliver_heard() {
 
 void GraphEngine::deliver_ready() {
   if (!faults_.empty()) {
-    deliver_heard();
+    // While no robot holds a sender of these messages for lost, hearing it cannot plan a
+    // liveness check (no event is pushed during the deliveries): robot by robot is then the
+    // same as message by message.
+    bool batch = ready_.size() > 1 && strategy_->messages_are_local();
+    for (std::size_t k = 0; batch && k < ready_.size(); ++k) {
+      const int sender = ready_[k].message.robot;
+      batch =
+          sender < 0 || sender >= config_.robots || lost_by_[static_cast<std::size_t>(sender)] == 0;
+    }
+    if (batch) {
+      deliver_batch_by_robot();
+    } else {
+      deliver_heard();
+    }
     return;
   }
   if (team_hears_alike()) {  // the strategy may hear a message once for the team
@@ -1113,6 +1134,7 @@ bool GraphEngine::hear(int robot, int sender, double t) {
   char& lost = r.lost[static_cast<std::size_t>(sender)];
   if (lost) {
     lost = 0;
+    --lost_by_[static_cast<std::size_t>(sender)];
     return true;
   }
   return false;
@@ -1153,6 +1175,7 @@ void GraphEngine::liveness_due(int robot) {
     // now >= t + timeout, as the due time of the check is computed
     if (j != robot && !lost && std::isfinite(t) && now_ >= t + config_.teammate_timeout_s) {
       lost = 1;
+      ++lost_by_[static_cast<std::size_t>(j)];
       lost_now_.push_back(j);
     }
   }

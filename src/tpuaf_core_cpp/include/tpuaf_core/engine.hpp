@@ -437,6 +437,7 @@ class GraphEngine {
   std::unique_ptr<HeartbeatLinks> links_;
   std::vector<Loss> losses_;
   std::vector<int> lost_now_;
+  std::vector<int> lost_by_;  // per robot: how many teammates hold it for lost now
 };
 
 // ------------------------------------------------------------------ C++ decision paths
