@@ -441,9 +441,10 @@ def run_config(task: dict[str, Any]):
 
 
 def make_engine(config, patrol_map, runtime: str = "graph"):
-    """The engine of a runtime: graph = the C++ event loop when the strategy has a C++
-    decision path and no unsupported option is set, else BatchRun (same results either way,
-    runtimes/native.py); physics = runtimes/physics.py PhysicsRun."""
+    """The engine of a runtime: graph = the C++ event loop (`make_run` auto: with the
+    strategy's C++ decision path or its Python policy called back; BatchRun only for an
+    unsupported option; same results either way, runtimes/native.py); physics =
+    runtimes/physics.py PhysicsRun."""
     if runtime == "graph":
         from tpuaf.runtimes.native import make_run
 
