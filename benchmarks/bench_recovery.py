@@ -16,6 +16,7 @@ Command: `.venv/bin/python benchmarks/bench_recovery.py [--quick] [--workers 2]`
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import statistics
@@ -27,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import header, write  # noqa: E402
+from common import RESULTS, header, write  # noqa: E402
 
 MAPS_DIR = Path(__file__).resolve().parents[2] / "shared" / "maps" / "patrolling_sim"
 MAPS = ("grid", "cumberland", "DIAG_labs", "example")
@@ -74,10 +75,22 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--strategies", nargs="+", default=list(STRATEGIES))
     ap.add_argument("--out", default="recovery.md")
+    ap.add_argument("--reuse", action="store_true",
+                    help="run only --strategies; take the other strategies' rows from the last "
+                         "run's recovery.json (same maps, teams, seeds and duration)")
     args = ap.parse_args()
     maps = MAPS[:2] if args.quick else MAPS
     teams = (4, 8) if args.quick else (4, 8, 12)
     seeds = 1 if args.quick else args.seeds
+    saved = RESULTS / Path(args.out).with_suffix(".json").name
+    kept = []
+    if args.reuse and saved.is_file():
+        old = json.loads(saved.read_text())
+        if old.get("duration_s") == args.duration and old.get("seeds") == seeds:
+            kept = [r for r in old["rows"] if r["strategy"] not in args.strategies
+                    and r["map"] in maps and r["N"] in teams]
+    strategies = list(args.strategies) + [s for s in STRATEGIES if any(
+        r["strategy"] == s for r in kept) and s not in args.strategies]
     cases = [(m, s, n, k, seed, args.duration) for m in maps for n in teams
              for k in sorted({1, max(1, n // 4)}) for s in args.strategies
              for seed in range(1, seeds + 1)]
@@ -90,6 +103,9 @@ def main() -> None:
             if i % 20 == 0 or i == len(cases):
                 print(f"{i}/{len(cases)} runs, {time.perf_counter() - start:.0f} s", flush=True)
     wall = time.perf_counter() - start
+    saved.write_text(json.dumps({"duration_s": args.duration, "seeds": seeds,
+                                 "rows": rows + kept}, indent=1))
+    rows += kept
 
     def pick(m, n, k, s):
         return [r for r in rows if (r["map"], r["N"], r["K"], r["strategy"]) == (m, n, k, s)]
@@ -97,7 +113,9 @@ def main() -> None:
     lines = [header("Recovery after deaths: every strategy against the survivors' ideal and "
                     "the unavoidable floor"),
              f"Command: `.venv/bin/python benchmarks/bench_recovery.py{' --quick' if args.quick else ''}"
-             f" --seeds {seeds} --duration {args.duration:.0f}`. {len(cases)} runs, graph "
+             f" --seeds {seeds} --duration {args.duration:.0f}`"
+             + (f" (run: {' '.join(args.strategies)}; the other strategies' rows from the "
+                "previous run, `--reuse`)" if kept else "") + f". {len(cases)} runs, graph "
              f"runtime, {args.duration:.0f} s each, deaths at {args.duration / 2:.0f} s; wall "
              f"{wall:.0f} s with {args.workers} workers; load average (1 min) {load_before:.1f} "
              "at the start.", "",
@@ -114,7 +132,7 @@ def main() -> None:
                           "floor / ideal | keeps covering |", "|---|---|---|---|---|"]
                 ours = (math.nan, math.nan)
                 others: list[tuple[float, str]] = []
-                for s in args.strategies:
+                for s in strategies:
                     got = pick(m, n, k, s)
                     if not got:
                         continue
