@@ -26,7 +26,9 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    then recomputes the plan for the survivors (step 1); a cycle re-spaces at once (each
    survivor dwells its share of the survivors' even spacing, capped so that no vertex ahead
    waits beyond L / (m v); `_respace_target`, `_idle_room`), then by step 3;
-   a partition is recomputed and each survivor drives to its new part. A presumed-dead robot
+   a partition is merged or recomputed and each survivor drives to its new part (several
+   robots new to one walk take evenly spaced slots on it: the start schedule from where each
+   stood when the team changed, `_transition_schedule`). A presumed-dead robot
    that speaks again rejoins. Stale information never blocks a vertex: nothing is reserved;
    an old message only places a mate on its walk, and it expires with the silence timeout.
 6. Repair. While driving to a (new) part, the robot chooses among the neighbours on a
