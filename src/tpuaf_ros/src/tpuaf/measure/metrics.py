@@ -419,8 +419,9 @@ class RunRecorder:
                 worst = max(worst, until - prev)
             recovered = max(first_after) if first_after else td
             dead = {r for t, r in deaths if t <= td}
-            floor = death_floor(self, td, until, [r for r in range(self.n_robots)
-                                                  if r not in dead])
+            floor = death_floor(self.patrol_map, self.speed_mps, self.start_time,
+                                self._vertex_times, self.visits, td, until,
+                                [r for r in range(self.n_robots) if r not in dead])
             reference = max(floor, ideal) if ideal == ideal else floor
             last_own = max((t for t, r, _ in self.visits if r == robot and t <= td),
                            default=self.start_time)
@@ -513,13 +514,15 @@ class RunRecorder:
             recovery=self.recovery(end_time) if self.deaths else None)
 
 
-def death_floor(rec: Any, death_s: float, until_s: float, survivors: Sequence[int]) -> float:
+def death_floor(patrol_map: Any, speed_mps: float, start_time: float, vertex_times, visits,
+                death_s: float, until_s: float, survivors: Sequence[int]) -> float:
     """[s] the worst idleness that no strategy could avoid from a death at `death_s` up to
     `until_s`, from the state at the death: max over vertices v of the idleness of v at the
-    death plus the shortest drive to v from any survivor at `rec.speed_mps`, capped at
-    `until_s` (NaN without survivors).
+    death plus the shortest drive to v from any survivor at `speed_mps`, capped at `until_s`
+    (NaN without survivors). `vertex_times`: sorted visit times [s] per vertex; `visits`:
+    (t, robot, vertex) (a recorder's figures).
 
-    A survivor's position at the death is bounded from its own visits alone (rec.visits), by
+    A survivor's position at the death is bounded from its own visits alone, by
     the triangle inequality on the graph's shortest-path lengths d [m]: it stood on vertex a at
     t_a <= death and reaches vertex b at t_b > death, so its distance to v is at least
     max(d(a, v) - speed (death - t_a), d(b, v) - speed (t_b - death), 0). Exact in the graph
@@ -527,19 +530,20 @@ def death_floor(rec: Any, death_s: float, until_s: float, survivors: Sequence[in
     survivors = list(survivors)
     if not survivors:
         return math.nan
-    speed = float(rec.speed_mps)
-    dist = np.asarray(rec.patrol_map.graph.distances, dtype=float)
+    speed = float(speed_mps)
+    dist = np.asarray(patrol_map.graph.distances, dtype=float)
+    n_vertices = len(dist)
     before: dict[int, tuple[float, int]] = {}
     after: dict[int, tuple[float, int]] = {}
-    for t, r, v in rec.visits:
+    for t, r, v in visits:
         if t <= death_s:
             if r not in before or t >= before[r][0]:
                 before[r] = (t, v)
         elif r not in after or t < after[r][0]:
             after[r] = (t, v)
-    reach = np.full(rec.n_vertices, np.inf)  # [m] least drive to each vertex, any survivor
+    reach = np.full(n_vertices, np.inf)  # [m] least drive to each vertex, any survivor
     for r in survivors:
-        lower = np.zeros(rec.n_vertices)
+        lower = np.zeros(n_vertices)
         known = False
         if r in before:
             t, a = before[r]
@@ -551,9 +555,9 @@ def death_floor(rec: Any, death_s: float, until_s: float, survivors: Sequence[in
             known = True
         reach = np.minimum(reach, lower if known else 0.0)
     floor = 0.0
-    for v, times in enumerate(rec._vertex_times):
+    for v, times in enumerate(vertex_times):
         j = bisect.bisect_right(times, death_s)
-        last = times[j - 1] if j else rec.start_time
+        last = times[j - 1] if j else start_time
         floor = max(floor, min(death_s - last + reach[v] / speed, until_s - last))
     return float(floor)
 
