@@ -194,3 +194,46 @@ def test_start_schedule_spreads_a_team_from_one_vertex():
     # every vertex seen by 8 s (entering in turn at vertex 0 would take 11 s); bound 6 s
     assert summary["first_coverage_bound_s"] == pytest.approx(6.0)  # 12 m of forest / 3 robots
     assert 6.0 <= summary["first_coverage_s"] <= 8.0 + 1e-9
+
+
+def test_transition_to_a_new_shared_walk_spaces_the_robots():
+    """After a team change, robots entering a walk new to them take evenly spaced slots from
+    where each stood when the team changed (the start schedule), instead of all joining at
+    their nearest vertex: two robots both heading for vertex 1 of the 40 m square (one there at
+    the change, the other 5 m behind) leave it as two slots L / 2 = 20 m apart would."""
+    pm = square(starts=(0, 0, 0))
+    policy = REGISTRY.create("tpuaf_plus")
+    ctx = FakeCtx(pm, 0, 3, 0)
+    policy.start(ctx)
+    walk = policy.route.walk
+    policy.route = type(policy.route)(walk, policy.route.arc, policy.route.length, (0, 1))
+    policy.changed_at = 10.0
+    policy.history = {0: [(0, 1, 0.0, 0.0)], 1: [(0, 1, 5.0, 5.0), (1, 2, 20.0, 20.0)]}
+    plan = policy._transition_schedule()  # robot 1's later message is after the change
+    assert set(plan) == {0, 1}
+    arc, L, v = np.asarray(policy.route.arc), policy.route.length, 1.0
+    late = {0: 0.0, 1: 5.0}  # [m] robot 1 reaches vertex 1 5 s after the change
+    slots = []
+    for r, (entry, departure) in plan.items():
+        reach = policy.dist[1, walk[entry]] + late[r]
+        assert departure >= policy.changed_at + reach / v - 1e-9  # never before it is there
+        slots.append((arc[entry] - v * (departure - policy.changed_at)) % L)
+    gap = abs(slots[0] - slots[1])
+    assert min(gap, L - gap) == pytest.approx(L / 2, abs=0.1 * L / 2)
+    # a robot never heard before the change: no schedule (nearest entry instead)
+    policy.history = {0: [(0, 1, 0.0, 0.0)], 1: [(1, 2, 20.0, 20.0)]}
+    assert policy._transition_schedule() == {}
+
+
+def test_deaths_that_replan_cumberland_do_not_bunch_the_survivors(shared_maps):
+    """Cumberland, 12 robots on a partition, 3 of them die at 900 s: the survivors re-plan one
+    shared cycle. Joining it on evenly spaced slots keeps the worst idleness after the deaths
+    within 2.5x the survivors' ideal (4.6x when each joined at its nearest vertex)."""
+    dying = [2, 9, 10]  # bench_recovery.py's seed 2 draw
+    config = RunConfig(map=str(shared_maps / "cumberland"), strategy="tpuaf_plus", robots=12,
+                       duration_s=1800.0, seed=2, fail=[[r, 900.0] for r in dying])
+    summary = BatchRun(config).run()
+    last = summary["recovery"][-1]
+    worst = max(r["worst_idleness_after_s"] for r in summary["recovery"])
+    assert last["survivors"] == 9
+    assert worst <= 2.5 * last["ideal_worst_idleness_survivors_s"]
