@@ -196,33 +196,32 @@ def test_start_schedule_spreads_a_team_from_one_vertex():
     assert 6.0 <= summary["first_coverage_s"] <= 8.0 + 1e-9
 
 
-def test_transition_to_a_new_shared_walk_spaces_the_robots():
-    """After a team change, robots entering a walk new to them take evenly spaced slots from
-    where each stood when the team changed (the start schedule), instead of all joining at
-    their nearest vertex: two robots both heading for vertex 1 of the 40 m square (one there at
-    the change, the other 5 m behind) leave it as two slots L / 2 = 20 m apart would."""
+def test_transition_to_a_new_shared_walk_spreads_the_entries():
+    """After a team change, robots entering a walk new to them enter where the start schedule,
+    from where each stood when the team changed, puts their slots, instead of all at their
+    nearest vertex: two robots heading for vertex 0 of the 40 m square (one there at the
+    change, the other 1 s behind) and a third robot's vertex 2 long unvisited: one of them
+    enters the walk on the far side (vertex 2 or 3), not both at vertex 0."""
     pm = square(starts=(0, 0, 0))
     policy = REGISTRY.create("tpuaf_plus")
     ctx = FakeCtx(pm, 0, 3, 0)
     policy.start(ctx)
     walk = policy.route.walk
     policy.route = type(policy.route)(walk, policy.route.arc, policy.route.length, (0, 1))
-    policy.changed_at = 10.0
-    policy.history = {0: [(0, 1, 0.0, 0.0)], 1: [(0, 1, 5.0, 5.0), (1, 2, 20.0, 20.0)]}
-    plan = policy._transition_schedule()  # robot 1's later message is after the change
-    assert set(plan) == {0, 1}
-    arc, L, v = np.asarray(policy.route.arc), policy.route.length, 1.0
-    late = {0: 0.0, 1: 5.0}  # [m] robot 1 reaches vertex 1 5 s after the change
-    slots = []
-    for r, (entry, departure) in plan.items():
-        reach = policy.dist[1, walk[entry]] + late[r]
-        assert departure >= policy.changed_at + reach / v - 1e-9  # never before it is there
-        slots.append((arc[entry] - v * (departure - policy.changed_at)) % L)
-    gap = abs(slots[0] - slots[1])
-    assert min(gap, L - gap) == pytest.approx(L / 2, abs=0.1 * L / 2)
-    # a robot never heard before the change: no schedule (nearest entry instead)
-    policy.history = {0: [(0, 1, 0.0, 0.0)], 1: [(1, 2, 20.0, 20.0)]}
-    assert policy._transition_schedule() == {}
+    policy.changed_at = 100.0
+    policy.knowledge.record_visit(0, 99.0)
+    policy.knowledge.record_visit(1, 95.0)
+    policy.knowledge.record_visit(3, 95.0)  # vertex 2: never visited (idle 100 s)
+    # robot 1's later message (after the change) is not used: where it stood at the change
+    policy.history = {0: [(1, 0, 90.0, 90.0)], 1: [(1, 0, 91.0, 91.0), (0, 3, 120.0, 120.0)]}
+    entries = policy._transition_entries()
+    assert set(entries) == {0, 1}
+    vertices = sorted(walk[k] for k in entries.values())
+    assert vertices[0] == 0 and vertices[1] in (2, 3), vertices
+    assert policy.dist[0, 2] == pytest.approx(20.0)
+    # a robot never heard before the change: no entries (nearest vertex instead)
+    policy.history = {0: [(1, 0, 90.0, 90.0)], 1: [(0, 3, 120.0, 120.0)]}
+    assert policy._transition_entries() == {}
 
 
 def test_deaths_that_replan_cumberland_do_not_bunch_the_survivors(shared_maps):

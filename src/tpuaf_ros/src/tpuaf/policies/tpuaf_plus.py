@@ -27,8 +27,8 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    survivor dwells its share of the survivors' even spacing, capped so that no vertex ahead
    waits beyond L / (m v); `_respace_target`, `_idle_room`), then by step 3;
    a partition is merged or recomputed and each survivor drives to its new part (several
-   robots new to one walk take evenly spaced slots on it: the start schedule from where each
-   stood when the team changed, `_transition_schedule`). A presumed-dead robot
+   robots new to one walk enter it where the start schedule, from where each stood when the
+   team changed, puts their slots: `_transition_entries`). A presumed-dead robot
    that speaks again rejoins. Stale information never blocks a vertex: nothing is reserved;
    an old message only places a mate on its walk, and it expires with the silence timeout.
 6. Repair. While driving to a (new) part, the robot chooses among the neighbours on a
@@ -471,10 +471,9 @@ class TpuafPlus(Policy):
         self.heard: dict[int, tuple[int, int, float, float]] = {}
         self.mate_arc: dict[int, float] = {}  # last estimated arc [m] (disambiguates walks)
         # the last few timed announcements per robot, mine included, in the order sent: where
-        # every robot stood when the team changed (the transition schedule)
+        # every robot stood when the team changed (`_transition_entries`)
         self.history: dict[int, list[tuple[int, int, float, float]]] = {}
         self.changed_at = 0.0  # [s] when the team last changed, as every survivor dates it
-        self.transition: dict[int, tuple[int, float]] = {}  # robot -> (entry, departure [s])
         self.hold_until: float | None = None  # planned departure while dwelling [s]
         self.respace: tuple[float, float] | None = None  # after a loss: (target arc [m], at [s])
         self.waking = False
@@ -494,7 +493,6 @@ class TpuafPlus(Policy):
         self.route = self.plan.routes[self.plan.route_of[ctx.robot]]
         self.departure: float | None = None
         self.respace = None
-        self.transition = {}
         if initial and ctx.robot in self.plan.schedule:
             self.entry, self.departure = self.plan.schedule[ctx.robot]
             self.idx = None
@@ -507,22 +505,23 @@ class TpuafPlus(Policy):
                                        np.asarray(self.knowledge.last_visit), ctx.now, self.speed)
             self.idx = None
         else:
-            # a walk new to several robots: enter it on evenly spaced slots (the start
-            # schedule, from where every robot stood when the team changed), not bunched
-            self.transition = self._transition_schedule()
-            if ctx.robot in self.transition:
-                self.entry, self.departure = self.transition[ctx.robot]
-            else:
+            # a walk new to several robots: enter where the start schedule (from where every
+            # robot stood when the team changed) puts my slot, not all at the nearest vertex;
+            # leave on arrival (waiting for the slot left vertices idle longer, measured) and
+            # let the spacing rule even the gaps
+            entries = self._transition_entries()
+            self.entry = entries.get(ctx.robot)
+            if self.entry is None:
                 self.entry = _entry_index(self.route, ctx.current_vertex, self.dist)
             self.idx = None
         self.hold_until = None
 
-    def _transition_schedule(self) -> dict[int, tuple[int, float]]:
-        """Robot -> (entry index, departure [s]) on my new walk: `_schedule` with each of its
+    def _transition_entries(self) -> dict[int, int]:
+        """Robot -> entry index on my new walk: `_schedule`'s entries with each of its
         robots at the vertex its last announcement before the team change (`changed_at`) was
         heading to, from when it gets there. Every survivor computes it from the same messages
-        (unless loss or delay kept one from it), so they agree on the slots. {} when a robot of
-        the walk has not been heard."""
+        (unless loss or delay kept one from it), so they agree on the entries. {} when a robot
+        of the walk has not been heard."""
         t_ref, route = self.changed_at, self.route
         starts, late = {}, {}
         for r in route.robots:
@@ -537,7 +536,7 @@ class TpuafPlus(Policy):
             late[r] = max(0.0, departure + float(self.dist[a, b]) / self.speed - t_ref) * self.speed
         idle = np.maximum(t_ref - np.asarray(self.knowledge.last_visit, dtype=float), 0.0)
         plan = _schedule(route, starts, self.dist, self.speed, late, idle)
-        return {r: (k, t_ref + t) for r, (k, t) in plan.items()}
+        return {r: k for r, (k, _) in plan.items()}
 
     def _remember(self, robot: int, entry: tuple[int, int, float, float]) -> None:
         past = self.history.setdefault(robot, [])
@@ -673,8 +672,6 @@ class TpuafPlus(Policy):
         """Estimated arc position [m] of mate k on my walk now, None when unknown/off it."""
         route = self.route
         scheduled = self.plan.schedule.get(k)
-        if scheduled is None:
-            scheduled = self.transition.get(k)
         if scheduled is not None and k in route.robots and now < scheduled[1]:
             # not started yet: on its start slot (its messages while it drives to its entry
             # vertex place it off the slot)
