@@ -109,8 +109,11 @@ class Navigator:
         path = None
         u = self._leg_from
         if u is not None and points is None:
+            # The edge's cached path only from (about) its first vertex: a waypoint passed
+            # within waypoint_tolerance may lie round a corner, and the straight line from the
+            # pose to the edge path's next point then crosses a wall.
             p = route.positions[u]
-            if math.hypot(x - p[0], y - p[1]) <= self.waypoint_tolerance:
+            if math.hypot(x - p[0], y - p[1]) <= self.corner_tolerance:
                 path = self.planner.edge_path(u, goal)
         if path is None:
             obstacles = _obstacle_discs(points if keep_obstacles else self._unmapped(points))
