@@ -55,6 +55,10 @@ class Navigator:
         # staggered with the controller's retry wait)
         self.yield_after_s = 1.0 + controller.config.retry_wait_s
         self.unplanned_legs = 0  # legs without a path (driven straight)
+        # [m] a corner counts as passed (within corner_tolerance) only when the point after it
+        # is in line of sight with this clearance from the walls: the bare footprint + 2 cm
+        self.sight_clearance_m = controller.config.robot_radius + SIGHT_MARGIN_M
+        self._corner_tight = False  # the first corner must be reached within TIGHT_CORNER_M
 
     def set_route(self, route: GraphRoute, t: float) -> None:
         self.route = route
@@ -84,14 +88,15 @@ class Navigator:
 
     def _new_leg(self, from_vertex: int | None) -> None:
         self._corners = []
+        self._corner_tight = False
         self._leg_from = from_vertex
         self._plan_pending = self.planner is not None
 
     def _aim(self, t: float, new_goal: bool) -> None:
         route = self.route
         if self._corners:
-            self.controller.set_target(self._corners[0], self.corner_tolerance, t,
-                                       new_goal=new_goal)
+            tol = TIGHT_CORNER_M if self._corner_tight else self.corner_tolerance
+            self.controller.set_target(self._corners[0], tol, t, new_goal=new_goal)
             return
         tol = self.goal_tolerance if route.is_last else self.waypoint_tolerance
         self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
@@ -126,10 +131,21 @@ class Navigator:
         else:
             corners = [(float(px), float(py)) for px, py in path[1:-1]]
         tol = self.corner_tolerance
-        while corners and math.hypot(corners[0][0] - x, corners[0][1] - y) <= tol:
-            corners.pop(0)
         self._corners = corners
+        self._corner_tight = False
+        while (corners and math.hypot(corners[0][0] - x, corners[0][1] - y) <= tol
+               and self._corner_passable(pose)):
+            corners.pop(0)
         self._aim(t, new_goal=False)
+
+    def _corner_passable(self, pose: tuple[float, float, float]) -> bool:
+        """Whether the first corner may be left behind: the point after it is in line of
+        sight of the pose (a corner within corner_tolerance may still be round a wall's end,
+        where the corridors are narrower than the tolerance)."""
+        if self.planner is None or not self._corners:
+            return True
+        after = self._corners[1] if len(self._corners) > 1 else self.route.next_position()
+        return self.planner.segment_clear(pose[:2], after, self.sight_clearance_m)
 
     def _unmapped(self, map_points: np.ndarray | None) -> np.ndarray | None:
         """The map-frame laser points the map does not explain (farther than
@@ -186,10 +202,14 @@ class Navigator:
             return cmd, Event.FAILED, goal
         if self.planner is not None and cmd.status == Status.DRIVING:
             self._watch_blocked(t, pose, points, cmd)
-        for _ in range(len(self._corners)):
+        for _ in range(2 * len(self._corners)):
             if cmd.status != Status.REACHED or not self._corners:
                 break
-            self._corners.pop(0)  # a corner of the path: on to the next point
+            if self._corner_tight or self._corner_passable(pose):
+                self._corners.pop(0)  # a corner of the path: on to the next point
+                self._corner_tight = False
+            else:  # the next point is round a wall's end: reach this corner itself first
+                self._corner_tight = True
             self._aim(t, new_goal=False)
             cmd = ctl.step(t, pose, points)
         if cmd.status != Status.REACHED:
@@ -209,6 +229,8 @@ class Navigator:
         return cmd, Event.WAYPOINT, vertex
 
 
+SIGHT_MARGIN_M = 0.02  # [m] beyond the robot's radius: a line of sight past a wall's end
+TIGHT_CORNER_M = 0.05  # [m] tolerance of a corner whose next point is not in sight
 OBSTACLE_RADIUS_M = 0.05  # [m] of one laser point as a temporary obstacle of a replan
 OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a replan
 UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
