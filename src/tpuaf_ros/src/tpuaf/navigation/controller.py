@@ -118,6 +118,13 @@ class LocalController:
         if self._state in (self._BACK, self._WAIT):
             self._state_t = float(t)
 
+    def resume_driving(self, t: float) -> None:
+        """Leave a recovery (back off, wait) at t [s] and drive again, the retries kept."""
+        if self._state != self._FAILED:
+            self._state = self._DRIVE
+        self._best = math.inf
+        self._best_t = float(t)
+
     # -- geometry ---------------------------------------------------------------------------
 
     def free_lengths(self, points: np.ndarray | None, headings: np.ndarray,

@@ -1,0 +1,102 @@
+"""Giving way between robots in passages one robot wide (ROS-free, map frame [m]).
+
+When two robots block each other and there is no reasonable way round, one of them (the one
+whose yield timer fires first: staggered by robot index, navigator.py) gives way: it drives to
+a *refuge*, the nearest free spot off the other robot's way (a side pocket, a junction, the
+corridor it came from), waits there until the other has passed, then carries on. A robot standing
+still without a goal does the same when another comes right up to it. The other robot's way is
+estimated from what one robot knows: it comes from where it stands, through our position, on
+along the way we came (our trail) and straight on beyond us.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+REFUGE_SEARCH_M = 2.5  # [m] refuges are looked for this far from the robot at most
+REFUGE_STEP_M = 0.1  # [m] spacing of the candidate refuges
+REFUGE_PLANS = 10  # candidate refuges planned to (nearest first) before the nearest path wins
+REFUGE_PATH_FACTOR = 2.5  # a refuge's path may be this many times its straight distance (+1 m)
+WAY_EXTENSION_M = 1.5  # [m] the other robot's way goes on this far straight beyond us
+WALL_MARGIN_M = 0.03  # [m] a refuge is this much farther from walls than the lethal radius
+
+
+@dataclass
+class GiveWay:
+    """One give-way manoeuvre: drive the corners to the refuge, then wait."""
+
+    refuge: tuple[float, float]
+    corners: list[tuple[float, float]]  # still ahead, the refuge last
+    blocker: tuple[float, float]  # [m] where the other robot stood
+    started_s: float
+    deadline_s: float  # [s] waiting ends at the latest here
+    arrived_s: float | None = None  # [s] at the refuge since
+    clear_since_s: float | None = None  # [s] nothing unmapped near since
+    parked: bool = False  # a robot without a goal making room
+    trail: list = field(default_factory=list)
+
+
+def segment_distances(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
+    """[m] from each point (k, 2) to the nearest point of the polyline (m, 2)."""
+    if len(polyline) == 1:
+        return np.hypot(points[:, 0] - polyline[0, 0], points[:, 1] - polyline[0, 1])
+    a, b = polyline[:-1], polyline[1:]
+    ab = b - a
+    len2 = np.maximum((ab * ab).sum(axis=1), 1e-12)
+    rel = points[:, None, :] - a[None, :, :]
+    f = np.clip((rel * ab[None]).sum(axis=2) / len2[None], 0.0, 1.0)
+    closest = a[None] + f[:, :, None] * ab[None]
+    d = np.hypot(points[:, None, 0] - closest[:, :, 0], points[:, None, 1] - closest[:, :, 1])
+    return d.min(axis=1)
+
+
+def other_way(me: tuple[float, float], blocker: tuple[float, float],
+              trail: list[tuple[float, float]]) -> np.ndarray:
+    """The polyline (k, 2) [m] the other robot is expected to drive: from where it stands,
+    through us, back along our trail (newest first) and straight on beyond us."""
+    dx, dy = me[0] - blocker[0], me[1] - blocker[1]
+    norm = math.hypot(dx, dy) or 1.0
+    ahead = (me[0] + WAY_EXTENSION_M * dx / norm, me[1] + WAY_EXTENSION_M * dy / norm)
+    return np.array([blocker, me, ahead, me, *reversed(trail)], dtype=float)
+
+
+def path_length(path: np.ndarray) -> float:
+    return float(np.hypot(*np.diff(path, axis=0).T).sum()) if len(path) > 1 else 0.0
+
+
+def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
+                trail: list[tuple[float, float]], pass_clearance_m: float,
+                obstacles: np.ndarray | None) -> np.ndarray | None:
+    """The planned path (k, 2) [m] from `me` to the nearest refuge: a free cell at least
+    `pass_clearance_m` from the other robot's expected way (`other_way`), reachable without
+    crossing `obstacles` (discs (x, y, radius) [m]: the other robot), or None."""
+    distances = getattr(planner, "distances_to_obstacle", None)
+    if distances is None:
+        return None
+    s = np.arange(-REFUGE_SEARCH_M, REFUGE_SEARCH_M + 1e-9, REFUGE_STEP_M)
+    gx, gy = np.meshgrid(me[0] + s, me[1] + s)
+    cand = np.column_stack((gx.ravel(), gy.ravel()))
+    straight = np.hypot(cand[:, 0] - me[0], cand[:, 1] - me[1])
+    keep = straight <= REFUGE_SEARCH_M
+    cand, straight = cand[keep], straight[keep]
+    keep = distances(cand) >= planner.inscribed_radius_m + WALL_MARGIN_M
+    cand, straight = cand[keep], straight[keep]
+    if len(cand) == 0:
+        return None
+    way = other_way(me, blocker, trail)
+    keep = segment_distances(cand, way) >= pass_clearance_m
+    cand, straight = cand[keep], straight[keep]
+    best, best_len = None, math.inf
+    for k in np.argsort(straight, kind="stable")[:REFUGE_PLANS]:
+        if straight[k] >= best_len:
+            break
+        path = planner.plan(me, tuple(cand[k]), obstacles)
+        if path is None:
+            continue
+        length = path_length(path)
+        if length <= REFUGE_PATH_FACTOR * straight[k] + 1.0 and length < best_len:
+            best, best_len = path, length
+    return best
