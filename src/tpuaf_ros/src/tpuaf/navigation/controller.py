@@ -31,7 +31,8 @@ class ControllerConfig:
     plan_margin: float = _D.plan_margin  # [m] wider clearance wanted when choosing a heading
     lookahead: float = 1.0  # [m] free length wanted along the chosen heading
     slow_distance: float = 1.2  # [m] free length below which the speed drops linearly (0.8 m
-    # let robots meeting in a corridor close in faster than 5 Hz scans see: contacts)
+    # let robots meeting in a corridor close in faster than 5 Hz scans see: contacts); at most
+    # SLOW_TIME_S of driving at the top speed, not under SLOW_FLOOR_M (`slow_m`)
     heading_gain: float = 2.5  # [1/s] w = gain * heading error
     turn_in_place: float = 1.0  # [rad] heading error above which the robot only turns
     keep_right: float = 0.2  # [rad] extra cost of passing an obstacle on its right side
@@ -56,6 +57,9 @@ class ControllerConfig:
                                  f", got {value!r}")
 
 
+SLOW_TIME_S = 1.2  # [s] the slow-down zone is this many seconds at top speed (1.2 m at 1 m/s):
+# a slow robot (a Burger at 0.1 m/s in a 0.5 m aisle) need not crawl its whole way
+SLOW_FLOOR_M = 0.3  # [m] the slow-down zone is never shorter
 APPROACH_MPS = 0.05  # [m/s] least speed toward a target nearer than any obstacle ahead
 SNUG_MARGIN_M = 0.01  # [m] clearance of the last-resort (slow) headings
 _NON_NEGATIVE = ("keep_right", "retry_wait_s", "max_retries", "safety_margin", "plan_margin")
@@ -163,6 +167,13 @@ class LocalController:
         return out
 
     @property
+    def slow_m(self) -> float:
+        """[m] free length below which the speed drops linearly: slow_distance, at most
+        SLOW_TIME_S at top speed, at least SLOW_FLOOR_M."""
+        c = self.config
+        return min(c.slow_distance, max(SLOW_FLOOR_M, SLOW_TIME_S * c.max_linear_speed))
+
+    @property
     def reach_m(self) -> float:
         """[m] from the base beyond which obstacle points cannot matter (cap + radius + the
         larger margin)."""
@@ -263,7 +274,7 @@ class LocalController:
         w = max(-c.max_angular_speed, min(c.max_angular_speed, c.heading_gain * heading))
         if abs(heading) > c.turn_in_place:
             return Command(0.0, w, Status.DRIVING)
-        scale = min(1.0, ahead / c.slow_distance)
+        scale = min(1.0, ahead / self.slow_m)
         if target_m is not None and ahead >= target_m:
             # The target is nearer than the obstacle: do not crawl the last centimetres.
             scale = max(scale, min(1.0, APPROACH_MPS / c.max_linear_speed))

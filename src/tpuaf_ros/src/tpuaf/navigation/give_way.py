@@ -74,7 +74,8 @@ def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
     `pass_clearance_m` from the other robot's expected way (`other_way`), reachable without
     crossing `obstacles` (discs (x, y, radius) [m]: the other robot), or None."""
     distances = getattr(planner, "distances_to_obstacle", None)
-    if distances is None:
+    inscribed = getattr(planner, "inscribed_radius_m", None)
+    if distances is None or inscribed is None:
         return None
     s = np.arange(-REFUGE_SEARCH_M, REFUGE_SEARCH_M + 1e-9, REFUGE_STEP_M)
     gx, gy = np.meshgrid(me[0] + s, me[1] + s)
@@ -82,7 +83,7 @@ def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
     straight = np.hypot(cand[:, 0] - me[0], cand[:, 1] - me[1])
     keep = straight <= REFUGE_SEARCH_M
     cand, straight = cand[keep], straight[keep]
-    keep = distances(cand) >= planner.inscribed_radius_m + WALL_MARGIN_M
+    keep = distances(cand) >= inscribed + WALL_MARGIN_M
     cand, straight = cand[keep], straight[keep]
     if len(cand) == 0:
         return None

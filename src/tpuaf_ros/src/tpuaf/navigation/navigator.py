@@ -160,10 +160,11 @@ class Navigator:
         """Whether the first corner may be left behind: the point after it is in line of
         sight of the pose (a corner within corner_tolerance may still be round a wall's end,
         where the corridors are narrower than the tolerance)."""
-        if self.planner is None or not self._corners:
+        clear = getattr(self.planner, "segment_clear", None)
+        if clear is None or not self._corners:
             return True
         after = self._corners[1] if len(self._corners) > 1 else self.route.next_position()
-        return self.planner.segment_clear(pose[:2], after, self.sight_clearance_m)
+        return clear(pose[:2], after, self.sight_clearance_m)
 
     def _unmapped(self, map_points: np.ndarray | None) -> np.ndarray | None:
         """The map-frame laser points the map does not explain (farther than
