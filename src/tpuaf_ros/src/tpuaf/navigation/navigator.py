@@ -53,6 +53,7 @@ class Navigator:
         self.replans = 0  # legs replanned (after a recovery, or to give way)
         self.yields = 0  # replans round a robot (or unmapped obstacle) that held us still
         self._blocked_since: float | None = None
+        self._blocked_at: tuple[float, float] | None = None  # [m] where the hold watch started
         # [s] held still this long by an unmapped obstacle ahead: replan round it or give way
         # (1.5-3 s, staggered with the controller's retry wait, and by 0.1 s per four robot
         # indices: two robots held by each other do not act at the same instant)
@@ -180,23 +181,28 @@ class Navigator:
         by its retry wait, so that of two robots face to face one acts first) by something
         the map does not explain, ahead of it, replans round it (another corridor, if there
         is one) without waiting to be stuck. The other then finds its way clear."""
-        held = min(BLOCKED_SPEED_MPS, 0.25 * self.controller.config.max_linear_speed)
-        if abs(cmd.v) >= held:
-            self._blocked_since = None
-            return
-        if self._blocked_since is None:
-            self._blocked_since = t
+        x, y = pose[0], pose[1]
+        # Held still: not HELD_M away from where the watch started (turning on the spot, or
+        # dithering, is still being held).
+        anchor = self._blocked_at
+        if anchor is None or math.hypot(x - anchor[0], y - anchor[1]) > HELD_M:
+            self._blocked_at, self._blocked_since = (x, y), t
             return
         if t - self._blocked_since < self.yield_after_s:
             return
         self._blocked_since = t  # at most one such replan per yield_after_s
-        ahead = None
-        if points is not None and len(points):
-            near = points[(points[:, 0] > 0.0)
-                          & (np.hypot(points[:, 0], points[:, 1]) <= BLOCKING_RANGE_M)]
-            ahead = self._unmapped(_map_points(pose, near))
-        if ahead is None:
+        unmapped = self._unmapped(_map_points(pose, points))
+        if unmapped is None:
             return
+        # Ahead: toward the point we aim at (not the heading, which may be turning), in range.
+        aim = self.controller.target or self.route.next_position()
+        ux, uy = aim[0] - x, aim[1] - y
+        rel = unmapped - np.array([x, y])
+        keep = ((rel[:, 0] * ux + rel[:, 1] * uy > 0.0)
+                & (np.hypot(rel[:, 0], rel[:, 1]) <= BLOCKING_RANGE_M))
+        if not keep.any():
+            return
+        ahead = unmapped[keep]
         self.yields += 1
         x, y = pose[0], pose[1]
         obstacles = _obstacle_discs(ahead)
@@ -208,7 +214,7 @@ class Navigator:
             self._plan_leg(t, pose, ahead, keep_obstacles=True)
             return
         if self._give_ways_this_leg < MAX_GIVE_WAYS_PER_LEG and self._start_give_way(
-                t, pose, ahead, parked=False):
+                t, pose, ahead, parked=False, others=unmapped):
             self._give_ways_this_leg += 1
             return
         if detour is not None:  # a long way round is still better than none
@@ -235,9 +241,11 @@ class Navigator:
         return 2.0 * c.robot_radius + c.safety_margin + PASS_MARGIN_M
 
     def _start_give_way(self, t: float, pose: tuple[float, float, float],
-                        blocking: np.ndarray, parked: bool) -> bool:
+                        blocking: np.ndarray, parked: bool,
+                        others: np.ndarray | None = None) -> bool:
         """Look for a refuge off the way of the robot whose points (map frame) are
-        `blocking`; start driving there if there is one."""
+        `blocking`, reachable round `others` (every unmapped point near); start driving there
+        if there is one."""
         if self.planner is None or blocking is None or len(blocking) == 0:
             return False
         me = (float(pose[0]), float(pose[1]))
@@ -248,7 +256,8 @@ class Navigator:
         r = self.controller.config.robot_radius
         # the other robot's centre: behind the points we see of it
         blocker = (float(cx + r * (cx - me[0]) / d), float(cy + r * (cy - me[1]) / d))
-        obstacles = np.vstack((_obstacle_discs(blocking), [(blocker[0], blocker[1], r)]))
+        seen = blocking if others is None else others
+        obstacles = np.vstack((_obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
         path = find_refuge(self.planner, me, blocker, self._trail, self._pass_clearance_m(),
                            obstacles)
         if path is None:
@@ -262,6 +271,7 @@ class Navigator:
                                  parked=parked)
         self.give_ways += 1
         self._blocked_since = None
+        self._blocked_at = None
         self._aim_give_way(t)
         return True
 
@@ -276,6 +286,7 @@ class Navigator:
         """Back to the route (a plan from the pose), or to standing still when parked."""
         self._give_way = None
         self._blocked_since = None
+        self._blocked_at = None
         self.controller.resume_driving(t)
         if self.route is None:
             self.controller.target = None
@@ -417,7 +428,7 @@ TIGHT_CORNER_M = 0.05  # [m] tolerance of a corner whose next point is not in si
 OBSTACLE_RADIUS_M = 0.05  # [m] of one laser point as a temporary obstacle of a replan
 OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a replan
 UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
-BLOCKED_SPEED_MPS = 0.03  # [m/s] slower than this (or a quarter of the top speed), held still
+HELD_M = 0.05  # [m] a robot that has not moved this far is held still
 BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
 
 
