@@ -64,7 +64,8 @@ class Navigator:
         self._give_way: GiveWay | None = None
         self._give_ways_this_leg = 0
         self._trail: list[tuple[float, float]] = []  # [m] recent positions, newest last
-        self._near_since: float | None = None  # [s] parked with a robot right beside since
+        self._near_since: float | None = None  # [s] parked with a robot near since
+        self._near_d = math.inf  # [m] the nearest it came meanwhile
         self.unplanned_legs = 0  # legs without a path (driven straight)
         # [m] a corner counts as passed (within corner_tolerance) only when the point after it
         # is in line of sight with this clearance from the walls: the bare footprint + 2 cm
@@ -343,26 +344,30 @@ class Navigator:
     def park_step(self, t: float, pose: tuple[float, float, float],
                   points: np.ndarray | None) -> tuple[float, float]:
         """A robot standing without a route (no goal, or waiting to decide): it makes room
-        (drives to a refuge, waits, stays there) when another robot has stood right in front
-        of or beside it for PARKED_YIELD_S. Returns (v [m/s], w [rad/s])."""
+        (drives to a refuge, waits, stays there) when another robot within BLOCKING_RANGE_M
+        has not moved away for PARKED_YIELD_S (+ 0.05 s per robot index, mod 8): sooner than
+        a driving robot held still acts (yield_after_s), so the one that has a goal keeps it.
+        Returns (v [m/s], w [rad/s])."""
         if self.planner is None:
             return 0.0, 0.0
         if self._give_way is not None:
             cmd = self._step_give_way(t, pose, points)
             return cmd.v, cmd.w
-        near = _map_points(pose, points)
-        near = self._unmapped(near) if near is not None else None
+        near = self._unmapped(_map_points(pose, points))
+        nearest = math.inf
         if near is not None:
-            me = np.array(pose[:2])
-            close = np.hypot(*(near - me).T) <= (self.controller.config.robot_radius
-                                                 + PARKED_CLOSE_M)
-            near = near if close.any() else None
-        if near is None:
+            d = np.hypot(near[:, 0] - pose[0], near[:, 1] - pose[1])
+            near = near[d <= BLOCKING_RANGE_M]
+            nearest = float(d.min())
+        if near is None or len(near) == 0:
             self._near_since = None
             return 0.0, 0.0
-        if self._near_since is None:
-            self._near_since = t
-        if t - self._near_since < PARKED_YIELD_S + 0.1 * (self.robot_index % 8):
+        if self._near_since is None or nearest > self._near_d + HELD_M:
+            # first seen, or moving away (passing by): start watching again
+            self._near_since, self._near_d = t, nearest
+            return 0.0, 0.0
+        self._near_d = min(self._near_d, nearest)
+        if t - self._near_since < PARKED_YIELD_S + 0.05 * (self.robot_index % 8):
             return 0.0, 0.0
         self._near_since = None
         if not self._start_give_way(t, pose, near, parked=True):
@@ -443,8 +448,7 @@ GIVE_WAY_WAIT_S = 2.0  # [s] in a refuge at least this long
 GIVE_WAY_CLEAR_S = 1.0  # [s] ... and nothing unmapped near for this long
 GIVE_WAY_MIN_S = 10.0  # [s] least waiting budget of a give-way
 GIVE_WAY_PASS_M = 2.0  # [m] the other robot drives this far to be past (the waiting budget)
-PARKED_CLOSE_M = 0.2  # [m] beyond our radius: another robot this close makes a parked one move
-PARKED_YIELD_S = 1.0  # [s] ... after this long (+ 0.1 s per robot index, mod 8)
+PARKED_YIELD_S = 0.5  # [s] a parked robot makes room after another has been near this long
 TRAIL_STEP_M = 0.1  # [m] between the remembered positions
 TRAIL_POINTS = 30  # remembered positions (3 m)
 
