@@ -17,9 +17,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 REFUGE_SEARCH_M = 2.5  # [m] refuges are looked for this far from the robot at most
-REFUGE_STEP_M = 0.1  # [m] spacing of the candidate refuges
-REFUGE_PLANS = 10  # candidate refuges planned to (nearest first) before the nearest path wins
-REFUGE_PATH_FACTOR = 2.5  # a refuge's path may be this many times its straight distance (+1 m)
+REFUGE_STEP_M = 0.05  # [m] cells of the search for a refuge
+REFUGE_PLANS = 3  # refuges planned to (nearest first) before giving up
+REFUGE_PATH_FACTOR = 2.5  # a refuge's planned path may be this many times its wave distance
+# (+ 1 m): the plan keeps from walls, the wave does not
 WAY_EXTENSION_M = 1.5  # [m] the other robot's way goes on this far straight beyond us
 WALL_MARGIN_M = 0.03  # [m] a refuge is this much farther from walls than the lethal radius
 
@@ -70,34 +71,53 @@ def path_length(path: np.ndarray) -> float:
 def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
                 trail: list[tuple[float, float]], pass_clearance_m: float,
                 obstacles: np.ndarray | None) -> np.ndarray | None:
-    """The planned path (k, 2) [m] from `me` to the nearest refuge: a free cell at least
+    """The planned path (k, 2) [m] from `me` to the nearest refuge: a free spot at least
     `pass_clearance_m` from the other robot's expected way (`other_way`), reachable without
-    crossing `obstacles` (discs (x, y, radius) [m]: the other robot), or None."""
+    crossing `obstacles` (discs (x, y, radius) [m]: the other robots), or None.
+
+    Nearest by a wave over a square of cells round `me` (free: not lethal for the robot, not
+    within a disc's lethal reach), then a plan to the first few refuges the wave met."""
     distances = getattr(planner, "distances_to_obstacle", None)
     inscribed = getattr(planner, "inscribed_radius_m", None)
     if distances is None or inscribed is None:
         return None
-    s = np.arange(-REFUGE_SEARCH_M, REFUGE_SEARCH_M + 1e-9, REFUGE_STEP_M)
-    gx, gy = np.meshgrid(me[0] + s, me[1] + s)
-    cand = np.column_stack((gx.ravel(), gy.ravel()))
-    straight = np.hypot(cand[:, 0] - me[0], cand[:, 1] - me[1])
-    keep = straight <= REFUGE_SEARCH_M
-    cand, straight = cand[keep], straight[keep]
-    keep = distances(cand) >= inscribed + WALL_MARGIN_M
-    cand, straight = cand[keep], straight[keep]
-    if len(cand) == 0:
-        return None
-    way = other_way(me, blocker, trail)
-    keep = segment_distances(cand, way) >= pass_clearance_m
-    cand, straight = cand[keep], straight[keep]
-    best, best_len = None, math.inf
-    for k in np.argsort(straight, kind="stable")[:REFUGE_PLANS]:
-        if straight[k] >= best_len:
+    step = REFUGE_STEP_M
+    k = int(round(REFUGE_SEARCH_M / step))
+    s = np.arange(-k, k + 1) * step
+    gx, gy = np.meshgrid(me[0] + s, me[1] + s)  # [row = y, col = x]
+    cells = np.column_stack((gx.ravel(), gy.ravel()))
+    wall = distances(cells).reshape(gx.shape)
+    free = wall >= inscribed
+    if obstacles is not None and len(obstacles):
+        for ox, oy, r in np.asarray(obstacles, dtype=float):
+            free &= np.hypot(gx - ox, gy - oy) >= r + inscribed
+    # The wave: cells reached from our own cell (free or not: we stand there) step by step.
+    reached = np.zeros_like(free)
+    reached[k, k] = True
+    order = np.full(free.shape, -1, dtype=int)
+    order[k, k] = 0
+    front = reached.copy()
+    for wave in range(1, 4 * k):
+        grown = front.copy()
+        grown[1:, :] |= front[:-1, :]
+        grown[:-1, :] |= front[1:, :]
+        grown[:, 1:] |= front[:, :-1]
+        grown[:, :-1] |= front[:, 1:]
+        front = grown & free & ~reached
+        if not front.any():
             break
-        path = planner.plan(me, tuple(cand[k]), obstacles)
-        if path is None:
-            continue
-        length = path_length(path)
-        if length <= REFUGE_PATH_FACTOR * straight[k] + 1.0 and length < best_len:
-            best, best_len = path, length
-    return best
+        reached |= front
+        order[front] = wave
+    refuge = reached & (wall >= inscribed + WALL_MARGIN_M)
+    refuge[k, k] = False
+    if not refuge.any():
+        return None
+    idx = np.flatnonzero(refuge.ravel())
+    way = other_way(me, blocker, trail)
+    idx = idx[segment_distances(cells[idx], way) >= pass_clearance_m]
+    for j in idx[np.argsort(order.ravel()[idx], kind="stable")][:REFUGE_PLANS]:
+        path = planner.plan(me, tuple(cells[j]), obstacles)
+        if path is not None and path_length(path) <= (
+                REFUGE_PATH_FACTOR * order.ravel()[j] * step + 1.0):
+            return path
+    return None

@@ -259,8 +259,8 @@ class Navigator:
         blocker = (float(cx + r * (cx - me[0]) / d), float(cy + r * (cy - me[1]) / d))
         seen = blocking if others is None else others
         obstacles = np.vstack((_obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
-        path = find_refuge(self.planner, me, blocker, self._trail, self._pass_clearance_m(),
-                           obstacles)
+        path = find_refuge(self.planner, me, blocker, [] if parked else self._trail,
+                           self._pass_clearance_m(), obstacles)
         if path is None:
             return False
         speed = self.controller.config.max_linear_speed
