@@ -60,6 +60,7 @@ class ControllerConfig:
 SLOW_TIME_S = 1.2  # [s] the slow-down zone is this many seconds at top speed (1.2 m at 1 m/s):
 # a slow robot (a Burger at 0.1 m/s in a 0.5 m aisle) need not crawl its whole way
 SLOW_FLOOR_M = 0.3  # [m] the slow-down zone is never shorter
+CONTACT_M = 0.01  # [m] a laser point this close to the disc is touching it
 APPROACH_MPS = 0.05  # [m/s] least speed toward a target nearer than any obstacle ahead
 SNUG_MARGIN_M = 0.01  # [m] clearance of the last-resort (slow) headings
 _NON_NEGATIVE = ("keep_right", "retry_wait_s", "max_retries", "safety_margin", "plan_margin")
@@ -229,7 +230,28 @@ class LocalController:
             # Turn while reversing, alternating sides between retries.
             self._back_w = 0.5 * (1 if self.retries % 2 else -1)
             return Command(0.0, 0.0, Status.RECOVERING)
+        escape = self._escape(points)
+        if escape is not None:
+            return escape
         return self._drive(dist, wrap_angle(math.atan2(dy, dx) - th), points)
+
+    def _escape(self, points: np.ndarray | None) -> Command | None:
+        """Touching something (a laser point within CONTACT_M of the disc): move straight away
+        from it, backward when it is in front, forward when behind, so that two robots in
+        contact part instead of pushing on (the simulator stops a robot that would overlap)."""
+        if points is None or len(points) == 0:
+            return None
+        c = self.config
+        d = np.hypot(points[:, 0], points[:, 1])
+        k = int(np.argmin(d))
+        if d[k] >= c.robot_radius + CONTACT_M:
+            return None
+        speed = min(c.backoff_speed, 0.5 * c.max_linear_speed)
+        ahead = points[k, 0] > 0.0
+        room = self.free_lengths(points, np.array([math.pi if ahead else 0.0]), margin=0.0)[0]
+        if room < 0.5 * speed:
+            return None  # wedged: the usual headings and recovery decide
+        return Command(-speed if ahead else speed, 0.0, Status.DRIVING)
 
     def _drive(self, dist: float, bearing: float, points: np.ndarray | None) -> Command:
         c = self.config
