@@ -37,6 +37,8 @@ class GiveWay:
     arrived_s: float | None = None  # [s] at the refuge since
     clear_since_s: float | None = None  # [s] nothing unmapped near since
     parked: bool = False  # a robot without a goal making room
+    other_at: np.ndarray | None = None  # [m] centre of the other robot's points near us
+    other_since_s: float = 0.0  # [s] ... there (within HELD_M) since
     trail: list = field(default_factory=list)
 
 
@@ -55,13 +57,22 @@ def segment_distances(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
 
 
 def other_way(me: tuple[float, float], blocker: tuple[float, float],
-              trail: list[tuple[float, float]]) -> np.ndarray:
+              trail: list[tuple[float, float]],
+              heading_to: tuple[float, float] | None = None) -> np.ndarray:
     """The polyline (k, 2) [m] the other robot is expected to drive: from where it stands,
-    through us, back along our trail (newest first) and straight on beyond us."""
-    dx, dy = me[0] - blocker[0], me[1] - blocker[1]
-    norm = math.hypot(dx, dy) or 1.0
-    ahead = (me[0] + WAY_EXTENSION_M * dx / norm, me[1] + WAY_EXTENSION_M * dy / norm)
-    return np.array([blocker, me, ahead, me, *reversed(trail)], dtype=float)
+    through us, back along our trail (newest first), straight on beyond us, and (when we were
+    driving toward `heading_to`, the point we aimed at: along a corridor) straight back from
+    us away from that point."""
+    points = [blocker, me]
+    for fx, fy in ((blocker[0], blocker[1]), heading_to):
+        dx, dy = me[0] - fx, me[1] - fy
+        norm = math.hypot(dx, dy)
+        if norm > 1e-6:
+            points += [(me[0] + WAY_EXTENSION_M * dx / norm,
+                        me[1] + WAY_EXTENSION_M * dy / norm), me]
+        if heading_to is None:
+            break
+    return np.array([*points, *reversed(trail)], dtype=float)
 
 
 def path_length(path: np.ndarray) -> float:
@@ -70,7 +81,8 @@ def path_length(path: np.ndarray) -> float:
 
 def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
                 trail: list[tuple[float, float]], pass_clearance_m: float,
-                obstacles: np.ndarray | None) -> np.ndarray | None:
+                obstacles: np.ndarray | None,
+                heading_to: tuple[float, float] | None = None) -> np.ndarray | None:
     """The planned path (k, 2) [m] from `me` to the nearest refuge: a free spot at least
     `pass_clearance_m` from the other robot's expected way (`other_way`), reachable without
     crossing `obstacles` (discs (x, y, radius) [m]: the other robots), or None.
@@ -113,7 +125,7 @@ def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
     if not refuge.any():
         return None
     idx = np.flatnonzero(refuge.ravel())
-    way = other_way(me, blocker, trail)
+    way = other_way(me, blocker, trail, heading_to)
     idx = idx[segment_distances(cells[idx], way) >= pass_clearance_m]
     for j in idx[np.argsort(order.ravel()[idx], kind="stable")][:REFUGE_PLANS]:
         path = planner.plan(me, tuple(cells[j]), obstacles)

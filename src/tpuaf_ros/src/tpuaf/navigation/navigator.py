@@ -259,8 +259,9 @@ class Navigator:
         blocker = (float(cx + r * (cx - me[0]) / d), float(cy + r * (cy - me[1]) / d))
         seen = blocking if others is None else others
         obstacles = np.vstack((_obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
+        aim = None if parked else self.controller.target
         path = find_refuge(self.planner, me, blocker, [] if parked else self._trail,
-                           self._pass_clearance_m(), obstacles)
+                           self._pass_clearance_m(), obstacles, aim)
         if path is None:
             return False
         speed = self.controller.config.max_linear_speed
@@ -323,9 +324,16 @@ class Navigator:
             gw.clear_since_s = None
         elif gw.clear_since_s is None:
             gw.clear_since_s = t
+        # The other robot standing still near us (not passing: it waits for us, or has
+        # arrived): waiting on achieves nothing.
+        centre = near.mean(axis=0) if busy else None
+        if centre is None or gw.other_at is None or math.hypot(
+                centre[0] - gw.other_at[0], centre[1] - gw.other_at[1]) > HELD_M:
+            gw.other_at, gw.other_since_s = centre, t
         waited = t - gw.arrived_s >= GIVE_WAY_WAIT_S
         clear = gw.clear_since_s is not None and t - gw.clear_since_s >= GIVE_WAY_CLEAR_S
-        if (waited and clear) or t >= gw.deadline_s:
+        standing = gw.other_at is not None and t - gw.other_since_s >= GIVE_WAY_STILL_S
+        if (waited and (clear or standing)) or t >= gw.deadline_s:
             self._end_give_way(t, pose)
             if self.route is None:
                 return Command(0.0, 0.0, Status.REACHED)
@@ -446,6 +454,7 @@ REFUGE_TOLERANCE_M = 0.08  # [m] a refuge is reached within this
 CORNER_GIVE_WAY_M = 0.15  # [m] corners on the way to a refuge are reached within this
 GIVE_WAY_WAIT_S = 2.0  # [s] in a refuge at least this long
 GIVE_WAY_CLEAR_S = 1.0  # [s] ... and nothing unmapped near for this long
+GIVE_WAY_STILL_S = 3.0  # [s] ... or the other robot near has stood still this long
 GIVE_WAY_MIN_S = 10.0  # [s] least waiting budget of a give-way
 GIVE_WAY_PASS_M = 2.0  # [m] the other robot drives this far to be past (the waiting budget)
 PARKED_YIELD_S = 0.5  # [s] a parked robot makes room after another has been near this long
