@@ -174,3 +174,19 @@ def test_a_waypoint_passed_round_a_wall_end_is_driven_round_not_through():
 def test_the_slow_down_zone_scales_with_the_top_speed(speed, slow):
     controller = LocalController(ControllerConfig(max_linear_speed=speed))
     assert controller.slow_m == pytest.approx(slow)
+
+
+def test_a_robot_touching_another_moves_straight_away_from_it():
+    """In contact (a laser point within 1 cm of the disc) the robot backs away from what is in
+    front of it, or drives away from what is behind, instead of pushing on (at 1 m/s two
+    robots used to stay pinned to each other for seconds: 1r5, N = 8, 1804 contact steps)."""
+    controller = LocalController(ControllerConfig(max_linear_speed=1.0, robot_radius=0.165))
+    controller.set_target((3.0, 0.0), 0.4, 0.0)
+    touching = 0.165 + 0.005  # [m] from the centre
+    for angle, sign in ((-1.2, -1.0), (0.0, -1.0), (2.8, 1.0)):
+        point = np.array([[touching * math.cos(angle), touching * math.sin(angle)]])
+        cmd = controller.step(0.1, (0.0, 0.0, 0.0), point)
+        assert cmd.v * sign > 0 and cmd.w == 0.0, (angle, cmd)
+    # A point 5 cm off the disc is no contact: the robot drives on toward the target.
+    point = np.array([[0.0, -(0.165 + 0.05)]])
+    assert controller.step(0.2, (0.0, 0.0, 0.0), point).v > 0
