@@ -12,7 +12,7 @@ along the way we came (our trail) and straight on beyond us.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -39,7 +39,6 @@ class GiveWay:
     parked: bool = False  # a robot without a goal making room
     other_at: np.ndarray | None = None  # [m] centre of the other robot's points near us
     other_since_s: float = 0.0  # [s] ... there (within HELD_M) since
-    trail: list = field(default_factory=list)
 
 
 def segment_distances(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:

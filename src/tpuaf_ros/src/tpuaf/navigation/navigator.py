@@ -32,7 +32,9 @@ class Navigator:
     to the path's corners one by one (reached within `corner_tolerance` [m]), then to the vertex.
     After a recovery (the controller was stuck and backed off) the leg is replanned from the
     pose, with the laser's points as obstacles for that plan (another robot, an unmapped
-    obstacle), so the robot takes another way when there is one. Pass-through waypoints count as
+    obstacle), so the robot takes another way when there is a reasonable one. A robot held
+    still by another robot gives way (a refuge off the other's way) when there is no way round;
+    a robot without a route makes room for one that comes up to it (`park_step`). Pass-through waypoints count as
     reached within `waypoint_tolerance` [m], the goal within `goal_tolerance` [m] (SPEC: 0.4 m).
     `step` returns (Command, Event, vertex): the vertex is the waypoint or goal reached, or the
     goal that failed."""
@@ -179,9 +181,11 @@ class Navigator:
     def _watch_blocked(self, t: float, pose: tuple[float, float, float],
                        points: np.ndarray | None, cmd: Command) -> None:
         """The right of way between robots: a robot held still for `yield_after_s` (staggered
-        by its retry wait, so that of two robots face to face one acts first) by something
-        the map does not explain, ahead of it, replans round it (another corridor, if there
-        is one) without waiting to be stuck. The other then finds its way clear."""
+        by its retry wait and index, so that of two robots face to face one acts first) by
+        something the map does not explain, ahead of it, replans round it when there is a
+        reasonable way round (another corridor), else gives way (drives to a refuge off the
+        other's way and waits there, give_way.py), without waiting to be stuck. The other then
+        finds its way clear."""
         x, y = pose[0], pose[1]
         # Held still: not HELD_M away from where the watch started (turning on the spot, or
         # dithering, is still being held).
