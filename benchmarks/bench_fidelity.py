@@ -166,6 +166,22 @@ def main() -> int:
                       seed=args.seed)
                  for m in args.maps for rb in args.robot_models for s in args.strategies
                  for n in args.robots]
+    from tpuaf.errors import TpuafError
+    from tpuaf.maps import load_map
+    from tpuaf.policies import REGISTRY
+
+    for name in sorted({c["strategy"] for c in cases}):
+        if name not in REGISTRY.names():
+            ap.error(f"unknown strategy {name!r}")
+    from tpuaf.runtimes.config import choose_robot
+
+    for name in sorted({c["map"] for c in cases}):
+        try:
+            settings = load_map(map_ref(name)).settings
+            for robot in sorted({c["robot"] for c in cases if c["map"] == name}):
+                choose_robot(robot, settings)
+        except (TpuafError, OSError, ValueError) as err:
+            ap.error(f"map {name!r}: {err}")
     start = time.perf_counter()
     results = []
     with ProcessPoolExecutor(args.workers) as pool:
