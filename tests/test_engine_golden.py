@@ -95,11 +95,12 @@ def test_tpuaf_python_callbacks_equal_its_cpp_path(maps):
     assert native.run() == sc
 
 
-def test_results_folders_have_equal_summary_json(maps, tmp_path):
-    kwargs = dict(map="grid", strategy="tpuaf", robots=4, duration_s=300, seed=2)
+def summary_json_of_both_engines(patrol_map, tmp_path, **kwargs) -> list[dict]:
+    """summary.json of the python and the native engine's results folders for one config (the
+    wall-clock field dropped)."""
     texts = []
-    for name, engine in (("python", BatchRun(RunConfig(**kwargs), maps["grid"])),
-                         ("native", NativeRun(RunConfig(**kwargs), maps["grid"]))):
+    for name, engine in (("python", BatchRun(RunConfig(**kwargs), patrol_map)),
+                         ("native", NativeRun(RunConfig(**kwargs), patrol_map))):
         writer = ResultsWriter(tmp_path / name, engine.effective_config())
         summary = engine.run()
         writer.finish(summary, engine.recorder)
@@ -107,6 +108,12 @@ def test_results_folders_have_equal_summary_json(maps, tmp_path):
         values.pop("real_duration_s", None)  # wall clock, not a result
         texts.append(values)
         assert (tmp_path / name / "visits.csv").exists()
+    return texts
+
+
+def test_results_folders_have_equal_summary_json(maps, tmp_path):
+    texts = summary_json_of_both_engines(maps["grid"], tmp_path, map="grid", strategy="tpuaf",
+                                         robots=4, duration_s=300, seed=2)
     assert texts[0] == texts[1]
     assert (tmp_path / "python" / "visits.csv").read_text() == (
         tmp_path / "native" / "visits.csv").read_text()
@@ -117,8 +124,9 @@ def test_auto_engine_selection(maps):
     assert isinstance(run, NativeRun) and "native" in why
     run, why = make_run(RunConfig(map="grid", strategy="dtag", robots=2), maps["grid"])
     assert isinstance(run, NativeRun) and run.native_policy
+    # A Python policy called back from the C++ loop is still faster than BatchRun: auto too.
     run, why = make_run(RunConfig(map="grid", strategy="cgg", robots=2), maps["grid"])
-    assert isinstance(run, BatchRun) and "no C++ decision path" in why
+    assert isinstance(run, NativeRun) and not run.native_policy and "no C++ decision path" in why
     run, _ = make_run(RunConfig(map="grid", strategy="cgg", robots=2), maps["grid"], "native")
     assert isinstance(run, NativeRun) and not run.native_policy
     run, _ = make_run(RunConfig(map="grid", strategy="tpuaf", robots=2), maps["grid"], "python")
@@ -160,8 +168,9 @@ def test_cli_engine_option(capsys):
     assert code_n == code_p == 0
     assert table_n == table_p and len(table_n) >= 10  # the same summary table
     assert "native engine" in err_n and "python engine" in err_p
-    # Faults are not in the native engine yet: auto falls back and says so; native refuses.
-    code, _, err = _cli(capsys, "--fail", "0@100", "--quiet")
-    assert code == 0 and "does not support robot deaths" in err
-    code, _, err = _cli(capsys, "--engine", "native", "--fail", "0@100")
-    assert code == 2 and "error" in err and "--engine python" in err
+    # Faults run on the native engine too, with the python engine's results.
+    code_f, table_f, err_f = _cli(capsys, "--fail", "0@100", "--stall", "1@50")
+    code_p, table_p, _ = _cli(capsys, "--engine", "python", "--fail", "0@100", "--stall", "1@50")
+    assert code_f == code_p == 0 and "native engine" in err_f
+    assert table_f == table_p and len(table_f) >= 10
+    assert any("death of robot 0" in line for line in table_f)

@@ -69,6 +69,44 @@ def test_recovery_on_a_hand_log():
     assert r["window_end_s"] == 20.0
 
 
+def test_death_floor_on_a_square_hand_log():
+    """Two robots 20 m apart on a 10 m square (1 m/s); robot 1 dies at 25 s, 5 m past v0.
+    The survivor is then mid-way v2-v3 (its visits bound it exactly: 15, 15, 5, 5 m from
+    v0..v3); v1 was last visited at 10 s: it cannot be visited before 25 + 15 s, so no
+    strategy keeps its idleness under 30 s (the floor). The survivor's lap (40 s) is the
+    ideal, and it achieves it: ratio 1.0 to max(floor, ideal)."""
+    side = 10.0
+    pos = np.array([(0, 0), (side, 0), (side, side), (0, side)], dtype=float)
+    edges = [(0, 1, side), (1, 2, side), (2, 3, side), (3, 0, side)]
+    pm = PatrolMap("square", [0, 1, 2, 3], pos, edges, np.ones(4), np.ones(4), MapSettings())
+    rec = RunRecorder(pm, 2, ground_truth=False)
+    log = [(0, 0, 0), (0, 1, 2), (10, 0, 1), (10, 1, 3), (20, 0, 2), (20, 1, 0)]
+    log += [(30 + 10 * k, 0, (3 + k) % 4) for k in range(8)]  # the survivor goes on alone
+    for t, r, v in log:
+        rec.record_visit(r, v, t)
+    rec.record_robot_death(1, 25.0)
+    from tpuaf.measure.metrics import death_floor
+
+    assert death_floor(pm, 1.0, 0.0, rec._vertex_times, rec.visits, 25.0, 100.0, [0]) == pytest.approx(30.0)
+    assert death_floor(pm, 1.0, 0.0, rec._vertex_times, rec.visits, 25.0, 32.0, [0]) == pytest.approx(22.0)  # capped: v1 at 32 s
+    assert math.isnan(death_floor(pm, 1.0, 0.0, rec._vertex_times, rec.visits, 25.0, 100.0, []))
+    (r,) = rec.summary(100.0)["recovery"]
+    assert r["floor_worst_idleness_after_s"] == pytest.approx(30.0)
+    assert r["ideal_worst_idleness_survivors_s"] == pytest.approx(40.0)
+    assert r["worst_idleness_after_s"] == pytest.approx(40.0)
+    assert r["worst_idleness_ratio_to_reference"] == pytest.approx(1.0)
+    # Had the survivor stopped at v2 instead (no visit after 20 s): it may be anywhere within
+    # 5 m of v2 at the death, so v1 (idle 15 s, 5 m away) gives the floor 20 s; vertices then
+    # wait to the end (90 s).
+    rec2 = RunRecorder(pm, 2, ground_truth=False)
+    for t, r_, v in log[:6]:
+        rec2.record_visit(r_, v, t)
+    rec2.record_robot_death(1, 25.0)
+    (r2,) = rec2.summary(100.0)["recovery"]
+    assert r2["floor_worst_idleness_after_s"] == pytest.approx(20.0)
+    assert r2["worst_idleness_ratio_to_reference"] == pytest.approx(90.0 / 40.0)
+
+
 def test_acceleration_ratio():
     assert acceleration_ratio(100.0, 20.0, 4) == pytest.approx(1.25)
     assert acceleration_ratio(100.0, 25.0, 4) == pytest.approx(1.0)

@@ -194,3 +194,45 @@ def test_start_schedule_spreads_a_team_from_one_vertex():
     # every vertex seen by 8 s (entering in turn at vertex 0 would take 11 s); bound 6 s
     assert summary["first_coverage_bound_s"] == pytest.approx(6.0)  # 12 m of forest / 3 robots
     assert 6.0 <= summary["first_coverage_s"] <= 8.0 + 1e-9
+
+
+def test_transition_to_a_new_shared_walk_spreads_the_entries():
+    """After a team change, robots entering a walk new to them enter where the start schedule,
+    from where each stood when the team changed, puts their slots, instead of all at their
+    nearest vertex: two robots heading for vertex 0 of the 40 m square (one there at the
+    change, the other 1 s behind) and a third robot's vertex 2 long unvisited: one of them
+    enters the walk on the far side (vertex 2 or 3), not both at vertex 0."""
+    pm = square(starts=(0, 0, 0))
+    policy = REGISTRY.create("tpuaf_plus")
+    ctx = FakeCtx(pm, 0, 3, 0)
+    policy.start(ctx)
+    walk = policy.route.walk
+    policy.route = type(policy.route)(walk, policy.route.arc, policy.route.length, (0, 1))
+    policy.changed_at = 100.0
+    policy.knowledge.record_visit(0, 99.0)
+    policy.knowledge.record_visit(1, 95.0)
+    policy.knowledge.record_visit(3, 95.0)  # vertex 2: never visited (idle 100 s)
+    # robot 1's later message (after the change) is not used: where it stood at the change
+    policy.history = {0: [(1, 0, 90.0, 90.0)], 1: [(1, 0, 91.0, 91.0), (0, 3, 120.0, 120.0)]}
+    entries = policy._transition_entries()
+    assert set(entries) == {0, 1}
+    vertices = sorted(walk[k] for k in entries.values())
+    assert vertices[0] == 0 and vertices[1] in (2, 3), vertices
+    assert policy.dist[0, 2] == pytest.approx(20.0)
+    # a robot never heard before the change: no entries (nearest vertex instead)
+    policy.history = {0: [(1, 0, 90.0, 90.0)], 1: [(0, 3, 120.0, 120.0)]}
+    assert policy._transition_entries() == {}
+
+
+def test_deaths_that_replan_cumberland_do_not_bunch_the_survivors(shared_maps):
+    """Cumberland, 12 robots on a partition, 3 of them die at 900 s: the survivors re-plan one
+    shared cycle. Joining it on evenly spaced slots keeps the worst idleness after the deaths
+    within 2.5x the survivors' ideal (4.6x when each joined at its nearest vertex)."""
+    dying = [2, 9, 10]  # bench_recovery.py's seed 2 draw
+    config = RunConfig(map=str(shared_maps / "cumberland"), strategy="tpuaf_plus", robots=12,
+                       duration_s=1800.0, seed=2, fail=[[r, 900.0] for r in dying])
+    summary = BatchRun(config).run()
+    last = summary["recovery"][-1]
+    worst = max(r["worst_idleness_after_s"] for r in summary["recovery"])
+    assert last["survivors"] == 9
+    assert worst <= 2.5 * last["ideal_worst_idleness_survivors_s"]

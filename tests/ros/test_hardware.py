@@ -1,186 +1,34 @@
-"""The hardware path rehearsed on this machine: the simulator in wall-clock mode (tpuaf_stage
-~wall_clock: real-time pace, wall-clock stamps, no /clock; /use_sim_time unset = false), TurtleBot3
-Burgers named tb3_<i> with their laser on `scan`, one `roslaunch tpuaf_ros robot.launch` per robot
-with the hardware defaults (tf localisation, built-in navigator, run start on /fleet/start).
+"""The hardware path rehearsed on this machine (tests/ros/hardware.py): the simulator in
+wall-clock mode, TurtleBot3 Burgers named tb3_<i> with their laser on `scan`, one `roslaunch
+tpuaf_ros robot.launch` per robot with the hardware defaults (tf localisation, built-in
+navigator, run start on /fleet/start).
 
-- two Burgers on lab and on grid (in parallel) keep visiting for 120 s of wall time;
 - clock skew (0.5 s: silent and harmless; 3 s: named in a warning), malformed team messages
   (ignored with a reason), one robot stopped (the others detect it and drop its intentions);
 - the move_base backend against a test action server (tests/ros/move_base_mock.py: move_base is
-  not packaged here, so a mock drives the simulated robot).
-About 3.5 minutes of wall time in all."""
+  not packaged here, so a mock drives the simulated robot);
+- an agent whose laser stops halts, says so and resumes.
+The long rehearsals are in test_hardware_rehearsal.py and test_hardware_walls.py."""
 
 from __future__ import annotations
 
-import contextlib
-import csv
 import json
 import re
 import time
-from pathlib import Path
 
 import pytest
-import yaml
 
 from .conftest import VENV_PYTHON, ros_master
+from .hardware import (
+    HERE,
+    events,
+    reached,
+    start_robot,
+    start_world,
+    wait_started,
+)
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
-
-HERE = Path(__file__).resolve().parent
-START, GOAL, REACHED, FAILED, HEARTBEAT = 0, 1, 2, 3, 4
-
-
-def start_world(ros, patrol_map: str, robots: int, speed: float = 0.22):
-    world = {"patrol_map": patrol_map, "seed": 0,
-             "robot": {"preset": "burger", "max_linear_speed": speed},
-             "laser": {"preset": "lds01"}, "robots": robots}
-    path = ros.home / "world.yaml"
-    path.write_text(yaml.safe_dump(world))
-    ros.start(["rosrun", "tpuaf_stage", "tpuaf_stage", f"_world:={path}", "_wall_clock:=true",
-               "_robot_prefix:=tb3_", "_scan_topic:=scan", "_status_period:=0"], name="stage")
-    # The agents' events with their wall-clock receipt time (CSV; plain rostopic).
-    ros.start(["rostopic", "echo", "-p", "/fleet/agent_events"], name="events")
-
-
-def start_robot(ros, patrol_map: str, robots: int, index: int, *args: str, speed: float = 0.22):
-    return ros.start(["roslaunch", "tpuaf_ros", "robot.launch", f"map:={patrol_map}",
-                      f"robots:={robots}", f"index:={index}", "prefix:=tb3_", "scan_topic:=scan",
-                      f"max_linear_speed:={speed}", "output:=screen", *args], name=f"tb3_{index}")
-
-
-def events(ros) -> list[tuple[float, int, int, int]]:
-    """(wall receipt time [s], robot index, event, vertex id) of every AgentEvent so far."""
-    path = ros.home / "events.out"
-    rows = []
-    with contextlib.suppress(FileNotFoundError), path.open() as f:
-        for row in csv.DictReader(f):
-            try:
-                rows.append((int(row["%time"]) * 1e-9, int(row["field.robot_index"]),
-                             int(row["field.event"]), int(row["field.vertex"])))
-            except (KeyError, ValueError, TypeError):
-                continue  # a line being written
-    return rows
-
-
-def wait_started(ros, robots: int, timeout: float = 60.0) -> float:
-    """Wall time when every robot has sent START."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        started = {r for _, r, e, _ in events(ros) if e == START}
-        if len(started) == robots:
-            return time.time()
-        time.sleep(0.5)
-    raise AssertionError(f"not every robot started within {timeout} s: {started}\n"
-                         + "\n".join(ros.output(f"tb3_{i}")[-2000:] for i in range(robots)))
-
-
-def reached(rows, robot, after=0.0):
-    return [(t, v) for t, r, e, v in rows if r == robot and e == REACHED and t >= after]
-
-
-def max_gap(times: list[float]) -> float:
-    return max((b - a for a, b in zip(times, times[1:], strict=False)), default=0.0)
-
-
-# --- 120 s rehearsal, lab and grid in parallel ----------------------------------------------
-
-
-RUN_S = 120.0
-
-
-def test_two_burgers_keep_visiting_on_the_wall_clock(tmp_path):
-    maps = ("lab", "grid")
-    with contextlib.ExitStack() as stack:
-        envs = {m: stack.enter_context(ros_master(tmp_path / m)) for m in maps}
-        for m, ros in envs.items():
-            start_world(ros, m, 2)
-            # What a user records for `tpuaf analyze` (docs/HARDWARE.md): no ground truth.
-            ros.start(["rosbag", "record", "-O", str(ros.home / "run.bag"), "/tf", "/tf_static",
-                       "/team/visits", "/team/intentions", "/team/idleness",
-                       "/team/task_requests", "/team/task_bids", "/fleet/agent_events",
-                       "/fleet/start", "/tb3_0/odom", "/tb3_1/odom"], name="rosbag")
-            for i in range(2):
-                start_robot(ros, m, 2, i)
-        t0 = {m: wait_started(ros, 2) for m, ros in envs.items()}
-        time.sleep(RUN_S - (time.time() - max(t0.values())))
-        rows = {m: events(ros) for m, ros in envs.items()}
-        logs = {m: [ros.output(f"tb3_{i}") for i in range(2)] for m, ros in envs.items()}
-        topics = {m: ros.run_python(
-            "import rospy, rosgraph; m = rosgraph.Master('/t');"
-            "print(sorted(t for t, _ in m.getPublishedTopics('')))").stdout for m, ros in envs.items()}
-        for ros in envs.values():
-            ros.stop_all()
-    for m in maps:
-        start = t0[m]
-        for i in range(2):
-            visits = reached(rows[m], i, start)
-            beats = [t for t, r, e, _ in rows[m] if r == i and t >= start]
-            gap = max_gap([start] + [t for t, _ in visits] + [start + RUN_S])
-            print(f"rehearsal {m} tb3_{i}: {len(visits)} visits in {RUN_S:g} s, longest gap "
-                  f"{gap:.1f} s, heartbeat gap {max_gap(beats):.1f} s")
-            assert len(visits) >= (6 if m == "lab" else 3), (m, i, visits, logs[m][i][-3000:])
-            # Still visiting in the last third of the run; heartbeats never stopped.
-            assert visits[-1][0] > start + 0.6 * RUN_S, (m, i, visits)
-            assert max_gap(beats) < 3.0, (m, i, max_gap(beats))
-            assert beats[-1] > start + RUN_S - 5.0
-            log = logs[m][i]
-            assert "localisation tf map" in log and "wall clock" in log
-            assert "robot stopped" not in log, log[-3000:]
-        # One run start for the team, announced once on /fleet/start (latched).
-        epochs = {re.findall(r"run start (?:\(epoch\) )?(\d+\.\d+) s", log)[-1]
-                  for log in logs[m]}
-        assert len(epochs) == 1, epochs
-        assert "/clock" not in topics[m]
-        bag = tmp_path / m / "run.bag"
-        assert bag.is_file() and bag.stat().st_size > 10_000
-
-
-# --- rehearsal on a map whose edges cross walls (issue 18) -----------------------------------
-
-WALLS_RUN_S = 150.0
-QUIET_S = 60.0  # [s] no robot goes this long without a visit or a stuck report...
-BURGER_MPS = 0.22  # ...unless one edge alone takes longer at a Burger's speed (example: 15.6 m)
-
-
-def test_three_burgers_keep_visiting_where_edges_cross_walls(tmp_path, shared_maps):
-    """docs/HARDWARE.md's rehearsal (robot.launch, tf localisation, wall clock, a plain bag) on
-    patrolling_sim's `example`, 5 of whose 34 edges run straight through a wall: the built-in
-    navigator plans round them. Every robot keeps visiting, and none goes QUIET_S without a
-    visit or a stuck report (or 1.2 x its longest edge's driving time, where one edge takes
-    longer than that)."""
-    from tpuaf.maps import load_map
-    from tpuaf.navigation.planner import PathPlanner
-
-    patrol_map = str(shared_maps / "example")
-    longest_m = max(c.planned_m for c in PathPlanner(load_map(patrol_map), 0.105).check_edges())
-    quiet_s = max(QUIET_S, 1.2 * longest_m / BURGER_MPS)
-    with ros_master(tmp_path / "walls") as ros:
-        start_world(ros, patrol_map, 3)
-        ros.start(["rosbag", "record", "-O", str(ros.home / "run.bag"), "/tf", "/tf_static",
-                   "/team/visits", "/team/intentions", "/fleet/agent_events", "/fleet/start"],
-                  name="rosbag")
-        for i in range(3):
-            start_robot(ros, patrol_map, 3, i)
-        start = wait_started(ros, 3, timeout=90.0)
-        time.sleep(max(0.0, WALLS_RUN_S - (time.time() - start)))
-        rows = events(ros)
-        logs = [ros.output(f"tb3_{i}") for i in range(3)]
-        ros.stop_all()
-    for i in range(3):
-        visits = reached(rows, i, start)
-        failed = [t for t, r, e, _ in rows if r == i and e == FAILED and t >= start]
-        stuck = [start + float(m) for m in re.findall(r"stuck on the way to vertex \d+ at run "
-                                                       r"time ([0-9.]+) s", logs[i])]
-        news = sorted([start] + [t for t, _ in visits] + failed + stuck + [start + WALLS_RUN_S])
-        print(f"walls rehearsal tb3_{i}: {len(visits)} visits, {len(failed)} failed goals, "
-              f"{len(stuck)} stuck reports in {WALLS_RUN_S:g} s; longest quiet "
-              f"{max_gap(news):.1f} s")
-        assert len(visits) >= 2, (i, visits, logs[i][-3000:])
-        assert visits[-1][0] > start + 0.5 * WALLS_RUN_S, (i, visits)
-        assert max_gap(news) < quiet_s, (i, quiet_s, news, logs[i][-3000:])
-        assert "localisation tf map" in logs[i] and "wall clock" in logs[i]
-    assert (tmp_path / "walls" / "run.bag").is_file()
-
 
 # --- skew, malformed messages, a robot stopped -----------------------------------------------
 

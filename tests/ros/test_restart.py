@@ -17,7 +17,7 @@ import time
 import pytest
 
 from .conftest import REPO, ros_master
-from .test_hardware import start_robot, start_world, wait_started
+from .hardware import start_robot, start_world, wait_started
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -16,15 +16,25 @@ namespace py = pybind11;
 namespace tpuaf {
 namespace {
 
-// A strategy written in Python: `team.start(robot)`, `team.decide(robot)` (int or None) and
-// `team.on_message(robot, message)` of a Python object, called with the GIL held.
+// A strategy written in Python: `team.start(robot)`, `team.decide(robot)` (int or None),
+// `team.on_message(robot, message)` and, when the team has them, `team.on_goal_failed(robot,
+// vertex)` and `team.on_teammate_lost(robot, lost)` of a Python object, called with the GIL
+// held.
 class PythonStrategy : public TeamStrategy {
  public:
   explicit PythonStrategy(py::object team)
       : team_(std::move(team)),
         start_(team_.attr("start")),
         decide_(team_.attr("decide")),
-        on_message_(team_.attr("on_message")) {}
+        on_message_(team_.attr("on_message")),
+        on_goal_failed_(py::getattr(team_, "on_goal_failed", py::none())),
+        on_teammate_lost_(py::getattr(team_, "on_teammate_lost", py::none())) {}
+  void on_goal_failed(GraphEngine&, int robot, int vertex) override {
+    if (!on_goal_failed_.is_none()) on_goal_failed_(robot, vertex);
+  }
+  void on_teammate_lost(GraphEngine&, int robot, int lost) override {
+    if (!on_teammate_lost_.is_none()) on_teammate_lost_(robot, lost);
+  }
   void start(GraphEngine&, int robot) override { start_(robot); }
   int decide(GraphEngine&, int robot) override {
     py::object goal = decide_(robot);
@@ -39,7 +49,7 @@ class PythonStrategy : public TeamStrategy {
   bool is_native() const override { return false; }
 
  private:
-  py::object team_, start_, decide_, on_message_;
+  py::object team_, start_, decide_, on_message_, on_goal_failed_, on_teammate_lost_;
 };
 
 std::shared_ptr<void> wrap(py::object message) {
@@ -116,7 +126,27 @@ void wrap_config(py::module_& m) {
       .def_readwrite("interference_distance_m", &EngineConfig::interference_distance_m)
       .def_readwrite("sensing_peak", &EngineConfig::sensing_peak)
       .def_readwrite("sensing_radius_m", &EngineConfig::sensing_radius_m)
-      .def_readwrite("start_vertices", &EngineConfig::start_vertices);
+      .def_readwrite("start_vertices", &EngineConfig::start_vertices)
+      .def_readwrite("goal_tolerance_m", &EngineConfig::goal_tolerance_m)
+      .def_readwrite("stall_give_up_s", &EngineConfig::stall_give_up_s)
+      .def_readwrite("teammate_timeout_s", &EngineConfig::teammate_timeout_s)
+      .def_readwrite("heartbeat_period_s", &EngineConfig::heartbeat_period_s);
+}
+
+// HeartbeatLinks: the heartbeats of runs with faults (tpuaf.team.liveness.HeartbeatLinks).
+void wrap_heartbeats(py::module_& m) {
+  py::class_<HeartbeatLinks>(m, "HeartbeatLinks",
+                             "Heartbeats of a run with faults, as "
+                             "tpuaf.team.liveness.HeartbeatLinks (rngs: default_rng([seed, 4, "
+                             "sender]) per sender, needed with loss).")
+      .def(py::init<int, double, double, double, double, double, std::vector<NumpyPcg64>>(),
+           py::arg("robots"), py::arg("duration_s"), py::arg("timeout_s"), py::arg("delay_s"),
+           py::arg("loss"), py::arg("period_s"), py::arg("rngs"))
+      .def("died", &HeartbeatLinks::died, py::arg("robot"), py::arg("t"))
+      .def("last_arrival_s", &HeartbeatLinks::last_arrival_s, py::arg("recipient"),
+           py::arg("sender"), py::arg("t"))
+      .def("next_check_s", &HeartbeatLinks::next_check_s, py::arg("recipient"), py::arg("sender"),
+           py::arg("last_heard"), py::arg("lost"), py::arg("now"));
 }
 
 // TeamStrategy and its Python, TPUAF, GBS and DTAG decision paths.
@@ -207,13 +237,50 @@ py::class_<GraphEngine> wrap_engine(py::module_& m) {
           py::arg("robot"), "True position [m] of a robot now.")
       .def(
           "send",
-          [](GraphEngine& e, int robot, py::object message) {
+          [](GraphEngine& e, int robot, py::object message, int announced) {
             TeamMessage m;
             m.kind = TeamMessage::Kind::kOpaque;
+            m.announced = announced;
+            // The sender its recipients' liveness hears: getattr(message, "robot", -1).
+            py::object sender = py::getattr(message, "robot", py::none());
+            m.robot = -1;
+            if (!sender.is_none()) {
+              try {
+                m.robot = sender.cast<int>();
+              } catch (const py::cast_error&) {
+                m.robot = -1;
+              }
+            }
             m.opaque = wrap(std::move(message));
             e.send(robot, std::move(m));
           },
-          py::arg("robot"), py::arg("message"))
+          py::arg("robot"), py::arg("message"), py::arg("announced") = -1,
+          "Broadcast a Python message (announced: the destination it announces, -1: none).")
+      .def(
+          "set_faults",
+          [](GraphEngine& e, const std::vector<double>& times, const std::vector<int>& robots,
+             const std::vector<bool>& deaths, std::vector<NumpyPcg64> heartbeat_rngs) {
+            if (times.size() != robots.size() || times.size() != deaths.size()) {
+              throw py::value_error("set_faults: times, robots and deaths differ in length");
+            }
+            std::vector<EngineFault> faults;
+            for (std::size_t k = 0; k < times.size(); ++k) {
+              faults.push_back({times[k], robots[k], static_cast<bool>(deaths[k])});
+            }
+            e.set_faults(std::move(faults), std::move(heartbeat_rngs));
+          },
+          py::arg("times_s"), py::arg("robots"), py::arg("deaths"), py::arg("heartbeat_rngs"),
+          "The run's faults in time order (death or stall) and the heartbeat streams.")
+      .def("alive", &GraphEngine::alive, py::arg("robot"))
+      .def("stalled", &GraphEngine::stalled, py::arg("robot"))
+      .def_property_readonly("losses",
+                             [](const GraphEngine& e) {
+                               py::list out;  // (t [s], observer, lost teammate)
+                               for (const auto& l : e.losses()) {
+                                 out.append(py::make_tuple(l.time_s, l.observer, l.lost));
+                               }
+                               return out;
+                             })
       .def("wake_at", &GraphEngine::wake_at, py::arg("robot"), py::arg("time_s"))
       .def("change_goal", &GraphEngine::change_goal, py::arg("robot"), py::arg("vertex"))
       .def_property_readonly("bus_stats", [](const GraphEngine& e) {
@@ -328,6 +395,38 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
                                }
                                return out;
                              })
+      .def_property_readonly("vertex_times",
+                             [](const GraphEngine& e) {
+                               py::list out;  // [s] sorted visit times per vertex
+                               for (const auto& times : e.recorder().vertex_times()) {
+                                 out.append(py::cast(times));
+                               }
+                               return out;
+                             })
+      .def_property_readonly("deaths",
+                             [](const GraphEngine& e) {
+                               py::list out;  // (t [s], robot)
+                               for (const auto& d : e.recorder().deaths()) {
+                                 out.append(py::make_tuple(d.time_s, d.robot));
+                               }
+                               return out;
+                             })
+      .def_property_readonly("stalls",
+                             [](const GraphEngine& e) {
+                               py::list out;  // (t [s], robot)
+                               for (const auto& d : e.recorder().stalls()) {
+                                 out.append(py::make_tuple(d.time_s, d.robot));
+                               }
+                               return out;
+                             })
+      .def_property_readonly("announcements",
+                             [](const GraphEngine& e) {
+                               py::list out;  // (t [s], robot, vertex)
+                               for (const auto& a : e.recorder().announcements()) {
+                                 out.append(py::make_tuple(a.time_s, a.robot, a.vertex));
+                               }
+                               return out;
+                             })
       .def_property_readonly("visit_counts",
                              [](const GraphEngine& e) {
                                std::vector<long long> out;
@@ -358,6 +457,7 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
 void tpuaf::bindings::bind_engine(py::module_& m) {
   wrap_numpy(m);
   wrap_config(m);
+  wrap_heartbeats(m);
   wrap_strategies(m);
   py::class_<GraphEngine> engine = wrap_engine(m);
   wrap_recorder(engine);

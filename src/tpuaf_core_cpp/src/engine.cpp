@@ -10,7 +10,8 @@
 namespace tpuaf {
 
 namespace {
-constexpr int kArrive = 0, kWake = 1, kDeliver = 2;  // event kinds, in the order ties resolve
+// Event kinds, in the order ties resolve (tpuaf.runtimes.graph).
+constexpr int kArrive = 0, kWake = 1, kDeliver = 2, kFault = 3, kGiveUp = 4, kLiveness = 5;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // Python's max(a, b): a unless b > a (the same number for doubles without NaN).
@@ -231,24 +232,48 @@ void GroundTruthRecorder::emit_row(double t, double x_mean) {
   rows_.push_back({t, ins, worst, x_mean, sample_visits_, interferences_until(t)});
 }
 
-void GroundTruthRecorder::record_positions(double t1, const Points& p1) {
-  if (p1.rows() != n_robots_) throw std::invalid_argument("need one position per robot");
+void GroundTruthRecorder::record_robot_death(int robot, double time_s) {
+  if (robot < 0 || robot >= n_robots_) {
+    throw std::out_of_range("unknown robot " + std::to_string(robot));
+  }
+  if (alive_.empty()) alive_.assign(static_cast<std::size_t>(n_robots_), 1);
+  if (!alive_[static_cast<std::size_t>(robot)]) return;
+  alive_[static_cast<std::size_t>(robot)] = 0;
+  all_alive_ = false;
+  deaths_.push_back({time_s, robot, -1});
+}
+
+void GroundTruthRecorder::record_positions(double t1, const Points& given) {
+  if (given.rows() != n_robots_) throw std::invalid_argument("need one position per robot");
+  // A dead robot's row is NaN (absent): it neither senses nor interferes.
+  const Points* rows = &given;
+  if (!all_alive_) {
+    masked_ = given;
+    for (int i = 0; i < n_robots_; ++i) {
+      if (!alive_[static_cast<std::size_t>(i)]) masked_.row(i).setConstant(kNaN);
+    }
+    rows = &masked_;
+  }
+  const Points& p1 = *rows;
+  // No NaN in p1 (nor in the previous positions: deaths are for good) while all are alive.
+  const bool finite = all_alive_;
   if (!has_pos_) {
     // Pairs already close at the start are not counted (they did not come close).
     close_.clear();
     for (int i = 0; i < n_robots_; ++i) {
       for (int j = i + 1; j < n_robots_; ++j) {
         const double dx = p1(i, 0) - p1(j, 0), dy = p1(i, 1) - p1(j, 1);
-        if (dx * dx + dy * dy <= dif2_) {
+        if (dx * dx + dy * dy <= dif2_) {  // NaN compares false
           close_.push_back(static_cast<std::uint64_t>(i) * n_robots_ + j);
         }
       }
     }
-    if (next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
-      advance_field(field_t_, t1, p1, p1);
+    if (!finite || next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
+      advance_field(field_t_, t1, p1, p1, finite && field_finite_);
       field_t_ = t1;
       field_p_ = p1;
       has_field_p_ = true;
+      field_finite_ = finite;
     }
   } else {
     const double t0 = pos_time_;
@@ -256,18 +281,92 @@ void GroundTruthRecorder::record_positions(double t1, const Points& p1) {
       throw std::invalid_argument("positions at " + std::to_string(t1) +
                                   " s are earlier than the previous ones");
     }
-    const double step = (p1 - pos_).cwiseAbs().maxCoeff();
-    if (n_robots_ > 1) interference(t0, t1, pos_, p1, step);
-    if (next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
-      advance_field(field_t_, t1, has_field_p_ ? field_p_ : pos_, p1);
+    if (n_robots_ > 1) {
+      if (finite) {
+        const double step = (p1 - pos_).cwiseAbs().maxCoeff();
+        interference(t0, t1, pos_, p1, step);
+      } else {
+        interference_all(t0, t1, pos_, p1);
+      }
+    }
+    // The field advances over chunks of >= field_merge_s, at every sample time and whenever a
+    // robot is absent.
+    if (!finite || next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
+      advance_field(field_t_, t1, has_field_p_ ? field_p_ : pos_, p1, finite && field_finite_);
       field_t_ = t1;
       field_p_ = p1;
       has_field_p_ = true;
+      field_finite_ = finite;
     }
   }
   pos_time_ = t1;
   pos_ = p1;
   has_pos_ = true;
+}
+
+void GroundTruthRecorder::enter_pair(std::uint64_t key, int i, int j, double t0, double t1,
+                                     const Points& p0, double d1x, double d1y) {
+  // Pair (i, j), d1 = p1_i - p1_j [m], moving linearly from t0 to t1 [s]: the exact time it
+  // comes within d_if, counted when the refractory time has passed since its last entry.
+  const double x0 = p0(i, 0) - p0(j, 0), y0 = p0(i, 1) - p0(j, 1);
+  if (x0 != x0 || y0 != y0) return;  // absent at t0: appears now, not an entry
+  const double vx = d1x - x0, vy = d1y - y0;
+  const double a = vx * vx + vy * vy;
+  const double b = x0 * vx + y0 * vy;  // half the linear coefficient
+  const double c0 = x0 * x0 + y0 * y0;
+  double s_in;
+  if (c0 <= dif2_) {
+    s_in = 0.0;
+  } else {
+    const double s_star = a > 0 ? std::min(py_max(-b / a, 0.0), 1.0) : 0.0;
+    if (a * s_star * s_star + 2 * b * s_star + c0 > dif2_) return;  // never within d_if
+    // smallest root of a s^2 + 2 b s + (c0 - d^2) = 0
+    s_in = (-b - std::sqrt(py_max(b * b - a * (c0 - dif2_), 0.0))) / a;
+  }
+  const double t_in = t0 + std::min(py_max(s_in, 0.0), 1.0) * (t1 - t0);
+  auto it = last_count_.find(key);
+  const double last = it == last_count_.end() ? -kInf : it->second;
+  if (t_in - last >= refractory_) {
+    last_count_[key] = t_in;
+    fresh_.push_back({t_in, i, j});
+  }
+}
+
+void GroundTruthRecorder::keep_fresh() {
+  // This interval's entries, in (time, a, b) order, after the earlier ones.
+  if (fresh_.empty()) return;
+  std::sort(fresh_.begin(), fresh_.end(),
+            [](const InterferenceRecord& x, const InterferenceRecord& y) {
+              if (x.time_s != y.time_s) return x.time_s < y.time_s;
+              if (x.a != y.a) return x.a < y.a;
+              return x.b < y.b;
+            });
+  interferences_.insert(interferences_.end(), fresh_.begin(), fresh_.end());
+}
+
+void GroundTruthRecorder::interference_all(double t0, double t1, const Points& p0,
+                                           const Points& p1) {
+  // RunRecorder._interference when a robot is absent: every pair of live robots is a
+  // candidate (reach = inf), with the same arithmetic as interference().
+  const int n = n_robots_;
+  const std::uint64_t un = static_cast<std::uint64_t>(n);
+  close_end_.clear();
+  fresh_.clear();
+  for (int i = 0; i < n; ++i) {
+    if (std::isnan(p1(i, 0)) || std::isnan(p1(i, 1))) continue;
+    for (int j = i + 1; j < n; ++j) {
+      const double d1x = p1(i, 0) - p1(j, 0), d1y = p1(i, 1) - p1(j, 1);
+      const double c1 = d1x * d1x + d1y * d1y;
+      if (!(c1 <= kInf)) continue;  // an absent robot (NaN) is never near
+      const std::uint64_t key = static_cast<std::uint64_t>(i) * un + j;
+      if (c1 <= dif2_) close_end_.push_back(key);
+      if (std::binary_search(close_.begin(), close_.end(), key)) continue;
+      enter_pair(key, i, j, t0, t1, p0, d1x, d1y);
+    }
+  }
+  keep_fresh();
+  close_.swap(close_end_);  // keys ascending
+  verlet_valid_ = false;
 }
 
 void GroundTruthRecorder::interference(double t0, double t1, const Points& p0, const Points& p1,
@@ -299,37 +398,9 @@ void GroundTruthRecorder::interference(double t0, double t1, const Points& p0, c
     if (c1 <= dif2_) close_end_.push_back(key);
     // A pair close at both ends is close throughout; it enters at most once per interval.
     if (std::binary_search(close_.begin(), close_.end(), key)) continue;
-    const double x0 = p0(i, 0) - p0(j, 0), y0 = p0(i, 1) - p0(j, 1);
-    const double vx = d1x - x0, vy = d1y - y0;
-    const double a = vx * vx + vy * vy;
-    const double b = x0 * vx + y0 * vy;  // half the linear coefficient
-    const double c0 = x0 * x0 + y0 * y0;
-    double s_in;
-    if (c0 <= dif2_) {
-      s_in = 0.0;
-    } else {
-      const double s_star = a > 0 ? std::min(py_max(-b / a, 0.0), 1.0) : 0.0;
-      if (a * s_star * s_star + 2 * b * s_star + c0 > dif2_) continue;  // never within d_if
-      // smallest root of a s^2 + 2 b s + (c0 - d^2) = 0
-      s_in = (-b - std::sqrt(py_max(b * b - a * (c0 - dif2_), 0.0))) / a;
-    }
-    const double t_in = t0 + std::min(py_max(s_in, 0.0), 1.0) * (t1 - t0);
-    auto it = last_count_.find(key);
-    const double last = it == last_count_.end() ? -kInf : it->second;
-    if (t_in - last >= refractory_) {
-      last_count_[key] = t_in;
-      fresh_.push_back({t_in, i, j});
-    }
+    enter_pair(key, i, j, t0, t1, p0, d1x, d1y);
   }
-  if (!fresh_.empty()) {
-    std::sort(fresh_.begin(), fresh_.end(),
-              [](const InterferenceRecord& x, const InterferenceRecord& y) {
-                if (x.time_s != y.time_s) return x.time_s < y.time_s;
-                if (x.a != y.a) return x.a < y.a;
-                return x.b < y.b;
-              });
-    interferences_.insert(interferences_.end(), fresh_.begin(), fresh_.end());
-  }
+  keep_fresh();
   close_.swap(close_end_);  // sorted: the Verlet list is
 }
 
@@ -376,7 +447,24 @@ void GroundTruthRecorder::rebuild_verlet(const Points& p, double reach) {
   verlet_valid_ = true;
 }
 
-void GroundTruthRecorder::advance_field(double t0, double t1, const Points& p0, const Points& p1) {
+void GroundTruthRecorder::advance_field(double t0, double t1, const Points& p0_all,
+                                        const Points& p1_all, bool finite) {
+  // Not finite: only the robots present at both ends sense (RunRecorder._advance_field).
+  Points live0, live1;
+  if (!finite) {
+    std::vector<Eigen::Index> live;
+    for (Eigen::Index i = 0; i < p0_all.rows(); ++i) {
+      if (!std::isnan(p0_all(i, 0)) && !std::isnan(p1_all(i, 0))) live.push_back(i);
+    }
+    live0.resize(static_cast<Eigen::Index>(live.size()), 2);
+    live1.resize(static_cast<Eigen::Index>(live.size()), 2);
+    for (std::size_t k = 0; k < live.size(); ++k) {
+      live0.row(static_cast<Eigen::Index>(k)) = p0_all.row(live[k]);
+      live1.row(static_cast<Eigen::Index>(k)) = p1_all.row(live[k]);
+    }
+  }
+  const Points& p0 = finite ? p0_all : live0;
+  const Points& p1 = finite ? p1_all : live1;
   double ta = t0;
   Points pa = p0;
   const double span = t1 - t0;
@@ -395,6 +483,14 @@ void GroundTruthRecorder::advance_field(double t0, double t1, const Points& p0, 
 
 void GroundTruthRecorder::step_field(double dt, const Points& pa, const Points& pb) {
   if (dt <= 0) return;
+  if (pa.rows() == 0) {  // UncertaintyField::advance_uncovered: no coverage, one step
+    const UncertaintyModel& model = field_.model();
+    const Eigen::VectorXd& importance = field_.importance();
+    for (Eigen::Index j = 0; j < values_.size(); ++j) {
+      values_[j] = model.evolve(values_[j], importance[j] - 0.0, dt);
+    }
+    return;
+  }
   advance_linear(dt, pa, pb);
 }
 
@@ -495,10 +591,125 @@ void GroundTruthRecorder::finish(double end_s) {
     record_positions(end_s, held);
   }
   if (has_pos_ && field_t_ < pos_time_) {  // a merged chunk still pending
-    advance_field(field_t_, pos_time_, field_p_, pos_);
+    const bool finite = field_finite_ && all_alive_;
+    advance_field(field_t_, pos_time_, field_p_, pos_, finite);
     field_t_ = pos_time_;
     field_p_ = pos_;
+    field_finite_ = finite;
   }
+}
+
+// -------------------------------------------------------------------------- HeartbeatLinks
+
+HeartbeatLinks::HeartbeatLinks(int robots, double duration_s, double timeout_s, double delay_s,
+                               double loss, double period_s, std::vector<NumpyPcg64> rngs)
+    : n_(robots),
+      period_s_(period_s),
+      delay_s_(delay_s),
+      timeout_s_(timeout_s),
+      loss_(loss),
+      rngs_(std::move(rngs)) {
+  if (!(period_s > 0) || !std::isfinite(period_s)) {
+    throw std::invalid_argument("heartbeat period must be a finite number > 0 s");
+  }
+  if (!(timeout_s > 0)) throw std::invalid_argument("teammate timeout must be > 0 s");
+  if (!(loss >= 0 && loss <= 1)) {
+    throw std::invalid_argument("heartbeat loss probability must be in [0, 1]");
+  }
+  if (loss > 0 && static_cast<int>(rngs_.size()) != robots) {
+    throw std::invalid_argument("heartbeats with loss need one random stream per robot");
+  }
+  count_ = static_cast<std::int64_t>(std::floor(duration_s / period_s + 1e-9)) + 1;
+  if (count_ > std::numeric_limits<std::int32_t>::max()) {
+    throw std::invalid_argument("too many heartbeats in the run");
+  }
+  last_sent_.assign(static_cast<std::size_t>(n_), count_ - 1);
+  links_.resize(static_cast<std::size_t>(n_));
+}
+
+void HeartbeatLinks::silences_of(Link& l) const {
+  l.silences.clear();
+  for (std::size_t p = 0; p + 1 < l.received.size(); ++p) {
+    if (arrival(l.received[p + 1]) > arrival(l.received[p]) + timeout_s_) {
+      l.silences.push_back(static_cast<std::int32_t>(p));
+    }
+  }
+}
+
+const HeartbeatLinks::Link& HeartbeatLinks::link(int recipient, int sender) {
+  if (loss_ == 0) {  // every heartbeat heard: one link for all
+    if (every_.received.empty()) {
+      every_.received.resize(static_cast<std::size_t>(count_));
+      for (std::int64_t k = 0; k < count_; ++k) {
+        every_.received[static_cast<std::size_t>(k)] = static_cast<std::int32_t>(k);
+      }
+      silences_of(every_);
+    }
+    return every_;
+  }
+  auto& of_sender = links_[static_cast<std::size_t>(sender)];
+  if (of_sender.empty()) {
+    // numpy: rng.random((n, count)) >= loss, row = recipient.
+    of_sender.resize(static_cast<std::size_t>(n_));
+    NumpyPcg64& rng = rngs_[static_cast<std::size_t>(sender)];
+    for (auto& l : of_sender) {
+      for (std::int64_t k = 0; k < count_; ++k) {
+        if (rng.random() >= loss_) l.received.push_back(static_cast<std::int32_t>(k));
+      }
+      silences_of(l);
+    }
+  }
+  return of_sender[static_cast<std::size_t>(recipient)];
+}
+
+void HeartbeatLinks::died(int robot, double t) {
+  auto k = static_cast<std::int64_t>(std::floor(t / period_s_ + 1e-9));
+  if (static_cast<double>(k) * period_s_ > t) --k;
+  auto& last = last_sent_[static_cast<std::size_t>(robot)];
+  last = std::min(last, k);
+}
+
+std::int64_t HeartbeatLinks::heard_by(const Link& l, int sender, double t) const {
+  const std::int64_t k =
+      std::min(last_sent_[static_cast<std::size_t>(sender)],
+               static_cast<std::int64_t>(std::floor((t - delay_s_) / period_s_ + 1e-9)));
+  auto it = std::upper_bound(l.received.begin(), l.received.end(), k,
+                             [](std::int64_t v, std::int32_t r) { return v < r; });
+  std::int64_t pos = (it - l.received.begin()) - 1;
+  if (pos >= 0 && arrival(l.received[static_cast<std::size_t>(pos)]) > t) --pos;  // rounding
+  return pos;
+}
+
+double HeartbeatLinks::last_arrival_s(int recipient, int sender, double t) {
+  if (recipient == sender) return -kInf;
+  const Link& l = link(recipient, sender);
+  const std::int64_t pos = heard_by(l, sender, t);
+  return pos >= 0 ? arrival(l.received[static_cast<std::size_t>(pos)]) : -kInf;
+}
+
+double HeartbeatLinks::next_check_s(int recipient, int sender, double last_heard, bool lost,
+                                    double now) {
+  if (recipient == sender) return kInf;
+  const Link& l = link(recipient, sender);
+  const std::int64_t pos = heard_by(l, sender, now);
+  const std::int64_t sent = last_sent_[static_cast<std::size_t>(sender)];
+  auto it = std::upper_bound(l.received.begin(), l.received.end(), sent,
+                             [](std::int64_t v, std::int32_t r) { return v < r; });
+  const std::int64_t last = (it - l.received.begin()) - 1;
+  const std::int64_t nxt = pos + 1 <= last ? pos + 1 : -1;  // the next heartbeat heard, if any
+  auto at = [&](std::int64_t p) { return arrival(l.received[static_cast<std::size_t>(p)]); };
+  if (lost) return nxt >= 0 ? at(nxt) : kInf;  // back at the next heartbeat heard
+  if (std::isfinite(last_heard)) {
+    const double due = last_heard + timeout_s_;
+    if (nxt < 0 || at(nxt) > due) return due;  // silent from last_heard on
+  } else if (nxt < 0) {
+    return kInf;  // never heard, and never will be
+  }
+  // The first silence after the next heartbeat, or the sender's last heartbeat.
+  auto s = std::lower_bound(l.silences.begin(), l.silences.end(), nxt,
+                            [](std::int32_t v, std::int64_t x) { return v < x; });
+  const std::int64_t end = s != l.silences.end() && *s < last ? *s : last;
+  return at(end) + timeout_s_;
 }
 
 // ----------------------------------------------------------------------------- GraphEngine
@@ -571,19 +782,71 @@ void GraphEngine::positions(double t, Points& out) const {
   }
 }
 
-void GraphEngine::push(double time, int kind, int payload) {
+std::uint64_t GraphEngine::push(double time, int kind, int payload) {
   ++seq_;
   events_queue_.push({time, kind, seq_, payload});
+  return seq_;
+}
+
+void GraphEngine::set_faults(std::vector<EngineFault> faults,
+                             std::vector<NumpyPcg64> heartbeat_rngs) {
+  const int n = config_.robots;
+  for (std::size_t k = 0; k < faults.size(); ++k) {
+    const EngineFault& f = faults[k];
+    robot_at(f.robot);
+    if (!(f.time_s >= 0) || !std::isfinite(f.time_s)) {
+      throw std::invalid_argument("a fault time must be a finite number >= 0 s");
+    }
+    if (k > 0 && f.time_s < faults[k - 1].time_s) {
+      throw std::invalid_argument("faults must be in time order");
+    }
+  }
+  if (!(config_.stall_give_up_s > 0)) throw std::invalid_argument("stall give-up must be > 0 s");
+  faults_ = std::move(faults);
+  links_.reset();
+  if (faults_.empty()) return;
+  links_ = std::make_unique<HeartbeatLinks>(n, config_.duration_s, config_.teammate_timeout_s,
+                                            config_.delay_s, config_.loss,
+                                            config_.heartbeat_period_s, std::move(heartbeat_rngs));
+  for (Robot& r : robots_) {
+    r.last_heard.assign(static_cast<std::size_t>(n), -kInf);
+    r.lost.assign(static_cast<std::size_t>(n), 0);
+  }
+  lost_by_.assign(static_cast<std::size_t>(n), 0);
 }
 
 void GraphEngine::send(int robot, TeamMessage message) {
-  robot_at(robot);
+  const bool faults = !faults_.empty();
+  if (faults) {
+    if (!robot_at(robot).alive) return;  // a dead robot sends nothing
+    // The destination announced (RobotMachine.send: on_announce), for the recovery metrics.
+    int announced = message.announced;
+    if (message.kind == TeamMessage::Kind::kIntention) {
+      announced = message.vertex;
+    } else if (message.kind != TeamMessage::Kind::kOpaque) {
+      announced = message.next_vertex;
+    }
+    if (announced >= 0) recorder_.record_announcement(robot, announced, now_);
+  } else {
+    robot_at(robot);
+  }
   const int n = config_.robots;
   ++bus_.sent;
   Delivery d;
   d.message = std::move(message);
   d.sender = robot;
-  if (config_.loss > 0) {
+  if (faults) {
+    // TeamBus.recipients: the live robots but the sender; one loss draw per robot (all n).
+    for (int i = 0; i < n; ++i) {
+      const bool lost = config_.loss > 0 && bus_rng_.random() < config_.loss;
+      if (i == robot || !robots_[static_cast<std::size_t>(i)].alive) continue;
+      if (lost) {
+        ++bus_.lost;
+      } else {
+        d.recipients.push_back(i);
+      }
+    }
+  } else if (config_.loss > 0) {
     // numpy: lost = rng.random(n) < loss, one draw per robot (the sender's too).
     for (int i = 0; i < n; ++i) {
       const bool lost = bus_rng_.random() < config_.loss;
@@ -637,6 +900,7 @@ void GraphEngine::deliver_batch_by_robot() {
   }
   batch_cursor_.assign(batch_.size(), 0);
   const int n = config_.robots;
+  const bool faults = !faults_.empty();
   for (int r = 0; r < n; ++r) {
     for (std::size_t k = 0; k < batch_.size(); ++k) {
       Delivery& d = batch_[k];
@@ -645,19 +909,58 @@ void GraphEngine::deliver_batch_by_robot() {
       } else {
         std::size_t& c = batch_cursor_[k];
         if (c < d.recipients.size() && d.recipients[c] == r) {  // recipients are ascending
-          strategy_->on_message(*this, r, d.message);
           ++c;
+          if (faults) {  // deliver_heard's steps (hear cannot bring a teammate back here)
+            if (!robots_[static_cast<std::size_t>(r)].alive) continue;
+            hear(r, d.message.robot, now_);
+            ++bus_.delivered;
+          }
+          strategy_->on_message(*this, r, d.message);
         }
       }
     }
   }
   for (const Delivery& d : batch_) {
+    if (faults) break;  // counted per live recipient above
     bus_.delivered += d.all_but_sender ? n - 1 : static_cast<long long>(d.recipients.size());
   }
   batch_.clear();
 }
 
+void GraphEngine::deliver_heard() {
+  // TeamRun._deliver_heard: message by message, each live recipient first hears its sender
+  // (liveness; a teammate back from lost moves its checks), then gets the message.
+  while (!ready_.empty()) {
+    Delivery d = std::move(ready_.front());
+    ready_.pop_front();
+    const int sender = d.message.robot;
+    for (int r : d.recipients) {
+      if (!robots_[static_cast<std::size_t>(r)].alive) continue;
+      if (hear(r, sender, now_)) plan_liveness(r);
+      strategy_->on_message(*this, r, d.message);
+      ++bus_.delivered;
+    }
+  }
+}
+
 void GraphEngine::deliver_ready() {
+  if (!faults_.empty()) {
+    // While no robot holds a sender of these messages for lost, hearing it cannot plan a
+    // liveness check (no event is pushed during the deliveries): robot by robot is then the
+    // same as message by message.
+    bool batch = ready_.size() > 1 && strategy_->messages_are_local();
+    for (std::size_t k = 0; batch && k < ready_.size(); ++k) {
+      const int sender = ready_[k].message.robot;
+      batch =
+          sender < 0 || sender >= config_.robots || lost_by_[static_cast<std::size_t>(sender)] == 0;
+    }
+    if (batch) {
+      deliver_batch_by_robot();
+    } else {
+      deliver_heard();
+    }
+    return;
+  }
   if (team_hears_alike()) {  // the strategy may hear a message once for the team
     const long long mates = config_.robots - 1;
     while (!ready_.empty() && ready_.front().all_but_sender &&
@@ -699,18 +1002,171 @@ void GraphEngine::plan_route(Robot& r, int goal) {
 
 void GraphEngine::decide(int robot) {
   Robot& r = robots_[static_cast<std::size_t>(robot)];
+  if (!r.alive) return;
   r.wake_pending = false;
   const int goal = strategy_->decide(*this, robot);
   r.redirect = -1;
   if (goal < 0) {
     r.goal = -1;
+    r.dwelling = false;
     if (!r.wake_pending) wake_at(robot, now_ + config_.retry_s);
     return;
   }
   graph_.check_vertex(goal);
   r.goal = goal;
   plan_route(r, goal);
-  start_segment(robot);
+  // RobotMachine._set_goal: dwell on the goal it stands on, else drive there.
+  r.dwelling = goal == r.current && (!r.stalled || at_vertex(robot, goal));
+  if (r.dwelling) {
+    start_segment(robot);
+  } else {
+    drive(robot);
+  }
+}
+
+bool GraphEngine::at_vertex(int robot, int vertex) const {
+  double x, y;
+  position(robot, now_, x, y);
+  return std::hypot(x - positions_(vertex, 0), y - positions_(vertex, 1)) <=
+         config_.goal_tolerance_m;
+}
+
+int GraphEngine::nearest_vertex(double x, double y) const {
+  // PatrolMap.nearest_vertex: argmin of np.hypot (the first on ties).
+  int best = 0;
+  double best_d = std::hypot(positions_(0, 0) - x, positions_(0, 1) - y);
+  for (Eigen::Index v = 1; v < positions_.rows(); ++v) {
+    const double d = std::hypot(positions_(v, 0) - x, positions_(v, 1) - y);
+    if (d < best_d) {
+      best_d = d;
+      best = static_cast<int>(v);
+    }
+  }
+  return best;
+}
+
+void GraphEngine::drive(int robot) {
+  // BatchRun.drive: a stalled robot cannot move; its navigator gives up later.
+  if (robots_[static_cast<std::size_t>(robot)].stalled) {
+    give_up_later(robot);
+  } else {
+    start_segment(robot);
+  }
+}
+
+void GraphEngine::give_up_later(int robot) {
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  r.pending = push(now_ + config_.stall_give_up_s, kGiveUp, robot);
+}
+
+void GraphEngine::give_up(int robot) {
+  // BatchRun._give_up, then RobotMachine.on_goal_failed.
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  const int goal = r.goal;
+  if (goal < 0 || !r.alive) return;
+  double x, y;
+  position(robot, now_, x, y);
+  r.goal = -1;
+  r.dwelling = false;
+  r.current = nearest_vertex(x, y);
+  strategy_->on_goal_failed(*this, robot, goal);
+  decide(robot);
+}
+
+void GraphEngine::freeze(int robot) {
+  // Stop where it is now; its awaited arrival becomes stale.
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  double x, y;
+  position(robot, now_, x, y);
+  r.p0x = x;
+  r.p0y = y;
+  r.vx = r.vy = 0.0;
+  r.t0 = r.t1 = now_;
+  r.pending = 0;
+}
+
+void GraphEngine::inject(const EngineFault& fault) {
+  // TeamRun.inject.
+  const int i = fault.robot;
+  Robot& r = robots_[static_cast<std::size_t>(i)];
+  if (!r.alive) return;
+  if (fault.death) {
+    freeze(i);
+    r.alive = false;
+    r.goal = r.redirect = -1;
+    r.dwelling = false;
+    recorder_.record_robot_death(i, now_);
+    links_->died(i, now_);  // its heartbeats stop: every survivor's checks move
+    for (int j = 0; j < config_.robots; ++j) plan_liveness(j);
+    return;
+  }
+  r.stalled = true;
+  recorder_.record_robot_stall(i, now_);
+  if (!r.dwelling) {  // a dwell needs no motion: it ends as planned
+    freeze(i);
+    if (r.goal >= 0) give_up_later(i);
+  }
+}
+
+bool GraphEngine::hear(int robot, int sender, double t) {
+  // RobotMachine.hear / TeammateLiveness.heard: true when the sender was lost (it is back).
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  if (!r.alive || sender < 0 || sender >= config_.robots || sender == robot) return false;
+  double& last = r.last_heard[static_cast<std::size_t>(sender)];
+  if (t <= last) return false;
+  last = t;
+  char& lost = r.lost[static_cast<std::size_t>(sender)];
+  if (lost) {
+    lost = 0;
+    --lost_by_[static_cast<std::size_t>(sender)];
+    return true;
+  }
+  return false;
+}
+
+void GraphEngine::feed_heartbeats(int robot) {
+  for (int j = 0; j < config_.robots; ++j) {
+    const double t = links_->last_arrival_s(robot, j, now_);
+    if (t > -kInf) hear(robot, j, t);
+  }
+}
+
+void GraphEngine::plan_liveness(int robot) {
+  // TeamRun._plan_liveness: the earliest time any teammate's silence can reach the timeout, or
+  // one can be heard again; one pending check per robot.
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  if (!r.alive) return;
+  feed_heartbeats(robot);
+  double due = kInf;
+  for (int j = 0; j < config_.robots; ++j) {
+    if (j == robot) continue;
+    const double t = links_->next_check_s(robot, j, r.last_heard[static_cast<std::size_t>(j)],
+                                          r.lost[static_cast<std::size_t>(j)] != 0, now_);
+    if (t < due) due = t;
+  }
+  r.liveness = std::isfinite(due) ? push(py_max(due, now_), kLiveness, robot) : 0;
+}
+
+void GraphEngine::liveness_due(int robot) {
+  // TeamRun.liveness_due: RobotMachine.check_liveness (each silent teammate reported once).
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  if (!r.alive) return;
+  feed_heartbeats(robot);
+  lost_now_.clear();
+  for (int j = 0; j < config_.robots; ++j) {
+    const double t = r.last_heard[static_cast<std::size_t>(j)];
+    char& lost = r.lost[static_cast<std::size_t>(j)];
+    // now >= t + timeout, as the due time of the check is computed
+    if (j != robot && !lost && std::isfinite(t) && now_ >= t + config_.teammate_timeout_s) {
+      lost = 1;
+      ++lost_by_[static_cast<std::size_t>(j)];
+      lost_now_.push_back(j);
+    }
+  }
+  const std::vector<int> lost = lost_now_;  // a hook may re-enter the engine
+  for (int j : lost) strategy_->on_teammate_lost(*this, robot, j);
+  for (int j : lost) losses_.push_back({now_, robot, j});
+  plan_liveness(robot);
 }
 
 void GraphEngine::start_segment(int robot) {
@@ -733,7 +1189,7 @@ void GraphEngine::start_segment(int robot) {
   r.p0y = y0;
   r.vx = (x1 - x0) / duration;  // [m/s] along the straight segment
   r.vy = (y1 - y0) / duration;
-  push(r.t1, kArrive, robot);
+  r.pending = push(r.t1, kArrive, robot);
 }
 
 void GraphEngine::arrive(int robot) {
@@ -745,13 +1201,15 @@ void GraphEngine::arrive(int robot) {
     r.redirect = -1;
     plan_route(r, r.goal);
     if (vertex != r.goal) {
-      start_segment(robot);
+      r.dwelling = false;
+      drive(robot);
       return;
     }
   } else if (r.route_k < r.route.size()) {
     start_segment(robot);  // pass-through vertex: not a visit
     return;
   }
+  r.dwelling = false;
   recorder_.record_visit(robot, vertex, now_);
   r.goal = -1;
   decide(robot);
@@ -770,6 +1228,9 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
   const double end = config_.duration_s;
   const int n = config_.robots;
   record_positions(0.0);
+  for (std::size_t k = 0; k < faults_.size(); ++k) {
+    push(faults_[k].time_s, kFault, static_cast<int>(k));
+  }
   for (int i = 0; i < n; ++i) strategy_->start(*this, i);
   for (int i = 0; i < n; ++i)
     recorder_.record_visit(i, robots_[static_cast<std::size_t>(i)].current, 0.0);
@@ -777,6 +1238,9 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
   for (int i = 0; i < n; ++i) {
     decide(i);
     deliver_ready();
+  }
+  if (links_) {
+    for (int i = 0; i < n; ++i) plan_liveness(i);
   }
   double next_progress = 0.0;
   auto next_wall = std::chrono::steady_clock::now() + std::chrono::milliseconds(100);
@@ -789,9 +1253,17 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
       now_ = ev.time;
     }
     if (ev.kind == kArrive) {
-      arrive(ev.payload);
+      if (robots_[static_cast<std::size_t>(ev.payload)].pending == ev.seq) arrive(ev.payload);
     } else if (ev.kind == kWake) {
       if (robots_[static_cast<std::size_t>(ev.payload)].goal < 0) decide(ev.payload);
+    } else if (ev.kind == kFault) {
+      inject(faults_[static_cast<std::size_t>(ev.payload)]);
+    } else if (ev.kind == kGiveUp) {
+      if (robots_[static_cast<std::size_t>(ev.payload)].pending == ev.seq) give_up(ev.payload);
+    } else if (ev.kind == kLiveness) {
+      if (robots_[static_cast<std::size_t>(ev.payload)].liveness == ev.seq) {
+        liveness_due(ev.payload);
+      }
     } else {
       const auto slot = static_cast<std::size_t>(ev.payload);
       ready_.push_back(std::move(slots_[slot]));

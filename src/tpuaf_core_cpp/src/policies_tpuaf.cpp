@@ -207,6 +207,15 @@ bool TpuafStrategy::on_team_message(GraphEngine& engine, int sender,
   return true;
 }
 
+void TpuafStrategy::on_teammate_lost(GraphEngine& engine, int robot, int lost) {
+  if (shared_) {
+    throw std::logic_error("TPUAF's shared team knowledge cannot forget one robot's teammate");
+  }
+  knowledge_of(robot).forget_intention(lost);
+  Colocation& c = colocated_[static_cast<std::size_t>(robot)];
+  if (lost >= 0 && lost < engine.robots()) c.shadows[static_cast<std::size_t>(lost)] = 0;
+}
+
 void TpuafStrategy::on_message(GraphEngine& engine, int robot, const TeamMessage& message) {
   TpuafKnowledge& k = knowledge_of(robot);
   if (message.kind == TeamMessage::Kind::kVisit || message.kind == TeamMessage::Kind::kIntention) {

@@ -65,6 +65,9 @@ struct TeamMessage {
   double travel_time_s = 0;
   std::shared_ptr<const std::vector<double>> estimate;  // IdlenessEstimate E[v] [s]
   std::shared_ptr<void> opaque;
+  // The destination an opaque message announces (tpuaf.robot.machine.announced_vertex; -1:
+  // none); the other kinds announce their next_vertex (Visit, IdlenessEstimate) or vertex.
+  int announced = -1;
 };
 
 class GraphEngine;
@@ -77,6 +80,10 @@ class TeamStrategy {
   virtual void start(GraphEngine& engine, int robot) = 0;
   virtual int decide(GraphEngine& engine, int robot) = 0;
   virtual void on_message(GraphEngine& engine, int robot, const TeamMessage& message) = 0;
+  // The motion gave up on goal `vertex` (a stalled robot); decide() is called next.
+  virtual void on_goal_failed(GraphEngine& /*engine*/, int /*robot*/, int /*vertex*/) {}
+  // Teammate `lost` went silent for the liveness timeout (runs with faults).
+  virtual void on_teammate_lost(GraphEngine& /*engine*/, int /*robot*/, int /*lost*/) {}
   // True if the strategy never calls back into Python (the run may release the GIL).
   virtual bool is_native() const { return true; }
   // True if on_message only changes the recipient's own state and never sends: the engine may
@@ -108,6 +115,51 @@ struct EngineConfig {
   double sensing_peak = 1.0;
   double sensing_radius_m = 5.0;
   std::vector<int> start_vertices;
+  // Runs with faults (GraphEngine::set_faults):
+  double goal_tolerance_m = 0.0;     // a stalled robot dwells only within this of its goal
+  double stall_give_up_s = 60.0;     // a stalled robot's navigator gives up a drive after [s]
+  double teammate_timeout_s = 10.0;  // a teammate silent this long is lost [s]
+  double heartbeat_period_s = 1.0;   // every live robot sends a heartbeat this often [s]
+};
+
+// A robot fault at time_s [s] (tpuaf.runtimes.faults): death, or stall (stops moving for good).
+struct EngineFault {
+  double time_s = 0;
+  int robot = 0;
+  bool death = true;
+};
+
+// Heartbeats of a run with faults (tpuaf.team.liveness.HeartbeatLinks, step for step): robot j
+// sends heartbeat k at k * period [s] while alive (k * period <= its death time) and within the
+// run; robot i hears it delay [s] later unless lost, one draw per (sender, recipient, heartbeat)
+// from the sender's stream numpy default_rng([seed, 4, sender]).random((n, count)).
+class HeartbeatLinks {
+ public:
+  // rngs: one stream per sender (unused, and may be empty, without loss).
+  HeartbeatLinks(int robots, double duration_s, double timeout_s, double delay_s, double loss,
+                 double period_s, std::vector<NumpyPcg64> rngs);
+  void died(int robot, double t);  // its heartbeats stop after run time t [s]
+  // [s] when `recipient` last heard `sender` by run time t (-inf: never).
+  double last_arrival_s(int recipient, int sender, double t);
+  // [s] the next time recipient's view of sender can change from heartbeats alone (+inf: never).
+  double next_check_s(int recipient, int sender, double last_heard, bool lost, double now);
+
+ private:
+  struct Link {
+    std::vector<std::int32_t> received;  // heartbeat indices heard, ascending
+    std::vector<std::int32_t> silences;  // positions p: received[p + 1] comes after a timeout
+  };
+  double arrival(std::int64_t k) const { return static_cast<double>(k) * period_s_ + delay_s_; }
+  const Link& link(int recipient, int sender);
+  std::int64_t heard_by(const Link& l, int sender, double t) const;
+  void silences_of(Link& l) const;
+  int n_;
+  double period_s_, delay_s_, timeout_s_, loss_;
+  std::int64_t count_;
+  std::vector<std::int64_t> last_sent_;
+  std::vector<NumpyPcg64> rngs_;
+  std::vector<std::vector<Link>> links_;  // [sender][recipient], drawn when first asked
+  Link every_;                            // without loss: every heartbeat on every link
 };
 
 struct VisitRecord {
@@ -137,6 +189,16 @@ class GroundTruthRecorder {
   void record_visit(int robot, int vertex, double time_s);
   void record_positions(double time_s, const Points& positions);
   void finish(double end_s);  // robots held at their last positions until end_s
+  // Robot `robot` died at time_s [s]: it no longer senses nor interferes (a NaN position, as
+  // RunRecorder.record_robot_death).
+  void record_robot_death(int robot, double time_s);
+  void record_robot_stall(int robot, double time_s) { stalls_.push_back({time_s, robot, -1}); }
+  void record_announcement(int robot, int vertex, double time_s) {
+    announcements_.push_back({time_s, robot, vertex});
+  }
+  const std::vector<VisitRecord>& deaths() const { return deaths_; }  // (t, robot, -1)
+  const std::vector<VisitRecord>& stalls() const { return stalls_; }
+  const std::vector<VisitRecord>& announcements() const { return announcements_; }
 
   // The visits still kept (and their interval idleness [s]): visits visits_forgotten() ..
   // visit_count() - 1 (see forget_visits_before).
@@ -179,9 +241,13 @@ class GroundTruthRecorder {
   void apply_pending(double t);
   void apply_visit(double vt, int v);
   void emit_row(double t, double x_mean);
-  void advance_field(double t0, double t1, const Points& p0, const Points& p1);
+  void advance_field(double t0, double t1, const Points& p0, const Points& p1, bool finite);
   void step_field(double dt, const Points& pa, const Points& pb);
   void interference(double t0, double t1, const Points& p0, const Points& p1, double step);
+  void interference_all(double t0, double t1, const Points& p0, const Points& p1);
+  void enter_pair(std::uint64_t key, int i, int j, double t0, double t1, const Points& p0,
+                  double d1x, double d1y);
+  void keep_fresh();
   void rebuild_verlet(const Points& p, double reach);
   long long interferences_until(double t) const;
 
@@ -202,6 +268,11 @@ class GroundTruthRecorder {
   double field_t_ = 0;
   Points field_p_;
   bool has_field_p_ = false;
+  bool field_finite_ = true;  // no robot absent at field_p_
+  std::vector<char> alive_;
+  bool all_alive_ = true;
+  Points masked_;  // positions with the dead robots' rows NaN
+  std::vector<VisitRecord> deaths_, stalls_, announcements_;
 
   std::vector<VisitRecord> visits_;
   std::vector<double> visit_idleness_;
@@ -245,6 +316,19 @@ class GraphEngine {
               UncertaintyField field, NumpyPcg64 bus_rng);
 
   void set_strategy(TeamStrategy* strategy) { strategy_ = strategy; }
+  // The run's faults (time order, as resolved by tpuaf.runtimes.faults) and, when there is one,
+  // the heartbeat streams (numpy default_rng([seed, 4, sender]) per sender; unused without
+  // loss). With faults every robot's liveness is fed and checked as in BatchRun.
+  void set_faults(std::vector<EngineFault> faults, std::vector<NumpyPcg64> heartbeat_rngs);
+  bool has_faults() const { return !faults_.empty(); }
+  bool alive(int robot) const { return robot_at(robot).alive; }
+  bool stalled(int robot) const { return robot_at(robot).stalled; }
+  // (run time [s], observer, lost teammate) of every liveness loss, in order.
+  struct Loss {
+    double time_s;
+    int observer, lost;
+  };
+  const std::vector<Loss>& losses() const { return losses_; }
   // Simulate until duration_s; progress(now) now and then (every 1/200 of the run).
   void run(const std::function<void(double)>& progress = {});
   void finish() { recorder_.finish(now_); }
@@ -264,8 +348,11 @@ class GraphEngine {
   double average_speed(int robot) const;
   void position(int robot, double t, double& x, double& y) const;
   void send(int robot, TeamMessage message);
-  // No loss and no delay: every message reaches every teammate at the moment it is sent.
-  bool team_hears_alike() const { return config_.loss == 0 && config_.delay_s == 0; }
+  // No loss, no delay and no faults: every message reaches every teammate at the moment it is
+  // sent (and nobody's view of the team changes apart from them).
+  bool team_hears_alike() const {
+    return config_.loss == 0 && config_.delay_s == 0 && faults_.empty();
+  }
   void wake_at(int robot, double time_s);
   void change_goal(int robot, int vertex);
 
@@ -281,13 +368,18 @@ class GraphEngine {
     std::size_t route_k = 0;
     double travelled_m = 0, travel_time_s = 0;
     bool wake_pending = false;
+    bool alive = true, stalled = false, dwelling = false;
     double p0x = 0, p0y = 0, vx = 0, vy = 0, t0 = 0, t1 = 0;  // current straight segment
+    std::uint64_t pending = 0;       // seq of its one awaited ARRIVE or GIVE_UP (0: none)
+    std::uint64_t liveness = 0;      // seq of its one pending liveness check (0: none)
+    std::vector<double> last_heard;  // [s] per teammate (TeammateLiveness), runs with faults
+    std::vector<char> lost;          // per teammate: reported lost
   };
   struct Event {
     double time;
     int kind;
     std::uint64_t seq;
-    int payload;  // robot, or delivery slot
+    int payload;  // robot, delivery slot or fault index
     bool operator>(const Event& o) const {
       if (time != o.time) return time > o.time;
       if (kind != o.kind) return kind > o.kind;
@@ -302,8 +394,20 @@ class GraphEngine {
   };
 
   const Robot& robot_at(int robot) const;
-  void push(double time, int kind, int payload);
+  std::uint64_t push(double time, int kind, int payload);
   void deliver_ready();
+  void deliver_heard();
+  void drive(int robot);
+  void give_up_later(int robot);
+  void give_up(int robot);
+  void freeze(int robot);
+  void inject(const EngineFault& fault);
+  bool at_vertex(int robot, int vertex) const;
+  int nearest_vertex(double x, double y) const;
+  bool hear(int robot, int sender, double t);
+  void feed_heartbeats(int robot);
+  void plan_liveness(int robot);
+  void liveness_due(int robot);
   void deliver_batch_by_robot();
   void decide(int robot);
   void plan_route(Robot& r, int goal);
@@ -332,6 +436,11 @@ class GraphEngine {
   BusStats bus_;
   Points scratch_;
   std::vector<double> lost_scratch_;
+  std::vector<EngineFault> faults_;
+  std::unique_ptr<HeartbeatLinks> links_;
+  std::vector<Loss> losses_;
+  std::vector<int> lost_now_;
+  std::vector<int> lost_by_;  // per robot: how many teammates hold it for lost now
 };
 
 // ------------------------------------------------------------------ C++ decision paths
@@ -350,6 +459,8 @@ class TpuafStrategy : public TeamStrategy {
   void start(GraphEngine& engine, int robot) override;
   int decide(GraphEngine& engine, int robot) override;
   void on_message(GraphEngine& engine, int robot, const TeamMessage& message) override;
+  // As Tpuaf.on_teammate_lost: forget its intention, it is no longer my shadow.
+  void on_teammate_lost(GraphEngine& engine, int robot, int lost) override;
   bool messages_are_local() const override { return true; }
   bool on_team_message(GraphEngine& engine, int sender, const TeamMessage& message) override;
   // What robot `robot` knows (a copy; the team's knowledge without its own intention when

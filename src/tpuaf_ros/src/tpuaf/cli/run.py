@@ -141,9 +141,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     add_runtime_arguments(p)
     p.add_argument("--engine", choices=("auto", "native", "python"), default="auto",
-                   help="graph runtime's event loop: native (C++), python, or auto (native when "
-                        "the strategy has a C++ decision path and every option is supported; "
-                        "same results either way, runtimes/native.py)")
+                   help="graph runtime's event loop: native (C++), python, or auto (native: "
+                        "with the strategy's C++ decision path, or its Python policy called "
+                        "back; same results either way, runtimes/native.py)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--no-plots", action="store_true",
                    help="no summary.png in the --out folder (scripted sweeps of many runs)")
@@ -219,7 +219,8 @@ def format_faults(summary: dict) -> str:
             f"  after robot {r['robot']} died at {r['time_s']:,.1f} s: every vertex visited "
             f"again {back}; worst idleness {num('worst_idleness_after_s')}"
             f" (ideal for the {r['survivors']} survivors "
-            f"{num('ideal_worst_idleness_survivors_s')}); intentions honoured "
+            f"{num('ideal_worst_idleness_survivors_s')}, unavoidable after this death "
+            f"{num('floor_worst_idleness_after_s')}); intentions honoured "
             f"{r['intentions_honoured']}/{len(r['intentions'])}")
     return "\n".join(lines)
 

@@ -69,10 +69,12 @@ METRIC_COLUMNS = [
     "complete_cycles", "unvisited_vertices",
 ]
 # Recovery after deaths (summary "recovery", one entry per death; H-A's fault injection):
-# the slowest recovery, the worst idleness after a death, the N - 1 survivors' ideal, the dead
-# robots' intentions still honoured (sum) and the deaths never recovered from.
+# the slowest recovery, the worst idleness after a death, the N - 1 survivors' ideal, the floor
+# no strategy could avoid (metrics.death_floor), the dead robots' intentions still honoured
+# (sum) and the deaths never recovered from.
 RECOVERY_COLUMNS = ["recovery_time_s", "worst_idleness_after_s",
-                    "ideal_worst_idleness_survivors_s", "intentions_honoured", "unrecovered"]
+                    "ideal_worst_idleness_survivors_s", "floor_worst_idleness_after_s",
+                    "intentions_honoured", "unrecovered"]
 RESULT_COLUMNS = KEY_COLUMNS + SCENARIO_COLUMNS + ["status", "error"] + METRIC_COLUMNS + \
     RECOVERY_COLUMNS + ["wall_time_s", "finished_at", "map_source"]
 SAMPLE_COLUMNS = ["map", "strategy", "robots", "seed", "scenario", "idleness_s"]
@@ -441,9 +443,10 @@ def run_config(task: dict[str, Any]):
 
 
 def make_engine(config, patrol_map, runtime: str = "graph"):
-    """The engine of a runtime: graph = the C++ event loop when the strategy has a C++
-    decision path and no unsupported option is set, else BatchRun (same results either way,
-    runtimes/native.py); physics = runtimes/physics.py PhysicsRun."""
+    """The engine of a runtime: graph = the C++ event loop (`make_run` auto: with the
+    strategy's C++ decision path or its Python policy called back; BatchRun only for an
+    unsupported option; same results either way, runtimes/native.py); physics =
+    runtimes/physics.py PhysicsRun."""
     if runtime == "graph":
         from tpuaf.runtimes.native import make_run
 
@@ -565,9 +568,11 @@ def _recovery_fields(summary: dict[str, Any]) -> dict[str, Any]:
 
     rec, after = values("recovery_time_s"), values("worst_idleness_after_s")
     ideal, honoured = values("ideal_worst_idleness_survivors_s"), values("intentions_honoured")
+    floor = values("floor_worst_idleness_after_s")
     return {"recovery_time_s": max(rec) if rec else None,
             "worst_idleness_after_s": max(after) if after else None,
             "ideal_worst_idleness_survivors_s": max(ideal) if ideal else None,
+            "floor_worst_idleness_after_s": max(floor) if floor else None,
             "intentions_honoured": sum(honoured) if honoured else None,
             "unrecovered": len(entries) - len(rec)}
 

@@ -385,57 +385,17 @@ class RunRecorder:
           from the death to the next death or the end (time before the death counts);
         - ideal_worst_idleness_survivors_s: the reference tours' best worst idleness (cyclic
           or partition, tpuaf.maps.tours) for the survivors on this map at `speed_mps`;
+        - floor_worst_idleness_after_s: what no strategy could avoid after this death
+          (`death_floor`: each vertex's idleness at the death plus the shortest drive to it
+          from any survivor, at `speed_mps`); worst_idleness_ratio_to_reference: the worst
+          idleness after over max(floor, ideal), 1.0 = as good as the death allows;
         - intentions: the vertices the dead robot had announced as its next destination in
           the team messages it sent since its last visit (what its teammates may count on it
           for); intentions_honoured: how many of them a teammate visited after the death,
           intention_delays_s: after how long (None: never)."""
-        from tpuaf.maps.tours import reference_tours
-
-        end_time = float(end_time)
-        ids = list(self.patrol_map.vertex_ids)
-        speed = self.speed_mps
-        deaths = sorted(d for d in self.deaths if d[0] <= end_time)
-        out = []
-        for k, (td, robot) in enumerate(deaths):
-            until = deaths[k + 1][0] if k + 1 < len(deaths) else end_time
-            survivors = self.n_robots - (k + 1)
-            ideal = (reference_tours(self.patrol_map, survivors, speed)["best_worst_idleness_s"]
-                     if survivors > 0 else math.nan)
-            first_after, worst = [], 0.0
-            for times in self._vertex_times:
-                j = bisect.bisect_right(times, td)
-                first_after.append(times[j] if j < len(times) and times[j] <= end_time
-                                   else math.inf)
-                prev = times[j - 1] if j else self.start_time
-                for t in times[j:]:
-                    if t > until:
-                        break
-                    worst = max(worst, t - prev)
-                    prev = t
-                worst = max(worst, until - prev)
-            recovered = max(first_after) if first_after else td
-            last_own = max((t for t, r, _ in self.visits if r == robot and t <= td),
-                           default=self.start_time)
-            intentions = sorted({v for t, r, v in self.announcements
-                                 if r == robot and last_own <= t <= td})
-            delays = []
-            for v in intentions:
-                later = [t for t, r, vv in self.visits if vv == v and r != robot and td < t]
-                delays.append(min(later) - td if later else math.nan)
-            out.append({
-                "robot": robot,
-                "time_s": td,
-                "survivors": survivors,
-                "recovery_time_s": recovered - td if math.isfinite(recovered) else math.nan,
-                "worst_idleness_after_s": worst,
-                "window_end_s": until,
-                "ideal_worst_idleness_survivors_s": ideal,
-                "worst_idleness_ratio": worst / ideal if ideal > 0 else math.nan,
-                "intentions": [int(ids[v]) for v in intentions],
-                "intentions_honoured": sum(1 for d in delays if d == d),
-                "intention_delays_s": delays,
-            })
-        return out
+        return recovery_after_deaths(
+            self.patrol_map, self.n_robots, self.speed_mps, self.start_time, self._vertex_times,
+            self.visits, self.deaths, self.announcements, end_time)
 
     # -- results --------------------------------------------------------------------------
 
@@ -500,6 +460,115 @@ class RunRecorder:
             n_interferences=len(self.interferences), n_visits=len(self.visits),
             deaths=self.deaths, stalls=self.stalls,
             recovery=self.recovery(end_time) if self.deaths else None)
+
+
+def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, start_time: float,
+                          vertex_times, visits, deaths, announcements, end_time: float
+                          ) -> list[dict]:
+    """RunRecorder.recovery from a recorder's figures (the Python recorder's and the C++ event
+    loop's): vertex_times sorted visit times [s] per vertex, visits (t, robot, vertex),
+    deaths (t, robot), announcements (t, robot, vertex)."""
+    from tpuaf.maps.tours import reference_tours
+
+    end_time = float(end_time)
+    ids = list(patrol_map.vertex_ids)
+    speed = speed_mps
+    deaths = sorted(d for d in deaths if d[0] <= end_time)
+    out = []
+    for k, (td, robot) in enumerate(deaths):
+        until = deaths[k + 1][0] if k + 1 < len(deaths) else end_time
+        survivors = n_robots - (k + 1)
+        ideal = (reference_tours(patrol_map, survivors, speed)["best_worst_idleness_s"]
+                 if survivors > 0 else math.nan)
+        first_after, worst = [], 0.0
+        for times in vertex_times:
+            j = bisect.bisect_right(times, td)
+            first_after.append(times[j] if j < len(times) and times[j] <= end_time
+                               else math.inf)
+            prev = times[j - 1] if j else start_time
+            for t in times[j:]:
+                if t > until:
+                    break
+                worst = max(worst, t - prev)
+                prev = t
+            worst = max(worst, until - prev)
+        recovered = max(first_after) if first_after else td
+        dead = {r for t, r in deaths if t <= td}
+        floor = death_floor(patrol_map, speed, start_time, vertex_times, visits, td, until,
+                            [r for r in range(n_robots) if r not in dead])
+        reference = max(floor, ideal) if ideal == ideal else floor
+        last_own = max((t for t, r, _ in visits if r == robot and t <= td),
+                       default=start_time)
+        intentions = sorted({v for t, r, v in announcements
+                             if r == robot and last_own <= t <= td})
+        delays = []
+        for v in intentions:
+            later = [t for t, r, vv in visits if vv == v and r != robot and td < t]
+            delays.append(min(later) - td if later else math.nan)
+        out.append({
+            "robot": robot,
+            "time_s": td,
+            "survivors": survivors,
+            "recovery_time_s": recovered - td if math.isfinite(recovered) else math.nan,
+            "worst_idleness_after_s": worst,
+            "window_end_s": until,
+            "ideal_worst_idleness_survivors_s": ideal,
+            "worst_idleness_ratio": worst / ideal if ideal > 0 else math.nan,
+            "floor_worst_idleness_after_s": floor,
+            "worst_idleness_ratio_to_reference": worst / reference if reference > 0 else math.nan,
+            "intentions": [int(ids[v]) for v in intentions],
+            "intentions_honoured": sum(1 for d in delays if d == d),
+            "intention_delays_s": delays,
+        })
+    return out
+
+
+def death_floor(patrol_map: Any, speed_mps: float, start_time: float, vertex_times, visits,
+                death_s: float, until_s: float, survivors: Sequence[int]) -> float:
+    """[s] the worst idleness that no strategy could avoid from a death at `death_s` up to
+    `until_s`, from the state at the death: max over vertices v of the idleness of v at the
+    death plus the shortest drive to v from any survivor at `speed_mps`, capped at `until_s`
+    (NaN without survivors). `vertex_times`: sorted visit times [s] per vertex; `visits`:
+    (t, robot, vertex) (a recorder's figures).
+
+    A survivor's position at the death is bounded from its own visits alone, by
+    the triangle inequality on the graph's shortest-path lengths d [m]: it stood on vertex a at
+    t_a <= death and reaches vertex b at t_b > death, so its distance to v is at least
+    max(d(a, v) - speed (death - t_a), d(b, v) - speed (t_b - death), 0). Exact in the graph
+    runtime (robots drive the graph); in the physics runtime d is the planned length."""
+    survivors = list(survivors)
+    if not survivors:
+        return math.nan
+    speed = float(speed_mps)
+    dist = np.asarray(patrol_map.graph.distances, dtype=float)
+    n_vertices = len(dist)
+    before: dict[int, tuple[float, int]] = {}
+    after: dict[int, tuple[float, int]] = {}
+    for t, r, v in visits:
+        if t <= death_s:
+            if r not in before or t >= before[r][0]:
+                before[r] = (t, v)
+        elif r not in after or t < after[r][0]:
+            after[r] = (t, v)
+    reach = np.full(n_vertices, np.inf)  # [m] least drive to each vertex, any survivor
+    for r in survivors:
+        lower = np.zeros(n_vertices)
+        known = False
+        if r in before:
+            t, a = before[r]
+            lower = np.maximum(lower, dist[a] - speed * (death_s - t))
+            known = True
+        if r in after:
+            t, b = after[r]
+            lower = np.maximum(lower, dist[b] - speed * (t - death_s))
+            known = True
+        reach = np.minimum(reach, lower if known else 0.0)
+    floor = 0.0
+    for v, times in enumerate(vertex_times):
+        j = bisect.bisect_right(times, death_s)
+        last = times[j - 1] if j else start_time
+        floor = max(floor, min(death_s - last + reach[v] / speed, until_s - last))
+    return float(floor)
 
 
 def first_coverage(rec: Any, end_time: float) -> dict[str, float]:

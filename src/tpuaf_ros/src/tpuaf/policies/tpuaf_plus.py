@@ -26,7 +26,9 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    then recomputes the plan for the survivors (step 1); a cycle re-spaces at once (each
    survivor dwells its share of the survivors' even spacing, capped so that no vertex ahead
    waits beyond L / (m v); `_respace_target`, `_idle_room`), then by step 3;
-   a partition is recomputed and each survivor drives to its new part. A presumed-dead robot
+   a partition is merged or recomputed and each survivor drives to its new part (several
+   robots new to one walk enter it where the start schedule, from where each stood when the
+   team changed, puts their slots: `_transition_entries`). A presumed-dead robot
    that speaks again rejoins. Stale information never blocks a vertex: nothing is reserved;
    an old message only places a mate on its walk, and it expires with the silence timeout.
 6. Repair. While driving to a (new) part, the robot chooses among the neighbours on a
@@ -36,6 +38,7 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
 
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -131,15 +134,16 @@ def _urgent_entry(route: Route, vertex: int, dist, last_visit, now: float, speed
     return int(np.lexsort((np.arange(len(walk)), reach, np.round(worst, 6)))[0])
 
 
-def _slot_departures(route: Route, start: int, dist, slots: np.ndarray):
+def _slot_departures(route: Route, start: int, dist, slots: np.ndarray, late_m: float = 0.0):
     """For a robot at vertex `start` and virtual slots at arc positions `slots` [m] at t = 0
     (moving at the plan speed v): per slot, the earliest (v * departure time [m], walk index)
     at which the robot, having driven the shortest route to a walk vertex, is there when the
     slot passes it. With u_k = (arc_k - d_k) mod L the latest slot phase the robot catches at
-    index k on the slot's first pass, v t = d_k + u_k - s (+ L when s > u_k)."""
+    index k on the slot's first pass, v t = d_k + u_k - s (+ L when s > u_k). `late_m`: the
+    robot is at `start` only v t = late_m [m] after t = 0."""
     L = route.length
     arc = np.asarray(route.arc)
-    d = np.asarray(dist[start, list(route.walk)], dtype=float)
+    d = np.asarray(dist[start, list(route.walk)], dtype=float) + late_m
     u = np.mod(arc - d, L)
     order = np.lexsort((np.arange(len(u)), u))
     u_sorted, b_sorted = u[order], (d + u)[order]
@@ -171,15 +175,20 @@ def _slot_departures(route: Route, start: int, dist, slots: np.ndarray):
     return out_t, out_k
 
 
-def _schedule(route: Route, starts: dict, dist, speed: float) -> dict:
+def _schedule(route: Route, starts: dict, dist, speed: float, late_m: dict | None = None,
+              idle_s: np.ndarray | None = None) -> dict:
     """Robot -> (entry index, departure time [s]): the team starts spread at once. m virtual
     slots, evenly spaced along the walk and moving at `speed`, each pick up one robot: the robot
     drives the shortest route to the walk vertex where its slot passes soonest after it can be
     there, and leaves with the slot (robots only wait, never drive faster). Over slot phases,
     robots are matched to slots (least squared departures) and the schedule kept is the one
     whose walk vertices are all first visited soonest (then the least total wait); steady-state
-    spacing then holds from the start."""
+    spacing then holds from the start. `late_m`: robot -> v times how long after t = 0 it is at
+    its start vertex [m] (default 0: there at t = 0). `idle_s`: per walk vertex (graph index),
+    its idleness at t = 0 [s] (after a loss): then the schedule kept is the one whose walk
+    vertices wait least in all, idleness at t = 0 + time to their first visit."""
     robots = list(route.robots)
+    late = {r: float((late_m or {}).get(r, 0.0)) for r in robots}
     m, L = len(robots), route.length
     if m == 1 or L <= 0:
         entries = {r: _entry_index(route, starts[r], dist) for r in robots}
@@ -187,6 +196,8 @@ def _schedule(route: Route, starts: dict, dist, speed: float) -> dict:
     from scipy.optimize import linear_sum_assignment
 
     arc = np.asarray(route.arc)
+    walk = np.asarray(route.walk)
+    idle_m = None if idle_s is None else np.asarray(idle_s, dtype=float) * speed
     phases = max(4, min(16, 4000 // (m * m) + 4))
     best = None
     for q in range(phases):
@@ -194,12 +205,12 @@ def _schedule(route: Route, starts: dict, dist, speed: float) -> dict:
         dep = np.empty((m, m))
         ent = np.empty((m, m), dtype=int)
         for i, r in enumerate(robots):
-            dep[i], ent[i] = _slot_departures(route, starts[r], dist, slots)
+            dep[i], ent[i] = _slot_departures(route, starts[r], dist, slots, late[r])
         rows, cols = linear_sum_assignment((dep / L) ** 2)
         k = ent[rows, cols]
         entry_arc = arc[k]
-        reach = np.array([dist[starts[robots[i]], route.walk[kk]] for i, kk in zip(rows, k,
-                                                                                    strict=True)])
+        reach = np.array([dist[starts[robots[i]], route.walk[kk]] + late[robots[i]]
+                          for i, kk in zip(rows, k, strict=True)])
         # leave with the slot (alpha = 1: even spacing) or earlier (the first lap sooner, the
         # spacing rule evens the gaps later, slowly under message loss): earlier only while no
         # gap exceeds START_GAP x L / m
@@ -211,7 +222,12 @@ def _schedule(route: Route, starts: dict, dist, speed: float) -> dict:
             gap = float(np.max(np.diff(np.append(virtual, virtual[0] + L))))
             if alpha < 1.0 and gap > START_GAP * L / m:
                 continue
-            score = (float(first.max()), float(t_dep.sum()))
+            if idle_m is None:
+                score = (float(first.max()), float(t_dep.sum()))
+            else:  # per vertex: its first visit over all its walk entries, after its idleness
+                soonest = np.full(len(idle_m), np.inf)
+                np.minimum.at(soonest, walk, first)
+                score = (float(np.max((soonest + idle_m)[walk])), float(t_dep.sum()))
             if best is None or score[0] < best[0][0] - _EPS or (
                     score[0] <= best[0][0] + _EPS and score[1] < best[0][1] - _EPS):
                 best = (score, rows, k, t_dep)
@@ -454,6 +470,10 @@ class TpuafPlus(Policy):
         # latest timed message per mate: (from vertex, to vertex, departure [s], sent [s])
         self.heard: dict[int, tuple[int, int, float, float]] = {}
         self.mate_arc: dict[int, float] = {}  # last estimated arc [m] (disambiguates walks)
+        # the last few timed announcements per robot, mine included, in the order sent: where
+        # every robot stood when the team changed (`_transition_entries`)
+        self.history: dict[int, list[tuple[int, int, float, float]]] = {}
+        self.changed_at = 0.0  # [s] when the team last changed, as every survivor dates it
         self.hold_until: float | None = None  # planned departure while dwelling [s]
         self.respace: tuple[float, float] | None = None  # after a loss: (target arc [m], at [s])
         self.waking = False
@@ -485,9 +505,44 @@ class TpuafPlus(Policy):
                                        np.asarray(self.knowledge.last_visit), ctx.now, self.speed)
             self.idx = None
         else:
-            self.entry = _entry_index(self.route, ctx.current_vertex, self.dist)
+            # a walk new to several robots: enter where the start schedule (from where every
+            # robot stood when the team changed) puts my slot, not all at the nearest vertex;
+            # leave on arrival (waiting for the slot left vertices idle longer, measured) and
+            # let the spacing rule even the gaps
+            entries = self._transition_entries()
+            self.entry = entries.get(ctx.robot)
+            if self.entry is None:
+                self.entry = _entry_index(self.route, ctx.current_vertex, self.dist)
             self.idx = None
         self.hold_until = None
+
+    def _transition_entries(self) -> dict[int, int]:
+        """Robot -> entry index on my new walk: `_schedule`'s entries with each of its
+        robots at the vertex its last announcement before the team change (`changed_at`) was
+        heading to, from when it gets there. Every survivor computes it from the same messages
+        (unless loss or delay kept one from it), so they agree on the entries. {} when a robot
+        of the walk has not been heard."""
+        t_ref, route = self.changed_at, self.route
+        starts, late = {}, {}
+        for r in route.robots:
+            info = None
+            for entry in self.history.get(r, ()):
+                if entry[3] <= t_ref + _EPS:
+                    info = entry  # the latest sent by then (an intention after its visit)
+            if info is None:
+                return {}
+            a, b, departure, _ = info
+            starts[r] = b
+            late[r] = max(0.0, departure + float(self.dist[a, b]) / self.speed - t_ref) * self.speed
+        idle = np.maximum(t_ref - np.asarray(self.knowledge.last_visit, dtype=float), 0.0)
+        plan = _schedule(route, starts, self.dist, self.speed, late, idle)
+        return {r: k for r, (k, _) in plan.items()}
+
+    def _remember(self, robot: int, entry: tuple[int, int, float, float]) -> None:
+        past = self.history.setdefault(robot, [])
+        past.append(entry)
+        if len(past) > 4:
+            del past[0]
 
     def _respace_target(self, ctx) -> tuple[float, float] | None:
         """After a loss on a shared walk: (my target arc [m], at time [s]) of the survivors'
@@ -559,25 +614,34 @@ class TpuafPlus(Policy):
     # ------------------------------------------------------------------ messages
 
     def on_message(self, message, ctx: RobotContext) -> None:
+        # the hottest call of a run (every message x every recipient): locals, one dict lookup
         kind = type(message)
         if kind is Visit:
-            k = message.robot
-            self.knowledge.hear_visit(k, message.vertex, message.time, ctx.now)
-            self._heard_from(k, message.time)
-            if k not in self.heard or message.time > self.heard[k][3] + _EPS:
-                nxt = message.next_vertex if message.next_vertex >= 0 else message.vertex
-                self.heard[k] = (message.vertex, nxt, message.time, message.time)
+            k, sent = message.robot, message.time
+            self.knowledge.hear_visit(k, message.vertex, sent, ctx.now)
+            self._heard_from(k, sent)
+            nxt = message.next_vertex if message.next_vertex >= 0 else message.vertex
+            self._remember(k, (message.vertex, nxt, sent, sent))
+            old = self.heard.get(k)
+            if old is None or sent > old[3] + _EPS:
+                self.heard[k] = (message.vertex, nxt, sent, sent)
         elif kind is Intention:
-            k = message.robot
-            self._heard_from(k, message.time)
-            if k not in self.heard or message.time >= self.heard[k][3] - _EPS:
-                departure = message.expected_arrival - message.travel_time
-                self.heard[k] = (message.from_vertex, message.vertex, departure, message.time)
+            k, sent = message.robot, message.time
+            self._heard_from(k, sent)
+            departure = message.expected_arrival - message.travel_time
+            self._remember(k, (message.from_vertex, message.vertex, departure, sent))
+            old = self.heard.get(k)
+            if old is None or sent >= old[3] - _EPS:
+                self.heard[k] = (message.from_vertex, message.vertex, departure, sent)
 
     def _heard_from(self, k: int, sent: float) -> None:
-        self.last_heard[k] = max(self.last_heard.get(k, -np.inf), float(sent))
-        if sent > self.lost_at.get(k, np.inf):
-            del self.lost_at[k]  # heard again after it was reported lost
+        sent = float(sent)
+        last_heard = self.last_heard
+        if sent > last_heard.get(k, -math.inf):
+            last_heard[k] = sent
+        lost_at = self.lost_at
+        if lost_at and sent > lost_at.get(k, math.inf):
+            del lost_at[k]  # heard again after it was reported lost
 
     def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:
         """The runtime's liveness timeout (faster than my own silence timeout)."""
@@ -594,6 +658,11 @@ class TpuafPlus(Policy):
             )
         }
         if alive != self.alive:
+            # dated as every survivor dates it: the loss report, else the end of the silence
+            gone = [min(self.lost_at.get(k, np.inf),
+                        self.last_heard.get(k, -np.inf) + self.silence_timeout_s)
+                    for k in self.alive - alive]
+            self.changed_at = min(max(gone), now) if gone else now
             self.alive = alive
             self._install_plan(ctx)
 
@@ -680,6 +749,7 @@ class TpuafPlus(Policy):
         if visit:
             ctx.send(Visit(ctx.robot, here, now, nxt))
         ctx.send(Intention(ctx.robot, here, nxt, departure + travel, travel, now))
+        self._remember(ctx.robot, (here, nxt, departure, now))
         self.last_announce = now
 
     def _hold(self, ctx, here: int, waking: bool) -> int | None:

@@ -208,18 +208,26 @@ class TeamRun:
         return summary
 
     def liveness_summary(self) -> dict[str, Any]:
-        """How the survivors noticed each death (detection delays [s] after the death, over
-        the robots alive when they noticed) and how often a live teammate was taken for lost
-        (a silence of the timeout under loss)."""
-        deaths = []
-        for robot, died in sorted(self._died_at.items(), key=lambda kv: (kv[1], kv[0])):
-            delays = [t - died for t, _, lost in self.losses if lost == robot and t >= died]
-            deaths.append({
-                "robot": robot, "time_s": died, "noticed_by": len(delays),
-                "first_delay_s": min(delays) if delays else None,
-                "last_delay_s": max(delays) if delays else None,
-            })
-        false = sum(1 for t, _, lost in self.losses if t < self._died_at.get(lost, math.inf))
-        return {"teammate_timeout_s": float(self.config.teammate_timeout_s),
-                "heartbeat_period_s": self.links.period_s, "deaths": deaths,
-                "false_losses": false}
+        """How the survivors noticed each death (see `liveness_summary`)."""
+        return liveness_summary(float(self.config.teammate_timeout_s), self.links.period_s,
+                                self._died_at, self.losses)
+
+
+def liveness_summary(teammate_timeout_s: float, heartbeat_period_s: float,
+                     died_at: dict[int, float], losses: list[tuple[float, int, int]]
+                     ) -> dict[str, Any]:
+    """How the survivors noticed each death (detection delays [s] after the death, over the
+    robots alive when they noticed) and how often a live teammate was taken for lost (a
+    silence of the timeout under loss). died_at: robot -> death time [s]; losses: (t [s],
+    observer, lost teammate)."""
+    deaths = []
+    for robot, died in sorted(died_at.items(), key=lambda kv: (kv[1], kv[0])):
+        delays = [t - died for t, _, lost in losses if lost == robot and t >= died]
+        deaths.append({
+            "robot": robot, "time_s": died, "noticed_by": len(delays),
+            "first_delay_s": min(delays) if delays else None,
+            "last_delay_s": max(delays) if delays else None,
+        })
+    false = sum(1 for t, _, lost in losses if t < died_at.get(lost, math.inf))
+    return {"teammate_timeout_s": float(teammate_timeout_s),
+            "heartbeat_period_s": heartbeat_period_s, "deaths": deaths, "false_losses": false}

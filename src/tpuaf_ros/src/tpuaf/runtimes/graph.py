@@ -50,7 +50,7 @@ class BatchRun(TeamRun):
         self.robots = [
             RobotMachine(self, i, n, self.patrol_map, cls(config.strategy_params),
                          np.random.default_rng([self.seed, 2, i]), self.visit_listener(i),
-                         starts[i])
+                         starts[i], teammate_timeout_s=float(config.teammate_timeout_s))
             for i in range(n)
         ]
         self._team(self.robots)

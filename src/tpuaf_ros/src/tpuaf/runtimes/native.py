@@ -11,7 +11,13 @@ motion, same bus (numpy's PCG64 stream reproduced in C++), same recorder arithme
   to 1 ulp; its decisions compare probabilities with a 1e-9 tolerance, so runs agree unless
   one lands within 1 ulp of that threshold (the golden test checks several configurations);
 - any other strategy stays the Python `Policy` it is, called back from C++ only at its
-  decisions and message deliveries, with a RobotContext like the Python runtime's.
+  decisions, message deliveries, goal failures and lost teammates, with a RobotContext like
+  the Python runtime's.
+
+Faults (deaths, `--fail-random` resolved here as BatchRun resolves it, stalls), the heartbeats
+(`HeartbeatLinks`, loss draws from the streams [seed, 4, sender]) and the teammate liveness
+checks run in the C++ loop as in `TeamRun` / `BatchRun`; the summary's faults, liveness and
+recovery are BatchRun's.
 
 `NativeRun` has BatchRun's interface (config, patrol_map, now, recorder, run(progress),
 summary(), effective_config()). Select the runtime with `make_run(config, engine=...)`.
@@ -27,9 +33,13 @@ from typing import Any
 import numpy as np
 
 from tpuaf.maps import load_map, start_vertices
-from tpuaf.measure.metrics import RunRecorder, build_summary
+from tpuaf.measure.metrics import RunRecorder, build_summary, recovery_after_deaths
+from tpuaf.navigation import navigator_give_up_s
 from tpuaf.policies import REGISTRY, Policy, RobotContextBase
+from tpuaf.robot.machine import announced_vertex
+from tpuaf.runtimes.base import TeamRun, liveness_summary
 from tpuaf.runtimes.config import RunConfig, run_description, travel_map
+from tpuaf.runtimes.faults import DEATH
 from tpuaf.runtimes.graph import DEFAULT_RETRY_S, STAY_S, BatchRun
 from tpuaf.team.bus import BusStats
 
@@ -120,20 +130,19 @@ def native_builder(strategy: str):
 
 
 def unsupported_options(config: RunConfig) -> list[str]:
-    """Options of `config` the native engine does not support yet (empty: it can run it)."""
-    missing = []
-    for name, what in (("fail", "robot deaths (--fail)"),
-                       ("fail_random", "random robot deaths (--fail-random)"),
-                       ("stall", "robot stalls (--stall)")):
-        if getattr(config, name, None):
-            missing.append(what)
-    return missing
+    """Options of `config` the native engine does not support (empty: it can run it). Every
+    option of the graph runtime is supported, faults included (deaths, random deaths, stalls,
+    with the heartbeats and liveness checks of BatchRun)."""
+    del config
+    return []
 
 
 def make_run(config: RunConfig, patrol_map=None, engine: str = "auto"):
     """The graph runtime for `config`: 'python' (BatchRun), 'native' (NativeRun, C++ loop) or
-    'auto' (native when the strategy has a C++ decision path and every option is supported).
-    Returns (run, reason): reason says why auto chose what it chose."""
+    'auto' (native whenever every option is supported: with the strategy's C++ decision path,
+    or its Python policy called back from C++, which is still faster than BatchRun with the
+    same results; benchmarks/results/native_faults.md). Returns (run, reason): reason says why
+    auto chose what it chose."""
     if engine not in ENGINES:
         raise EngineChoiceError(f"unknown engine '{engine}' (valid: {', '.join(ENGINES)})")
     config.validate()
@@ -152,8 +161,9 @@ def make_run(config: RunConfig, patrol_map=None, engine: str = "auto"):
         )
     if native_builder(config.strategy) is not None:
         return NativeRun(config, patrol_map), "native engine, C++ decision path"
-    return BatchRun(config, patrol_map), (
-        f"python engine: strategy '{config.strategy}' has no C++ decision path"
+    return NativeRun(config, patrol_map), (
+        f"native engine, strategy '{config.strategy}' called back in Python (no C++ decision "
+        "path; faster than the python engine, same results)"
     )
 
 
@@ -200,7 +210,7 @@ class _NativeRobot(RobotContextBase):
         return self._engine.position(self.robot)
 
     def send(self, message) -> None:
-        self._engine.send(self.robot, message)
+        self._engine.send(self.robot, message, announced_vertex(message))
 
     def wake_at(self, time: float) -> None:
         self._engine.wake_at(self.robot, float(time))
@@ -228,6 +238,16 @@ class _PythonTeam:
         robot = self.robots[i]
         robot.policy.on_message(message, robot)
 
+    def on_goal_failed(self, i: int, vertex: int) -> None:
+        robot = self.robots[i]
+        robot.policy.on_goal_failed(vertex, robot)
+
+    def on_teammate_lost(self, i: int, lost: int) -> None:
+        robot = self.robots[i]
+        hook = getattr(robot.policy, "on_teammate_lost", None)
+        if hook is not None:
+            hook(int(lost), robot)
+
 
 class _Bus:
     """BatchRun.bus look-alike: only the counters."""
@@ -248,6 +268,10 @@ class NativeRecorder:
         self._engine = run._engine
         self.patrol_map = run.patrol_map
         self.n_robots = run.config.robots
+        # [m/s] the survivors' ideal of the recovery metrics (RunRecorder's default)
+        self.speed_mps = float(run.patrol_map.settings.nominal_speed)
+        # Runs with deaths keep every visit: the recovery metrics read the dead robots' own.
+        self._keep_visits = any(f.kind == DEATH for f in run.faults)
         self.n_vertices = int(run.patrol_map.num_vertices)
         self.start_time = 0.0
         self.sample_period_s = float(run.config.sample_period_s)
@@ -292,7 +316,10 @@ class NativeRecorder:
     def forget_visits_before(self, first: int) -> None:
         """The engine drops the visits before index `first` (a results writer has them in
         visits.csv); the summary needs none of them (per-vertex times stay in the engine), but
-        `visits` can then no longer be read from the start."""
+        `visits` can then no longer be read from the start. A run with deaths keeps them (its
+        recovery metrics read them)."""
+        if self._keep_visits:
+            return
         self._engine.forget_visits_before(first)
         self._visits = []
         self._idleness = []
@@ -315,8 +342,22 @@ class NativeRecorder:
         return [int(c) for c in self._engine.visit_counts]
 
     @property
-    def deaths(self) -> list:
-        return []
+    def deaths(self) -> list[tuple[float, int]]:
+        return self._engine.deaths
+
+    @property
+    def stalls(self) -> list[tuple[float, int]]:
+        return self._engine.stalls
+
+    @property
+    def announcements(self) -> list[tuple[float, int, int]]:
+        return self._engine.announcements
+
+    def recovery(self, end_time: float) -> list[dict]:
+        """RunRecorder.recovery of the same run."""
+        return recovery_after_deaths(
+            self.patrol_map, self.n_robots, self.speed_mps, self.start_time,
+            self._engine.vertex_times, self.visits, self.deaths, self.announcements, end_time)
 
     @property
     def _pos_time(self) -> float | None:
@@ -334,11 +375,14 @@ class NativeRecorder:
         engine = self._engine
         engine.finish()
         end_time = float(end_time)
+        deaths = self.deaths
         return build_summary(
             self, end_time, interval_samples=engine.interval_samples, ins_sum=engine.ins_sum,
             n_rows=engine.row_count, worst=engine.worst_idleness(end_time), x_sum=engine.x_sum,
             x_count=engine.x_count, x_final=float(np.mean(engine.field_values)),
-            n_interferences=len(engine.interferences), n_visits=engine.visit_count)
+            n_interferences=len(engine.interferences), n_visits=engine.visit_count,
+            deaths=deaths, stalls=self.stalls,
+            recovery=self.recovery(end_time) if deaths else None)
 
 
 class NativeRun:
@@ -355,6 +399,7 @@ class NativeRun:
         if missing:
             raise EngineChoiceError(f"the native engine does not support {', '.join(missing)}")
         self.config = config
+        self.faults = config.faults()  # resolved (--fail-random drawn as BatchRun draws it)
         self.patrol_map = travel_map(config, patrol_map if patrol_map is not None
                                      else load_map(config.map))
         self.graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
@@ -379,6 +424,10 @@ class NativeRun:
         ec.sensing_peak = float(s.sensing_peak)
         ec.sensing_radius_m = float(s.sensing_radius)
         ec.start_vertices = starts
+        ec.goal_tolerance_m = float(s.goal_tolerance)
+        ec.stall_give_up_s = float(navigator_give_up_s())
+        ec.teammate_timeout_s = float(config.teammate_timeout_s)
+        ec.heartbeat_period_s = float(TeamRun.heartbeat_period_s)
         positions = np.asarray(self.patrol_map.positions, dtype=float)
         field = tpuaf_core.UncertaintyField(
             positions,
@@ -389,6 +438,13 @@ class NativeRun:
         self._engine = tpuaf_core.GraphEngine(
             self.graph, positions, ec, field, _rng_stream(self.seed, 1)
         )
+        if self.faults:
+            # Heartbeat losses: stream [seed, 4, sender] (HeartbeatLinks), only drawn with loss.
+            heartbeat_rngs = ([_rng_stream(self.seed, 4, j) for j in range(config.robots)]
+                              if float(config.loss) > 0 else [])
+            self._engine.set_faults([float(f.time_s) for f in self.faults],
+                                    [int(f.robot) for f in self.faults],
+                                    [f.kind == DEATH for f in self.faults], heartbeat_rngs)
         cls = REGISTRY.get(config.strategy)
         self.policies = [cls(config.strategy_params) for _ in range(config.robots)]
         self.params = dict(self.policies[0].params)  # resolved (ParameterError if invalid)
@@ -414,7 +470,8 @@ class NativeRun:
 
     @property
     def events(self) -> int:
-        """Events processed by the loop (arrivals, wake-ups, deliveries)."""
+        """Events processed by the loop (arrivals, wake-ups, deliveries, faults, give-ups,
+        liveness checks; stale ones included)."""
         return self._engine.events
 
     def run(self, progress: Callable[[float], None] | None = None) -> dict:
@@ -422,15 +479,25 @@ class NativeRun:
         self._engine.run(progress, release_gil=self.native_policy)
         return self.summary()
 
+    @property
+    def losses(self) -> list[tuple[float, int, int]]:
+        """(t [s], observer, lost teammate) of every liveness loss (TeamRun.losses)."""
+        return self._engine.losses
+
     def effective_config(self) -> dict:
         """Everything that determines this run (as BatchRun's, plus the engine used)."""
         return run_description(
-            self, self.start_vertices, self.params, [],
+            self, self.start_vertices, self.params, self.faults,
             engine="native" + (" (C++ decision path)" if self.native_policy else ""),
             motion="straight segments between vertices, edge length / nominal speed each")
 
     def summary(self) -> dict:
         summary = self.recorder.summary(self.now)
         summary["messages"] = asdict(self.bus.stats)
-        summary["faults"] = []  # faults run on the Python engine (make_run falls back)
+        summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
+        if self.faults:
+            died_at = {int(robot): float(t) for t, robot in self._engine.deaths}
+            summary["liveness"] = liveness_summary(
+                float(self.config.teammate_timeout_s), float(TeamRun.heartbeat_period_s),
+                died_at, self.losses)
         return summary

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from tpuaf.experiments.report.common import FAULT_TITLES, fmt, label
+from tpuaf.experiments.report.common import FAULT_TITLES, fmt, label, stat
 from tpuaf.experiments.report.data import Data
 
 
@@ -52,6 +52,8 @@ def recovery_table(fd: Data) -> str | None:
             rec = fd.stat(m, s, n, "recovery_time_s")
             after = fd.stat(m, s, n, "worst_idleness_after_s")
             ideal = fd.stat(m, s, n, "ideal_worst_idleness_survivors_s")
+            floor = stat(r.get("floor_worst_idleness_after_s", math.nan) for r in fd.rows
+                         if r["map"] == m and r["strategy"] == s and r["robots"] == n)
             unrec = sum(r.get("unrecovered", 0) or 0 for r in fd.rows
                         if r["map"] == m and r["strategy"] == s and r["robots"] == n
                         and np.isfinite(r.get("unrecovered", math.nan)))
@@ -59,6 +61,7 @@ def recovery_table(fd: Data) -> str | None:
                 cells.append("")
                 continue
             cells.append(f"{fmt(rec.mean)} / {fmt(after.mean)} / {fmt(ideal.mean)}"
+                         + (f" / {fmt(floor.mean)}" if floor.n else "")
                          + (f" ({unrec:.0f} never)" if unrec else ""))
         lines.append("| " + " | ".join([label(s)] + cells) + " |")
     return "\n".join(lines)
@@ -86,7 +89,10 @@ def faults_section(faults: dict[str, Data], nominal: Data) -> list[str]:
         if rec:
             md += ["**Recovery** (per cell: slowest time until every vertex was visited "
                    "again after a death [s] / worst idleness after the deaths [s] / ideal "
-                   "worst idleness of the N - K survivors, reference tours [s])", "", rec, ""]
+                   "worst idleness of the N - K survivors, reference tours [s] / the floor "
+                   "no strategy could avoid after the death: each vertex's idleness at the "
+                   "death plus the shortest drive to it from a survivor [s]; where the ideal "
+                   "is under the floor, the floor is what to compare with)", "", rec, ""]
         elif sc.startswith("deaths"):
             md += ["(No recovery figures in these runs' summaries.)", ""]
     return md

@@ -1,0 +1,181 @@
+"""Recovery after deaths, every shipped strategy: worst idleness after the deaths against the
+survivors' ideal and against the floor no strategy could avoid (metrics.death_floor).
+
+Graph runtime, deaths of K robots (K = 1 and N/4; robots drawn per seed) at half the run; the
+survivors notice them from what they stop hearing. Per case the median and worst over seeds of
+
+- after / ideal: worst idleness after the deaths over the survivors' reference tour (issue 19's
+  ratio; a cycle plan cannot go under 2 (m - 1) / m of it without graph shortcuts);
+- after / reference: over max(floor, ideal), the fairer ratio: 1.0 is as good as the deaths
+  allow.
+
+A strategy "keeps covering" when every vertex is visited again after every death in every run.
+Command: `.venv/bin/python benchmarks/bench_recovery.py [--quick] [--workers 2]`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import RESULTS, header, write  # noqa: E402
+
+MAPS_DIR = Path(__file__).resolve().parents[2] / "shared" / "maps" / "patrolling_sim"
+MAPS = ("grid", "cumberland", "DIAG_labs", "example")
+STRATEGIES = ("tpuaf_plus", "tpuaf", "cgg", "msp", "dtap", "dtag", "gbs", "sebs", "cbls", "hpcc",
+              "hcr", "cr", "rand")
+
+
+def map_arg(name: str) -> str:
+    return name if name in ("grid", "lab") else str(MAPS_DIR / name)
+
+
+def one_run(case: tuple[str, str, int, int, int, float]) -> dict:
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.native import make_run
+
+    name, strategy, n, k, seed, duration_s = case
+    dying = sorted(np.random.default_rng([seed, n, k]).choice(n, k, replace=False).tolist())
+    config = RunConfig(map=map_arg(name), strategy=strategy, robots=n, duration_s=duration_s,
+                       seed=seed, fail=[[int(r), duration_s / 2] for r in dying])
+    t0 = time.process_time()
+    run, _ = make_run(config)
+    summary = run.run()
+    rec = summary["recovery"]
+    after = max(r["worst_idleness_after_s"] for r in rec)
+    ideal = rec[-1]["ideal_worst_idleness_survivors_s"]
+    floor = max(r["floor_worst_idleness_after_s"] for r in rec)
+    covered = all(r["recovery_time_s"] is not None for r in rec)
+    return {"map": name, "strategy": strategy, "N": n, "K": k, "seed": seed, "after_s": after,
+            "ideal_s": ideal, "floor_s": floor, "covered": covered,
+            "cpu_s": time.process_time() - t0}
+
+
+def med_max(values: list[float]) -> str:
+    if not values:
+        return "-"
+    return f"{statistics.median(values):.2f}, {max(values):.2f}"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="2 maps, N = 4 and 8, 1 seed")
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--duration", type=float, default=1800.0, help="run length [s]")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--strategies", nargs="+", default=list(STRATEGIES))
+    ap.add_argument("--out", default="recovery.md")
+    ap.add_argument("--reuse", action="store_true",
+                    help="run only --strategies; take the other strategies' rows from the last "
+                         "run's recovery.json (same maps, teams, seeds and duration)")
+    args = ap.parse_args()
+    maps = MAPS[:2] if args.quick else MAPS
+    teams = (4, 8) if args.quick else (4, 8, 12)
+    seeds = 1 if args.quick else args.seeds
+    saved = RESULTS / Path(args.out).with_suffix(".json").name
+    kept = []
+    if args.reuse and saved.is_file():
+        old = json.loads(saved.read_text())
+        if old.get("duration_s") == args.duration and old.get("seeds") == seeds:
+            kept = [r for r in old["rows"] if r["strategy"] not in args.strategies
+                    and r["map"] in maps and r["N"] in teams]
+    strategies = list(args.strategies) + [s for s in STRATEGIES if any(
+        r["strategy"] == s for r in kept) and s not in args.strategies]
+    cases = [(m, s, n, k, seed, args.duration) for m in maps for n in teams
+             for k in sorted({1, max(1, n // 4)}) for s in args.strategies
+             for seed in range(1, seeds + 1)]
+    load_before = os.getloadavg()[0]
+    start = time.perf_counter()
+    rows = []
+    with ProcessPoolExecutor(args.workers) as pool:
+        for i, row in enumerate(pool.map(one_run, cases, chunksize=4), 1):
+            rows.append(row)
+            if i % 20 == 0 or i == len(cases):
+                print(f"{i}/{len(cases)} runs, {time.perf_counter() - start:.0f} s", flush=True)
+    wall = time.perf_counter() - start
+    saved.write_text(json.dumps({"duration_s": args.duration, "seeds": seeds,
+                                 "rows": rows + kept}, indent=1))
+    rows += kept
+
+    def pick(m, n, k, s):
+        return [r for r in rows if (r["map"], r["N"], r["K"], r["strategy"]) == (m, n, k, s)]
+
+    lines = [header("Recovery after deaths: every strategy against the survivors' ideal and "
+                    "the unavoidable floor"),
+             f"Command: `.venv/bin/python benchmarks/bench_recovery.py{' --quick' if args.quick else ''}"
+             f" --seeds {seeds} --duration {args.duration:.0f}`"
+             + (f" (run: {' '.join(args.strategies)}; the other strategies' rows from the "
+                "previous run, `--reuse`)" if kept else "") + f". {len(cases)} runs, graph "
+             f"runtime, {args.duration:.0f} s each, deaths at {args.duration / 2:.0f} s; wall "
+             f"{wall:.0f} s with {args.workers} workers; load average (1 min) {load_before:.1f} "
+             "at the start.", "",
+             "Per cell: median, worst over seeds of the worst idleness after the deaths over "
+             "**max(floor, ideal)** (1.00 = as good as the deaths allow), then in brackets over "
+             "the survivors' **ideal** alone (issue 19's ratio). `never` = some vertex was not "
+             "visited again after a death in some run (the strategy stops covering).", ""]
+    verdicts = []
+    for m in maps:
+        for n in teams:
+            for k in sorted({1, max(1, n // 4)}):
+                lines += [f"### {m}, N = {n}, K = {k} death{'s' if k > 1 else ''}", "",
+                          "| strategy | after / max(floor, ideal) | (after / ideal) | "
+                          "floor / ideal | keeps covering |", "|---|---|---|---|---|"]
+                ours = (math.nan, math.nan)
+                others: list[tuple[float, str]] = []
+                for s in strategies:
+                    got = pick(m, n, k, s)
+                    if not got:
+                        continue
+                    ref = [r["after_s"] / max(r["floor_s"], r["ideal_s"]) for r in got]
+                    ideal = [r["after_s"] / r["ideal_s"] for r in got]
+                    floor = [r["floor_s"] / r["ideal_s"] for r in got]
+                    covered = all(r["covered"] for r in got)
+                    lines.append(f"| {s} | {med_max(ref)} | ({med_max(ideal)}) | "
+                                 f"{statistics.median(floor):.2f} | "
+                                 f"{'yes' if covered else 'never'} |")
+                    if s == "tpuaf_plus":
+                        ours = (max(ideal), max(ref))
+                    elif covered:
+                        others.append((max(ideal), s))
+                verdicts.append((m, n, k, ours, min(others, default=(math.inf, "-"))))
+                lines.append("")
+    lines += ["## Verdicts (worst over seeds)", "",
+              "Which strategy recovers best is judged on the worst idleness after the deaths "
+              "itself (over the ideal, the same for every strategy of a case); the floor differs "
+              "per strategy (it depends on where the team stood at the death), so the ratio to "
+              "max(floor, ideal) says how much better tpuaf_plus could have done from where it "
+              "stood, not how it ranks.", "",
+              "| map | N | K | tpuaf_plus after / ideal | best other that keeps covering, "
+              "after / ideal | tpuaf_plus lowest | tpuaf_plus after / max(floor, ideal) | "
+              "within 1.3x of it |", "|---|---|---|---|---|---|---|---|"]
+    within = lowest = ideal_ok = 0
+    for m, n, k, (ours, ours_ref), (other, who) in verdicts:
+        w, lo = ours_ref <= 1.3, ours <= other
+        within += w
+        lowest += lo
+        ideal_ok += ours <= 1.3
+        lines.append(f"| {m} | {n} | {k} | {ours:.2f} | {other:.2f} ({who}) | "
+                     f"{'yes' if lo else '**no**'} | {ours_ref:.2f} | {'yes' if w else 'no'} |")
+    lines += ["", f"- tpuaf_plus after / survivors' ideal within 1.3x (issue 19's target): "
+              f"{ideal_ok} of {len(verdicts)} cases.",
+              f"- tpuaf_plus after / max(floor, ideal) within 1.3x: {within} of "
+              f"{len(verdicts)} cases.",
+              f"- tpuaf_plus lowest worst idleness after the deaths of the strategies that keep "
+              f"covering: {lowest} of {len(verdicts)} cases.",
+              f"- CPU per run: median {statistics.median(r['cpu_s'] for r in rows):.2f} s.",
+              f"- Load average (1 min) at the end: {os.getloadavg()[0]:.1f}.", ""]
+    write(args.out, "\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
