@@ -9,8 +9,10 @@ physically impossible (an edge through a wall, or shorter than the straight line
 
     .venv/bin/python benchmarks/bench_fidelity.py                 # every map, N = 4, 8, 12
     .venv/bin/python benchmarks/bench_fidelity.py --maps grid --robots 4 --duration 300 --quick
+    .venv/bin/python benchmarks/bench_fidelity.py --case lab:tpuaf:4 --case 1r5:tpuaf:8:auto \
+        --out fidelity_jams                                       # chosen cases only
 
-Writes benchmarks/results/fidelity.md and fidelity.json.
+Writes benchmarks/results/fidelity.md and fidelity.json (`--out NAME`: NAME.md, NAME.json).
 """
 
 from __future__ import annotations
@@ -141,11 +143,45 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=900.0)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--case", action="append", default=[], metavar="MAP:STRATEGY:N[:ROBOT]",
+                    help="one case (repeatable; robot default auto); replaces the cross "
+                         "product of --maps, --robots, --strategies, --robot-models")
+    ap.add_argument("--out", default="fidelity",
+                    help="name of the results files in benchmarks/results (default fidelity)")
     ap.add_argument("--quick", action="store_true", help="do not write the results files")
     args = ap.parse_args()
-    cases = [dict(map=m, robots=n, strategy=s, robot=rb, duration=args.duration, seed=args.seed)
-             for m in args.maps for rb in args.robot_models for s in args.strategies
-             for n in args.robots]
+    if not args.out.replace("_", "").replace("-", "").isalnum():
+        ap.error(f"--out must be a plain file name, got {args.out!r}")
+    if args.case:
+        cases = []
+        for text in args.case:
+            parts = text.split(":")
+            if len(parts) not in (3, 4) or not parts[2].isdigit() or int(parts[2]) < 1:
+                ap.error(f"--case wants MAP:STRATEGY:N[:ROBOT] with N >= 1, got {text!r}")
+            cases.append(dict(map=parts[0], robots=int(parts[2]), strategy=parts[1],
+                              robot=parts[3] if len(parts) == 4 else "auto",
+                              duration=args.duration, seed=args.seed))
+    else:
+        cases = [dict(map=m, robots=n, strategy=s, robot=rb, duration=args.duration,
+                      seed=args.seed)
+                 for m in args.maps for rb in args.robot_models for s in args.strategies
+                 for n in args.robots]
+    from tpuaf.errors import TpuafError
+    from tpuaf.maps import load_map
+    from tpuaf.policies import REGISTRY
+
+    for name in sorted({c["strategy"] for c in cases}):
+        if name not in REGISTRY.names():
+            ap.error(f"unknown strategy {name!r}")
+    from tpuaf.runtimes.config import choose_robot
+
+    for name in sorted({c["map"] for c in cases}):
+        try:
+            settings = load_map(map_ref(name)).settings
+            for robot in sorted({c["robot"] for c in cases if c["map"] == name}):
+                choose_robot(robot, settings)
+        except (TpuafError, OSError, ValueError) as err:
+            ap.error(f"map {name!r}: {err}")
     start = time.perf_counter()
     results = []
     with ProcessPoolExecutor(args.workers) as pool:
@@ -164,11 +200,12 @@ def main() -> int:
              "where planning fails), the graph runtime driving at the robot's speed. Robot "
              "`auto` is the map's preset (as `tpuaf fleet`), `burger` a TurtleBot3 Burger "
              "(0.22 m/s, or the map's speed if slower). Command: `.venv/bin/python "
-             "benchmarks/bench_fidelity.py`.\n\n")
+             f"benchmarks/bench_fidelity.py{' ' + ' '.join(sys.argv[1:]) if sys.argv[1:] else ''}"
+             "`.\n\n")
     text += table(results)
     if not args.quick:
-        write("fidelity.md", text)
-        (RESULTS / "fidelity.json").write_text(json.dumps(results, indent=1))
+        write(f"{args.out}.md", text)
+        (RESULTS / f"{args.out}.json").write_text(json.dumps(results, indent=1))
     else:
         print(text)
     return 0

@@ -9,15 +9,14 @@ for Python policies called back from C++ (tpuaf_plus, cgg).
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
-from tpuaf.experiments.results import ResultsWriter
 from tpuaf.maps import load_map
 from tpuaf.runtimes.config import RunConfig
 from tpuaf.runtimes.graph import BatchRun
 from tpuaf.runtimes.native import NativeRun, make_run, unsupported_options
+
+from .test_engine_golden import summary_json_of_both_engines
 
 DEATH = dict(fail=[(1, 200.0)])
 DEATHS_AT_ONCE = dict(fail=[(0, 150.0), (2, 150.0), (3, 150.0)])
@@ -127,17 +126,9 @@ def test_cumberland_twelve_robots_three_deaths(shared_maps):
 
 
 def test_results_folders_with_faults_are_equal(grid, tmp_path):
-    kwargs = dict(map="grid", strategy="tpuaf", robots=4, duration_s=300, seed=2,
-                  fail=[(1, 120.0)], stall=[(3, 60.0)])
-    texts = []
-    for name, engine in (("python", BatchRun(RunConfig(**kwargs), grid)),
-                         ("native", NativeRun(RunConfig(**kwargs), grid))):
-        writer = ResultsWriter(tmp_path / name, engine.effective_config())
-        summary = engine.run()
-        writer.finish(summary, engine.recorder)
-        values = json.loads((tmp_path / name / "summary.json").read_text())
-        values.pop("real_duration_s", None)  # wall clock, not a result
-        texts.append(values)
+    texts = summary_json_of_both_engines(grid, tmp_path, map="grid", strategy="tpuaf", robots=4,
+                                         duration_s=300, seed=2, fail=[(1, 120.0)],
+                                         stall=[(3, 60.0)])
     assert texts[0] == texts[1]
     assert texts[0]["recovery"] and texts[0]["liveness"]["deaths"]
     for name in ("visits.csv", "config.yaml"):

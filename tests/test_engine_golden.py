@@ -95,11 +95,12 @@ def test_tpuaf_python_callbacks_equal_its_cpp_path(maps):
     assert native.run() == sc
 
 
-def test_results_folders_have_equal_summary_json(maps, tmp_path):
-    kwargs = dict(map="grid", strategy="tpuaf", robots=4, duration_s=300, seed=2)
+def summary_json_of_both_engines(patrol_map, tmp_path, **kwargs) -> list[dict]:
+    """summary.json of the python and the native engine's results folders for one config (the
+    wall-clock field dropped)."""
     texts = []
-    for name, engine in (("python", BatchRun(RunConfig(**kwargs), maps["grid"])),
-                         ("native", NativeRun(RunConfig(**kwargs), maps["grid"]))):
+    for name, engine in (("python", BatchRun(RunConfig(**kwargs), patrol_map)),
+                         ("native", NativeRun(RunConfig(**kwargs), patrol_map))):
         writer = ResultsWriter(tmp_path / name, engine.effective_config())
         summary = engine.run()
         writer.finish(summary, engine.recorder)
@@ -107,6 +108,12 @@ def test_results_folders_have_equal_summary_json(maps, tmp_path):
         values.pop("real_duration_s", None)  # wall clock, not a result
         texts.append(values)
         assert (tmp_path / name / "visits.csv").exists()
+    return texts
+
+
+def test_results_folders_have_equal_summary_json(maps, tmp_path):
+    texts = summary_json_of_both_engines(maps["grid"], tmp_path, map="grid", strategy="tpuaf",
+                                         robots=4, duration_s=300, seed=2)
     assert texts[0] == texts[1]
     assert (tmp_path / "python" / "visits.csv").read_text() == (
         tmp_path / "native" / "visits.csv").read_text()

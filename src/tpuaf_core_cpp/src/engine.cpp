@@ -304,6 +304,46 @@ void GroundTruthRecorder::record_positions(double t1, const Points& given) {
   has_pos_ = true;
 }
 
+void GroundTruthRecorder::enter_pair(std::uint64_t key, int i, int j, double t0, double t1,
+                                     const Points& p0, double d1x, double d1y) {
+  // Pair (i, j), d1 = p1_i - p1_j [m], moving linearly from t0 to t1 [s]: the exact time it
+  // comes within d_if, counted when the refractory time has passed since its last entry.
+  const double x0 = p0(i, 0) - p0(j, 0), y0 = p0(i, 1) - p0(j, 1);
+  if (x0 != x0 || y0 != y0) return;  // absent at t0: appears now, not an entry
+  const double vx = d1x - x0, vy = d1y - y0;
+  const double a = vx * vx + vy * vy;
+  const double b = x0 * vx + y0 * vy;  // half the linear coefficient
+  const double c0 = x0 * x0 + y0 * y0;
+  double s_in;
+  if (c0 <= dif2_) {
+    s_in = 0.0;
+  } else {
+    const double s_star = a > 0 ? std::min(py_max(-b / a, 0.0), 1.0) : 0.0;
+    if (a * s_star * s_star + 2 * b * s_star + c0 > dif2_) return;  // never within d_if
+    // smallest root of a s^2 + 2 b s + (c0 - d^2) = 0
+    s_in = (-b - std::sqrt(py_max(b * b - a * (c0 - dif2_), 0.0))) / a;
+  }
+  const double t_in = t0 + std::min(py_max(s_in, 0.0), 1.0) * (t1 - t0);
+  auto it = last_count_.find(key);
+  const double last = it == last_count_.end() ? -kInf : it->second;
+  if (t_in - last >= refractory_) {
+    last_count_[key] = t_in;
+    fresh_.push_back({t_in, i, j});
+  }
+}
+
+void GroundTruthRecorder::keep_fresh() {
+  // This interval's entries, in (time, a, b) order, after the earlier ones.
+  if (fresh_.empty()) return;
+  std::sort(fresh_.begin(), fresh_.end(),
+            [](const InterferenceRecord& x, const InterferenceRecord& y) {
+              if (x.time_s != y.time_s) return x.time_s < y.time_s;
+              if (x.a != y.a) return x.a < y.a;
+              return x.b < y.b;
+            });
+  interferences_.insert(interferences_.end(), fresh_.begin(), fresh_.end());
+}
+
 void GroundTruthRecorder::interference_all(double t0, double t1, const Points& p0,
                                            const Points& p1) {
   // RunRecorder._interference when a robot is absent: every pair of live robots is a
@@ -321,38 +361,10 @@ void GroundTruthRecorder::interference_all(double t0, double t1, const Points& p
       const std::uint64_t key = static_cast<std::uint64_t>(i) * un + j;
       if (c1 <= dif2_) close_end_.push_back(key);
       if (std::binary_search(close_.begin(), close_.end(), key)) continue;
-      const double x0 = p0(i, 0) - p0(j, 0), y0 = p0(i, 1) - p0(j, 1);
-      if (x0 != x0 || y0 != y0) continue;  // absent at t0: appears now, not an entry
-      const double vx = d1x - x0, vy = d1y - y0;
-      const double a = vx * vx + vy * vy;
-      const double b = x0 * vx + y0 * vy;
-      const double c0 = x0 * x0 + y0 * y0;
-      double s_in;
-      if (c0 <= dif2_) {
-        s_in = 0.0;
-      } else {
-        const double s_star = a > 0 ? std::min(py_max(-b / a, 0.0), 1.0) : 0.0;
-        if (a * s_star * s_star + 2 * b * s_star + c0 > dif2_) continue;
-        s_in = (-b - std::sqrt(py_max(b * b - a * (c0 - dif2_), 0.0))) / a;
-      }
-      const double t_in = t0 + std::min(py_max(s_in, 0.0), 1.0) * (t1 - t0);
-      auto it = last_count_.find(key);
-      const double last = it == last_count_.end() ? -kInf : it->second;
-      if (t_in - last >= refractory_) {
-        last_count_[key] = t_in;
-        fresh_.push_back({t_in, i, j});
-      }
+      enter_pair(key, i, j, t0, t1, p0, d1x, d1y);
     }
   }
-  if (!fresh_.empty()) {
-    std::sort(fresh_.begin(), fresh_.end(),
-              [](const InterferenceRecord& x, const InterferenceRecord& y) {
-                if (x.time_s != y.time_s) return x.time_s < y.time_s;
-                if (x.a != y.a) return x.a < y.a;
-                return x.b < y.b;
-              });
-    interferences_.insert(interferences_.end(), fresh_.begin(), fresh_.end());
-  }
+  keep_fresh();
   close_.swap(close_end_);  // keys ascending
   verlet_valid_ = false;
 }
@@ -386,37 +398,9 @@ void GroundTruthRecorder::interference(double t0, double t1, const Points& p0, c
     if (c1 <= dif2_) close_end_.push_back(key);
     // A pair close at both ends is close throughout; it enters at most once per interval.
     if (std::binary_search(close_.begin(), close_.end(), key)) continue;
-    const double x0 = p0(i, 0) - p0(j, 0), y0 = p0(i, 1) - p0(j, 1);
-    const double vx = d1x - x0, vy = d1y - y0;
-    const double a = vx * vx + vy * vy;
-    const double b = x0 * vx + y0 * vy;  // half the linear coefficient
-    const double c0 = x0 * x0 + y0 * y0;
-    double s_in;
-    if (c0 <= dif2_) {
-      s_in = 0.0;
-    } else {
-      const double s_star = a > 0 ? std::min(py_max(-b / a, 0.0), 1.0) : 0.0;
-      if (a * s_star * s_star + 2 * b * s_star + c0 > dif2_) continue;  // never within d_if
-      // smallest root of a s^2 + 2 b s + (c0 - d^2) = 0
-      s_in = (-b - std::sqrt(py_max(b * b - a * (c0 - dif2_), 0.0))) / a;
-    }
-    const double t_in = t0 + std::min(py_max(s_in, 0.0), 1.0) * (t1 - t0);
-    auto it = last_count_.find(key);
-    const double last = it == last_count_.end() ? -kInf : it->second;
-    if (t_in - last >= refractory_) {
-      last_count_[key] = t_in;
-      fresh_.push_back({t_in, i, j});
-    }
+    enter_pair(key, i, j, t0, t1, p0, d1x, d1y);
   }
-  if (!fresh_.empty()) {
-    std::sort(fresh_.begin(), fresh_.end(),
-              [](const InterferenceRecord& x, const InterferenceRecord& y) {
-                if (x.time_s != y.time_s) return x.time_s < y.time_s;
-                if (x.a != y.a) return x.a < y.a;
-                return x.b < y.b;
-              });
-    interferences_.insert(interferences_.end(), fresh_.begin(), fresh_.end());
-  }
+  keep_fresh();
   close_.swap(close_end_);  // sorted: the Verlet list is
 }
 

@@ -245,6 +245,9 @@ class GroundTruthRecorder {
   void step_field(double dt, const Points& pa, const Points& pb);
   void interference(double t0, double t1, const Points& p0, const Points& p1, double step);
   void interference_all(double t0, double t1, const Points& p0, const Points& p1);
+  void enter_pair(std::uint64_t key, int i, int j, double t0, double t1, const Points& p0,
+                  double d1x, double d1y);
+  void keep_fresh();
   void rebuild_verlet(const Points& p, double reach);
   long long interferences_until(double t) const;
 

@@ -31,7 +31,8 @@ class ControllerConfig:
     plan_margin: float = _D.plan_margin  # [m] wider clearance wanted when choosing a heading
     lookahead: float = 1.0  # [m] free length wanted along the chosen heading
     slow_distance: float = 1.2  # [m] free length below which the speed drops linearly (0.8 m
-    # let robots meeting in a corridor close in faster than 5 Hz scans see: contacts)
+    # let robots meeting in a corridor close in faster than 5 Hz scans see: contacts); at most
+    # SLOW_TIME_S of driving at the top speed, not under SLOW_FLOOR_M (`slow_m`)
     heading_gain: float = 2.5  # [1/s] w = gain * heading error
     turn_in_place: float = 1.0  # [rad] heading error above which the robot only turns
     keep_right: float = 0.2  # [rad] extra cost of passing an obstacle on its right side
@@ -56,6 +57,10 @@ class ControllerConfig:
                                  f", got {value!r}")
 
 
+SLOW_TIME_S = 1.2  # [s] the slow-down zone is this many seconds at top speed (1.2 m at 1 m/s):
+# a slow robot (a Burger at 0.1 m/s in a 0.5 m aisle) need not crawl its whole way
+SLOW_FLOOR_M = 0.3  # [m] the slow-down zone is never shorter
+CONTACT_M = 0.01  # [m] a laser point this close to the disc is touching it
 APPROACH_MPS = 0.05  # [m/s] least speed toward a target nearer than any obstacle ahead
 SNUG_MARGIN_M = 0.01  # [m] clearance of the last-resort (slow) headings
 _NON_NEGATIVE = ("keep_right", "retry_wait_s", "max_retries", "safety_margin", "plan_margin")
@@ -118,6 +123,13 @@ class LocalController:
         if self._state in (self._BACK, self._WAIT):
             self._state_t = float(t)
 
+    def resume_driving(self, t: float) -> None:
+        """Leave a recovery (back off, wait) at t [s] and drive again, the retries kept."""
+        if self._state != self._FAILED:
+            self._state = self._DRIVE
+        self._best = math.inf
+        self._best_t = float(t)
+
     # -- geometry ---------------------------------------------------------------------------
 
     def free_lengths(self, points: np.ndarray | None, headings: np.ndarray,
@@ -154,6 +166,13 @@ class LocalController:
             reach = np.where(hit, along - np.sqrt(np.maximum(rm * rm - lat2, 0.0)), cap)
             out.append(np.minimum(np.maximum(reach.min(axis=1), 0.0), cap))
         return out
+
+    @property
+    def slow_m(self) -> float:
+        """[m] free length below which the speed drops linearly: slow_distance, at most
+        SLOW_TIME_S at top speed, at least SLOW_FLOOR_M."""
+        c = self.config
+        return min(c.slow_distance, max(SLOW_FLOOR_M, SLOW_TIME_S * c.max_linear_speed))
 
     @property
     def reach_m(self) -> float:
@@ -211,7 +230,28 @@ class LocalController:
             # Turn while reversing, alternating sides between retries.
             self._back_w = 0.5 * (1 if self.retries % 2 else -1)
             return Command(0.0, 0.0, Status.RECOVERING)
+        escape = self._escape(points)
+        if escape is not None:
+            return escape
         return self._drive(dist, wrap_angle(math.atan2(dy, dx) - th), points)
+
+    def _escape(self, points: np.ndarray | None) -> Command | None:
+        """Touching something (a laser point within CONTACT_M of the disc): move straight away
+        from it, backward when it is in front, forward when behind, so that two robots in
+        contact part instead of pushing on (the simulator stops a robot that would overlap)."""
+        if points is None or len(points) == 0:
+            return None
+        c = self.config
+        d = np.hypot(points[:, 0], points[:, 1])
+        k = int(np.argmin(d))
+        if d[k] >= c.robot_radius + CONTACT_M:
+            return None
+        speed = min(c.backoff_speed, 0.5 * c.max_linear_speed)
+        ahead = points[k, 0] > 0.0
+        room = self.free_lengths(points, np.array([math.pi if ahead else 0.0]), margin=0.0)[0]
+        if room < 0.5 * speed:
+            return None  # wedged: the usual headings and recovery decide
+        return Command(-speed if ahead else speed, 0.0, Status.DRIVING)
 
     def _drive(self, dist: float, bearing: float, points: np.ndarray | None) -> Command:
         c = self.config
@@ -256,7 +296,7 @@ class LocalController:
         w = max(-c.max_angular_speed, min(c.max_angular_speed, c.heading_gain * heading))
         if abs(heading) > c.turn_in_place:
             return Command(0.0, w, Status.DRIVING)
-        scale = min(1.0, ahead / c.slow_distance)
+        scale = min(1.0, ahead / self.slow_m)
         if target_m is not None and ahead >= target_m:
             # The target is nearer than the obstacle: do not crawl the last centimetres.
             scale = max(scale, min(1.0, APPROACH_MPS / c.max_linear_speed))

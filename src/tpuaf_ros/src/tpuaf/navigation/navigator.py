@@ -9,6 +9,7 @@ from enum import Enum
 import numpy as np
 
 from tpuaf.navigation.controller import STOP_FAILED, Command, LocalController, Status
+from tpuaf.navigation.give_way import GiveWay, find_refuge, path_length
 from tpuaf.navigation.route import GraphRoute
 
 # ---------------------------------------------------------------------------------------------
@@ -31,13 +32,16 @@ class Navigator:
     to the path's corners one by one (reached within `corner_tolerance` [m]), then to the vertex.
     After a recovery (the controller was stuck and backed off) the leg is replanned from the
     pose, with the laser's points as obstacles for that plan (another robot, an unmapped
-    obstacle), so the robot takes another way when there is one. Pass-through waypoints count as
+    obstacle), so the robot takes another way when there is a reasonable one. A robot held
+    still by another robot gives way (a refuge off the other's way) when there is no way round;
+    a robot without a route makes room for one that comes up to it (`park_step`). Pass-through waypoints count as
     reached within `waypoint_tolerance` [m], the goal within `goal_tolerance` [m] (SPEC: 0.4 m).
     `step` returns (Command, Event, vertex): the vertex is the waypoint or goal reached, or the
     goal that failed."""
 
     def __init__(self, controller: LocalController, goal_tolerance: float = 0.4,
-                 waypoint_tolerance: float = 0.6, planner=None, corner_tolerance: float = 0.3):
+                 waypoint_tolerance: float = 0.6, planner=None, corner_tolerance: float = 0.3,
+                 robot_index: int = 0):
         self.controller = controller
         self.goal_tolerance = float(goal_tolerance)
         self.waypoint_tolerance = float(waypoint_tolerance)
@@ -51,13 +55,29 @@ class Navigator:
         self.replans = 0  # legs replanned (after a recovery, or to give way)
         self.yields = 0  # replans round a robot (or unmapped obstacle) that held us still
         self._blocked_since: float | None = None
-        # [s] held still this long by an unmapped obstacle ahead: replan round it (1.5-3 s,
-        # staggered with the controller's retry wait)
-        self.yield_after_s = 1.0 + controller.config.retry_wait_s
+        self._blocked_at: tuple[float, float] | None = None  # [m] where the hold watch started
+        # [s] held still this long by an unmapped obstacle ahead: replan round it or give way
+        # (1.5-3 s, staggered with the controller's retry wait, and by 0.1 s per four robot
+        # indices: two robots held by each other do not act at the same instant)
+        self.robot_index = max(0, int(robot_index))
+        self.yield_after_s = (1.0 + controller.config.retry_wait_s
+                              + 0.1 * min(self.robot_index // 4, 4))
+        self.give_ways = 0  # refuges driven to (to let another robot pass)
+        self._give_way: GiveWay | None = None
+        self._give_ways_this_leg = 0
+        self._trail: list[tuple[float, float]] = []  # [m] recent positions, newest last
+        self._near_since: float | None = None  # [s] parked with a robot near since
+        self._near_d = math.inf  # [m] the nearest it came meanwhile
         self.unplanned_legs = 0  # legs without a path (driven straight)
+        # [m] a corner counts as passed (within corner_tolerance) only when the point after it
+        # is in line of sight with this clearance from the walls: the bare footprint + 2 cm
+        self.sight_clearance_m = controller.config.robot_radius + SIGHT_MARGIN_M
+        self._corner_tight = False  # the first corner must be reached within TIGHT_CORNER_M
 
     def set_route(self, route: GraphRoute, t: float) -> None:
         self.route = route
+        self._give_way = None
+        self._near_since = None
         at_start = bool(route.waypoints) and route.waypoints[0] != route.start
         self._new_leg(route.start if at_start else None)
         self._retries_seen = 0
@@ -65,6 +85,7 @@ class Navigator:
 
     def cancel(self) -> None:
         self.route = None
+        self._give_way = None
         self._corners = []
         self._plan_pending = False
         self.controller.target = None
@@ -83,15 +104,17 @@ class Navigator:
         return list(self._corners)
 
     def _new_leg(self, from_vertex: int | None) -> None:
+        self._give_ways_this_leg = 0
         self._corners = []
+        self._corner_tight = False
         self._leg_from = from_vertex
         self._plan_pending = self.planner is not None
 
     def _aim(self, t: float, new_goal: bool) -> None:
         route = self.route
         if self._corners:
-            self.controller.set_target(self._corners[0], self.corner_tolerance, t,
-                                       new_goal=new_goal)
+            tol = TIGHT_CORNER_M if self._corner_tight else self.corner_tolerance
+            self.controller.set_target(self._corners[0], tol, t, new_goal=new_goal)
             return
         tol = self.goal_tolerance if route.is_last else self.waypoint_tolerance
         self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
@@ -109,24 +132,43 @@ class Navigator:
         path = None
         u = self._leg_from
         if u is not None and points is None:
+            # The edge's cached path only from (about) its first vertex: a waypoint passed
+            # within waypoint_tolerance may lie round a corner, and the straight line from the
+            # pose to the edge path's next point then crosses a wall.
             p = route.positions[u]
-            if math.hypot(x - p[0], y - p[1]) <= self.waypoint_tolerance:
+            if math.hypot(x - p[0], y - p[1]) <= self.corner_tolerance:
                 path = self.planner.edge_path(u, goal)
         if path is None:
             obstacles = _obstacle_discs(points if keep_obstacles else self._unmapped(points))
             path = self.planner.plan((x, y), target, obstacles)
-            if path is None and obstacles is not None:
-                path = self.planner.plan((x, y), target)
+            if obstacles is not None:
+                # Round another robot only when that is not much longer than the free way:
+                # it will move anyway (waiting, or giving way, is then quicker).
+                free = self.planner.plan((x, y), target)
+                if path is None or (free is not None and not _reasonable_detour(path, free)):
+                    path = free
         if path is None:
             self.unplanned_legs += 1
             corners: list[tuple[float, float]] = []
         else:
             corners = [(float(px), float(py)) for px, py in path[1:-1]]
         tol = self.corner_tolerance
-        while corners and math.hypot(corners[0][0] - x, corners[0][1] - y) <= tol:
-            corners.pop(0)
         self._corners = corners
+        self._corner_tight = False
+        while (corners and math.hypot(corners[0][0] - x, corners[0][1] - y) <= tol
+               and self._corner_passable(pose)):
+            corners.pop(0)
         self._aim(t, new_goal=False)
+
+    def _corner_passable(self, pose: tuple[float, float, float]) -> bool:
+        """Whether the first corner may be left behind: the point after it is in line of
+        sight of the pose (a corner within corner_tolerance may still be round a wall's end,
+        where the corridors are narrower than the tolerance)."""
+        clear = getattr(self.planner, "segment_clear", None)
+        if clear is None or not self._corners:
+            return True
+        after = self._corners[1] if len(self._corners) > 1 else self.route.next_position()
+        return clear(pose[:2], after, self.sight_clearance_m)
 
     def _unmapped(self, map_points: np.ndarray | None) -> np.ndarray | None:
         """The map-frame laser points the map does not explain (farther than
@@ -139,28 +181,211 @@ class Navigator:
     def _watch_blocked(self, t: float, pose: tuple[float, float, float],
                        points: np.ndarray | None, cmd: Command) -> None:
         """The right of way between robots: a robot held still for `yield_after_s` (staggered
-        by its retry wait, so that of two robots face to face one acts first) by something
-        the map does not explain, ahead of it, replans round it (another corridor, if there
-        is one) without waiting to be stuck. The other then finds its way clear."""
-        if abs(cmd.v) >= BLOCKED_SPEED_MPS:
-            self._blocked_since = None
-            return
-        if self._blocked_since is None:
-            self._blocked_since = t
+        by its retry wait and index, so that of two robots face to face one acts first) by
+        something the map does not explain, ahead of it, replans round it when there is a
+        reasonable way round (another corridor), else gives way (drives to a refuge off the
+        other's way and waits there, give_way.py), without waiting to be stuck. The other then
+        finds its way clear."""
+        x, y = pose[0], pose[1]
+        # Held still: not HELD_M away from where the watch started (turning on the spot, or
+        # dithering, is still being held).
+        anchor = self._blocked_at
+        if anchor is None or math.hypot(x - anchor[0], y - anchor[1]) > HELD_M:
+            self._blocked_at, self._blocked_since = (x, y), t
             return
         if t - self._blocked_since < self.yield_after_s:
             return
         self._blocked_since = t  # at most one such replan per yield_after_s
-        ahead = None
-        if points is not None and len(points):
-            near = points[(points[:, 0] > 0.0)
-                          & (np.hypot(points[:, 0], points[:, 1]) <= BLOCKING_RANGE_M)]
-            ahead = self._unmapped(_map_points(pose, near))
-        if ahead is None:
+        unmapped = self._unmapped(_map_points(pose, points))
+        if unmapped is None:
             return
+        # Ahead: toward the point we aim at (not the heading, which may be turning), in range.
+        aim = self.controller.target or self.route.next_position()
+        ux, uy = aim[0] - x, aim[1] - y
+        rel = unmapped - np.array([x, y])
+        keep = ((rel[:, 0] * ux + rel[:, 1] * uy > 0.0)
+                & (np.hypot(rel[:, 0], rel[:, 1]) <= BLOCKING_RANGE_M))
+        if not keep.any():
+            return
+        ahead = unmapped[keep]
         self.yields += 1
+        x, y = pose[0], pose[1]
+        obstacles = _obstacle_discs(ahead)
+        target = self.route.next_position()
+        detour = self.planner.plan((x, y), target, obstacles)
+        free = self._remaining_path(pose)
+        if detour is not None and (free is None or _reasonable_detour(detour, free)):
+            self.replans += 1
+            self._plan_leg(t, pose, ahead, keep_obstacles=True)
+            return
+        if self._give_ways_this_leg < MAX_GIVE_WAYS_PER_LEG and self._start_give_way(
+                t, pose, ahead, parked=False, others=unmapped):
+            self._give_ways_this_leg += 1
+            return
+        if detour is not None:  # a long way round is still better than none
+            self.replans += 1
+            self._plan_leg(t, pose, ahead, keep_obstacles=True)
+
+    def _remaining_path(self, pose: tuple[float, float, float]) -> np.ndarray | None:
+        """The polyline [m] still ahead on this leg: pose, corners, next vertex."""
+        if self.route is None:
+            return None
+        return np.array([pose[:2], *self._corners, self.route.next_position()], dtype=float)
+
+    # -- giving way ---------------------------------------------------------------------------
+
+    @property
+    def giving_way(self) -> bool:
+        """Driving to, or waiting in, a refuge to let another robot pass."""
+        return self._give_way is not None
+
+    def _pass_clearance_m(self) -> float:
+        """[m] between the centre of a robot in a refuge and the other's way: two robot radii,
+        the controller's safety margin and a little more."""
+        c = self.controller.config
+        return 2.0 * c.robot_radius + c.safety_margin + PASS_MARGIN_M
+
+    def _start_give_way(self, t: float, pose: tuple[float, float, float],
+                        blocking: np.ndarray, parked: bool,
+                        others: np.ndarray | None = None) -> bool:
+        """Look for a refuge off the way of the robot whose points (map frame) are
+        `blocking`, reachable round `others` (every unmapped point near); start driving there
+        if there is one."""
+        if self.planner is None or blocking is None or len(blocking) == 0:
+            return False
+        me = (float(pose[0]), float(pose[1]))
+        near = blocking[np.argsort(np.hypot(blocking[:, 0] - me[0],
+                                            blocking[:, 1] - me[1]))[:8]]
+        cx, cy = near.mean(axis=0)
+        d = math.hypot(cx - me[0], cy - me[1]) or 1.0
+        r = self.controller.config.robot_radius
+        # the other robot's centre: behind the points we see of it
+        blocker = (float(cx + r * (cx - me[0]) / d), float(cy + r * (cy - me[1]) / d))
+        seen = blocking if others is None else others
+        obstacles = np.vstack((_obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
+        aim = None if parked else self.controller.target
+        path = find_refuge(self.planner, me, blocker, [] if parked else self._trail,
+                           self._pass_clearance_m(), obstacles, aim)
+        if path is None:
+            return False
+        speed = self.controller.config.max_linear_speed
+        # [s] the other robot drives past us and on: a few metres at its speed, at least 10 s
+        wait = max(GIVE_WAY_MIN_S, (path_length(path) + GIVE_WAY_PASS_M) / speed)
+        corners = [(float(px), float(py)) for px, py in path[1:]]
+        self._give_way = GiveWay(refuge=corners[-1], corners=corners, blocker=blocker,
+                                 started_s=t, deadline_s=t + wait + path_length(path) / speed,
+                                 parked=parked)
+        self.give_ways += 1
+        self._blocked_since = None
+        self._blocked_at = None
+        self._aim_give_way(t)
+        return True
+
+    def _aim_give_way(self, t: float) -> None:
+        gw = self._give_way
+        last = len(gw.corners) == 1
+        self.controller.set_target(gw.corners[0], REFUGE_TOLERANCE_M if last
+                                   else min(self.corner_tolerance, CORNER_GIVE_WAY_M), t,
+                                   new_goal=False)
+
+    def _end_give_way(self, t: float, pose: tuple[float, float, float]) -> None:
+        """Back to the route (a plan from the pose), or to standing still when parked."""
+        self._give_way = None
+        self._blocked_since = None
+        self._blocked_at = None
+        self.controller.resume_driving(t)
+        if self.route is None:
+            self.controller.target = None
+            return
+        self._leg_from = None
         self.replans += 1
-        self._plan_leg(t, pose, ahead, keep_obstacles=True)
+        self._plan_leg(t, pose)
+
+    def _step_give_way(self, t: float, pose: tuple[float, float, float],
+                       points: np.ndarray | None) -> Command:
+        gw = self._give_way
+        ctl = self.controller
+        if gw.arrived_s is None:
+            cmd = ctl.step(t, pose, points)
+            if cmd.status in (Status.RECOVERING, Status.FAILED) or t > gw.deadline_s:
+                self._end_give_way(t, pose)  # cannot get there: back to the route
+                return Command(0.0, 0.0, Status.DRIVING)
+            while cmd.status == Status.REACHED and len(gw.corners) > 1:
+                gw.corners.pop(0)
+                self._aim_give_way(t)
+                cmd = ctl.step(t, pose, points)
+            if cmd.status != Status.REACHED:
+                return cmd
+            gw.arrived_s = t
+        # In the refuge: wait until nothing the map does not explain is near for a while
+        # (the other robot has passed), at least GIVE_WAY_WAIT_S, at most until the deadline.
+        near = _map_points(pose, points)
+        near = self._unmapped(near) if near is not None else None
+        me = np.array(pose[:2])
+        busy = near is not None and bool(
+            (np.hypot(*(near - me).T) <= self._pass_clearance_m() + CLEAR_MARGIN_M).any())
+        if busy:
+            gw.clear_since_s = None
+        elif gw.clear_since_s is None:
+            gw.clear_since_s = t
+        # The other robot standing still near us (not passing: it waits for us, or has
+        # arrived): waiting on achieves nothing.
+        centre = near.mean(axis=0) if busy else None
+        if centre is None or gw.other_at is None or math.hypot(
+                centre[0] - gw.other_at[0], centre[1] - gw.other_at[1]) > HELD_M:
+            gw.other_at, gw.other_since_s = centre, t
+        waited = t - gw.arrived_s >= GIVE_WAY_WAIT_S
+        clear = gw.clear_since_s is not None and t - gw.clear_since_s >= GIVE_WAY_CLEAR_S
+        standing = gw.other_at is not None and t - gw.other_since_s >= GIVE_WAY_STILL_S
+        if (waited and (clear or standing)) or t >= gw.deadline_s:
+            self._end_give_way(t, pose)
+            if self.route is None:
+                return Command(0.0, 0.0, Status.REACHED)
+            return ctl.step(t, pose, points)
+        return Command(0.0, 0.0, Status.DRIVING)
+
+    def _remember(self, pose: tuple[float, float, float]) -> None:
+        """The trail: positions TRAIL_STEP_M apart, the last TRAIL_POINTS of them."""
+        xy = (float(pose[0]), float(pose[1]))
+        if not self._trail or math.hypot(xy[0] - self._trail[-1][0],
+                                         xy[1] - self._trail[-1][1]) >= TRAIL_STEP_M:
+            self._trail.append(xy)
+            if len(self._trail) > TRAIL_POINTS:
+                del self._trail[0]
+
+    def park_step(self, t: float, pose: tuple[float, float, float],
+                  points: np.ndarray | None) -> tuple[float, float]:
+        """A robot standing without a route (no goal, or waiting to decide): it makes room
+        (drives to a refuge, waits, stays there) when another robot within BLOCKING_RANGE_M
+        has not moved away for PARKED_YIELD_S (+ 0.05 s per robot index, mod 8): sooner than
+        a driving robot held still acts (yield_after_s), so the one that has a goal keeps it.
+        Returns (v [m/s], w [rad/s])."""
+        if self.planner is None:
+            return 0.0, 0.0
+        if self._give_way is not None:
+            cmd = self._step_give_way(t, pose, points)
+            return cmd.v, cmd.w
+        near = self._unmapped(_map_points(pose, points))
+        nearest = math.inf
+        if near is not None:
+            d = np.hypot(near[:, 0] - pose[0], near[:, 1] - pose[1])
+            near = near[d <= BLOCKING_RANGE_M]
+            nearest = float(d.min())
+        if near is None or len(near) == 0:
+            self._near_since = None
+            return 0.0, 0.0
+        if self._near_since is None or nearest > self._near_d + HELD_M:
+            # first seen, or moving away (passing by): start watching again
+            self._near_since, self._near_d = t, nearest
+            return 0.0, 0.0
+        self._near_d = min(self._near_d, nearest)
+        if t - self._near_since < PARKED_YIELD_S + 0.05 * (self.robot_index % 8):
+            return 0.0, 0.0
+        self._near_since = None
+        if not self._start_give_way(t, pose, near, parked=True):
+            return 0.0, 0.0
+        cmd = self._step_give_way(t, pose, points)
+        return cmd.v, cmd.w
 
     def step(self, t: float, pose: tuple[float, float, float],
              points: np.ndarray | None) -> tuple[Command, Event, int]:
@@ -168,6 +393,9 @@ class Navigator:
         if route is None:
             return Command(0.0, 0.0, Status.REACHED), Event.NONE, -1
         ctl = self.controller
+        self._remember(pose)
+        if self._give_way is not None:
+            return self._step_give_way(t, pose, points), Event.NONE, -1
         if self._plan_pending:
             self._plan_leg(t, pose)
         elif (self.planner is not None and ctl.retries > self._retries_seen
@@ -183,10 +411,16 @@ class Navigator:
             return cmd, Event.FAILED, goal
         if self.planner is not None and cmd.status == Status.DRIVING:
             self._watch_blocked(t, pose, points, cmd)
-        for _ in range(len(self._corners)):
+            if self._give_way is not None:
+                return self._step_give_way(t, pose, points), Event.NONE, -1
+        for _ in range(2 * len(self._corners)):
             if cmd.status != Status.REACHED or not self._corners:
                 break
-            self._corners.pop(0)  # a corner of the path: on to the next point
+            if self._corner_tight or self._corner_passable(pose):
+                self._corners.pop(0)  # a corner of the path: on to the next point
+                self._corner_tight = False
+            else:  # the next point is round a wall's end: reach this corner itself first
+                self._corner_tight = True
             self._aim(t, new_goal=False)
             cmd = ctl.step(t, pose, points)
         if cmd.status != Status.REACHED:
@@ -206,11 +440,35 @@ class Navigator:
         return cmd, Event.WAYPOINT, vertex
 
 
+SIGHT_MARGIN_M = 0.02  # [m] beyond the robot's radius: a line of sight past a wall's end
+TIGHT_CORNER_M = 0.05  # [m] tolerance of a corner whose next point is not in sight
 OBSTACLE_RADIUS_M = 0.05  # [m] of one laser point as a temporary obstacle of a replan
 OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a replan
 UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
-BLOCKED_SPEED_MPS = 0.03  # [m/s] slower than this, the robot is held still
+HELD_M = 0.05  # [m] a robot that has not moved this far is held still
 BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
+
+
+MAX_DETOUR_FACTOR = 1.5  # a way round another robot may be this much longer than the free way
+MAX_DETOUR_EXTRA_M = 1.0  # [m] ... plus this
+MAX_GIVE_WAYS_PER_LEG = 2  # then the usual recovery decides (a robot that does not move)
+PASS_MARGIN_M = 0.05  # [m] added to the clearance two passing robots need
+CLEAR_MARGIN_M = 0.3  # [m] the other robot is past when farther than the pass clearance + this
+REFUGE_TOLERANCE_M = 0.08  # [m] a refuge is reached within this
+CORNER_GIVE_WAY_M = 0.15  # [m] corners on the way to a refuge are reached within this
+GIVE_WAY_WAIT_S = 2.0  # [s] in a refuge at least this long
+GIVE_WAY_CLEAR_S = 1.0  # [s] ... and nothing unmapped near for this long
+GIVE_WAY_STILL_S = 3.0  # [s] ... or the other robot near has stood still this long
+GIVE_WAY_MIN_S = 10.0  # [s] least waiting budget of a give-way
+GIVE_WAY_PASS_M = 2.0  # [m] the other robot drives this far to be past (the waiting budget)
+PARKED_YIELD_S = 0.5  # [s] a parked robot makes room after another has been near this long
+TRAIL_STEP_M = 0.1  # [m] between the remembered positions
+TRAIL_POINTS = 30  # remembered positions (3 m)
+
+
+def _reasonable_detour(detour: np.ndarray, free: np.ndarray) -> bool:
+    """A way round another robot worth taking instead of waiting for it to move."""
+    return path_length(detour) <= MAX_DETOUR_FACTOR * path_length(free) + MAX_DETOUR_EXTRA_M
 
 
 def _map_points(pose: tuple[float, float, float], points: np.ndarray | None):

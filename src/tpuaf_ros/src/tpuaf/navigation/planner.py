@@ -103,6 +103,18 @@ class PathPlanner:
         out[inside] = self._distances[rows[inside], cols[inside]]
         return out
 
+    def segment_clear(self, a, b, clearance_m: float) -> bool:
+        """Whether every point of the segment a -> b (map frame [m]) lies at least
+        `clearance_m` [m] from the nearest mapped obstacle (sampled every half map cell)."""
+        ax, ay, bx, by = float(a[0]), float(a[1]), float(b[0]), float(b[1])
+        if not all(map(math.isfinite, (ax, ay, bx, by))):
+            return False
+        step = 0.5 * self.costmap.map_resolution
+        k = max(2, int(math.ceil(math.hypot(bx - ax, by - ay) / step)) + 1)
+        f = np.linspace(0.0, 1.0, k)
+        points = np.column_stack((ax + f * (bx - ax), ay + f * (by - ay)))
+        return bool((self.distances_to_obstacle(points) >= clearance_m).all())
+
     @property
     def inscribed_radius_m(self) -> float:
         return self.robot_radius_m + self.config.safety_margin_m

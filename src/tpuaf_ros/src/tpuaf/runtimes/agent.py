@@ -60,7 +60,7 @@ class AgentRuntime:
         # planner: a navigation.PathPlanner (paths on the occupancy grid) or None (straight
         # edges, e.g. a map without walls in the tests).
         self.navigator = Navigator(LocalController(controller), self.goal_tolerance,
-                                   waypoint_tolerance_m, planner)
+                                   waypoint_tolerance_m, planner, robot_index=robot)
         self._graph = patrol_map.graph
         self._positions = np.asarray(patrol_map.positions, dtype=float)
         # [s] run time of the last tick; negative before the start when the team's epoch lies
@@ -236,6 +236,11 @@ class AgentRuntime:
             m.on_vertex(self._stay_vertex, True)
         if points_pose is not None:
             points = moved_points(points, points_pose, self._pose)
+        if self.navigator.route is None:
+            # Standing without a route (waiting for a decision): make room for another robot
+            # that comes right up to us (Navigator.park_step; not with move_base).
+            park = getattr(self.navigator, "park_step", None)
+            return park(self._now, self._pose, points) if park is not None else (0.0, 0.0)
         # A goal reached at once on the way to the next (a vertex within tolerance of the one
         # just visited) is an event too: step again, a few times at most.
         for _ in range(MAX_EVENTS_PER_TICK):

@@ -1,0 +1,192 @@
+"""Robots in passages one robot wide, closed-loop on the C++ world with the navigator the physics
+runtime and the agent node use (planned paths, give-way): two robots meeting head-on both get
+through, a robot parked on the way makes room, and corners next to walls are driven round."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tpuaf_core
+from tpuaf.maps import load_map
+from tpuaf.navigation import (
+    ControllerConfig,
+    Event,
+    GraphRoute,
+    LocalController,
+    Navigator,
+    Scan,
+    scan_points,
+)
+from tpuaf.navigation.controller import SLOW_FLOOR_M
+from tpuaf.navigation.planner import PathPlanner
+
+RES = 0.05  # [m per cell]
+RADIUS = 0.105  # [m] a TurtleBot3 Burger
+SPEED = 0.22  # [m/s]
+DEG = math.radians(1.0)
+ROOM_W, ROOM_H = 1.6, 1.6  # [m] the two rooms either side of the corridor
+CORRIDOR_L = 2.5  # [m]
+CORRIDOR_CELLS = 9  # 0.45 m wide: a Burger fits, two (0.42 m) cannot pass each other
+AXIS_Y = 0.825  # [m] the corridor's centre line: the middle of its middle row of cells
+
+
+def two_rooms(folder: Path) -> Path:
+    """Two rooms joined by a corridor one robot wide; vertices 0 (left room), 1 (corridor
+    middle), 2 (right room), all on the corridor's axis."""
+    w = round((2 * ROOM_W + CORRIDOR_L) / RES)
+    h = round(ROOM_H / RES)
+    occ = np.zeros((h, w), dtype=bool)  # row 0 at the bottom
+    occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = True
+    c0, c1 = round(ROOM_W / RES), round((ROOM_W + CORRIDOR_L) / RES)
+    r0 = int(AXIS_Y / RES) - CORRIDOR_CELLS // 2  # the corridor's rows: r0 .. r0 + cells - 1
+    occ[:r0, c0:c1] = True
+    occ[r0 + CORRIDOR_CELLS:, c0:c1] = True
+    folder.mkdir(parents=True, exist_ok=True)
+    pixels = np.where(occ, 0, 254).astype(np.uint8)[::-1]
+    (folder / "occupancy.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + pixels.tobytes())
+    (folder / "occupancy.yaml").write_text(
+        f"image: occupancy.pgm\nresolution: {RES}\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    (folder / "map.yaml").write_text(
+        "name: two_rooms\ngraph: graph.yaml\noccupancy: occupancy.yaml\nsettings:\n"
+        f"  nominal_speed: {SPEED}\n  goal_tolerance: 0.1\n  robot_radius: {RADIUS}\n")
+    xs = (0.5 * ROOM_W, ROOM_W + 0.5 * CORRIDOR_L, 1.5 * ROOM_W + CORRIDOR_L)
+    (folder / "graph.yaml").write_text(
+        "vertices:\n" + "".join(f"  - {{id: {i}, x: {x}, y: {AXIS_Y}}}\n"
+                                for i, x in enumerate(xs))
+        + "edges:\n  - [0, 1]\n  - [1, 2]\n")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def rooms(tmp_path_factory):
+    pm = load_map(str(two_rooms(tmp_path_factory.mktemp("rooms") / "two_rooms")))
+    return pm, PathPlanner(pm, RADIUS)
+
+
+def world_of(pm, poses):
+    occ = pm.occupancy_grid()
+    w = tpuaf_core.World(occ.occupied, occ.resolution, occ.origin, 0)
+    spec = tpuaf_core.RobotSpec()
+    spec.radius_m = RADIUS
+    spec.max_linear_speed = SPEED
+    for p in poses:
+        w.add_robot(p, spec)
+    return w
+
+
+def navigator(planner, robot: int, speed: float = SPEED) -> Navigator:
+    """The physics runtime's navigator of robot `robot` (controller_config + planner)."""
+    config = ControllerConfig(max_linear_speed=speed, robot_radius=RADIUS,
+                              retry_wait_s=0.5 + 0.5 * (robot % 4))
+    return Navigator(LocalController(config), goal_tolerance=0.1, planner=planner,
+                     robot_index=robot)
+
+
+def run(world, navs, t_end: float, parked=()):
+    """Step every robot at 10 Hz (those in `parked` without a route: park_step) until every
+    other robot's route is done or t_end [s]; the events (t, robot, event, vertex)."""
+    events, t = [], 0.0
+    while t < t_end and any(n.route is not None for i, n in enumerate(navs) if i not in parked):
+        poses = world.poses()
+        for i, nav in enumerate(navs):
+            points = scan_points(Scan(world.scan(i), 0.0, DEG, 0.12, 3.5))
+            pose = tuple(poses[i])
+            if nav.route is None:
+                v, w = nav.park_step(t, pose, points)
+            else:
+                cmd, event, vertex = nav.step(t, pose, points)
+                v, w = cmd.v, cmd.w
+                if event != Event.NONE:
+                    events.append((round(t, 1), i, event, vertex))
+            world.set_command(i, v, w)
+        for _ in range(2):
+            world.step(0.05)
+        t = round(t + 0.1, 6)
+    return events, t
+
+
+def test_two_robots_head_on_in_a_corridor_one_robot_wide_both_get_through(rooms):
+    """Robot 0 from the left room to the right one, robot 1 the other way: they meet in the
+    corridor, where they cannot pass. One gives way (backs out into its room, off the other's
+    way), the other passes, and both reach their goals. Before giving way (replan round the
+    other robot, back off, retry) both gave their goals up."""
+    pm, planner = rooms
+    pos = pm.positions
+    world = world_of(pm, [(pos[0][0], AXIS_Y, 0.0), (pos[2][0], AXIS_Y, math.pi)])
+    navs = [navigator(planner, 0), navigator(planner, 1)]
+    navs[0].set_route(GraphRoute(pm.graph, pos, 0, 2), 0.0)
+    navs[1].set_route(GraphRoute(pm.graph, pos, 2, 0), 0.0)
+    events, t_end = run(world, navs, 150.0)
+    arrived = {(i, v) for _, i, e, v in events if e == Event.ARRIVED}
+    assert arrived == {(0, 2), (1, 0)}, events
+    assert not [e for e in events if e[2] == Event.FAILED]
+    assert sum(n.give_ways for n in navs) >= 1  # they did meet, and one made way
+    assert sum(world.contact_counts()) == 0
+    # Alone, each trip is about 22 s; one waits for the other, and it took less than 150 s.
+    assert t_end < 150.0
+
+
+def test_a_robot_parked_on_a_corridor_vertex_makes_room_for_one_that_must_pass(rooms):
+    """Robot 1 stands (no route: waiting for a decision) on vertex 1, mid-corridor; robot 0
+    must pass it from the left room to the right one. The parked robot makes room (drives out
+    of the corridor, off the other's way): no permanent jam, no goal given up."""
+    pm, planner = rooms
+    pos = pm.positions
+    world = world_of(pm, [(pos[0][0], AXIS_Y, 0.0), (pos[1][0], AXIS_Y, math.pi / 2)])
+    navs = [navigator(planner, 0), navigator(planner, 1)]
+    navs[0].set_route(GraphRoute(pm.graph, pos, 0, 2), 0.0)
+    events, t_end = run(world, navs, 150.0, parked=(1,))
+    assert (0, 2) in {(i, v) for _, i, e, v in events if e == Event.ARRIVED}, events
+    assert not [e for e in events if e[2] == Event.FAILED]
+    assert navs[1].give_ways >= 1 and navs[0].controller.retries == 0
+    assert t_end < 150.0
+    assert sum(world.contact_counts()) == 0
+    # The parked robot left the corridor's way: it stands off the axis or out of the corridor.
+    x, y, _ = world.poses()[1]
+    off_axis = abs(y - AXIS_Y) >= 2 * RADIUS
+    out_of_corridor = not (ROOM_W <= x <= ROOM_W + CORRIDOR_L)
+    assert off_axis or out_of_corridor, (x, y)
+
+
+def test_a_waypoint_passed_round_a_wall_end_is_driven_round_not_through():
+    """lab, one Burger at 0.1 m/s: route 9 -> 14 -> 13 turns round the end of a desk block in
+    a 0.5 m aisle. Vertex 14 counts as passed 0.45 m before it (waypoint tolerance 0.6 m), round
+    the corner; the robot must still drive round the block's end, not aim at vertex 13 through
+    it (it used to stand there until the goal failed)."""
+    pm = load_map("lab")
+    planner = PathPlanner(pm, RADIUS)
+    pos = pm.positions
+    world = world_of(pm, [(pos[9][0], pos[9][1], math.pi / 2)])
+    nav = navigator(planner, 0, speed=0.1)
+    nav.goal_tolerance = float(pm.settings.goal_tolerance)
+    nav.set_route(GraphRoute(pm.graph, pos, 9, 13), 0.0)
+    events, t_end = run(world, [nav], 120.0)
+    assert [(e, v) for _, _, e, v in events] == [(Event.WAYPOINT, 14), (Event.ARRIVED, 13)]
+    assert nav.controller.retries == 0 and sum(world.contact_counts()) == 0
+    assert t_end < 60.0  # about 1.6 m at 0.1 m/s plus turns
+
+
+@pytest.mark.parametrize("speed, slow", [(1.0, 1.2), (0.22, SLOW_FLOOR_M), (0.1, SLOW_FLOOR_M)])
+def test_the_slow_down_zone_scales_with_the_top_speed(speed, slow):
+    controller = LocalController(ControllerConfig(max_linear_speed=speed))
+    assert controller.slow_m == pytest.approx(slow)
+
+
+def test_a_robot_touching_another_moves_straight_away_from_it():
+    """In contact (a laser point within 1 cm of the disc) the robot backs away from what is in
+    front of it, or drives away from what is behind, instead of pushing on (at 1 m/s two
+    robots used to stay pinned to each other for seconds: 1r5, N = 8, 1804 contact steps)."""
+    controller = LocalController(ControllerConfig(max_linear_speed=1.0, robot_radius=0.165))
+    controller.set_target((3.0, 0.0), 0.4, 0.0)
+    touching = 0.165 + 0.005  # [m] from the centre
+    for angle, sign in ((-1.2, -1.0), (0.0, -1.0), (2.8, 1.0)):
+        point = np.array([[touching * math.cos(angle), touching * math.sin(angle)]])
+        cmd = controller.step(0.1, (0.0, 0.0, 0.0), point)
+        assert cmd.v * sign > 0 and cmd.w == 0.0, (angle, cmd)
+    # A point 5 cm off the disc is no contact: the robot drives on toward the target.
+    point = np.array([[0.0, -(0.165 + 0.05)]])
+    assert controller.step(0.2, (0.0, 0.0, 0.0), point).v > 0
