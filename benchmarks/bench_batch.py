@@ -34,7 +34,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from common import header, write
+from common import drop_edges_keeping_connected, header, write
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_MAPS = REPO.parent / "shared" / "maps" / "patrolling_sim"
@@ -55,34 +55,7 @@ def make_grid1000(cols: int = 40, rows: int = 25, spacing_m: float = 5.7, drop: 
                 edges.append((c * rows + r, c * rows + r + 1))
             if c < cols - 1:
                 edges.append((c * rows + r, (c + 1) * rows + r))
-    adjacency: dict[int, set[int]] = {v: set() for v in range(len(ids))}
-    for u, v in edges:
-        adjacency[u].add(v)
-        adjacency[v].add(u)
-
-    def connected(u: int, v: int) -> bool:
-        seen, stack = {u}, [u]
-        while stack:
-            w = stack.pop()
-            if w == v:
-                return True
-            for x in adjacency[w] - seen:
-                seen.add(x)
-                stack.append(x)
-        return False
-
-    dropped: set[int] = set()
-    for k in np.random.default_rng(seed).permutation(len(edges)).tolist():
-        if len(dropped) == drop:
-            break
-        u, v = edges[k]
-        adjacency[u].discard(v)
-        adjacency[v].discard(u)
-        if connected(u, v):
-            dropped.add(k)
-        else:
-            adjacency[u].add(v)
-            adjacency[v].add(u)
+    dropped = drop_edges_keeping_connected(len(ids), edges, drop, seed)
     kept = [(u, v, float("nan")) for k, (u, v) in enumerate(edges) if k not in dropped]
     settings = MapSettings(nominal_speed=1.0, sensing_radius=5.0, interference_distance=2.0,
                            goal_tolerance=0.4, robot_radius=0.105)

@@ -26,13 +26,14 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 import os
 import statistics
 import time
 from pathlib import Path
 
 import numpy as np
-from common import header, write
+from common import drop_edges_keeping_connected, header, write
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 MAPS = SHARED / "maps" / "patrolling_sim"
@@ -51,34 +52,7 @@ def lattice(vertices: int, spacing_m: float = 5.7, seed: int = 0):
     pos = [(spacing_m * (v // rows), spacing_m * (v % rows)) for v in range(n)]
     edges = [(v, v + 1) for v in range(n) if v % rows < rows - 1]
     edges += [(v, v + rows) for v in range(n - rows)]
-    adj: dict[int, set[int]] = {v: set() for v in range(n)}
-    for u, v in edges:
-        adj[u].add(v)
-        adj[v].add(u)
-
-    def connected(u: int, v: int) -> bool:
-        seen, stack = {u}, [u]
-        while stack:
-            w = stack.pop()
-            if w == v:
-                return True
-            for x in adj[w] - seen:
-                seen.add(x)
-                stack.append(x)
-        return False
-
-    dropped: set[int] = set()
-    for k in np.random.default_rng(seed).permutation(len(edges)).tolist():
-        if len(dropped) >= 0.07 * len(edges):
-            break
-        u, v = edges[k]
-        adj[u].discard(v)
-        adj[v].discard(u)
-        if connected(u, v):
-            dropped.add(k)
-        else:
-            adj[u].add(v)
-            adj[v].add(u)
+    dropped = drop_edges_keeping_connected(n, edges, math.ceil(0.07 * len(edges)), seed)
     kept = [(u, v, spacing_m) for k, (u, v) in enumerate(edges) if k not in dropped]
     settings = MapSettings(nominal_speed=1.0, sensing_radius=5.0, interference_distance=2.0,
                            goal_tolerance=0.4, robot_radius=0.105)

@@ -55,3 +55,40 @@ def write(name: str | Path, text: str) -> Path:
     print(text)
     print(f"written to {path}")
     return path
+
+
+def drop_edges_keeping_connected(n_vertices: int, edges: list[tuple[int, int]], count: int,
+                                 seed: int) -> set[int]:
+    """Indices of `count` edges to drop, tried in a seeded random order, each dropped only when
+    the graph stays connected without it (the generated benchmark lattices)."""
+    import numpy as np
+
+    adjacency: dict[int, set[int]] = {v: set() for v in range(n_vertices)}
+    for u, v in edges:
+        adjacency[u].add(v)
+        adjacency[v].add(u)
+
+    def connected(u: int, v: int) -> bool:
+        seen, stack = {u}, [u]
+        while stack:
+            w = stack.pop()
+            if w == v:
+                return True
+            for x in adjacency[w] - seen:
+                seen.add(x)
+                stack.append(x)
+        return False
+
+    dropped: set[int] = set()
+    for k in np.random.default_rng(seed).permutation(len(edges)).tolist():
+        if len(dropped) >= count:
+            break
+        u, v = edges[k]
+        adjacency[u].discard(v)
+        adjacency[v].discard(u)
+        if connected(u, v):
+            dropped.add(k)
+        else:
+            adjacency[u].add(v)
+            adjacency[v].add(u)
+    return dropped
