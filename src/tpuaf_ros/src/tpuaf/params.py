@@ -166,6 +166,9 @@ class MonitorParams:
     start_delay: float = 1.0  # [s] between all agents ready and the announced start
     start_wall_delay: float = 0.0  # [s of wall time] to wait once all are ready (connections)
     wait_for_recorder: bool = False  # start only once a rosbag recorder subscribes
+    # [s of wall time] at most this long once all are ready, wait until every agent (a node in
+    # /<robot_prefix><i>/) is connected to our /fleet/start; then announce anyway, with a warning
+    start_connect_timeout: float = 20.0
     config_file: str = ""  # YAML merged into the results' config.yaml (written by tpuaf fleet)
     strategy: str = ""  # for config.yaml
     seed: int = 0  # for config.yaml
@@ -180,6 +183,7 @@ class MonitorParams:
     ranges: ClassVar[dict[str, tuple[str, float]]] = {
         "robots": (">=", 1), "duration": (">", 0), "death_timeout": (">", 0),
         "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0),
+        "start_connect_timeout": (">=", 0),
     }
 
 

@@ -102,8 +102,15 @@ class MonitorNode:
                 # Let every subscriber (agents, recorder) finish connecting before the start.
                 if self.ready_wall is None:
                     self.ready_wall = time.monotonic()
-                if time.monotonic() - self.ready_wall < self.p.start_wall_delay:
+                waited = time.monotonic() - self.ready_wall
+                if waited < self.p.start_wall_delay:
                     return
+                if not self.agents_listening():
+                    if waited < self.p.start_connect_timeout:
+                        return
+                    rospy.logwarn(f"{NODE}: not every agent is connected to {START_TOPIC} after "
+                                  f"{waited:.0f} s; announcing the start anyway (a late agent "
+                                  "starts when the latched start reaches it)")
                 # Never in the past of the poses already seen: a late event would otherwise
                 # announce a start the live monitor has passed (a bag replay starts there).
                 start = max(convert.stamp_s(msg), self.fm.now) + self.p.start_delay
@@ -137,6 +144,17 @@ class MonitorNode:
             rospy.loginfo(f"{NODE}: run starts at t = {start:.2f} s (announced on "
                           f"{START_TOPIC} by {msg.announcer or 'an unnamed node'}) for "
                           f"{self.p.duration:g} s")
+
+    def agents_listening(self) -> bool:
+        """Is every agent (a node in /<robot_prefix><i>/) connected to our /fleet/start? Then a
+        start published now reaches it at once. Under load a connection still being set up got
+        the latched start seconds of wall time late, while lock-step sim time ran on (a 30 s
+        run was over before the agents started)."""
+        try:
+            callers = {str(info[1]) for info in self.start_pub.impl.get_stats_info()}
+        except Exception:  # noqa: BLE001 - rospy internals: do not hold the start on them
+            return True
+        return all(any(c.startswith(f"/{name}/") for c in callers) for name in self.names)
 
     def recorder_ready(self):
         if not self.p.wait_for_recorder:
