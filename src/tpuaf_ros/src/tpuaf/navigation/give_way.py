@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tpuaf.navigation.route import polyline_length
+
 REFUGE_SEARCH_M = 2.5  # [m] refuges are looked for this far from the robot at most
 REFUGE_STEP_M = 0.05  # [m] cells of the search for a refuge
 REFUGE_PLANS = 3  # refuges planned to (nearest first) before giving up
@@ -74,10 +76,6 @@ def other_way(me: tuple[float, float], blocker: tuple[float, float],
     return np.array([*points, *reversed(trail)], dtype=float)
 
 
-def path_length(path: np.ndarray) -> float:
-    return float(np.hypot(*np.diff(path, axis=0).T).sum()) if len(path) > 1 else 0.0
-
-
 def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
                 trail: list[tuple[float, float]], pass_clearance_m: float,
                 obstacles: np.ndarray | None,
@@ -128,7 +126,7 @@ def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
     idx = idx[segment_distances(cells[idx], way) >= pass_clearance_m]
     for j in idx[np.argsort(order.ravel()[idx], kind="stable")][:REFUGE_PLANS]:
         path = planner.plan(me, tuple(cells[j]), obstacles)
-        if path is not None and path_length(path) <= (
+        if path is not None and polyline_length(path) <= (
                 REFUGE_PATH_FACTOR * order.ravel()[j] * step + 1.0):
             return path
     return None

@@ -9,8 +9,8 @@ from enum import Enum
 import numpy as np
 
 from tpuaf.navigation.controller import STOP_FAILED, Command, LocalController, Status
-from tpuaf.navigation.give_way import GiveWay, find_refuge, path_length
-from tpuaf.navigation.route import GraphRoute
+from tpuaf.navigation.give_way import GiveWay, find_refuge
+from tpuaf.navigation.route import GraphRoute, polyline_length
 
 # ---------------------------------------------------------------------------------------------
 # Navigator: route + controller
@@ -270,10 +270,10 @@ class Navigator:
             return False
         speed = self.controller.config.max_linear_speed
         # [s] the other robot drives past us and on: a few metres at its speed, at least 10 s
-        wait = max(GIVE_WAY_MIN_S, (path_length(path) + GIVE_WAY_PASS_M) / speed)
+        wait = max(GIVE_WAY_MIN_S, (polyline_length(path) + GIVE_WAY_PASS_M) / speed)
         corners = [(float(px), float(py)) for px, py in path[1:]]
         self._give_way = GiveWay(refuge=corners[-1], corners=corners, blocker=blocker,
-                                 started_s=t, deadline_s=t + wait + path_length(path) / speed,
+                                 started_s=t, deadline_s=t + wait + polyline_length(path) / speed,
                                  parked=parked)
         self.give_ways += 1
         self._blocked_since = None
@@ -468,7 +468,7 @@ TRAIL_POINTS = 30  # remembered positions (3 m)
 
 def _reasonable_detour(detour: np.ndarray, free: np.ndarray) -> bool:
     """A way round another robot worth taking instead of waiting for it to move."""
-    return path_length(detour) <= MAX_DETOUR_FACTOR * path_length(free) + MAX_DETOUR_EXTRA_M
+    return polyline_length(detour) <= MAX_DETOUR_FACTOR * polyline_length(free) + MAX_DETOUR_EXTRA_M
 
 
 def _map_points(pose: tuple[float, float, float], points: np.ndarray | None):

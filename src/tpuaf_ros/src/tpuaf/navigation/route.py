@@ -11,6 +11,11 @@ import numpy as np
 # Route along the graph
 
 
+def polyline_length(points: np.ndarray) -> float:
+    """Length [m] of the polyline through `points` (k, 2) [m]; 0 for fewer than two."""
+    return float(np.sum(np.hypot(*np.diff(points, axis=0).T))) if len(points) > 1 else 0.0
+
+
 class GraphRoute:
     """Waypoints (vertex indices) of the shortest path from `start_vertex` to `goal_vertex`.
 
@@ -65,8 +70,7 @@ class GraphRoute:
 
     def length(self) -> float:
         """Length [m] of the polyline start -> waypoints (straight segments)."""
-        pts = self.positions[[self.start, *self.waypoints]]
-        return float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
+        return polyline_length(self.positions[[self.start, *self.waypoints]])
 
 
 # ---------------------------------------------------------------------------------------------
