@@ -3,8 +3,9 @@
 Deaths (`--fail`, `--fail-random`), stalls (`--stall`), the heartbeats and the teammate
 liveness checks run in the C++ loop with the same event order and random draws as `BatchRun`:
 the same summary (faults, liveness, recovery included), visits, 1 Hz rows, interference
-episodes and liveness losses, for strategies with a C++ decision path (tpuaf, gbs, dtag) and
-for Python policies called back from C++ (tpuaf_plus, cgg).
+episodes and liveness losses, for strategies with a C++ decision path (tpuaf, gbs, dtag,
+tpuaf_plus; tpuaf_plus also in tests/test_tpuaf_plus_native.py) and for Python policies called
+back from C++ (cgg).
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ def _assert_same(python, sp, native, sn):
 def test_native_engine_with_faults_equals_python_runtime(grid, strategy, robots, extra):
     python, sp, native, sn = _pair(grid, map="grid", strategy=strategy, robots=robots,
                                    duration_s=600, seed=robots + 7, **extra)
-    assert native.native_policy == (strategy in ("tpuaf", "gbs", "dtag"))
+    assert native.native_policy == (strategy in ("tpuaf", "gbs", "dtag", "tpuaf_plus"))
     _assert_same(python, sp, native, sn)
     # The faults did happen, and the survivors noticed every death.
     deaths = [f for f in sp["faults"] if f["kind"] == "death"]

@@ -10,6 +10,7 @@
 
 #include "bindings.hpp"
 #include "tpuaf_core/engine.hpp"
+#include "tpuaf_core/tpuaf_plus.hpp"
 
 namespace py = pybind11;
 
@@ -149,9 +150,71 @@ void wrap_heartbeats(py::module_& m) {
            py::arg("last_heard"), py::arg("lost"), py::arg("now"));
 }
 
-// TeamStrategy and its Python, TPUAF, GBS and DTAG decision paths.
+// TPUAF+'s decision path; its plans come from Python callables (tpuaf.runtimes.native):
+// plans(team) -> (routes, route_of, schedule) with routes [(walk, arc [m], L [m], robots)],
+// route_of [route index or -1 per robot], schedule [(entry index or -1, departure [s]) per
+// robot]; schedule(route, starts, late_m, idle_s) -> [(entry index, departure [s])] per robot
+// of the route. Both are called with the GIL held (the run keeps it: is_native() is false).
+PlusRoute route_from_python(py::handle item) {
+  py::tuple t = py::reinterpret_borrow<py::tuple>(item);
+  PlusRoute route;
+  route.walk = t[0].cast<std::vector<int>>();
+  route.arc = t[1].cast<std::vector<double>>();
+  route.length = t[2].cast<double>();
+  route.robots = t[3].cast<std::vector<int>>();
+  if (route.arc.size() != route.walk.size() || route.walk.empty()) {
+    throw std::invalid_argument("a TPUAF+ route needs one arc position per walk vertex");
+  }
+  return route;
+}
+
+void wrap_tpuaf_plus(py::module_& m) {
+  py::class_<TpuafPlusParams>(m, "TpuafPlusParams", "TPUAF+'s resolved parameters (SI units).")
+      .def(py::init<>())
+      .def_readwrite("speed_mps", &TpuafPlusParams::speed_mps)
+      .def_readwrite("gain", &TpuafPlusParams::gain)
+      .def_readwrite("deadband_s", &TpuafPlusParams::deadband_s)
+      .def_readwrite("dwell_revisit_s", &TpuafPlusParams::dwell_revisit_s)
+      .def_readwrite("silence_timeout_s", &TpuafPlusParams::silence_timeout_s)
+      .def_readwrite("stay_s", &TpuafPlusParams::stay_s)
+      .def_readwrite("start_vertices", &TpuafPlusParams::start_vertices);
+  py::class_<TpuafPlusStrategy, TeamStrategy>(
+      m, "TpuafPlusStrategy", "TPUAF+'s decision path in C++ (tpuaf.policies.tpuaf_plus).")
+      .def(py::init([](const TpuafKnowledge& knowledge, TpuafPlusParams params,
+                       py::function plans, py::function schedule) {
+             auto plan_source = [plans](const std::vector<int>& team) {
+               py::tuple t = plans(team);
+               auto plan = std::make_shared<PlusPlan>();
+               for (py::handle item : py::reinterpret_borrow<py::list>(t[0])) {
+                 plan->routes.push_back(route_from_python(item));
+               }
+               plan->route_of = t[1].cast<std::vector<int>>();
+               plan->schedule = t[2].cast<std::vector<std::pair<int, double>>>();
+               return std::shared_ptr<const PlusPlan>(std::move(plan));
+             };
+             auto schedule_source = [schedule](const PlusRoute& route,
+                                               const std::vector<int>& starts,
+                                               const std::vector<double>& late_m,
+                                               const std::vector<double>& idle_s) {
+               py::tuple r = py::make_tuple(route.walk, route.arc, route.length, route.robots);
+               return schedule(r, starts, late_m, idle_s)
+                   .cast<std::vector<std::pair<int, double>>>();
+             };
+             return std::make_unique<TpuafPlusStrategy>(knowledge, std::move(params),
+                                                        plan_source, schedule_source);
+           }),
+           py::arg("knowledge"), py::arg("params"), py::arg("plans"), py::arg("schedule"))
+      .def("walk", &TpuafPlusStrategy::walk, py::arg("robot"), "Robot `robot`'s current walk.")
+      .def("team", &TpuafPlusStrategy::team, py::arg("robot"),
+           "The robots `robot` believes alive (itself included).");
+}
+
+// TeamStrategy and its Python, TPUAF, GBS and DTAG (TPUAF+: above) decision paths.
 void wrap_strategies(py::module_& m) {
-  py::class_<TeamStrategy>(m, "TeamStrategy", "A team's decision makers, one per robot.");
+  py::class_<TeamStrategy>(m, "TeamStrategy", "A team's decision makers, one per robot.")
+      .def_property_readonly("is_native", &TeamStrategy::is_native,
+                             "True if it never calls back into Python (the run may release "
+                             "the GIL).");
   py::class_<PythonStrategy, TeamStrategy>(
       m, "PythonStrategy",
       "Calls team.start(robot), team.decide(robot) -> int | None, team.on_message(robot, msg).")
@@ -188,6 +251,7 @@ void wrap_strategies(py::module_& m) {
            py::arg("initial_estimate_s"), py::arg("w_idleness"), py::arg("w_path"),
            py::arg("w_origin"), py::arg("origin_distance_m"), py::arg("rngs"))
       .def("replans", &DtagStrategy::replans, py::arg("robot"));
+  wrap_tpuaf_plus(m);
 }
 
 // GraphEngine: construction, strategy, the run, the robots and the bus (the recorder: below).

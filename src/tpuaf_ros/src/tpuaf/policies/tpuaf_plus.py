@@ -10,7 +10,7 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    idleness at nominal speed (`tours.walk_idleness`; a tie within 2 % goes to the lower
    predicted mean X, TPUAF's uncertainty model integrated over the plan's visit gaps).
 2. Start. From every robot's start vertex, all robots compute the same start schedule
-   (`_schedule`): evenly spaced virtual slots move along each walk and pick the robots up;
+   (`start_schedule`): evenly spaced virtual slots move along each walk and pick the robots up;
    each robot drives the shortest route (serving the most uncertain vertices, step 6) to the
    walk vertex where its slot passes soonest after it can be there, and leaves with it; the
    slot phase and robot-to-slot matching are those under which every walk vertex is first
@@ -175,7 +175,7 @@ def _slot_departures(route: Route, start: int, dist, slots: np.ndarray, late_m: 
     return out_t, out_k
 
 
-def _schedule(route: Route, starts: dict, dist, speed: float, late_m: dict | None = None,
+def start_schedule(route: Route, starts: dict, dist, speed: float, late_m: dict | None = None,
               idle_s: np.ndarray | None = None) -> dict:
     """Robot -> (entry index, departure time [s]): the team starts spread at once. m virtual
     slots, evenly spaced along the walk and moving at `speed`, each pick up one robot: the robot
@@ -319,7 +319,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     if full:
         starts = {r: int(all_starts[r]) for r in team}
         for route in routes:
-            schedule.update(_schedule(route, starts, dist, speed))
+            schedule.update(start_schedule(route, starts, dist, speed))
     return Plan(kind, routes, route_of, float(worst), schedule)
 
 
@@ -405,6 +405,16 @@ def _assign_survivors(patrol_map, team, all_starts, part, slots, dist, mode) -> 
     return out
 
 
+def silence_timeout(graph, speed: float, setting: float) -> float:
+    """The silence timeout [s]: `setting`, or for 0 max(60 s, 8 x the longest edge's travel
+    time at `speed` [m/s])."""
+    timeout = float(setting)
+    if timeout <= 0:
+        longest = max((float(c) for _, _, c in graph.edges), default=0.0)
+        timeout = max(60.0, 8.0 * longest / speed)
+    return timeout
+
+
 @register
 class TpuafPlus(Policy):
     """TPUAF+: shared tour plan, even spacing from timed messages, re-plan on silence."""
@@ -458,10 +468,7 @@ class TpuafPlus(Policy):
 
         self.all_starts = tuple(team_start_vertices(ctx))
         self.robot = ctx.robot
-        timeout = float(self.params["silence_timeout_s"])
-        if timeout <= 0:
-            longest = max((float(c) for _, _, c in self.graph.edges), default=0.0)
-            timeout = max(60.0, 8.0 * longest / self.speed)
+        timeout = silence_timeout(self.graph, self.speed, self.params["silence_timeout_s"])
         self.silence_timeout_s = timeout
         self.knowledge = new_knowledge(pm, 30.0, timeout)
         self.alive = set(range(ctx.n_robots))
@@ -517,7 +524,7 @@ class TpuafPlus(Policy):
         self.hold_until = None
 
     def _transition_entries(self) -> dict[int, int]:
-        """Robot -> entry index on my new walk: `_schedule`'s entries with each of its
+        """Robot -> entry index on my new walk: `start_schedule`'s entries with each of its
         robots at the vertex its last announcement before the team change (`changed_at`) was
         heading to, from when it gets there. Every survivor computes it from the same messages
         (unless loss or delay kept one from it), so they agree on the entries. {} when a robot
@@ -535,7 +542,7 @@ class TpuafPlus(Policy):
             starts[r] = b
             late[r] = max(0.0, departure + float(self.dist[a, b]) / self.speed - t_ref) * self.speed
         idle = np.maximum(t_ref - np.asarray(self.knowledge.last_visit, dtype=float), 0.0)
-        plan = _schedule(route, starts, self.dist, self.speed, late, idle)
+        plan = start_schedule(route, starts, self.dist, self.speed, late, idle)
         return {r: k for r, (k, _) in plan.items()}
 
     def _remember(self, robot: int, entry: tuple[int, int, float, float]) -> None:

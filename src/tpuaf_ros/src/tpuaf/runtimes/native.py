@@ -107,11 +107,57 @@ def _dtag_strategy(run: NativeRun, params: dict):
     )
 
 
+def _tpuaf_plus_strategy(run: NativeRun, params: dict):
+    """TPUAF+'s C++ decision path; its plans and transition schedules are the Python
+    planner's (tpuaf_plus.make_plan and start_schedule), called back when a robot's team changes."""
+    import types
+
+    import tpuaf_core
+
+    from tpuaf.policies import tpuaf_plus
+    from tpuaf.policies.cyclic import team_start_vertices
+    from tpuaf.policies.tpuaf import new_knowledge
+
+    pm, n = run.patrol_map, run.config.robots
+    speed = float(pm.settings.nominal_speed)
+    ctx = types.SimpleNamespace(patrol_map=pm, n_robots=n)
+    all_starts = tuple(team_start_vertices(ctx))
+    dist = np.asarray(pm.graph.distances)
+    out = tpuaf_core.TpuafPlusParams()
+    out.speed_mps = speed
+    out.gain = float(params["gain"])
+    out.deadband_s = float(params["deadband_s"])
+    out.dwell_revisit_s = float(params["dwell_revisit_s"])
+    out.silence_timeout_s = tpuaf_plus.silence_timeout(pm.graph, speed,
+                                                       params["silence_timeout_s"])
+    out.stay_s = tpuaf_plus.STAY_S
+    out.start_vertices = list(all_starts)
+
+    def plans(team: list[int]):
+        plan = tpuaf_plus.make_plan(pm, tuple(team), all_starts, params["plan"],
+                                    params["repair"])
+        routes = [(list(r.walk), list(r.arc), r.length, list(r.robots)) for r in plan.routes]
+        route_of = [plan.route_of.get(k, -1) for k in range(n)]
+        schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n)]
+        return routes, route_of, schedule
+
+    def schedule(route, starts: list[int], late_m: list[float], idle_s: list[float]):
+        walk, arc, length, robots = route
+        r = tpuaf_plus.Route(tuple(walk), tuple(arc), float(length), tuple(robots))
+        plan = tpuaf_plus.start_schedule(r, dict(zip(robots, starts, strict=True)), dist, speed,
+                                    dict(zip(robots, late_m, strict=True)), np.asarray(idle_s))
+        return [plan[k] for k in robots]
+
+    knowledge = new_knowledge(pm, 30.0, out.silence_timeout_s)
+    return tpuaf_core.TpuafPlusStrategy(knowledge, out, plans, schedule)
+
+
 # Strategies with a C++ decision path: name -> (Python class it mirrors, builder(run, params)).
 NATIVE_STRATEGIES: dict[str, tuple[str, Callable[[NativeRun, dict], Any]]] = {
     "tpuaf": ("Tpuaf", lambda run, params: _tpuaf_strategy(run, params, any_vertex=False)),
     "gbs": ("GreedyBayesian", _gbs_strategy),
     "dtag": ("DynamicTaskAssignmentGreedy", _dtag_strategy),
+    "tpuaf_plus": ("TpuafPlus", _tpuaf_plus_strategy),
 }
 
 
@@ -476,7 +522,7 @@ class NativeRun:
 
     def run(self, progress: Callable[[float], None] | None = None) -> dict:
         """Simulate until duration_s. `progress(now)` is called now and then."""
-        self._engine.run(progress, release_gil=self.native_policy)
+        self._engine.run(progress, release_gil=self._strategy.is_native)
         return self.summary()
 
     @property

@@ -1,0 +1,135 @@
+// TPUAF+'s decision path in C++ (tpuaf/policies/tpuaf_plus.py, step for step): even spacing
+// on a shared walk from the mates' timed messages, the start schedule, re-spacing and
+// re-planning after a loss, and repair hops. The plans themselves (tour and partition search,
+// the start schedule's slot matching) come from the Python planner through two callbacks,
+// called only when a robot's view of the team changes. Times in seconds, lengths in metres.
+#pragma once
+
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include "tpuaf_core/engine.hpp"
+
+namespace tpuaf {
+
+// One closed walk of a plan and the robots that share it (tpuaf_plus.Route).
+struct PlusRoute {
+  std::vector<int> walk;    // vertex indices; consecutive entries adjacent, last -> first too
+  std::vector<double> arc;  // [m] arc position of each walk entry from walk[0]
+  double length = 0;        // [m] L
+  std::vector<int> robots;  // robot indices on this walk, sorted
+};
+
+// A plan (tpuaf_plus.Plan): its walks, each robot's walk and the start schedule.
+struct PlusPlan {
+  std::vector<PlusRoute> routes;
+  std::vector<int> route_of;  // per robot: index into routes (-1: not in the plan's team)
+  // Per robot: (entry walk index, departure [s]) of the start schedule; entry -1: none.
+  std::vector<std::pair<int, double>> schedule;
+};
+
+struct TpuafPlusParams {
+  double speed_mps = 1.0;          // plan speed v (the map's nominal speed)
+  double gain = 0.5;               // fraction of (gap behind - gap ahead) / 2 dwelt
+  double deadband_s = 0.5;         // no dwell below this
+  double dwell_revisit_s = 5.0;    // a dwelling robot re-visits its vertex this often
+  double silence_timeout_s = 60;   // a mate silent this long is presumed dead (resolved)
+  double stay_s = 1.0;             // the runtimes' dwell for a goal equal to the vertex
+  std::vector<int> start_vertices;  // every robot's start vertex (may be empty)
+};
+
+class TpuafPlusStrategy : public TeamStrategy {
+ public:
+  // The plan for `team` (sorted robot indices believed alive): tpuaf_plus.make_plan.
+  using PlanSource = std::function<std::shared_ptr<const PlusPlan>(const std::vector<int>&)>;
+  // tpuaf_plus.start_schedule(route, starts, late_m, idle_s): per robot of route.robots, in order,
+  // (entry walk index, departure [s]); starts, late_m [m] per robot of route.robots, idle_s
+  // [s] per graph vertex.
+  using ScheduleSource = std::function<std::vector<std::pair<int, double>>(
+      const PlusRoute&, const std::vector<int>&, const std::vector<double>&,
+      const std::vector<double>&)>;
+
+  TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params, PlanSource plans,
+                    ScheduleSource schedules);
+  void start(GraphEngine& engine, int robot) override;
+  int decide(GraphEngine& engine, int robot) override;
+  void on_message(GraphEngine& engine, int robot, const TeamMessage& message) override;
+  void on_goal_failed(GraphEngine& engine, int robot, int vertex) override;
+  void on_teammate_lost(GraphEngine& engine, int robot, int lost) override;
+  bool is_native() const override { return false; }  // plans are made in Python
+  bool messages_are_local() const override { return true; }
+  // Robot `robot`'s current walk (its vertices) and the robots it believes alive.
+  std::vector<int> walk(int robot) const;
+  std::vector<int> team(int robot) const;
+
+ private:
+  // A timed announcement: (from vertex, to vertex, departure [s], sent [s]).
+  struct Heard {
+    int from = -1, to = -1;
+    double departure = 0, sent = 0;
+  };
+  struct Robot {
+    explicit Robot(const TpuafKnowledge& k) : knowledge(k) {}
+    TpuafKnowledge knowledge;
+    std::vector<char> alive;
+    std::vector<double> last_heard;   // [s] newest sent time heard per robot
+    std::vector<double> lost_at;      // [s] reported lost by the runtime (+inf: not)
+    std::vector<Heard> heard;         // latest timed message per mate
+    std::vector<char> has_heard;
+    std::vector<double> mate_arc;     // last estimated arc [m] per mate
+    std::vector<char> has_mate_arc;
+    std::vector<std::deque<Heard>> history;  // the last 4 announcements per robot
+    double changed_at = 0;            // [s] when the team last changed
+    bool holding = false;
+    double hold_until = 0;            // planned departure while dwelling [s]
+    bool respacing = false;
+    double respace_target = 0, respace_at = 0;  // [m], [s]
+    bool waking = false;
+    double last_announce = 0;
+    std::shared_ptr<const PlusPlan> plan;
+    int route = -1;
+    bool has_departure = false;
+    double departure = 0;  // [s] start-schedule departure
+    int entry = 0;
+    int idx = -1;  // my walk index (-1: driving to my walk)
+    bool started = false;
+  };
+  struct Gaps {
+    double ahead, behind, even;
+  };
+  Robot& state(int robot);
+  const PlusRoute& route_of(const Robot& r) const { return r.plan->routes[r.route]; }
+  std::shared_ptr<const PlusPlan> plan_for(const std::vector<int>& team);
+  void install_plan(GraphEngine& engine, int robot, bool initial);
+  int entry_index(const PlusRoute& route, int vertex) const;
+  int urgent_entry(const Robot& r, const PlusRoute& route, int vertex, double now) const;
+  std::map<int, int> transition_entries(const Robot& r) const;
+  bool respace_target(Robot& r, int robot, double now, double& target);
+  double idle_room(Robot& r, int robot, double now);
+  double respace_wait(Robot& r, int robot, double now);
+  void heard_from(Robot& r, int k, double sent) const;
+  static void remember(Robot& r, int robot, const Heard& entry);
+  void update_team(GraphEngine& engine, int robot);
+  bool mate_arc(Robot& r, int k, double now, double& arc);
+  bool gaps(Robot& r, int robot, double now, Gaps& out);
+  double spacing_wait(Robot& r, int robot, double now);
+  void announce(GraphEngine& engine, int robot, int here, int next, double departure,
+                bool visit);
+  int hold(GraphEngine& engine, int robot, int here, bool waking);
+  int step(GraphEngine& engine, int robot, bool waking);
+  int repair_hop(GraphEngine& engine, int robot, int here, int target);
+
+  TpuafKnowledge prototype_;
+  TpuafPlusParams params_;
+  PlanSource plans_;
+  ScheduleSource schedules_;
+  std::map<std::vector<int>, std::shared_ptr<const PlusPlan>> plan_cache_;
+  const PatrolGraph* graph_ = nullptr;
+  std::vector<Robot> robots_;
+};
+
+}  // namespace tpuaf

@@ -1,0 +1,627 @@
+// TPUAF+'s decision path in C++: the same steps as tpuaf/policies/tpuaf_plus.py, in the same
+// order and with the same floating-point operations (Python's float % is py_mod), so that a
+// run equals the Python policy's to the last digit (tests/test_tpuaf_plus_native.py).
+#include "tpuaf_core/tpuaf_plus.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace tpuaf {
+namespace {
+
+constexpr double kEps = 1e-6;  // tpuaf_plus._EPS
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kWait = -1;    // decide(): wait (a wake-up is set)
+constexpr int kDepart = -2;  // hold(): the dwell is over, depart
+
+// Python's float `a % b` (numpy's np.mod): the result takes the sign of b.
+double py_mod(double a, double b) {
+  double m = std::fmod(a, b);
+  if (m != 0) {
+    if ((b < 0) != (m < 0)) m += b;
+  } else {
+    m = std::copysign(0.0, b);
+  }
+  return m;
+}
+
+}  // namespace
+
+TpuafPlusStrategy::TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params,
+                                     PlanSource plans, ScheduleSource schedules)
+    : prototype_(knowledge),
+      params_(std::move(params)),
+      plans_(std::move(plans)),
+      schedules_(std::move(schedules)) {
+  prototype_.share_visit_results();  // the team hears the same visits: one Eq. 2 per visit
+}
+
+TpuafPlusStrategy::Robot& TpuafPlusStrategy::state(int robot) {
+  if (robot < 0 || robot >= static_cast<int>(robots_.size())) {
+    throw std::out_of_range("unknown robot " + std::to_string(robot));
+  }
+  return robots_[static_cast<std::size_t>(robot)];
+}
+
+std::vector<int> TpuafPlusStrategy::walk(int robot) const {
+  if (robot < 0 || robot >= static_cast<int>(robots_.size()) ||
+      !robots_[static_cast<std::size_t>(robot)].plan) {
+    throw std::out_of_range("robot " + std::to_string(robot) + " has no plan yet");
+  }
+  return route_of(robots_[static_cast<std::size_t>(robot)]).walk;
+}
+
+std::vector<int> TpuafPlusStrategy::team(int robot) const {
+  if (robot < 0 || robot >= static_cast<int>(robots_.size())) {
+    throw std::out_of_range("unknown robot " + std::to_string(robot));
+  }
+  const Robot& r = robots_[static_cast<std::size_t>(robot)];
+  std::vector<int> out;
+  for (std::size_t k = 0; k < r.alive.size(); ++k) {
+    if (r.alive[k] || static_cast<int>(k) == robot) out.push_back(static_cast<int>(k));
+  }
+  return out;
+}
+
+std::shared_ptr<const PlusPlan> TpuafPlusStrategy::plan_for(const std::vector<int>& team) {
+  auto it = plan_cache_.find(team);
+  if (it != plan_cache_.end()) return it->second;
+  std::shared_ptr<const PlusPlan> plan = plans_(team);
+  if (!plan || plan->route_of.size() < robots_.size()) {
+    throw std::invalid_argument("the TPUAF+ planner returned no route per robot");
+  }
+  for (int k : team) {
+    const int route = plan->route_of[static_cast<std::size_t>(k)];
+    if (route < 0 || route >= static_cast<int>(plan->routes.size())) {
+      throw std::invalid_argument("the TPUAF+ plan has no walk for robot " + std::to_string(k));
+    }
+  }
+  plan_cache_.emplace(team, plan);
+  return plan;
+}
+
+// ------------------------------------------------------------------ set-up
+
+void TpuafPlusStrategy::start(GraphEngine& engine, int robot) {
+  const int n = engine.robots();
+  graph_ = &engine.graph();
+  if (static_cast<int>(robots_.size()) != n) {
+    robots_.clear();
+    robots_.reserve(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) robots_.emplace_back(prototype_);
+    plan_cache_.clear();
+  }
+  Robot& r = state(robot);
+  r = Robot(prototype_);
+  const std::size_t size = static_cast<std::size_t>(n);
+  r.alive.assign(size, 1);
+  r.last_heard.assign(size, engine.now());
+  r.lost_at.assign(size, kInf);
+  r.heard.assign(size, Heard{});
+  r.has_heard.assign(size, 0);
+  r.mate_arc.assign(size, 0.0);
+  r.has_mate_arc.assign(size, 0);
+  r.history.assign(size, {});
+  r.last_announce = -kInf;
+  r.started = true;
+  install_plan(engine, robot, true);
+}
+
+void TpuafPlusStrategy::install_plan(GraphEngine& engine, int robot, bool initial) {
+  Robot& r = state(robot);
+  std::shared_ptr<const PlusPlan> old_plan = r.plan;
+  const PlusRoute* old_route = old_plan ? &route_of(r) : nullptr;
+  r.plan = plan_for(team(robot));
+  r.route = r.plan->route_of[static_cast<std::size_t>(robot)];
+  const PlusRoute& route = route_of(r);
+  r.has_departure = false;
+  r.respacing = false;
+  const auto& schedule = r.plan->schedule;
+  const bool scheduled = static_cast<std::size_t>(robot) < schedule.size() &&
+                         schedule[static_cast<std::size_t>(robot)].first >= 0;
+  if (initial && scheduled) {
+    r.entry = schedule[static_cast<std::size_t>(robot)].first;
+    r.departure = schedule[static_cast<std::size_t>(robot)].second;
+    r.has_departure = true;
+    r.idx = -1;
+  } else if (old_route != nullptr && old_route->walk == route.walk) {
+    // same walk (a cycle): keep my place on it; after a loss, re-space at once
+    if (route.robots.size() < old_route->robots.size()) {
+      double target = 0;
+      r.respacing = respace_target(r, robot, engine.now(), target);
+      r.respace_target = target;
+      r.respace_at = engine.now();
+    }
+  } else if (route.robots.size() == 1 && route.walk.size() > 1) {  // a new part alone
+    r.entry = urgent_entry(r, route, engine.current_vertex(robot), engine.now());
+    r.idx = -1;
+  } else {
+    // a walk new to several robots: the start schedule's entries from where each stood
+    const std::map<int, int> entries = transition_entries(r);
+    auto it = entries.find(robot);
+    r.entry = it != entries.end() ? it->second : entry_index(route, engine.current_vertex(robot));
+    r.idx = -1;
+  }
+  r.holding = false;
+}
+
+int TpuafPlusStrategy::entry_index(const PlusRoute& route, int vertex) const {
+  // The nearest walk vertex (ties to the lowest vertex index), its first walk index.
+  int best = -1;
+  double best_d = kInf;
+  for (int w : route.walk) {
+    const double d = graph_->distance(vertex, w);
+    if (best < 0 || d < best_d || (d == best_d && w < best)) {
+      best = w;
+      best_d = d;
+    }
+  }
+  return static_cast<int>(std::find(route.walk.begin(), route.walk.end(), best) -
+                          route.walk.begin());
+}
+
+int TpuafPlusStrategy::urgent_entry(const Robot& r, const PlusRoute& route, int vertex,
+                                    double now) const {
+  // min over entries k of max over walk entries i of (drive to k + arc k -> i + idleness of i)
+  // [s], rounded to 1e-6 s as np.round; ties to the nearer entry, then the lower index.
+  const std::size_t n = route.walk.size();
+  const double speed = params_.speed_mps;
+  const Eigen::VectorXd& last = r.knowledge.last_visit();
+  std::vector<double> idle(n), reach(n), worst(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    idle[i] = now - last[route.walk[i]];
+    reach[i] = graph_->distance(vertex, route.walk[i]) / speed;
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    double top = -kInf;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double ahead = py_mod(route.arc[i] - route.arc[k], route.length) / speed;
+      top = std::max(top, reach[k] + ahead + idle[i]);
+    }
+    worst[k] = std::nearbyint(top * 1e6) / 1e6;
+  }
+  std::size_t best = 0;
+  for (std::size_t k = 1; k < n; ++k) {
+    if (worst[k] < worst[best] || (worst[k] == worst[best] && reach[k] < reach[best])) best = k;
+  }
+  return static_cast<int>(best);
+}
+
+std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
+  // Each robot of my new walk starts at the vertex its last announcement before the team
+  // change headed to, late by what was left of that drive; {} when one was never heard.
+  const double t_ref = r.changed_at;
+  const double speed = params_.speed_mps;
+  const PlusRoute& route = route_of(r);
+  std::vector<int> starts;
+  std::vector<double> late;
+  for (int k : route.robots) {
+    const Heard* info = nullptr;
+    for (const Heard& h : r.history[static_cast<std::size_t>(k)]) {
+      if (h.sent <= t_ref + kEps) info = &h;
+    }
+    if (info == nullptr) return {};
+    starts.push_back(info->to);
+    late.push_back(
+        std::max(0.0, info->departure + graph_->distance(info->from, info->to) / speed - t_ref) *
+        speed);
+  }
+  const Eigen::VectorXd& last = r.knowledge.last_visit();
+  std::vector<double> idle(static_cast<std::size_t>(last.size()));
+  for (Eigen::Index v = 0; v < last.size(); ++v) {
+    idle[static_cast<std::size_t>(v)] = std::max(t_ref - last[v], 0.0);
+  }
+  const auto plan = schedules_(route, starts, late, idle);
+  if (plan.size() != route.robots.size()) {
+    throw std::invalid_argument("the TPUAF+ schedule has not one entry per robot of the walk");
+  }
+  std::map<int, int> out;
+  for (std::size_t j = 0; j < plan.size(); ++j) out[route.robots[j]] = plan[j].first;
+  return out;
+}
+
+bool TpuafPlusStrategy::respace_target(Robot& r, int robot, double now, double& target) {
+  // The survivors' even spacing L / m keeping their cyclic order with the least dwell of
+  // anyone: e_j = p_j - j L / m, my target = my arc - (e_0 - min e).
+  const PlusRoute& route = route_of(r);
+  const double L = route.length;
+  const std::size_t m = route.robots.size();
+  if (r.idx < 0 || m < 2 || L <= 0) return false;
+  double mine = route.arc[static_cast<std::size_t>(r.idx)];
+  if (r.holding) mine -= params_.speed_mps * std::max(0.0, r.hold_until - now);
+  std::vector<std::pair<int, double>> arcs{{robot, py_mod(mine, L)}};
+  for (int k : route.robots) {
+    if (k == robot) continue;
+    double arc = 0;
+    if (!mate_arc(r, k, now, arc)) return false;
+    arcs.emplace_back(k, arc);
+  }
+  const double me = arcs[0].second;
+  std::vector<std::pair<double, int>> order;  // ((arc - mine) mod L, -k)
+  for (const auto& [k, arc] : arcs) order.emplace_back(py_mod(arc - me, L), -k);
+  std::sort(order.begin(), order.end());
+  std::vector<double> e(m);
+  double e_min = kInf;
+  for (std::size_t j = 0; j < m; ++j) {
+    e[j] = (me + order[j].first) - static_cast<double>(j) * (L / static_cast<double>(m));
+    e_min = std::min(e_min, e[j]);
+  }
+  target = mine - (e[0] - e_min);
+  return true;
+}
+
+double TpuafPlusStrategy::idle_room(Robot& r, int robot, double now) {
+  // How long I can dwell before a walk vertex ahead (up to the nearest mate ahead, within
+  // L / m) waits longer than L / (m v): min of L / (m v) - its idleness - my drive to it.
+  const PlusRoute& route = route_of(r);
+  const std::size_t n = route.walk.size();
+  const double L = route.length, speed = params_.speed_mps;
+  const double here = route.arc[static_cast<std::size_t>(r.idx)];
+  const double even = L / static_cast<double>(route.robots.size());
+  double reach = even;
+  for (int k : route.robots) {
+    if (k == robot) continue;
+    double arc = 0;
+    if (mate_arc(r, k, now, arc)) {
+      if (r.has_heard[static_cast<std::size_t>(k)]) {  // a dwelling mate is at its vertex
+        arc += speed * std::max(0.0, r.heard[static_cast<std::size_t>(k)].departure - now);
+      }
+      reach = std::min(reach, py_mod(arc - here, L));
+    }
+  }
+  const Eigen::VectorXd& last = r.knowledge.last_visit();
+  double room = kInf;
+  for (std::size_t step = 1; step < n; ++step) {
+    const std::size_t i = (static_cast<std::size_t>(r.idx) + step) % n;
+    const double d = py_mod(route.arc[i] - here, L);
+    if (d > reach + kEps) break;
+    room = std::min(room, (even - d) / speed - (now - last[route.walk[i]]));
+  }
+  return std::isfinite(room) ? std::max(0.0, room) : 0.0;
+}
+
+double TpuafPlusStrategy::respace_wait(Robot& r, int robot, double now) {
+  // What is left of my re-spacing dwell, capped by idle_room; done below the deadband or
+  // after a lap.
+  const PlusRoute& route = route_of(r);
+  const double L = route.length, speed = params_.speed_mps;
+  const double behind = py_mod(route.arc[static_cast<std::size_t>(r.idx)] - r.respace_target -
+                                   speed * (now - r.respace_at),
+                               L);
+  const double left = behind < L / 2 ? behind / speed : 0.0;
+  const double wait = std::min(left, idle_room(r, robot, now));
+  if (left - wait <= params_.deadband_s || now - r.respace_at > L / speed) r.respacing = false;
+  return wait;
+}
+
+// ------------------------------------------------------------------ messages
+
+void TpuafPlusStrategy::heard_from(Robot& r, int k, double sent) const {
+  double& last = r.last_heard[static_cast<std::size_t>(k)];
+  if (sent > last) last = sent;
+  double& lost = r.lost_at[static_cast<std::size_t>(k)];
+  if (sent > lost) lost = kInf;  // heard again after it was reported lost
+}
+
+void TpuafPlusStrategy::remember(Robot& r, int robot, const Heard& entry) {
+  auto& past = r.history[static_cast<std::size_t>(robot)];
+  past.push_back(entry);
+  if (past.size() > 4) past.pop_front();
+}
+
+void TpuafPlusStrategy::on_message(GraphEngine& engine, int robot, const TeamMessage& message) {
+  Robot& r = state(robot);
+  const int k = message.robot;
+  if (k < 0 || k >= static_cast<int>(r.heard.size())) return;
+  const double sent = message.time_s;
+  Heard& latest = r.heard[static_cast<std::size_t>(k)];
+  char& has = r.has_heard[static_cast<std::size_t>(k)];
+  if (message.kind == TeamMessage::Kind::kVisit) {
+    r.knowledge.hear_visit(k, message.vertex, sent, engine.now());
+    heard_from(r, k, sent);
+    const int next = message.next_vertex >= 0 ? message.next_vertex : message.vertex;
+    const Heard entry{message.vertex, next, sent, sent};
+    remember(r, k, entry);
+    if (!has || sent > latest.sent + kEps) {
+      latest = entry;
+      has = 1;
+    }
+  } else if (message.kind == TeamMessage::Kind::kIntention) {
+    heard_from(r, k, sent);
+    const double departure = message.expected_arrival_s - message.travel_time_s;
+    const Heard entry{message.from_vertex, message.vertex, departure, sent};
+    remember(r, k, entry);
+    if (!has || sent >= latest.sent - kEps) {
+      latest = entry;
+      has = 1;
+    }
+  }
+}
+
+void TpuafPlusStrategy::on_teammate_lost(GraphEngine& engine, int robot, int lost) {
+  Robot& r = state(robot);
+  if (lost >= 0 && lost < static_cast<int>(r.lost_at.size())) {
+    r.lost_at[static_cast<std::size_t>(lost)] = engine.now();
+  }
+}
+
+void TpuafPlusStrategy::update_team(GraphEngine& engine, int robot) {
+  // Mates silent for longer than the timeout (or reported lost) leave; one heard rejoins.
+  Robot& r = state(robot);
+  const double now = engine.now();
+  const std::size_t n = r.alive.size();
+  std::vector<char> alive(n, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    alive[k] = static_cast<int>(k) == robot ||
+               (std::isinf(r.lost_at[k]) && now - r.last_heard[k] <= params_.silence_timeout_s);
+  }
+  if (alive == r.alive) return;
+  // dated as every survivor dates it: the loss report, else the end of the silence
+  double latest_gone = -kInf;
+  bool any_gone = false;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (r.alive[k] && !alive[k]) {
+      any_gone = true;
+      latest_gone = std::max(
+          latest_gone, std::min(r.lost_at[k], r.last_heard[k] + params_.silence_timeout_s));
+    }
+  }
+  r.changed_at = any_gone ? std::min(latest_gone, now) : now;
+  r.alive = std::move(alive);
+  install_plan(engine, robot, false);
+}
+
+// ------------------------------------------------------------------ spacing
+
+bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
+  // Mate k's estimated arc [m] on my walk now: on its start slot until it leaves, else
+  // extrapolated at v from its latest timed message; false when unknown or off my walk.
+  const PlusRoute& route = route_of(r);
+  const double L = route.length, speed = params_.speed_mps;
+  const std::size_t kk = static_cast<std::size_t>(k);
+  const auto& schedule = r.plan->schedule;
+  if (kk < schedule.size() && schedule[kk].first >= 0 &&
+      std::binary_search(route.robots.begin(), route.robots.end(), k) &&
+      now < schedule[kk].second) {
+    arc = py_mod(route.arc[static_cast<std::size_t>(schedule[kk].first)] -
+                     speed * (schedule[kk].second - now),
+                 L);
+    r.mate_arc[kk] = arc;
+    r.has_mate_arc[kk] = 1;
+    return true;
+  }
+  if (!r.has_heard[kk]) return false;
+  const Heard& info = r.heard[kk];
+  const std::size_t n = route.walk.size();
+  const double moved = speed * (now - info.departure);
+  int chosen = -1;
+  int hits = 0;
+  double best = kInf;
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool hit = info.from == info.to
+                         ? route.walk[i] == info.from
+                         : route.walk[i] == info.from && route.walk[(i + 1) % n] == info.to;
+    if (!hit) continue;
+    ++hits;
+    if (chosen < 0) chosen = static_cast<int>(i);
+    if (r.has_mate_arc[kk]) {  // several hits: the one nearest my last estimate
+      const double off =
+          std::abs(py_mod((route.arc[i] + moved - r.mate_arc[kk]) + L / 2, L) - L / 2);
+      if (off < best) {
+        best = off;
+        if (hits > 1) chosen = static_cast<int>(i);
+      }
+    }
+  }
+  if (chosen < 0) return false;
+  arc = py_mod(route.arc[static_cast<std::size_t>(chosen)] + moved, L);
+  r.mate_arc[kk] = arc;
+  r.has_mate_arc[kk] = 1;
+  return true;
+}
+
+bool TpuafPlusStrategy::gaps(Robot& r, int robot, double now, Gaps& out) {
+  // (gap ahead, gap behind, even gap L / m) [m] from my walk vertex to the nearest placed
+  // mates; false when no mate is placed.
+  const PlusRoute& route = route_of(r);
+  const double L = route.length;
+  const double here = route.arc[static_cast<std::size_t>(r.idx)];
+  bool placed = false;
+  int mates = 0;
+  double ahead = 0, behind = 0;
+  for (int k : route.robots) {
+    if (k == robot || !r.alive[static_cast<std::size_t>(k)]) continue;
+    ++mates;
+    double arc = 0;
+    if (!mate_arc(r, k, now, arc)) continue;
+    const double d = py_mod(arc - here, L);
+    double fwd = d, back = L - d;
+    if (d < kEps || L - d < kEps) {  // together: the lower index is ahead
+      fwd = k < robot ? 0.0 : L;
+      back = k < robot ? L : 0.0;
+    }
+    ahead = placed ? std::min(ahead, fwd) : fwd;
+    behind = placed ? std::min(behind, back) : back;
+    placed = true;
+  }
+  if (!placed) return false;
+  out = Gaps{ahead, behind, L / static_cast<double>(mates + 1)};
+  return true;
+}
+
+double TpuafPlusStrategy::spacing_wait(Robot& r, int robot, double now) {
+  // Dwell [s] at my walk vertex: gain * (gap behind - gap ahead) / (2 v).
+  Gaps g{};
+  if (!(route_of(r).length > 0) || !gaps(r, robot, now, g)) return 0.0;
+  const double speed = params_.speed_mps, deadband = params_.deadband_s;
+  double wait = params_.gain * (g.behind - g.ahead) / (2.0 * speed);
+  if (g.behind > g.ahead + kEps && g.behind > g.even + 2.0 * deadband * speed) {
+    wait = std::max(wait, deadband + 0.1);  // a long gap behind: dwell past the deadband
+  }
+  return std::min(std::max(wait, 0.0), g.even / speed);
+}
+
+// ------------------------------------------------------------------ decisions
+
+void TpuafPlusStrategy::announce(GraphEngine& engine, int robot, int here, int next,
+                                 double departure, bool visit) {
+  Robot& r = state(robot);
+  const double now = engine.now();
+  const double travel = next != here ? graph_->edge_length(here, next) / params_.speed_mps : 0.0;
+  if (visit) {
+    TeamMessage m;
+    m.kind = TeamMessage::Kind::kVisit;
+    m.robot = robot;
+    m.vertex = here;
+    m.time_s = now;
+    m.next_vertex = next;
+    engine.send(robot, std::move(m));
+  }
+  TeamMessage m;
+  m.kind = TeamMessage::Kind::kIntention;
+  m.robot = robot;
+  m.from_vertex = here;
+  m.vertex = next;
+  m.expected_arrival_s = departure + travel;
+  m.travel_time_s = travel;
+  m.time_s = now;
+  engine.send(robot, std::move(m));
+  remember(r, robot, Heard{here, next, departure, now});
+  r.last_announce = now;
+}
+
+int TpuafPlusStrategy::hold(GraphEngine& engine, int robot, int here, bool waking) {
+  // While dwelling: re-visit my vertex every dwell_revisit_s; kDepart at hold_until.
+  Robot& r = state(robot);
+  const double now = engine.now();
+  const double remaining = r.hold_until - now;
+  if (remaining <= kEps) return kDepart;
+  const double stay = params_.stay_s;
+  if (waking && remaining >= stay - kEps) return here;  // a re-visit; it ends stay_s later
+  const double nap =
+      remaining < stay + 0.1 ? remaining : std::min(remaining - stay, params_.dwell_revisit_s);
+  engine.wake_at(robot, now + nap);
+  return kWait;
+}
+
+int TpuafPlusStrategy::decide(GraphEngine& engine, int robot) {
+  if (!state(robot).started) start(engine, robot);
+  Robot& r = state(robot);
+  const double now = engine.now();
+  const int here = engine.current_vertex(robot);
+  const bool waking = r.waking;
+  r.waking = false;
+  if (!waking) r.knowledge.record_visit(here, now);
+  update_team(engine, robot);
+  const PlusRoute& route = route_of(r);
+  if (r.idx >= 0 && route.walk[static_cast<std::size_t>(r.idx)] != here) {  // off my walk
+    r.idx = -1;
+    r.holding = false;
+    r.entry = entry_index(route, here);
+  }
+  if (r.idx < 0) {  // driving to my walk
+    const int target = route.walk[static_cast<std::size_t>(r.entry)];
+    if (here != target) {
+      const int hop = repair_hop(engine, robot, here, target);
+      announce(engine, robot, here, hop, now, !waking);
+      return hop;
+    }
+    r.idx = r.entry;
+  }
+  if (route.walk.size() == 1) {  // a one-vertex part: stay, re-visiting it
+    if (now - r.last_announce >= params_.dwell_revisit_s - kEps) {
+      announce(engine, robot, here, here, now + params_.stay_s, true);
+    }
+    return here;
+  }
+  return step(engine, robot, waking);
+}
+
+int TpuafPlusStrategy::step(GraphEngine& engine, int robot, bool waking) {
+  Robot& r = state(robot);
+  const double now = engine.now();
+  const int here = engine.current_vertex(robot);
+  const PlusRoute& route = route_of(r);
+  const int next_idx = (r.idx + 1) % static_cast<int>(route.walk.size());
+  const int next = route.walk[static_cast<std::size_t>(next_idx)];
+  if (!r.holding) {
+    double wait = 0;
+    if (r.has_departure) {  // the start schedule
+      wait = std::max(0.0, r.departure - now);
+      r.has_departure = false;
+    } else if (r.respacing) {
+      wait = respace_wait(r, robot, now);
+    } else {
+      wait = spacing_wait(r, robot, now);
+    }
+    if (wait > params_.deadband_s) {
+      r.holding = true;
+      r.hold_until = now + wait;
+      announce(engine, robot, here, next, r.hold_until, true);
+    }
+  } else if (!waking) {
+    announce(engine, robot, here, next, r.hold_until, true);  // heartbeat
+  }
+  if (r.holding) {
+    const int action = hold(engine, robot, here, waking);
+    if (action == kWait) {
+      r.waking = true;
+      return kWait;
+    }
+    if (action != kDepart) return action;
+    r.holding = false;
+    announce(engine, robot, here, next, now, false);
+  } else {
+    announce(engine, robot, here, next, now, true);
+  }
+  r.idx = next_idx;
+  return next;
+}
+
+int TpuafPlusStrategy::repair_hop(GraphEngine& engine, int robot, int here, int target) {
+  // Among the neighbours on a shortest path to target, the one of maximal TPUAF utility
+  // (Eq. 13), so that driving to a new part also repairs gaps.
+  std::vector<int> nbrs;
+  for (int w : graph_->neighbours(here)) {
+    if (w != here) nbrs.push_back(w);
+  }
+  std::sort(nbrs.begin(), nbrs.end());
+  nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
+  const double best = graph_->distance(here, target);
+  std::vector<int> on_path;
+  for (int w : nbrs) {
+    if (std::abs(graph_->edge_length(here, w) + graph_->distance(w, target) - best) <=
+        1e-6 * (1 + best)) {
+      on_path.push_back(w);
+    }
+  }
+  if (on_path.size() == 1) return on_path[0];
+  if (on_path.empty()) {
+    int pick = -1;
+    for (int w : nbrs) {
+      if (pick < 0 || graph_->distance(w, target) < graph_->distance(pick, target)) pick = w;
+    }
+    return pick;
+  }
+  Robot& r = state(robot);
+  const UtilityResult result = r.knowledge.utilities(*graph_, engine.now(), here, on_path,
+                                                     params_.speed_mps, UtilityForm::kEq13, false);
+  Eigen::Index pick = 0;  // np.argmax: the first maximum (a NaN wins)
+  for (Eigen::Index j = 1; j < result.utility.size(); ++j) {
+    if (std::isnan(result.utility[pick])) break;
+    if (result.utility[j] > result.utility[pick] || std::isnan(result.utility[j])) pick = j;
+  }
+  return on_path[static_cast<std::size_t>(pick)];
+}
+
+void TpuafPlusStrategy::on_goal_failed(GraphEngine& engine, int robot, int /*vertex*/) {
+  Robot& r = state(robot);
+  r.idx = -1;
+  r.holding = false;
+  r.entry = entry_index(route_of(r), engine.current_vertex(robot));
+}
+
+}  // namespace tpuaf
