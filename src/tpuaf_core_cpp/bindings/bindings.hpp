@@ -11,4 +11,5 @@ void bind_world(pybind11::module_& m);
 void bind_engine(pybind11::module_& m);
 void bind_planner(pybind11::module_& m);
 void bind_tours(pybind11::module_& m);
+void bind_assignment(pybind11::module_& m);
 }  // namespace tpuaf::bindings

@@ -12,4 +12,5 @@ PYBIND11_MODULE(_core, m) {
   tpuaf::bindings::bind_engine(m);
   tpuaf::bindings::bind_planner(m);
   tpuaf::bindings::bind_tours(m);
+  tpuaf::bindings::bind_assignment(m);
 }

@@ -310,13 +310,12 @@ def assign_parts(
     partition: Partition, start_vertices: list[int], distances: np.ndarray
 ) -> list[int]:
     """Part index per robot: minimum total distance from the robots' start vertices to their
-    parts, each part getting its `robots_per_part` robots (Hungarian assignment)."""
-    from scipy.optimize import linear_sum_assignment
-
+    parts, each part getting its `robots_per_part` robots (Hungarian assignment; the C++ core's
+    linear_sum_assignment returns what scipy's does, ties included, without importing scipy)."""
     slots = [p for p, m in enumerate(partition.robots_per_part) for _ in range(m)]
     dist = np.asarray(distances)
     cost = np.array([[dist[s, partition.parts[p]].min() for p in slots] for s in start_vertices])
-    rows, cols = linear_sum_assignment(cost)
+    rows, cols = tpuaf_core.linear_sum_assignment(cost)
     out = [0] * len(start_vertices)
     for r, c in zip(rows, cols, strict=True):
         out[r] = slots[c]
