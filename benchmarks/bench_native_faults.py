@@ -1,9 +1,8 @@
 """Runs with faults on the native engine (issue 19 item 5): whole-process time, native vs python.
 
 `tpuaf run` (1 h, cumberland, N = 12, robots 0, 4 and 8 dying at 1800 s, no results folder) for
-TPUAF (C++ decision path) and tpuaf_plus (Python policy called back from the C++ loop), with
-`--engine native` and `--engine python`; and tpuaf_plus without faults (the choice of
-`--engine auto` for Python policies). Runs alternate between the engines so that a changing
+TPUAF and tpuaf_plus (both on their C++ decision paths; tpuaf_plus's plans come from the Python
+planner), with `--engine native` and `--engine python`; and tpuaf_plus without faults. Runs alternate between the engines so that a changing
 machine load hits both alike; median of `--repeats` runs (after one warm-up per case), wall
 and CPU (user + system, the child's own rusage) time. Both engines must print the same summary
 table (checked). Target: tpuaf_plus with faults under 0.5 s wall as a whole process.
@@ -154,10 +153,10 @@ def main() -> None:
     lines.append("Where tpuaf_plus's native run with faults spends its CPU (fresh interpreter, "
                  f"median of {args.repeats}): " + ", ".join(
                      f"{name} {value:.2f} s" for name, value in parts.items())
-                 + ". *plans*: tpuaf_plus's plan search (at the start and again for the "
-                 "survivors), *run*: the C++ loop and the Python policy's decisions and "
-                 "message handling called back from it. Meeting 0.5 s needs tpuaf_plus's "
-                 "decision path in C++ (TPUAF's whole process: see the first row).")
+                 + ". *plans*: tpuaf_plus's plan making (at the start and again for the "
+                 "survivors: the choice between the tour and the partitions, the start "
+                 "schedule), *run*: the C++ loop with tpuaf_plus's C++ decisions, and the "
+                 "summary (recovery metrics included).")
     write(args.out, "\n".join(lines) + "\n")
 
 

@@ -109,6 +109,26 @@ def test_walk_idleness_by_hand():
     assert two["worst"] == pytest.approx(4.0)
     assert two["avg_visit"] == pytest.approx((4 + 4 + 4) / 3)  # 0's two visits coincide
 
+    import tpuaf_core  # the plan search's C++ worst idleness: the same numbers
+
+    assert tpuaf_core.walk_worst_idleness(m.graph, [0, 1, 0, 2], 1, 1.0) == idl["worst"]
+    assert tpuaf_core.walk_worst_idleness(m.graph, [0, 1, 0, 2], 2, 0.5) == two["worst"]
+    assert tpuaf_core.walk_worst_idleness(m.graph, [0], 3, 1.0) == 0.0
+
+
+@pytest.mark.parametrize("name", ["grid", "DIAG_labs", "cumberland"])
+def test_cpp_walk_worst_idleness_equals_walk_idleness(name):
+    """tpuaf_core.walk_worst_idleness (TPUAF+'s plan choice) equals walk_idleness's worst to
+    the last digit, on the cyclic tour and the parts' walks, for 1 to 12 robots."""
+    import tpuaf_core
+
+    pm = load(name)
+    speed = float(pm.settings.nominal_speed)
+    walks = [tours.cyclic_tour(pm).walk] + [t.walk for t in tours.partition_tours(pm, 3).tours]
+    for walk in walks:
+        for n in (1, 2, 3, 5, 8, 12):
+            expected = tours.walk_idleness(pm.graph, list(walk), n, speed)["worst"]
+            assert tpuaf_core.walk_worst_idleness(pm.graph, list(walk), n, speed) == expected
 
 @pytest.mark.parametrize("n_robots", [2, 3, 4])
 def test_partition_parts_are_connected_disjoint_and_toured(n_robots):

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <memory>
+#include <optional>
 
 #include "bindings.hpp"
 #include "tpuaf_core/engine.hpp"
@@ -150,11 +151,10 @@ void wrap_heartbeats(py::module_& m) {
            py::arg("last_heard"), py::arg("lost"), py::arg("now"));
 }
 
-// TPUAF+'s decision path; its plans come from Python callables (tpuaf.runtimes.native):
+// TPUAF+'s decision path; its plans come from a Python callable (tpuaf.runtimes.native):
 // plans(team) -> (routes, route_of, schedule) with routes [(walk, arc [m], L [m], robots)],
 // route_of [route index or -1 per robot], schedule [(entry index or -1, departure [s]) per
-// robot]; schedule(route, starts, late_m, idle_s) -> [(entry index, departure [s])] per robot
-// of the route. Both are called with the GIL held (the run keeps it: is_native() is false).
+// robot]. It is called with the GIL held (the run keeps it: is_native() is false).
 PlusRoute route_from_python(py::handle item) {
   py::tuple t = py::reinterpret_borrow<py::tuple>(item);
   PlusRoute route;
@@ -169,6 +169,26 @@ PlusRoute route_from_python(py::handle item) {
 }
 
 void wrap_tpuaf_plus(py::module_& m) {
+  m.def("walk_worst_idleness", &walk_worst_idleness, py::arg("graph"), py::arg("walk"),
+        py::arg("n_robots"), py::arg("speed_mps"),
+        "Steady-state worst idleness [s] of a closed walk with n_robots evenly spaced at "
+        "speed_mps (tours.walk_idleness(...)['worst']).");
+  m.def(
+      "start_schedule",
+      [](const PatrolGraph& graph, py::tuple route, const std::vector<int>& starts,
+         const std::vector<double>& late_m, double speed_mps,
+         std::optional<std::vector<double>> idle_s) {
+        const PlusRoute r = route_from_python(route);
+        if (idle_s && idle_s->size() != static_cast<std::size_t>(graph.num_vertices())) {
+          throw py::value_error("start_schedule: idle_s needs one value per graph vertex");
+        }
+        return start_schedule(graph, r, starts, late_m, speed_mps, idle_s ? &*idle_s : nullptr);
+      },
+      py::arg("graph"), py::arg("route"), py::arg("starts"), py::arg("late_m"),
+      py::arg("speed_mps"), py::arg("idle_s") = py::none(),
+      "TPUAF+'s start schedule on route (walk, arc [m], L [m], robots): per robot of the route, "
+      "(entry walk index, departure [s]); starts and late_m [m] per robot of the route, idle_s "
+      "[s] per graph vertex (after a loss) or None.");
   py::class_<TpuafPlusParams>(m, "TpuafPlusParams", "TPUAF+'s resolved parameters (SI units).")
       .def(py::init<>())
       .def_readwrite("speed_mps", &TpuafPlusParams::speed_mps)
@@ -176,12 +196,11 @@ void wrap_tpuaf_plus(py::module_& m) {
       .def_readwrite("deadband_s", &TpuafPlusParams::deadband_s)
       .def_readwrite("dwell_revisit_s", &TpuafPlusParams::dwell_revisit_s)
       .def_readwrite("silence_timeout_s", &TpuafPlusParams::silence_timeout_s)
-      .def_readwrite("stay_s", &TpuafPlusParams::stay_s)
-      .def_readwrite("start_vertices", &TpuafPlusParams::start_vertices);
+      .def_readwrite("stay_s", &TpuafPlusParams::stay_s);
   py::class_<TpuafPlusStrategy, TeamStrategy>(
       m, "TpuafPlusStrategy", "TPUAF+'s decision path in C++ (tpuaf.policies.tpuaf_plus).")
       .def(py::init([](const TpuafKnowledge& knowledge, TpuafPlusParams params,
-                       py::function plans, py::function schedule) {
+                       py::function plans) {
              auto plan_source = [plans](const std::vector<int>& team) {
                py::tuple t = plans(team);
                auto plan = std::make_shared<PlusPlan>();
@@ -192,18 +211,10 @@ void wrap_tpuaf_plus(py::module_& m) {
                plan->schedule = t[2].cast<std::vector<std::pair<int, double>>>();
                return std::shared_ptr<const PlusPlan>(std::move(plan));
              };
-             auto schedule_source = [schedule](const PlusRoute& route,
-                                               const std::vector<int>& starts,
-                                               const std::vector<double>& late_m,
-                                               const std::vector<double>& idle_s) {
-               py::tuple r = py::make_tuple(route.walk, route.arc, route.length, route.robots);
-               return schedule(r, starts, late_m, idle_s)
-                   .cast<std::vector<std::pair<int, double>>>();
-             };
              return std::make_unique<TpuafPlusStrategy>(knowledge, std::move(params),
-                                                        plan_source, schedule_source);
+                                                        plan_source);
            }),
-           py::arg("knowledge"), py::arg("params"), py::arg("plans"), py::arg("schedule"))
+           py::arg("knowledge"), py::arg("params"), py::arg("plans"))
       .def("walk", &TpuafPlusStrategy::walk, py::arg("robot"), "Robot `robot`'s current walk.")
       .def("team", &TpuafPlusStrategy::team, py::arg("robot"),
            "The robots `robot` believes alive (itself included).");

@@ -31,11 +31,8 @@ double py_mod(double a, double b) {
 }  // namespace
 
 TpuafPlusStrategy::TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params,
-                                     PlanSource plans, ScheduleSource schedules)
-    : prototype_(knowledge),
-      params_(std::move(params)),
-      plans_(std::move(plans)),
-      schedules_(std::move(schedules)) {
+                                     PlanSource plans)
+    : prototype_(knowledge), params_(std::move(params)), plans_(std::move(plans)) {
   prototype_.share_visit_results();  // the team hears the same visits: one Eq. 2 per visit
 }
 
@@ -214,10 +211,7 @@ std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
   for (Eigen::Index v = 0; v < last.size(); ++v) {
     idle[static_cast<std::size_t>(v)] = std::max(t_ref - last[v], 0.0);
   }
-  const auto plan = schedules_(route, starts, late, idle);
-  if (plan.size() != route.robots.size()) {
-    throw std::invalid_argument("the TPUAF+ schedule has not one entry per robot of the walk");
-  }
+  const auto plan = start_schedule(*graph_, route, starts, late, speed, &idle);
   std::map<int, int> out;
   for (std::size_t j = 0; j < plan.size(); ++j) out[route.robots[j]] = plan[j].first;
   return out;

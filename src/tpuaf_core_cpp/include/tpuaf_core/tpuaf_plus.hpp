@@ -1,7 +1,7 @@
 // TPUAF+'s decision path in C++ (tpuaf/policies/tpuaf_plus.py, step for step): even spacing
 // on a shared walk from the mates' timed messages, the start schedule, re-spacing and
-// re-planning after a loss, and repair hops. The plans themselves (tour and partition search,
-// the start schedule's slot matching) come from the Python planner through two callbacks,
+// re-planning after a loss, and repair hops. The plans themselves (the choice between the
+// tour and the partitions, the merge repair) come from the Python planner through a callback,
 // called only when a robot's view of the team changes. Times in seconds, lengths in metres.
 #pragma once
 
@@ -39,22 +39,34 @@ struct TpuafPlusParams {
   double dwell_revisit_s = 5.0;    // a dwelling robot re-visits its vertex this often
   double silence_timeout_s = 60;   // a mate silent this long is presumed dead (resolved)
   double stay_s = 1.0;             // the runtimes' dwell for a goal equal to the vertex
-  std::vector<int> start_vertices;  // every robot's start vertex (may be empty)
 };
+
+// Steady-state worst idleness [s] of the closed walk's vertices with n_robots evenly spaced
+// at speed_mps (tpuaf.maps.tours.walk_idleness(...)["worst"], the same arithmetic): per
+// vertex, the largest gap between its passes (times rounded to 1e-9 s) in one period.
+double walk_worst_idleness(const PatrolGraph& graph, const std::vector<int>& walk, int n_robots,
+                           double speed_mps);
+
+// TPUAF+'s start schedule (tpuaf_plus.start_schedule): per robot of route.robots, in order,
+// (entry walk index, departure [s]). m virtual slots evenly spaced along the walk, moving at
+// speed_mps, each pick up one robot (matched over slot phases by least squared departures,
+// Hungarian); the schedule kept is the one whose walk vertices are all first visited soonest
+// (then the least total wait), or with idle_s (per graph vertex, [s] at t = 0) the one whose
+// vertices wait least in all. starts: start vertex per robot; late_m: v times how long after
+// t = 0 each robot is at its start [m].
+std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph,
+                                                   const PlusRoute& route,
+                                                   const std::vector<int>& starts,
+                                                   const std::vector<double>& late_m,
+                                                   double speed_mps,
+                                                   const std::vector<double>* idle_s);
 
 class TpuafPlusStrategy : public TeamStrategy {
  public:
   // The plan for `team` (sorted robot indices believed alive): tpuaf_plus.make_plan.
   using PlanSource = std::function<std::shared_ptr<const PlusPlan>(const std::vector<int>&)>;
-  // tpuaf_plus.start_schedule(route, starts, late_m, idle_s): per robot of route.robots, in order,
-  // (entry walk index, departure [s]); starts, late_m [m] per robot of route.robots, idle_s
-  // [s] per graph vertex.
-  using ScheduleSource = std::function<std::vector<std::pair<int, double>>(
-      const PlusRoute&, const std::vector<int>&, const std::vector<double>&,
-      const std::vector<double>&)>;
 
-  TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params, PlanSource plans,
-                    ScheduleSource schedules);
+  TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params, PlanSource plans);
   void start(GraphEngine& engine, int robot) override;
   int decide(GraphEngine& engine, int robot) override;
   void on_message(GraphEngine& engine, int robot, const TeamMessage& message) override;
@@ -126,7 +138,6 @@ class TpuafPlusStrategy : public TeamStrategy {
   TpuafKnowledge prototype_;
   TpuafPlusParams params_;
   PlanSource plans_;
-  ScheduleSource schedules_;
   std::map<std::vector<int>, std::shared_ptr<const PlusPlan>> plan_cache_;
   const PatrolGraph* graph_ = nullptr;
   std::vector<Robot> robots_;

@@ -43,6 +43,7 @@ from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
+import tpuaf_core
 
 from tpuaf.maps import tours
 from tpuaf.policies.base import Parameter, Policy, RobotContext, register
@@ -134,106 +135,27 @@ def _urgent_entry(route: Route, vertex: int, dist, last_visit, now: float, speed
     return int(np.lexsort((np.arange(len(walk)), reach, np.round(worst, 6)))[0])
 
 
-def _slot_departures(route: Route, start: int, dist, slots: np.ndarray, late_m: float = 0.0):
-    """For a robot at vertex `start` and virtual slots at arc positions `slots` [m] at t = 0
-    (moving at the plan speed v): per slot, the earliest (v * departure time [m], walk index)
-    at which the robot, having driven the shortest route to a walk vertex, is there when the
-    slot passes it. With u_k = (arc_k - d_k) mod L the latest slot phase the robot catches at
-    index k on the slot's first pass, v t = d_k + u_k - s (+ L when s > u_k). `late_m`: the
-    robot is at `start` only v t = late_m [m] after t = 0."""
-    L = route.length
-    arc = np.asarray(route.arc)
-    d = np.asarray(dist[start, list(route.walk)], dtype=float) + late_m
-    u = np.mod(arc - d, L)
-    order = np.lexsort((np.arange(len(u)), u))
-    u_sorted, b_sorted = u[order], (d + u)[order]
-    # suffix / prefix minima of B = d + u over indices sorted by u (and where they are)
-    suf_idx = np.empty(len(u), dtype=int)
-    pre_idx = np.empty(len(u), dtype=int)
-    best = len(u) - 1
-    for i in range(len(u) - 1, -1, -1):
-        if b_sorted[i] <= b_sorted[best]:
-            best = i
-        suf_idx[i] = best
-    best = 0
-    for i in range(len(u)):
-        if b_sorted[i] < b_sorted[best]:
-            best = i
-        pre_idx[i] = best
-    pos = np.searchsorted(u_sorted, slots, side="left")  # first u >= s
-    out_t = np.full(len(slots), np.inf)
-    out_k = np.zeros(len(slots), dtype=int)
-    for j, (s, p) in enumerate(zip(slots, pos, strict=True)):
-        if p < len(u):
-            i = suf_idx[p]
-            out_t[j], out_k[j] = b_sorted[i] - s, order[i]
-        if p > 0:
-            i = pre_idx[p - 1]
-            t = b_sorted[i] + L - s
-            if t < out_t[j] - _EPS:
-                out_t[j], out_k[j] = t, order[i]
-    return out_t, out_k
-
-
-def start_schedule(route: Route, starts: dict, dist, speed: float, late_m: dict | None = None,
-              idle_s: np.ndarray | None = None) -> dict:
+def start_schedule(graph, route: Route, starts: dict, speed: float, late_m: dict | None = None,
+                   idle_s: np.ndarray | None = None) -> dict:
     """Robot -> (entry index, departure time [s]): the team starts spread at once. m virtual
     slots, evenly spaced along the walk and moving at `speed`, each pick up one robot: the robot
     drives the shortest route to the walk vertex where its slot passes soonest after it can be
     there, and leaves with the slot (robots only wait, never drive faster). Over slot phases,
     robots are matched to slots (least squared departures) and the schedule kept is the one
     whose walk vertices are all first visited soonest (then the least total wait); steady-state
-    spacing then holds from the start. `late_m`: robot -> v times how long after t = 0 it is at
-    its start vertex [m] (default 0: there at t = 0). `idle_s`: per walk vertex (graph index),
-    its idleness at t = 0 [s] (after a loss): then the schedule kept is the one whose walk
-    vertices wait least in all, idleness at t = 0 + time to their first visit."""
+    spacing then holds from the start. Robots may leave earlier than their slot while no gap
+    exceeds START_GAP x L / m (the first lap sooner; the spacing rule evens the gaps later).
+    `late_m`: robot -> v times how long after t = 0 it is at its start vertex [m] (default 0).
+    `idle_s`: per graph vertex, its idleness at t = 0 [s] (after a loss): then the schedule
+    kept is the one whose walk vertices wait least in all, idleness at t = 0 + time to their
+    first visit. Computed in the C++ core (tpuaf_core.start_schedule, on `graph`'s shortest
+    paths)."""
     robots = list(route.robots)
-    late = {r: float((late_m or {}).get(r, 0.0)) for r in robots}
-    m, L = len(robots), route.length
-    if m == 1 or L <= 0:
-        entries = {r: _entry_index(route, starts[r], dist) for r in robots}
-        return {r: (entries[r], dist[starts[r], route.walk[entries[r]]] / speed) for r in robots}
-    from scipy.optimize import linear_sum_assignment
-
-    arc = np.asarray(route.arc)
-    walk = np.asarray(route.walk)
-    idle_m = None if idle_s is None else np.asarray(idle_s, dtype=float) * speed
-    phases = max(4, min(16, 4000 // (m * m) + 4))
-    best = None
-    for q in range(phases):
-        slots = (q / phases + np.arange(m)) * (L / m)
-        dep = np.empty((m, m))
-        ent = np.empty((m, m), dtype=int)
-        for i, r in enumerate(robots):
-            dep[i], ent[i] = _slot_departures(route, starts[r], dist, slots, late[r])
-        rows, cols = linear_sum_assignment((dep / L) ** 2)
-        k = ent[rows, cols]
-        entry_arc = arc[k]
-        reach = np.array([dist[starts[robots[i]], route.walk[kk]] + late[robots[i]]
-                          for i, kk in zip(rows, k, strict=True)])
-        # leave with the slot (alpha = 1: even spacing) or earlier (the first lap sooner, the
-        # spacing rule evens the gaps later, slowly under message loss): earlier only while no
-        # gap exceeds START_GAP x L / m
-        for alpha in (1.0, 0.75, 0.5, 0.25, 0.0):
-            t_dep = reach + alpha * (dep[rows, cols] - reach)  # [m] of travel at v
-            # first visit [m at v] of every walk vertex: the first robot passing it
-            first = (t_dep[:, None] + np.mod(arc[None, :] - entry_arc[:, None], L)).min(axis=0)
-            virtual = np.sort(np.mod(entry_arc - t_dep, L))  # arc positions at t = 0 [m]
-            gap = float(np.max(np.diff(np.append(virtual, virtual[0] + L))))
-            if alpha < 1.0 and gap > START_GAP * L / m:
-                continue
-            if idle_m is None:
-                score = (float(first.max()), float(t_dep.sum()))
-            else:  # per vertex: its first visit over all its walk entries, after its idleness
-                soonest = np.full(len(idle_m), np.inf)
-                np.minimum.at(soonest, walk, first)
-                score = (float(np.max((soonest + idle_m)[walk])), float(t_dep.sum()))
-            if best is None or score[0] < best[0][0] - _EPS or (
-                    score[0] <= best[0][0] + _EPS and score[1] < best[0][1] - _EPS):
-                best = (score, rows, k, t_dep)
-    _, rows, k, t_dep = best
-    return {robots[i]: (int(kk), float(t) / speed)
-            for i, kk, t in zip(rows, k, t_dep, strict=True)}
+    plan = tpuaf_core.start_schedule(
+        graph, (list(route.walk), list(route.arc), route.length, robots),
+        [int(starts[r]) for r in robots], [float((late_m or {}).get(r, 0.0)) for r in robots],
+        float(speed), None if idle_s is None else np.asarray(idle_s, dtype=float).tolist())
+    return {r: (int(k), float(t)) for r, (k, t) in zip(robots, plan, strict=True)}
 
 
 _PLANS: OrderedDict = OrderedDict()
@@ -260,7 +182,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     dist = np.asarray(graph.distances)
     m = len(team)
     cyc = tours.cyclic_tour(patrol_map)
-    cyc_worst = tours.walk_idleness(graph, cyc.walk, m, speed)["worst"]
+    cyc_worst = tpuaf_core.walk_worst_idleness(graph, cyc.walk, m, speed)
     # Partitions into k = 2..m parts, robots spread over parts by L_p / m_p (k = m is MSP's).
     part, part_worst = None, np.inf
     if graph.num_vertices > 1 and mode != "cycle":
@@ -272,7 +194,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
             cand = tours.partition_tours(patrol_map, k)
             per_part = tours.robots_per_part([t.length for t in cand.tours], m)
             worst = max(
-                tours.walk_idleness(graph, t.walk, j, speed)["worst"]
+                tpuaf_core.walk_worst_idleness(graph, t.walk, j, speed)
                 for t, j in zip(cand.tours, per_part, strict=True)
             )
             if worst < part_worst - _EPS:
@@ -319,7 +241,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     if full:
         starts = {r: int(all_starts[r]) for r in team}
         for route in routes:
-            schedule.update(start_schedule(route, starts, dist, speed))
+            schedule.update(start_schedule(graph, route, starts, speed))
     return Plan(kind, routes, route_of, float(worst), schedule)
 
 
@@ -327,14 +249,12 @@ def _assign_start_parts(part, starts: list[int], dist) -> list[int]:
     """Part index per robot at the start: each part gets its `robots_per_part` robots, matched
     so that the longest (drive to the part + L_p / m_p) is short: the time [m at v] until the
     part has been covered once (Hungarian on its 4th power: nearly a bottleneck matching)."""
-    from scipy.optimize import linear_sum_assignment
-
     slots = [p for p, m in enumerate(part.robots_per_part) for _ in range(m)]
     d = np.asarray(dist)
     share = [part.tours[p].length / part.robots_per_part[p] for p in slots]
     cost = np.array([[d[s, part.parts[p]].min() + share[j] for j, p in enumerate(slots)]
                      for s in starts])
-    rows, cols = linear_sum_assignment((cost / max(float(cost.max()), _EPS)) ** 4)
+    rows, cols = tpuaf_core.linear_sum_assignment((cost / max(float(cost.max()), _EPS)) ** 4)
     out = [0] * len(starts)
     for r, c in zip(rows, cols, strict=True):
         out[r] = slots[c]
@@ -381,7 +301,7 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
     routes = tuple(_route(graph, g[1], g[2]) for g in groups)
     route_of = {r: i for i, g in enumerate(groups) for r in g[2]}
     worst = max(
-        tours.walk_idleness(graph, list(r.walk), len(r.robots), speed)["worst"] for r in routes
+        tpuaf_core.walk_worst_idleness(graph, list(r.walk), len(r.robots), speed) for r in routes
     )
     return Plan("partition", routes, route_of, float(worst), {})
 
@@ -389,8 +309,6 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
 def _assign_survivors(patrol_map, team, all_starts, part, slots, dist, mode) -> list[int]:
     """Part per survivor (in `team` order): least total distance from each survivor's route in
     the full team's plan to the part (every survivor computes the same from the map alone)."""
-    from scipy.optimize import linear_sum_assignment
-
     n_all = len(all_starts) if all_starts else max(team) + 1
     home = make_plan(patrol_map, tuple(range(n_all)), tuple(all_starts), mode)
     cost = np.zeros((len(team), len(slots)))
@@ -398,7 +316,7 @@ def _assign_survivors(patrol_map, team, all_starts, part, slots, dist, mode) -> 
         walk = list(home.routes[home.route_of[r]].walk) if r in home.route_of else [0]
         for j, p in enumerate(slots):
             cost[i, j] = dist[np.ix_(walk, part.parts[p])].min()
-    rows, cols = linear_sum_assignment(cost)
+    rows, cols = tpuaf_core.linear_sum_assignment(cost)
     out = [0] * len(team)
     for r, c in zip(rows, cols, strict=True):
         out[r] = slots[c]
@@ -542,7 +460,7 @@ class TpuafPlus(Policy):
             starts[r] = b
             late[r] = max(0.0, departure + float(self.dist[a, b]) / self.speed - t_ref) * self.speed
         idle = np.maximum(t_ref - np.asarray(self.knowledge.last_visit, dtype=float), 0.0)
-        plan = start_schedule(route, starts, self.dist, self.speed, late, idle)
+        plan = start_schedule(self.graph, route, starts, self.speed, late, idle)
         return {r: k for r, (k, _) in plan.items()}
 
     def _remember(self, robot: int, entry: tuple[int, int, float, float]) -> None:

@@ -108,8 +108,8 @@ def _dtag_strategy(run: NativeRun, params: dict):
 
 
 def _tpuaf_plus_strategy(run: NativeRun, params: dict):
-    """TPUAF+'s C++ decision path; its plans and transition schedules are the Python
-    planner's (tpuaf_plus.make_plan and start_schedule), called back when a robot's team changes."""
+    """TPUAF+'s C++ decision path; its plans are the Python planner's (tpuaf_plus.make_plan),
+    called back when a robot's view of the team changes."""
     import types
 
     import tpuaf_core
@@ -122,7 +122,6 @@ def _tpuaf_plus_strategy(run: NativeRun, params: dict):
     speed = float(pm.settings.nominal_speed)
     ctx = types.SimpleNamespace(patrol_map=pm, n_robots=n)
     all_starts = tuple(team_start_vertices(ctx))
-    dist = np.asarray(pm.graph.distances)
     out = tpuaf_core.TpuafPlusParams()
     out.speed_mps = speed
     out.gain = float(params["gain"])
@@ -131,7 +130,6 @@ def _tpuaf_plus_strategy(run: NativeRun, params: dict):
     out.silence_timeout_s = tpuaf_plus.silence_timeout(pm.graph, speed,
                                                        params["silence_timeout_s"])
     out.stay_s = tpuaf_plus.STAY_S
-    out.start_vertices = list(all_starts)
 
     def plans(team: list[int]):
         plan = tpuaf_plus.make_plan(pm, tuple(team), all_starts, params["plan"],
@@ -141,15 +139,8 @@ def _tpuaf_plus_strategy(run: NativeRun, params: dict):
         schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n)]
         return routes, route_of, schedule
 
-    def schedule(route, starts: list[int], late_m: list[float], idle_s: list[float]):
-        walk, arc, length, robots = route
-        r = tpuaf_plus.Route(tuple(walk), tuple(arc), float(length), tuple(robots))
-        plan = tpuaf_plus.start_schedule(r, dict(zip(robots, starts, strict=True)), dist, speed,
-                                    dict(zip(robots, late_m, strict=True)), np.asarray(idle_s))
-        return [plan[k] for k in robots]
-
     knowledge = new_knowledge(pm, 30.0, out.silence_timeout_s)
-    return tpuaf_core.TpuafPlusStrategy(knowledge, out, plans, schedule)
+    return tpuaf_core.TpuafPlusStrategy(knowledge, out, plans)
 
 
 # Strategies with a C++ decision path: name -> (Python class it mirrors, builder(run, params)).
