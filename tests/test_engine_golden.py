@@ -31,6 +31,8 @@ CASES = [
     ("grid", "dtag", 12, 600, 0.7, 0.1),
     ("cumberland", "dtag", 4, 900, 0.0, 0.0),
     ("grid", "gbs", 1, 600, 0.0, 0.0),
+    ("cumberland", "tpuaf_plus", 12, 900, 0.5, 0.1),
+    ("grid", "tpuaf_plus", 1, 600, 0.0, 0.0),
 ]
 
 
