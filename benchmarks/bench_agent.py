@@ -15,11 +15,11 @@ import pstats
 import time
 
 import numpy as np
-from tpuaf.cli.fleet import choose_robot
 from tpuaf.maps import load_map
 from tpuaf.navigation import ControllerConfig, Scan, scan_points
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.agent import AgentRuntime
+from tpuaf.runtimes.config import choose_robot
 
 from tpuaf_stage.config import parse_world
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import logging
 import os
 import signal
 import sys
@@ -63,19 +62,43 @@ class ArgumentParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {one_line(message)} (see {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+class _SubCommands(argparse._SubParsersAction):
+    """The subcommands' parsers, each filled in (its module imported, `add_arguments` run)
+    only when that subcommand is chosen: `tpuaf run` imports no other subcommand's module."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        chosen = self._name_parser_map.get(values[0]) if values else None
+        if chosen is not None:
+            fill_subparser(chosen)
+        super().__call__(parser, namespace, values, option_string)
+
+
+def fill_subparser(p: argparse.ArgumentParser) -> None:
+    """Add a subcommand's options and handler to its parser (once)."""
+    module = getattr(p, "_tpuaf_module", None)
+    if module is None:
+        return
+    p._tpuaf_module = None
+    import importlib
+
+    mod = importlib.import_module(f"tpuaf.cli.{module}")
+    mod.add_arguments(p)
+    p.set_defaults(_handler=mod.run)
+
+
+def build_parser(lazy: bool = True) -> argparse.ArgumentParser:
+    """The `tpuaf` parser. lazy: each subcommand's options are added when it is chosen (at
+    parsing); lazy=False adds every subcommand's options now (same parser, same results)."""
     parser = ArgumentParser(
         prog="tpuaf", description="Multi-robot continuous monitoring: TPUAF and baselines."
     )
     parser.add_argument("--version", action="version", version=f"tpuaf {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    import importlib
-
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", action=_SubCommands)
     for name, module, help_text in SUBCOMMANDS:
-        mod = importlib.import_module(f"tpuaf.cli.{module}")
         p = sub.add_parser(name, help=help_text, description=help_text)
-        mod.add_arguments(p)
-        p.set_defaults(_handler=mod.run)
+        p._tpuaf_module = module
+        if not lazy:
+            fill_subparser(p)
     return parser
 
 
@@ -118,7 +141,9 @@ def _done(code: int) -> None:
             stream.flush()
         except (OSError, ValueError):
             pass
-    logging.shutdown()
+    logging = sys.modules.get("logging")  # imported by whoever logged (not by the CLI)
+    if logging is not None:
+        logging.shutdown()
     os._exit(code)
 
 

@@ -28,9 +28,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-import yaml
-
 from tpuaf.cli.run import (
     finite_float,
     format_summary,
@@ -41,11 +38,11 @@ from tpuaf.cli.run import (
     team_size,
 )
 from tpuaf.errors import CliError
-from tpuaf.files import atomic_write
 from tpuaf.paths import catkin_prefix
-from tpuaf.runtimes.config import choose_robot
-from tpuaf.runtimes.faults import FaultError, parse_fault
 from tpuaf.topics import METRICS_TOPIC
+
+# numpy, yaml, tpuaf.files and tpuaf.runtimes are imported where used: this module's
+# add_arguments (the `tpuaf` parser) needs none of them.
 
 LAUNCH = ("tpuaf_ros", "fleet.launch")  # found by roslaunch through the package
 PREFIX = "robot_"
@@ -71,6 +68,8 @@ DEFAULT_RECORD = r"/clock|/fleet/.*|/team/.*|/{p}[0-9]+/base_pose_ground_truth"
 def fault_spec(text: str) -> tuple[int, float]:
     """An argparse type: ROBOT@TIME (robot index >= 0, run time [s] >= 0), by the runtimes'
     parser (`tpuaf run --fail`), with the CLI's one message."""
+    from tpuaf.runtimes.faults import FaultError, parse_fault
+
     try:
         return parse_fault(text)
     except FaultError:
@@ -186,6 +185,8 @@ def fault_plan(args: argparse.Namespace) -> list[dict]:
     """Deaths and stalls in run-time order; --fail-random draws robots and times (seeded)."""
     faults = [{"kind": "death", "robot": r, "time_s": t} for r, t in args.fail]
     if args.fail_random:
+        import numpy as np
+
         rng = np.random.default_rng([int(args.seed), 7])
         taken = {r for r, _ in args.fail}
         free = [r for r in range(args.robots) if r not in taken]
@@ -204,10 +205,12 @@ def fault_plan(args: argparse.Namespace) -> list[dict]:
 def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     """Write world.yaml (+ its resolved form for the simulator), strategy_params.yaml and
     fleet_config.yaml; the roslaunch args."""
+    import yaml
     from tpuaf_stage.resolve import write_resolved
 
     from tpuaf.maps import MapError, builtin_map_names, load_map, start_vertices
     from tpuaf.policies import REGISTRY, ParameterError
+    from tpuaf.runtimes.config import choose_robot
     from tpuaf_stage.config import WorldError, parse_world
 
     check_options(args)
@@ -388,6 +391,8 @@ def wait_bag_closed(bag: Path, timeout_s: float = 30.0) -> bool:
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
+    from tpuaf.files import atomic_write
+
     atomic_write(path, json.dumps(data, indent=2))
 
 

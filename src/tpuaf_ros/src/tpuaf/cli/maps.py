@@ -8,8 +8,6 @@ import json
 import math
 import sys
 
-import numpy as np
-
 from tpuaf.errors import CliError
 
 
@@ -71,6 +69,8 @@ def edge_check(patrol_map) -> dict:
     on occupied cells, if any), those planned more than LONG_RATIO x their declared length
     ("long"), median and max ratio planned / declared over the drivable edges (None without
     any)."""
+    import numpy as np
+
     from tpuaf.navigation.planner import PathPlanner
 
     radius = float(patrol_map.settings.robot_radius)

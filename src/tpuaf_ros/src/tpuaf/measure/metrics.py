@@ -462,6 +462,56 @@ class RunRecorder:
             recovery=self.recovery(end_time) if self.deaths else None)
 
 
+class _VisitFigures:
+    """A recorder's visit figures as numpy arrays, converted once for every death of a run:
+    `vertex_times` (sorted visit times [s] per vertex) flattened, and `visits` (t, robot,
+    vertex) as three columns (robot and vertex indices are exact as floats)."""
+
+    def __init__(self, vertex_times, visits, start_time: float):
+        self.start_time = start_time
+        counts = np.fromiter((len(times) for times in vertex_times), dtype=np.intp,
+                             count=len(vertex_times))
+        self.counts = counts
+        self.flat = np.fromiter(itertools.chain.from_iterable(vertex_times), dtype=float,
+                                count=int(counts.sum()))
+        self.first = np.cumsum(counts) - counts  # each vertex's first index in `flat`
+        self.vertex = np.repeat(np.arange(len(counts)), counts)  # each time's vertex
+        self.local = np.arange(len(self.flat)) - self.first[self.vertex]  # index in its list
+        self.gap = np.full(len(self.flat), -np.inf)  # time - the vertex's previous time
+        self.gap[1:] = self.flat[1:] - self.flat[:-1]
+        log = np.fromiter(itertools.chain.from_iterable(visits), dtype=float,
+                          count=3 * len(visits)).reshape(-1, 3)
+        self.t, self.robot, self.visited = log[:, 0], log[:, 1], log[:, 2]
+
+    def count_until(self, time: float) -> np.ndarray:
+        """Per vertex, how many of its times are <= `time` (bisect_right on its list)."""
+        return np.bincount(self.vertex[self.flat <= time], minlength=len(self.counts))
+
+    def previous(self, j: np.ndarray) -> np.ndarray:
+        """Per vertex, its time at index j - 1 (with j = count_until(t): its last visit at
+        or before t), or the start time when j is 0."""
+        out = np.full(len(self.counts), float(self.start_time))
+        some = j > 0
+        out[some] = self.flat[self.first[some] + j[some] - 1]
+        return out
+
+    def last_visits(self, death_s: float) -> tuple[dict, dict]:
+        """Per robot, (t, vertex) of its last visit at or before `death_s` (the latest in the
+        log of equal times) and of its first visit after (the earliest in the log)."""
+        t, robot = self.t, self.robot
+        out = []
+        for rows, last in ((np.flatnonzero(t <= death_s), True),
+                           (np.flatnonzero(t > death_s), False)):
+            order = rows[np.lexsort((rows, t[rows], robot[rows]))]  # robot, time, log order
+            r = robot[order]
+            change = r[1:] != r[:-1]  # a robot's group ends / starts here
+            ends = (np.append(change, len(r) > 0) if last
+                    else np.insert(change, 0, len(r) > 0))
+            out.append({int(robot[i]): (float(t[i]), int(self.visited[i]))
+                        for i in order[ends[:len(order)]]})
+        return out[0], out[1]
+
+
 def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, start_time: float,
                           vertex_times, visits, deaths, announcements, end_time: float
                           ) -> list[dict]:
@@ -474,37 +524,52 @@ def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, star
     ids = list(patrol_map.vertex_ids)
     speed = speed_mps
     deaths = sorted(d for d in deaths if d[0] <= end_time)
+    if not deaths:
+        return []
+    log = _VisitFigures(vertex_times, visits, start_time)
+    flat, first, counts = log.flat, log.first, log.counts
+    dying = {r for _, r in deaths}
+    announced = [a for a in announcements if a[1] in dying]
     out = []
     for k, (td, robot) in enumerate(deaths):
         until = deaths[k + 1][0] if k + 1 < len(deaths) else end_time
         survivors = n_robots - (k + 1)
         ideal = (reference_tours(patrol_map, survivors, speed)["best_worst_idleness_s"]
                  if survivors > 0 else math.nan)
-        first_after, worst = [], 0.0
-        for times in vertex_times:
-            j = bisect.bisect_right(times, td)
-            first_after.append(times[j] if j < len(times) and times[j] <= end_time
-                               else math.inf)
-            prev = times[j - 1] if j else start_time
-            for t in times[j:]:
-                if t > until:
-                    break
-                worst = max(worst, t - prev)
-                prev = t
-            worst = max(worst, until - prev)
-        recovered = max(first_after) if first_after else td
+        j = log.count_until(td)  # per vertex: its visits up to the death
+        upto = log.count_until(until)  # ... up to the window's end
+        prev = log.previous(j)  # [s] each vertex's last visit at the death (or the start)
+        # every vertex visited again: the first visit after the death, up to the end
+        nxt = np.full(len(counts), math.inf)
+        later = j < counts
+        at = flat[first[later] + j[later]]
+        nxt[later] = np.where(at <= end_time, at, math.inf)
+        recovered = float(nxt.max()) if len(nxt) else td
+        # worst idleness in (death, until]: the gaps between consecutive times in the window,
+        # from the last visit before it, and to its end
+        worst = 0.0
+        inner = (log.local > j[log.vertex]) & (log.local < upto[log.vertex])
+        if inner.any():
+            worst = max(worst, float(log.gap[inner].max()))
+        seen = upto > j
+        if seen.any():
+            firsts = flat[first[seen] + j[seen]] - prev[seen]
+            lasts = until - flat[first[seen] + upto[seen] - 1]
+            worst = max(worst, float(firsts.max()), float(lasts.max()))
+        if (~seen).any():
+            worst = max(worst, float((until - prev[~seen]).max()))
         dead = {r for t, r in deaths if t <= td}
-        floor = death_floor(patrol_map, speed, start_time, vertex_times, visits, td, until,
-                            [r for r in range(n_robots) if r not in dead])
+        floor = _death_floor(patrol_map, speed, log, prev, td, until,
+                             [r for r in range(n_robots) if r not in dead])
         reference = max(floor, ideal) if ideal == ideal else floor
-        last_own = max((t for t, r, _ in visits if r == robot and t <= td),
-                       default=start_time)
-        intentions = sorted({v for t, r, v in announcements
+        own = log.t[(log.robot == robot) & (log.t <= td)]
+        last_own = float(own.max()) if len(own) else start_time
+        intentions = sorted({v for t, r, v in announced
                              if r == robot and last_own <= t <= td})
         delays = []
         for v in intentions:
-            later = [t for t, r, vv in visits if vv == v and r != robot and td < t]
-            delays.append(min(later) - td if later else math.nan)
+            later_visits = log.t[(log.visited == v) & (log.robot != robot) & (log.t > td)]
+            delays.append(float(later_visits.min()) - td if len(later_visits) else math.nan)
         out.append({
             "robot": robot,
             "time_s": td,
@@ -539,17 +604,21 @@ def death_floor(patrol_map: Any, speed_mps: float, start_time: float, vertex_tim
     survivors = list(survivors)
     if not survivors:
         return math.nan
+    log = _VisitFigures(vertex_times, visits, start_time)
+    return _death_floor(patrol_map, speed_mps, log, log.previous(log.count_until(death_s)),
+                        death_s, until_s, survivors)
+
+
+def _death_floor(patrol_map: Any, speed_mps: float, log: _VisitFigures, prev: np.ndarray,
+                 death_s: float, until_s: float, survivors: list[int]) -> float:
+    """death_floor with the visit figures converted (`prev`: [s] each vertex's last visit at
+    the death, or the start time)."""
+    if not survivors:
+        return math.nan
     speed = float(speed_mps)
     dist = np.asarray(patrol_map.graph.distances, dtype=float)
     n_vertices = len(dist)
-    before: dict[int, tuple[float, int]] = {}
-    after: dict[int, tuple[float, int]] = {}
-    for t, r, v in visits:
-        if t <= death_s:
-            if r not in before or t >= before[r][0]:
-                before[r] = (t, v)
-        elif r not in after or t < after[r][0]:
-            after[r] = (t, v)
+    before, after = log.last_visits(death_s)
     reach = np.full(n_vertices, np.inf)  # [m] least drive to each vertex, any survivor
     for r in survivors:
         lower = np.zeros(n_vertices)
@@ -564,10 +633,10 @@ def death_floor(patrol_map: Any, speed_mps: float, start_time: float, vertex_tim
             known = True
         reach = np.minimum(reach, lower if known else 0.0)
     floor = 0.0
-    for v, times in enumerate(vertex_times):
-        j = bisect.bisect_right(times, death_s)
-        last = times[j - 1] if j else start_time
-        floor = max(floor, min(death_s - last + reach[v] / speed, until_s - last))
+    if len(prev):
+        worst = float(np.minimum(death_s - prev + reach[:len(prev)] / speed,
+                                 until_s - prev).max())
+        floor = max(floor, worst)
     return float(floor)
 
 
