@@ -10,7 +10,8 @@ survivors notice them from what they stop hearing. Per case the median and worst
   allow.
 
 A strategy "keeps covering" when every vertex is visited again after every death in every run.
-Command: `.venv/bin/python benchmarks/bench_recovery.py [--quick] [--workers 2]`.
+Command: `.venv/bin/python benchmarks/bench_recovery.py [--quick] [--workers 2] [--maps ...]
+[--reuse]` (grid and every patrolling_sim map by default).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import RESULTS, header, write  # noqa: E402
 
 MAPS_DIR = Path(__file__).resolve().parents[2] / "shared" / "maps" / "patrolling_sim"
-MAPS = ("grid", "cumberland", "DIAG_labs", "example")
+MAPS = ("grid", "cumberland", "DIAG_labs", "example", "1r5", "ctcv")
 STRATEGIES = ("tpuaf_plus", "tpuaf", "cgg", "msp", "dtap", "dtag", "gbs", "sebs", "cbls", "hpcc",
               "hcr", "cr", "rand")
 
@@ -74,12 +75,13 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=1800.0, help="run length [s]")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--strategies", nargs="+", default=list(STRATEGIES))
+    ap.add_argument("--maps", nargs="+", default=list(MAPS), choices=MAPS)
     ap.add_argument("--out", default="recovery.md")
     ap.add_argument("--reuse", action="store_true",
-                    help="run only --strategies; take the other strategies' rows from the last "
-                         "run's recovery.json (same maps, teams, seeds and duration)")
+                    help="run only --strategies on --maps; take the other rows from the last "
+                         "run's recovery.json (same teams, seeds and duration)")
     args = ap.parse_args()
-    maps = MAPS[:2] if args.quick else MAPS
+    maps = MAPS[:2] if args.quick else [m for m in MAPS if m in args.maps]
     teams = (4, 8) if args.quick else (4, 8, 12)
     seeds = 1 if args.quick else args.seeds
     saved = RESULTS / Path(args.out).with_suffix(".json").name
@@ -87,8 +89,8 @@ def main() -> None:
     if args.reuse and saved.is_file():
         old = json.loads(saved.read_text())
         if old.get("duration_s") == args.duration and old.get("seeds") == seeds:
-            kept = [r for r in old["rows"] if r["strategy"] not in args.strategies
-                    and r["map"] in maps and r["N"] in teams]
+            kept = [r for r in old["rows"] if (r["strategy"] not in args.strategies
+                                               or r["map"] not in maps) and r["N"] in teams]
     strategies = list(args.strategies) + [s for s in STRATEGIES if any(
         r["strategy"] == s for r in kept) and s not in args.strategies]
     cases = [(m, s, n, k, seed, args.duration) for m in maps for n in teams
@@ -106,6 +108,7 @@ def main() -> None:
     saved.write_text(json.dumps({"duration_s": args.duration, "seeds": seeds,
                                  "rows": rows + kept}, indent=1))
     rows += kept
+    shown = [m for m in MAPS if any(r["map"] == m for r in rows)]  # run now or kept
 
     def pick(m, n, k, s):
         return [r for r in rows if (r["map"], r["N"], r["K"], r["strategy"]) == (m, n, k, s)]
@@ -113,9 +116,10 @@ def main() -> None:
     lines = [header("Recovery after deaths: every strategy against the survivors' ideal and "
                     "the unavoidable floor"),
              f"Command: `.venv/bin/python benchmarks/bench_recovery.py{' --quick' if args.quick else ''}"
-             f" --seeds {seeds} --duration {args.duration:.0f}`"
-             + (f" (run: {' '.join(args.strategies)}; the other strategies' rows from the "
-                "previous run, `--reuse`)" if kept else "") + f". {len(cases)} runs, graph "
+             f" --seeds {seeds} --duration {args.duration:.0f}"
+             + (f" --maps {' '.join(maps)} --strategies {' '.join(args.strategies)} --reuse` "
+                "(the other rows from the previous run)" if kept else "`")
+             + f". {len(cases)} runs now, {len(rows)} in the tables, graph "
              f"runtime, {args.duration:.0f} s each, deaths at {args.duration / 2:.0f} s; wall "
              f"{wall:.0f} s with {args.workers} workers; load average (1 min) {load_before:.1f} "
              "at the start.", "",
@@ -124,7 +128,7 @@ def main() -> None:
              "the survivors' **ideal** alone (issue 19's ratio). `never` = some vertex was not "
              "visited again after a death in some run (the strategy stops covering).", ""]
     verdicts = []
-    for m in maps:
+    for m in shown:
         for n in teams:
             for k in sorted({1, max(1, n // 4)}):
                 lines += [f"### {m}, N = {n}, K = {k} death{'s' if k > 1 else ''}", "",
