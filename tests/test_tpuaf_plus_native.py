@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import collections
 
-import numpy as np
 import pytest
 import tpuaf_core
 from tpuaf.maps import load_map
@@ -22,6 +21,7 @@ from tpuaf.runtimes.graph import BatchRun
 from tpuaf.runtimes.native import NativeRun, make_run
 
 from .conftest import PATROLLING_SIM_MAPS
+from .test_engine_faults_golden import _assert_same as assert_same
 
 CASES = [
     # (map, robots, duration [s], seed, faults and bus, strategy parameters, branches it reaches)
@@ -92,12 +92,8 @@ def test_cpp_decision_path_equals_python_policy(monkeypatch, name, robots, durat
     native = NativeRun(RunConfig(**config), patrol_map)
     assert native.native_policy
     summary_native = native.run()
-    assert summary_native == summary_python  # every value, recovery and liveness included
-    assert native.recorder.visits == python.recorder.visits
-    assert native.recorder.announcements == python.recorder.announcements
-    assert native.recorder.timeseries == python.recorder.timeseries
-    assert np.array_equal(native.recorder.uncertainty(), python.recorder.uncertainty())
-    assert native.losses == python.losses
+    # every summary value (recovery, liveness), visits, 1 Hz rows, X, losses, announcements
+    assert_same(python, summary_python, native, summary_native)
     assert native.bus.stats == python.bus.stats
 
 

@@ -17,17 +17,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kWait = -1;    // decide(): wait (a wake-up is set)
 constexpr int kDepart = -2;  // hold(): the dwell is over, depart
 
-// Python's float `a % b` (numpy's np.mod): the result takes the sign of b.
-double py_mod(double a, double b) {
-  double m = std::fmod(a, b);
-  if (m != 0) {
-    if ((b < 0) != (m < 0)) m += b;
-  } else {
-    m = std::copysign(0.0, b);
-  }
-  return m;
-}
-
 }  // namespace
 
 TpuafPlusStrategy::TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params,
@@ -139,25 +128,10 @@ void TpuafPlusStrategy::install_plan(GraphEngine& engine, int robot, bool initia
     // a walk new to several robots: the start schedule's entries from where each stood
     const std::map<int, int> entries = transition_entries(r);
     auto it = entries.find(robot);
-    r.entry = it != entries.end() ? it->second : entry_index(route, engine.current_vertex(robot));
+    r.entry = it != entries.end() ? it->second : nearest_entry(*graph_, route, engine.current_vertex(robot));
     r.idx = -1;
   }
   r.holding = false;
-}
-
-int TpuafPlusStrategy::entry_index(const PlusRoute& route, int vertex) const {
-  // The nearest walk vertex (ties to the lowest vertex index), its first walk index.
-  int best = -1;
-  double best_d = kInf;
-  for (int w : route.walk) {
-    const double d = graph_->distance(vertex, w);
-    if (best < 0 || d < best_d || (d == best_d && w < best)) {
-      best = w;
-      best_d = d;
-    }
-  }
-  return static_cast<int>(std::find(route.walk.begin(), route.walk.end(), best) -
-                          route.walk.begin());
 }
 
 int TpuafPlusStrategy::urgent_entry(const Robot& r, const PlusRoute& route, int vertex,
@@ -514,7 +488,7 @@ int TpuafPlusStrategy::decide(GraphEngine& engine, int robot) {
   if (r.idx >= 0 && route.walk[static_cast<std::size_t>(r.idx)] != here) {  // off my walk
     r.idx = -1;
     r.holding = false;
-    r.entry = entry_index(route, here);
+    r.entry = nearest_entry(*graph_, route, here);
   }
   if (r.idx < 0) {  // driving to my walk
     const int target = route.walk[static_cast<std::size_t>(r.entry)];
@@ -615,7 +589,7 @@ void TpuafPlusStrategy::on_goal_failed(GraphEngine& engine, int robot, int /*ver
   Robot& r = state(robot);
   r.idx = -1;
   r.holding = false;
-  r.entry = entry_index(route_of(r), engine.current_vertex(robot));
+  r.entry = nearest_entry(*graph_, route_of(r), engine.current_vertex(robot));
 }
 
 }  // namespace tpuaf

@@ -18,32 +18,6 @@ constexpr double kEps = 1e-6;      // tpuaf_plus._EPS
 constexpr double kStartGap = 1.1;  // tpuaf_plus.START_GAP: largest start gap over L / m
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-double py_mod(double a, double b) {  // Python's float a % b (np.mod)
-  double m = std::fmod(a, b);
-  if (m != 0) {
-    if ((b < 0) != (m < 0)) m += b;
-  } else {
-    m = std::copysign(0.0, b);
-  }
-  return m;
-}
-
-// The walk index where a robot at `vertex` joins: its nearest walk vertex (ties to the lowest
-// vertex index), first occurrence (tpuaf_plus._entry_index).
-int nearest_entry(const PatrolGraph& graph, const PlusRoute& route, int vertex) {
-  int best = -1;
-  double best_d = kInf;
-  for (int w : route.walk) {
-    const double d = graph.distance(vertex, w);
-    if (best < 0 || d < best_d || (d == best_d && w < best)) {
-      best = w;
-      best_d = d;
-    }
-  }
-  return static_cast<int>(std::find(route.walk.begin(), route.walk.end(), best) -
-                          route.walk.begin());
-}
-
 // tpuaf_plus._slot_departures: for a robot at `start`, late by late_m [m], and slots at arc
 // positions `slots` [m] at t = 0, per slot the earliest v * departure [m] and walk index at
 // which the robot is at a walk vertex when its slot passes. With u_k = (arc_k - d_k) mod L,
@@ -100,6 +74,30 @@ void slot_departures(const PatrolGraph& graph, const PlusRoute& route, int start
 }
 
 }  // namespace
+
+double py_mod(double a, double b) {
+  double m = std::fmod(a, b);
+  if (m != 0) {
+    if ((b < 0) != (m < 0)) m += b;
+  } else {
+    m = std::copysign(0.0, b);
+  }
+  return m;
+}
+
+int nearest_entry(const PatrolGraph& graph, const PlusRoute& route, int vertex) {
+  int best = -1;
+  double best_d = kInf;
+  for (int w : route.walk) {
+    const double d = graph.distance(vertex, w);
+    if (best < 0 || d < best_d || (d == best_d && w < best)) {
+      best = w;
+      best_d = d;
+    }
+  }
+  return static_cast<int>(std::find(route.walk.begin(), route.walk.end(), best) -
+                          route.walk.begin());
+}
 
 double walk_worst_idleness(const PatrolGraph& graph, const std::vector<int>& walk, int n_robots,
                            double speed_mps) {

@@ -41,6 +41,13 @@ struct TpuafPlusParams {
   double stay_s = 1.0;             // the runtimes' dwell for a goal equal to the vertex
 };
 
+// Python's float a % b (np.mod): the result takes the sign of b.
+double py_mod(double a, double b);
+
+// The walk index where a robot at `vertex` joins `route`: its nearest walk vertex (ties to the
+// lowest vertex index), first occurrence (tpuaf_plus._entry_index).
+int nearest_entry(const PatrolGraph& graph, const PlusRoute& route, int vertex);
+
 // Steady-state worst idleness [s] of the closed walk's vertices with n_robots evenly spaced
 // at speed_mps (tpuaf.maps.tours.walk_idleness(...)["worst"], the same arithmetic): per
 // vertex, the largest gap between its passes (times rounded to 1e-9 s) in one period.
@@ -117,7 +124,6 @@ class TpuafPlusStrategy : public TeamStrategy {
   const PlusRoute& route_of(const Robot& r) const { return r.plan->routes[r.route]; }
   std::shared_ptr<const PlusPlan> plan_for(const std::vector<int>& team);
   void install_plan(GraphEngine& engine, int robot, bool initial);
-  int entry_index(const PlusRoute& route, int vertex) const;
   int urgent_entry(const Robot& r, const PlusRoute& route, int vertex, double now) const;
   std::map<int, int> transition_entries(const Robot& r) const;
   bool respace_target(Robot& r, int robot, double now, double& target);
