@@ -450,8 +450,8 @@ NOTES = """
   margins (no tight_layout pass); `tpuaf run --no-plots` skips it; `tpuaf report` redraws only
   figures whose content key changed.
 - What is left of a run with `--out`, in CPU seconds (profiles of cumberland N = 12): the
-  interpreter, numpy and the CLI's imports (~0.35 s: `build_parser` imports every subcommand,
-  `fleet` and `maps` ~0.3 s of it), the run (0.1-0.2 s), the results files (~0.2 s) and
+  interpreter, numpy and the CLI's imports (~0.3 s; the parser imports only the chosen
+  subcommand since tests/test_cli_imports.py), the run (0.1-0.2 s), the results files (~0.2 s) and
   summary.png (~0.3 s to import matplotlib, ~0.2 s to draw). The picture alone exceeds the
   cumberland target of 0.45 s; without a picture the floor is the imports. On grid1000 the
   in-engine time is now mostly the ground-truth recorder (coverage and field steps, O(N) per
