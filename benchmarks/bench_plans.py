@@ -151,7 +151,9 @@ def main() -> None:
 
     lines = [header("tpuaf_plus plans: search time, and idleness from t = 0 and after deaths"),
              f"Command: `.venv/bin/python benchmarks/bench_plans.py"
-             f"{' --quick' if args.quick else ''} --seeds {args.seeds}`. Load average (1 min) "
+             f"{' --quick' if args.quick else ''} --seeds {args.seeds}"
+             f"{' --skip-runs' if args.skip_runs else ''}"
+             f"{'' if args.out == 'plans.md' else ' --out ' + args.out}`. Load average (1 min) "
              f"at the start: {load_before:.1f} on a 2-core machine shared with other jobs "
              "(wall times stretch under load; CPU seconds less so).", "",
              "## Plan time (make_plan for the whole team: cycle, partitions, start schedule)", "",
