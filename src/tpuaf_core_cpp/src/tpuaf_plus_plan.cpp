@@ -15,7 +15,7 @@ namespace tpuaf {
 namespace {
 
 constexpr double kEps = 1e-6;      // tpuaf_plus._EPS
-constexpr double kStartGap = 1.1;  // tpuaf_plus.START_GAP: largest start gap over L / m
+constexpr double kStartGap = 1.1;  // largest start gap between robots, over L / m
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // tpuaf_plus._slot_departures: for a robot at `start`, late by late_m [m], and slots at arc

@@ -53,8 +53,8 @@ from tpuaf.team.messages import Intention, Visit
 _EPS = 1e-6
 SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
 FRESH_MARGIN = 1.15  # after a loss, merge unless a fresh plan's worst is lower by more than this
-START_GAP = 1.1  # the start schedule's largest gap between robots, over L / m
 STAY_S = 1.0  # [s] the runtimes' dwell for a goal equal to the current vertex (runtimes.graph)
+INTENTION_TIMEOUT_S = 30.0  # [s] its visit knowledge drops intentions this old (it hears none)
 
 
 def _positive(x) -> bool:
@@ -144,7 +144,7 @@ def start_schedule(graph, route: Route, starts: dict, speed: float, late_m: dict
     robots are matched to slots (least squared departures) and the schedule kept is the one
     whose walk vertices are all first visited soonest (then the least total wait); steady-state
     spacing then holds from the start. Robots may leave earlier than their slot while no gap
-    exceeds START_GAP x L / m (the first lap sooner; the spacing rule evens the gaps later).
+    exceeds 1.1 L / m (the first lap sooner; the spacing rule evens the gaps later).
     `late_m`: robot -> v times how long after t = 0 it is at its start vertex [m] (default 0).
     `idle_s`: per graph vertex, its idleness at t = 0 [s] (after a loss): then the schedule
     kept is the one whose walk vertices wait least in all, idleness at t = 0 + time to their
@@ -388,7 +388,7 @@ class TpuafPlus(Policy):
         self.robot = ctx.robot
         timeout = silence_timeout(self.graph, self.speed, self.params["silence_timeout_s"])
         self.silence_timeout_s = timeout
-        self.knowledge = new_knowledge(pm, 30.0, timeout)
+        self.knowledge = new_knowledge(pm, INTENTION_TIMEOUT_S, timeout)
         self.alive = set(range(ctx.n_robots))
         self.last_heard = {k: ctx.now for k in range(ctx.n_robots)}
         self.lost_at: dict[int, float] = {}  # robot -> when the runtime reported it lost [s]

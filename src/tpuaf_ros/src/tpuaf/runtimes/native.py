@@ -139,7 +139,7 @@ def _tpuaf_plus_strategy(run: NativeRun, params: dict):
         schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n)]
         return routes, route_of, schedule
 
-    knowledge = new_knowledge(pm, 30.0, out.silence_timeout_s)
+    knowledge = new_knowledge(pm, tpuaf_plus.INTENTION_TIMEOUT_S, out.silence_timeout_s)
     return tpuaf_core.TpuafPlusStrategy(knowledge, out, plans)
 
 
