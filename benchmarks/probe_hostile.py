@@ -167,7 +167,9 @@ def write_file(rel: str, data: bytes | str):
 
 def grid_folder(root: Path, name: str = "m") -> Path:
     """A copy of the built-in grid map as a map folder under root."""
-    src = REPO / "maps" / "grid"
+    from tpuaf.paths import builtin_maps_dir
+
+    src = builtin_maps_dir() / "grid"
     dst = root / name
     dst.mkdir(parents=True, exist_ok=True)
     for f in src.iterdir():

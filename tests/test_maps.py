@@ -19,6 +19,7 @@ from tpuaf.maps import (
 )
 from tpuaf.maps.builtin import make_grid, make_lab
 from tpuaf.maps.mapfile import save_map_folder
+from tpuaf.paths import builtin_maps_dir
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 PS_DIR = SHARED / "maps" / "patrolling_sim"
@@ -412,7 +413,7 @@ def test_maps_cli(capsys):
 # ---------------------------------------------------------------------------------------------
 # geometry checks (issue 12): where vertices lie, edge lengths, start vertices
 
-GRID_DIR = Path(__file__).resolve().parents[1] / "maps" / "grid"
+GRID_DIR = builtin_maps_dir() / "grid"
 
 
 def grid_copy(tmp_path: Path, old: str | None = None, new: str | None = None,

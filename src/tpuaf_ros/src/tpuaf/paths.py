@@ -1,8 +1,8 @@
 """Where the installed package keeps its data, found through the package, never the source tree.
 
-- `builtin_maps_dir()`: the built-in maps. In the source tree (and the devel space, whose loader
-  points at it) they are the repository's top-level `maps/`; an install space ships them as
-  package data, `tpuaf/data/maps/` (installed by src/tpuaf_ros/CMakeLists.txt).
+- `builtin_maps_dir()`: the built-in maps, package data of `tpuaf` (`tpuaf/data/maps/`): in the
+  source tree and the devel space (whose loader points at it) and in an install space (copied
+  there by src/tpuaf_ros/CMakeLists.txt) alike.
 - `catkin_prefix()`: the catkin devel or install space holding this package (its `env.sh`
   runs ROS tools with the workspace's environment), or None when it is not in one.
 """
@@ -13,12 +13,11 @@ from pathlib import Path
 
 import tpuaf
 
-_PACKAGE_MAPS = Path(__file__).resolve().parent / "data" / "maps"  # install space
-_SOURCE_MAPS = Path(__file__).resolve().parents[4] / "maps"  # repo/src/tpuaf_ros/src/tpuaf/..
+_PACKAGE_MAPS = Path(__file__).resolve().parent / "data" / "maps"
 
 
 def builtin_maps_dir() -> Path:
-    return _PACKAGE_MAPS if _PACKAGE_MAPS.is_dir() else _SOURCE_MAPS
+    return _PACKAGE_MAPS
 
 
 def catkin_prefix() -> Path | None:

@@ -36,6 +36,7 @@ if os.path.basename(sys.argv[0] if sys.argv else "") == "tpuaf":  # the program,
     install_early_handlers()
 
 import argparse  # noqa: E402
+import importlib  # noqa: E402
 
 from tpuaf import __version__  # noqa: E402
 
@@ -168,11 +169,23 @@ def _main(argv: list[str] | None = None) -> int:
     if not getattr(args, "_handler", None):
         parser.print_help()
         return 2
+    # The chosen command's heavy imports happen before its stop handling: a stop signal during
+    # an import would break that import (the `tpuaf` program exits on it at once, cleanly).
+    module = sys.modules.get(getattr(args._handler, "__module__", ""))
+    for name in getattr(module, "PRELOAD", ()):
+        importlib.import_module(name)
     try:
         with signals.stop_signals():
             try:
                 return int(args._handler(args) or 0)
             except KeyboardInterrupt:
+                print(f"tpuaf {args.command}: interrupted", file=sys.stderr)
+                return signals.exit_code()
+            except Exception:
+                if signals.received() is None:
+                    raise
+                # the stop signal's KeyboardInterrupt cut a module import or a library call
+                # short, which then failed in its own way (an import right after start)
                 print(f"tpuaf {args.command}: interrupted", file=sys.stderr)
                 return signals.exit_code()
     except TpuafError as err:  # every user error: one line, no traceback

@@ -10,6 +10,10 @@ from pathlib import Path
 
 from tpuaf.errors import CliError
 
+# Imported by tpuaf.cli before the run's stop handling (see _main).
+PRELOAD = ("numpy", "tpuaf_core", "tpuaf.maps", "tpuaf.policies", "tpuaf.runtimes.config",
+           "tpuaf.runtimes.faults", "tpuaf.runtimes.native")
+
 
 def _int_at_least(lowest: int):
     """An argparse type: an integer >= lowest, else 'expected an integer >= lowest'."""

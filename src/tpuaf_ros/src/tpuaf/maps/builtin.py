@@ -1,6 +1,7 @@
-"""Built-in maps `grid` and `lab` (SPEC section 7), generated here and committed under maps/.
+"""Built-in maps `grid` and `lab` (SPEC section 7), generated here and committed as package data.
 
-`python -m tpuaf.maps.builtin [OUT_DIR]` regenerates maps/grid and maps/lab.
+`python -m tpuaf.maps.builtin [OUT_DIR]` regenerates them (default: the package data,
+tpuaf/data/maps/grid and lab).
 
 grid: 5x5 lattice, spacing 5.7 m, 25.8 x 25.8 m, vertices at 1.425 + 5.7 k m (the coordinates
     of patrolling_sim's grid, numbered the same way: id = 5 * column + row from the top), 40
@@ -24,7 +25,7 @@ import numpy as np
 from tpuaf.maps.model import MapSettings, PatrolMap
 from tpuaf.paths import builtin_maps_dir
 
-BUILTIN_MAPS_DIR = builtin_maps_dir()  # top-level maps/ (package data once installed)
+BUILTIN_MAPS_DIR = builtin_maps_dir()  # tpuaf/data/maps
 
 
 def make_grid() -> PatrolMap:
