@@ -80,8 +80,6 @@ def fill_subparser(p: argparse.ArgumentParser) -> None:
     if module is None:
         return
     p._tpuaf_module = None
-    import importlib
-
     mod = importlib.import_module(f"tpuaf.cli.{module}")
     mod.add_arguments(p)
     p.set_defaults(_handler=mod.run)

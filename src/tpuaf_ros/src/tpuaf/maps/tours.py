@@ -19,7 +19,6 @@ Visits of one vertex at the same instant (two robots) count once.
 from __future__ import annotations
 
 import hashlib
-import itertools
 import json
 import os
 import sys
@@ -131,42 +130,25 @@ def walk_idleness(
     graph: Any, walk: list[int], n_robots: int, speed: float
 ) -> dict[str, float | dict[int, float]]:
     """Steady-state idleness [s] of the walk's vertices with `n_robots` evenly spaced at `speed`."""
-    n = len(walk)
-    # The edge lengths once (the length is their sum in walk order, as walk_length's).
-    steps = ([graph.edge_length(walk[i], walk[(i + 1) % n]) for i in range(n)]
-             if n >= 2 else [])
-    length = float(sum(steps)) if n >= 2 else 0.0
+    length = walk_length(graph, walk)
     if length <= 0.0 or n_robots < 1:
         zeros = {int(v): 0.0 for v in walk}
         return {"worst": 0.0, "avg_time": 0.0, "avg_visit": 0.0, "per_vertex_worst": zeros}
     spacing = length / n_robots  # [m] between robots
     period = spacing / speed  # [s] the visit pattern repeats with this period
-    offsets = []
-    s = 0.0
-    for step in steps:
-        offsets.append(s % spacing)
-        s += step
-    # [s] each pass's time within the period, rounded as one array (numpy's round is
-    # elementwise: the same values as vertex by vertex), then grouped by vertex in walk order.
-    rounded = np.round(np.asarray(offsets) / speed, 9).tolist()
     arc: dict[int, list[float]] = {}
-    for v, t in zip(walk, rounded, strict=True):
-        arc.setdefault(int(v), []).append(t)
+    s = 0.0
+    for i, v in enumerate(walk):
+        arc.setdefault(int(v), []).append(s % spacing)
+        s += graph.edge_length(walk[i], walk[(i + 1) % len(walk)])
     worst, avg_time, avg_visit, per_vertex = 0.0, [], [], {}
-    for v, passes in arc.items():
-        times = sorted(set(passes))  # np.unique
-        gaps = [b - a for a, b in itertools.pairwise(times)]
-        gaps.append(times[0] + period - times[-1])
-        if len(gaps) < 8:  # numpy sums fewer than 8 terms one after the other, as here
-            squares = 0.0
-            for g in gaps:
-                squares += g * g
-        else:  # numpy's pairwise summation
-            squares = float((np.asarray(gaps) ** 2).sum())
-        per_vertex[v] = max(gaps)
+    for v, positions in arc.items():
+        times = np.unique(np.round(np.asarray(positions) / speed, 9))
+        gaps = np.diff(np.append(times, times[0] + period))
+        per_vertex[v] = float(gaps.max())
         worst = max(worst, per_vertex[v])
-        avg_time.append(squares / (2.0 * period))
-        avg_visit.append(period / len(times))
+        avg_time.append(float((gaps**2).sum() / (2.0 * period)))
+        avg_visit.append(float(period / len(times)))
     return {
         "worst": worst,
         "avg_time": float(np.mean(avg_time)),
