@@ -181,6 +181,22 @@ def ring(n=12, starts=(0, 0, 0)) -> PatrolMap:
     return PatrolMap("ring", list(range(n)), pos, edges, np.ones(n), np.ones(n), settings)
 
 
+def test_a_death_on_a_ring_meets_the_floor_which_is_above_the_target():
+    """Ring of L = 120 m, N = 4 evenly spaced (L / 4 = 30 m apart), robot 2 dies at 900 s.
+    The vertex just ahead of it was last visited 30 s before, and the nearest survivors (ahead
+    or behind) are 30 m away: it waits 2 L / (4 v) = 60 s whatever anyone does, 1.5x the
+    survivors' ideal L / (3 v) = 40 s (issue 19's 1.3x is out of reach on a ring). The
+    per-vertex floor finds that bound, and tpuaf_plus, re-spacing in place, attains it."""
+    pm = ring(120, starts=(0, 30, 60, 90))
+    _, summary = run(pm, 4, 1800.0, fail=[[2, 900.0]])
+    death = summary["recovery"][0]
+    assert death["ideal_worst_idleness_survivors_s"] == pytest.approx(40.0, rel=0.01)
+    # 58-60 s: the vertices are 1 m apart and the death falls mid-edge
+    assert 57.0 <= death["floor_worst_idleness_after_s"] <= 60.5
+    assert 57.0 <= death["worst_idleness_after_s"] <= 60.5  # the ring's bound, attained
+    assert death["recovery_time_s"] is not None
+
+
 def test_start_schedule_spreads_a_team_from_one_vertex():
     pm = ring()
     plan = make_plan(pm, (0, 1, 2), (0, 0, 0), "cycle")

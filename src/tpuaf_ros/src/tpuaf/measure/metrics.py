@@ -420,6 +420,11 @@ class RunRecorder:
         return [int(c) for c in self._visit_count]
 
     @property
+    def vertex_times(self) -> list[list[float]]:
+        """Per vertex, its visit times [s], sorted."""
+        return self._vertex_times
+
+    @property
     def first_visit_times(self) -> list[float]:
         """Time [s] of each vertex's first visit (NaN: never visited)."""
         return [times[0] if times else math.nan for times in self._vertex_times]

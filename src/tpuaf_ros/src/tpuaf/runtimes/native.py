@@ -390,6 +390,11 @@ class NativeRecorder:
     def announcements(self) -> list[tuple[float, int, int]]:
         return self._engine.announcements
 
+    @property
+    def vertex_times(self) -> list[list[float]]:
+        """Per vertex, its visit times [s], sorted (runs with deaths keep every visit)."""
+        return self._engine.vertex_times
+
     def recovery(self, end_time: float) -> list[dict]:
         """RunRecorder.recovery of the same run."""
         return recovery_after_deaths(
