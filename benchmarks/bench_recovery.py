@@ -14,7 +14,8 @@ survivors notice them from what they stop hearing. Per case the median and worst
 
 A strategy "keeps covering" when every vertex is visited again after every death in every run.
 Command: `.venv/bin/python benchmarks/bench_recovery.py [--quick] [--workers 2] [--maps ...]
-[--reuse]` (grid and every patrolling_sim map by default).
+[--reuse [--reuse-from JSON]] [--plus-params KEY=VALUE ...] [--out NAME]` (grid and every
+patrolling_sim map by default).
 """
 
 from __future__ import annotations
@@ -44,15 +45,16 @@ def map_arg(name: str) -> str:
     return name if name in ("grid", "lab") else str(MAPS_DIR / name)
 
 
-def one_run(case: tuple[str, str, int, int, int, float]) -> dict:
+def one_run(case: tuple[str, str, int, int, int, float, dict]) -> dict:
     from tpuaf.measure.metrics import death_floor
     from tpuaf.runtimes.config import RunConfig
     from tpuaf.runtimes.native import make_run
 
-    name, strategy, n, k, seed, duration_s = case
+    name, strategy, n, k, seed, duration_s, params = case
     dying = sorted(np.random.default_rng([seed, n, k]).choice(n, k, replace=False).tolist())
     config = RunConfig(map=map_arg(name), strategy=strategy, robots=n, duration_s=duration_s,
-                       seed=seed, fail=[[int(r), duration_s / 2] for r in dying])
+                       seed=seed, fail=[[int(r), duration_s / 2] for r in dying],
+                       strategy_params=params)
     t0 = time.process_time()
     run, _ = make_run(config)
     summary = run.run()
@@ -67,9 +69,19 @@ def one_run(case: tuple[str, str, int, int, int, float]) -> dict:
     detect = death_floor(run.patrol_map, recorder.speed_mps, recorder.start_time, recorder.vertex_times,
                          recorder.visits, duration_s / 2 + config.teammate_timeout_s,
                          duration_s, [r for r in range(n) if r not in dying])
+    # mean uncertainty X over the 1 Hz rows after the deaths (what the worst idleness hides)
+    x_after = [row["uncertainty_mean"] for row in recorder.timeseries
+               if row["time_s"] > duration_s / 2]
     return {"map": name, "strategy": strategy, "N": n, "K": k, "seed": seed, "after_s": after,
+            "x_after": float(np.mean(x_after)) if x_after else math.nan,
             "ideal_s": ideal, "floor_s": floor, "detect_floor_s": detect, "covered": covered,
             "cpu_s": time.process_time() - t0}
+
+
+def x_cell(rows: list[dict]) -> str:
+    """Median over seeds of the mean uncertainty after the deaths (older rows lack it)."""
+    values = [r["x_after"] for r in rows if r.get("x_after") is not None]
+    return f"{statistics.median(values):.3f}" if values else "-"
 
 
 def med_max(values: list[float]) -> str:
@@ -89,21 +101,31 @@ def main() -> None:
     ap.add_argument("--out", default="recovery.md")
     ap.add_argument("--reuse", action="store_true",
                     help="run only --strategies on --maps; take the other rows from the last "
-                         "run's recovery.json (same teams, seeds and duration)")
+                         "run's JSON (same teams, seeds and duration)")
+    ap.add_argument("--reuse-from", default=None,
+                    help="with --reuse: the JSON in benchmarks/results to take them from "
+                         "(default: the one beside --out)")
+    ap.add_argument("--plus-params", nargs="+", default=[], metavar="KEY=VALUE",
+                    help="tpuaf_plus parameters for its runs, e.g. repair=merge")
     args = ap.parse_args()
+    plus_params = dict(kv.split("=", 1) for kv in args.plus_params if "=" in kv)
+    if len(plus_params) != len(args.plus_params):
+        ap.error("--plus-params takes KEY=VALUE pairs")
     maps = MAPS[:2] if args.quick else [m for m in MAPS if m in args.maps]
     teams = (4, 8) if args.quick else (4, 8, 12)
     seeds = 1 if args.quick else args.seeds
     saved = RESULTS / Path(args.out).with_suffix(".json").name
+    source = RESULTS / args.reuse_from if args.reuse_from else saved
     kept = []
-    if args.reuse and saved.is_file():
-        old = json.loads(saved.read_text())
+    if args.reuse and source.is_file():
+        old = json.loads(source.read_text())
         if old.get("duration_s") == args.duration and old.get("seeds") == seeds:
             kept = [r for r in old["rows"] if (r["strategy"] not in args.strategies
                                                or r["map"] not in maps) and r["N"] in teams]
     strategies = list(args.strategies) + [s for s in STRATEGIES if any(
         r["strategy"] == s for r in kept) and s not in args.strategies]
-    cases = [(m, s, n, k, seed, args.duration) for m in maps for n in teams
+    cases = [(m, s, n, k, seed, args.duration, plus_params if s == "tpuaf_plus" else {})
+             for m in maps for n in teams
              for k in sorted({1, max(1, n // 4)}) for s in args.strategies
              for seed in range(1, seeds + 1)]
     load_before = os.getloadavg()[0]
@@ -127,8 +149,12 @@ def main() -> None:
                     "the unavoidable floor"),
              f"Command: `.venv/bin/python benchmarks/bench_recovery.py{' --quick' if args.quick else ''}"
              f" --seeds {seeds} --duration {args.duration:.0f}"
-             + (f" --maps {' '.join(maps)} --strategies {' '.join(args.strategies)} --reuse` "
-                "(the other rows from the previous run)" if kept else "`")
+             + (f" --plus-params {' '.join(args.plus_params)}" if plus_params else "")
+             + (f" --out {args.out}" if args.out != "recovery.md" else "")
+             + (f" --maps {' '.join(maps)} --strategies {' '.join(args.strategies)} --reuse"
+                + (f" --reuse-from {args.reuse_from}" if args.reuse_from else "")
+                + f"` (the other rows from {source.name})" if kept else "`")
+             + (f" (tpuaf_plus with {', '.join(args.plus_params)})" if plus_params else "")
              + f". {len(cases)} runs now, {len(rows)} in the tables, graph "
              f"runtime, {args.duration:.0f} s each, deaths at {args.duration / 2:.0f} s; wall "
              f"{wall:.0f} s with {args.workers} workers; load average (1 min) {load_before:.1f} "
@@ -136,15 +162,17 @@ def main() -> None:
              "Per cell: median, worst over seeds of the worst idleness after the deaths over "
              "**max(floor, ideal)** (1.00 = as good as the deaths allow), then in brackets over "
              "the survivors' **ideal** alone (issue 19's ratio). `never` = some vertex was not "
-             "visited again after a death in some run (the strategy stops covering).", ""]
+             "visited again after a death in some run (the strategy stops covering). Mean X "
+             "after: the median over seeds of the mean uncertainty (SPEC's X) over the 1 Hz rows "
+             "after the deaths.", ""]
     verdicts = []
     for m in shown:
         for n in teams:
             for k in sorted({1, max(1, n // 4)}):
                 lines += [f"### {m}, N = {n}, K = {k} death{'s' if k > 1 else ''}", "",
                           "| strategy | after / max(floor, ideal) | (after / ideal) | "
-                          "floor / ideal | floor at detection / ideal | keeps covering |",
-                          "|---|---|---|---|---|---|"]
+                          "floor / ideal | floor at detection / ideal | mean X after | "
+                          "keeps covering |", "|---|---|---|---|---|---|---|"]
                 ours = (math.nan,) * 4
                 others: list[tuple[float, str]] = []
                 for s in strategies:
@@ -158,6 +186,7 @@ def main() -> None:
                     covered = all(r["covered"] for r in got)
                     lines.append(f"| {s} | {med_max(ref)} | ({med_max(ideal)}) | "
                                  f"{statistics.median(floor):.2f} | {med_max(detect)} | "
+                                 f"{x_cell(got)} | "
                                  f"{'yes' if covered else 'never'} |")
                     if s == "tpuaf_plus":
                         ours = (max(ideal), max(ref), max(detect),
