@@ -795,8 +795,11 @@ def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
             else:
                 n = workers or default_workers()
                 with _spawn_safely():
+                    # no dashboard; the scheduler's own HTTP server (health routes) on a free
+                    # loopback port, not the default 8787 that another cluster may hold
                     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                            dashboard_address=None, host="127.0.0.1",
+                                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                                            local_directory=tempfile.gettempdir())
                 client = Client(cluster)
             futures = {client.submit(run_task, spec.task(k), pure=False,
