@@ -46,7 +46,6 @@ def map_arg(name: str) -> str:
 
 
 def one_run(case: tuple[str, str, int, int, int, float, dict]) -> dict:
-    from tpuaf.measure.metrics import death_floor
     from tpuaf.runtimes.config import RunConfig
     from tpuaf.runtimes.native import make_run
 
@@ -65,10 +64,8 @@ def one_run(case: tuple[str, str, int, int, int, float, dict]) -> dict:
     covered = all(r["recovery_time_s"] is not None for r in rec)
     # the floor from where the team stood when the survivors could first know: the deaths
     # plus the teammate timeout (no reaction to them can start sooner)
+    detect = max(r["detection_floor_worst_idleness_after_s"] for r in rec)
     recorder = run.recorder
-    detect = death_floor(run.patrol_map, recorder.speed_mps, recorder.start_time, recorder.vertex_times,
-                         recorder.visits, duration_s / 2 + config.teammate_timeout_s,
-                         duration_s, [r for r in range(n) if r not in dying])
     # mean uncertainty X over the 1 Hz rows after the deaths (what the worst idleness hides)
     x_after = [row["uncertainty_mean"] for row in recorder.timeseries
                if row["time_s"] > duration_s / 2]

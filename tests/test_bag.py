@@ -300,6 +300,8 @@ def test_cli_on_a_plain_bag_writes_results_and_names_the_span(tmp_path):
     (["--duration", "nan"], "--duration must be"),
     (["--death-timeout", "-1"], "--death-timeout must be"),
     (["--death-timeout", "0"], "--death-timeout must be"),
+    (["--teammate-timeout", "-1"], "--teammate-timeout must be"),
+    (["--teammate-timeout", "nan"], "--teammate-timeout must be"),
     (["--start", "-1"], "--start must be"),
     (["--start", "1e6"], "outside it"),
 ])

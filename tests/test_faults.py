@@ -73,6 +73,12 @@ def test_recovery_metrics_after_two_deaths():
                   if r["time_s"] < t < r["time_s"] + r["recovery_time_s"] - 1e-9}
         assert len(before) < grid.num_vertices
         assert r["worst_idleness_after_s"] >= r["recovery_time_s"]
+        # both floors are lower bounds of what happened (the graph runtime drives the graph)
+        assert r["worst_idleness_after_s"] >= r["floor_worst_idleness_after_s"] - 1e-6
+        assert r["worst_idleness_after_s"] >= r["detection_floor_worst_idleness_after_s"] - 1e-6
+        assert r["worst_idleness_ratio_to_detection_reference"] == pytest.approx(
+            r["worst_idleness_after_s"] / max(r["detection_floor_worst_idleness_after_s"],
+                                              r["ideal_worst_idleness_survivors_s"]))
         assert 0 <= r["intentions_honoured"] <= len(r["intentions"])
     assert rec[0]["window_end_s"] == 1200.0 and rec[1]["window_end_s"] == 3600.0
 
@@ -156,6 +162,7 @@ def test_cli_reports_deaths_recovery_and_the_ideal(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "death of robot 0 at 600.0 s" in proc.stdout and "visited again in" in proc.stdout
     assert "death of robot 3 at 1,200.0 s" in proc.stdout
+    assert proc.stdout.count("after its detection") == 2
     assert proc.stdout.count("ideal for the") == 2 and "ideal for the 6 survivors" in proc.stdout
     import json
 

@@ -105,6 +105,35 @@ def test_death_floor_on_a_square_hand_log():
     (r2,) = rec2.summary(100.0)["recovery"]
     assert r2["floor_worst_idleness_after_s"] == pytest.approx(20.0)
     assert r2["worst_idleness_ratio_to_reference"] == pytest.approx(90.0 / 40.0)
+    assert r2["detection_floor_worst_idleness_after_s"] is None  # no timeout given (NaN -> null)
+
+
+def test_floor_at_detection_on_the_square_hand_log():
+    """The square log above, survivors with a 10 s teammate timeout: they can know of the
+    death at 35 s. The survivor is then 5 m past v3 towards v0 (visits at 30 s and 40 s), so at
+    least 5, 15, 15, 5 m from v0..v3; v1, last visited at 10 s, cannot be visited before
+    35 + 15 s: the floor at detection is 40 s (against 30 s at the death). The survivor's 40 s
+    lap meets it: ratio 1.0."""
+    side = 10.0
+    pos = np.array([(0, 0), (side, 0), (side, side), (0, side)], dtype=float)
+    edges = [(0, 1, side), (1, 2, side), (2, 3, side), (3, 0, side)]
+    pm = PatrolMap("square", [0, 1, 2, 3], pos, edges, np.ones(4), np.ones(4), MapSettings())
+    rec = RunRecorder(pm, 2, ground_truth=False, teammate_timeout_s=10.0)
+    log = [(0, 0, 0), (0, 1, 2), (10, 0, 1), (10, 1, 3), (20, 0, 2), (20, 1, 0)]
+    log += [(30 + 10 * k, 0, (3 + k) % 4) for k in range(8)]
+    for t, r, v in log:
+        rec.record_visit(r, v, t)
+    rec.record_robot_death(1, 25.0)
+    (r,) = rec.summary(100.0)["recovery"]
+    assert r["floor_worst_idleness_after_s"] == pytest.approx(30.0)
+    assert r["detection_floor_worst_idleness_after_s"] == pytest.approx(40.0)
+    assert r["worst_idleness_ratio_to_detection_reference"] == pytest.approx(1.0)
+    # A window that ends before the timeout runs out (the survivor dies too, at 33 s): the
+    # detection is the window's end, where each vertex is capped: v1, idle since 10 s, gives 23 s.
+    rec.record_robot_death(0, 33.0)
+    first = rec.summary(100.0)["recovery"][0]
+    assert first["window_end_s"] == 33.0
+    assert first["detection_floor_worst_idleness_after_s"] == pytest.approx(33.0 - 10.0)
 
 
 def test_acceleration_ratio():

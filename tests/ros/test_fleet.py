@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 
 from ..conftest import default_sigint, run_cli, stop_tree
 
@@ -167,6 +168,10 @@ def test_injected_faults_death_stall_and_a_lossy_delayed_relay(tmp_path):
     [killed] = summary["fleet_deaths_injected"]
     assert killed["robot"] == 1 and killed["pid"] > 0 and killed["killed_at_s"] >= 40
     assert summary["unresponsive_events"] == 0  # the killed agent is a death, not a slow agent
+    # the recovery's floor at detection, from the agents' teammate timeout (fleet.launch: 10 s)
+    [recovery] = summary["recovery"]
+    assert recovery["detection_floor_worst_idleness_after_s"] > 0
+    assert yaml.safe_load((out / "config.yaml").read_text())["teammate_timeout_s"] == 10.0
     events = summary["simulator_events"]
     assert [e["robot"] for e in events if e["event"] == "stall"] == [2]
     assert 1 in [e["robot"] for e in events if e["event"] in ("gone", "unresponsive")]

@@ -163,6 +163,7 @@ class MonitorParams:
     robot_prefix: str = "robot_"  # robot i's ground truth on /<robot_prefix><i>/base_pose_ground_truth
     out: str = ""  # results folder ('' = none written)
     death_timeout: float = 5.0  # [s] an agent silent this long is dead
+    teammate_timeout: float = 10.0  # [s] the agents' ~teammate_timeout: when survivors can know of a death (recovery's floor at detection)
     start_delay: float = 1.0  # [s] between all agents ready and the announced start
     start_wall_delay: float = 0.0  # [s of wall time] to wait once all are ready (connections)
     wait_for_recorder: bool = False  # start only once a rosbag recorder subscribes
@@ -182,7 +183,7 @@ class MonitorParams:
     # Numeric limits checked by `parse` (not fields): name -> (">" or ">=", bound).
     ranges: ClassVar[dict[str, tuple[str, float]]] = {
         "robots": (">=", 1), "duration": (">", 0), "death_timeout": (">", 0),
-        "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0),
+        "teammate_timeout": (">", 0), "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0),
         "start_connect_timeout": (">=", 0),
     }
 

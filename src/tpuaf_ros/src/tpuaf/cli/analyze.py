@@ -49,6 +49,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "monitored run's, else up to the bag's end)")
     p.add_argument("--death-timeout", type=float, default=None,
                    help="[s] silence that makes an agent dead (default: the run's, else 5)")
+    p.add_argument("--teammate-timeout", type=float, default=None,
+                   help="[s] the agents' teammate timeout, for the recovery's floor at "
+                        "detection (default: the run's, else 10, the agents' default)")
     p.add_argument("--robots", type=team_size, default=None,
                    help="team size (default: config.yaml, else the robots seen in the bag)")
     p.add_argument("--force", action="store_true",
@@ -83,6 +86,10 @@ def check_options(args: argparse.Namespace) -> None:
                                                and args.death_timeout > 0):
         raise CliError(f"--death-timeout must be a finite number of seconds > 0, got "
                        f"{args.death_timeout:g}")
+    if args.teammate_timeout is not None and not (math.isfinite(args.teammate_timeout)
+                                                  and args.teammate_timeout > 0):
+        raise CliError(f"--teammate-timeout must be a finite number of seconds > 0, got "
+                       f"{args.teammate_timeout:g}")
     if args.robots is not None and args.robots < 1:
         raise CliError(f"--robots must be >= 1, got {args.robots}")
 
@@ -221,6 +228,11 @@ def run(args: argparse.Namespace) -> int:
     if timeout is None and isinstance(config.get("death_timeout_s"), (int, float)) \
             and math.isfinite(config["death_timeout_s"]) and config["death_timeout_s"] > 0:
         timeout = float(config["death_timeout_s"])
+    mate_timeout = args.teammate_timeout
+    given = config.get("teammate_timeout_s")
+    if mate_timeout is None and isinstance(given, (int, float)) and not isinstance(given, bool) \
+            and math.isfinite(given) and given > 0:
+        mate_timeout = float(given)
     out = (args.out or folder / "analysis").expanduser()
     created = not out.exists()
     try:
@@ -235,6 +247,7 @@ def run(args: argparse.Namespace) -> int:
         with _UnknownIds(patrol_map) as ids:
             result = analyze(bag, patrol_map, robots=robots, start_offset_s=args.start,
                              duration_s=args.duration, death_timeout_s=timeout,
+                             teammate_timeout_s=mate_timeout,
                              pose_source=None if args.poses == "auto" else args.poses)
         problems = pairing_problems(result, patrol_map, robots, ids.unknown, robots_from)
         if problems and not args.force:

@@ -224,7 +224,8 @@ def format_faults(summary: dict) -> str:
             f"again {back}; worst idleness {num('worst_idleness_after_s')}"
             f" (ideal for the {r['survivors']} survivors "
             f"{num('ideal_worst_idleness_survivors_s')}, unavoidable after this death "
-            f"{num('floor_worst_idleness_after_s')}); intentions honoured "
+            f"{num('floor_worst_idleness_after_s')}, after its detection "
+            f"{num('detection_floor_worst_idleness_after_s')}); intentions honoured "
             f"{r['intentions_honoured']}/{len(r['intentions'])}")
     return "\n".join(lines)
 

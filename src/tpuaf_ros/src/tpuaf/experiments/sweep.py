@@ -70,11 +70,13 @@ METRIC_COLUMNS = [
 ]
 # Recovery after deaths (summary "recovery", one entry per death; H-A's fault injection):
 # the slowest recovery, the worst idleness after a death, the N - 1 survivors' ideal, the floor
-# no strategy could avoid (metrics.death_floor), the dead robots' intentions still honoured
-# (sum) and the deaths never recovered from.
+# no strategy could avoid (metrics.death_floor) from the death and from its detection (the
+# teammate timeout later), the dead robots' intentions still honoured (sum) and the deaths
+# never recovered from.
 RECOVERY_COLUMNS = ["recovery_time_s", "worst_idleness_after_s",
                     "ideal_worst_idleness_survivors_s", "floor_worst_idleness_after_s",
-                    "intentions_honoured", "unrecovered"]
+                    "detection_floor_worst_idleness_after_s", "intentions_honoured",
+                    "unrecovered"]
 RESULT_COLUMNS = KEY_COLUMNS + SCENARIO_COLUMNS + ["status", "error"] + METRIC_COLUMNS + \
     RECOVERY_COLUMNS + ["wall_time_s", "finished_at", "map_source"]
 SAMPLE_COLUMNS = ["map", "strategy", "robots", "seed", "scenario", "idleness_s"]
@@ -569,10 +571,12 @@ def _recovery_fields(summary: dict[str, Any]) -> dict[str, Any]:
     rec, after = values("recovery_time_s"), values("worst_idleness_after_s")
     ideal, honoured = values("ideal_worst_idleness_survivors_s"), values("intentions_honoured")
     floor = values("floor_worst_idleness_after_s")
+    detect = [v for v in values("detection_floor_worst_idleness_after_s") if v == v]
     return {"recovery_time_s": max(rec) if rec else None,
             "worst_idleness_after_s": max(after) if after else None,
             "ideal_worst_idleness_survivors_s": max(ideal) if ideal else None,
             "floor_worst_idleness_after_s": max(floor) if floor else None,
+            "detection_floor_worst_idleness_after_s": max(detect) if detect else None,
             "intentions_honoured": sum(honoured) if honoured else None,
             "unrecovered": len(entries) - len(rec)}
 

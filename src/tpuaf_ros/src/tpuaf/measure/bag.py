@@ -583,23 +583,25 @@ def _prefix(info: BagInfo) -> str:
 def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
             start_offset_s: float | None = None, duration_s: float | None = None,
             death_timeout_s: float | None = None, pose_source: str | None = None,
-            team_ns: str | None = None) -> Analysis:
+            team_ns: str | None = None, teammate_timeout_s: float | None = None) -> Analysis:
     """Metrics of the run in the bag (see the module docstring).
 
     start_offset_s: the span starts this long after the bag's beginning (default: /fleet/start
     when the bag has it, else the beginning); duration_s: its length (default: the monitored
     run's duration when the bag holds all of it, else up to the bag's end); death_timeout_s:
     heartbeat silence that makes a robot dead (default 5 s; off without heartbeats);
+    teammate_timeout_s: the agents' teammate timeout, for the recovery's floor at detection
+    (default 10 s, the agents' default);
     pose_source: ground_truth | tf | amcl | odom (default: the best one the bag has)."""
 
     path = Path(path)
     with _open(path) as reader:  # one open: rosbags reads the whole index on opening
         return _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s,
-                        death_timeout_s, pose_source, team_ns)
+                        death_timeout_s, pose_source, team_ns, teammate_timeout_s)
 
 
 def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death_timeout_s,
-             pose_source, team_ns) -> Analysis:
+             pose_source, team_ns, teammate_timeout_s=None) -> Analysis:
     info = _inspect(path, reader)
     notes: list[str] = []
     n = int(robots) if robots else info.robots
@@ -616,6 +618,9 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
     start, end = _span(info, start_offset_s, duration_s)
     if death_timeout_s is not None and not death_timeout_s > 0:
         raise BagError(f"death timeout must be > 0 s, got {death_timeout_s:g}")
+    if teammate_timeout_s is not None and not teammate_timeout_s > 0:
+        raise BagError(f"teammate timeout must be > 0 s, got {teammate_timeout_s:g}")
+    mate_timeout = 10.0 if teammate_timeout_s is None else float(teammate_timeout_s)
 
     # Visits: REACHED events, else Visit team messages.
     team = {t: k for t, k in info.team_topics.items()
@@ -669,7 +674,7 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
         monitor = None
     else:
         monitor, reports = _replay(path, reader, store, info, patrol_map, n, start, end,
-                                   timeout, team, source)
+                                   timeout, team, source, mate_timeout)
         recorder = monitor.recorder
     if info.out_of_span:
         notes.append(f"{info.out_of_span} message(s) stamped outside the bag's span ignored")
@@ -787,10 +792,11 @@ def is_visit(kind: int, vertex: int) -> bool:
     return kind in (START, REACHED) and vertex >= 0
 
 
-def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team, source):
+def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team, source,
+            teammate_timeout_s):
     """Reports and poses, in bag order, through a FleetMonitor."""
     monitor = FleetMonitor(patrol_map, n, end - start, start_after=start,
-                           death_timeout_s=timeout)
+                           death_timeout_s=timeout, teammate_timeout_s=teammate_timeout_s)
     conns = _report_connections(reader, info, team)
     robot_of: dict[int, int] = {}
     raw_poses: dict[int, bool] = {}  # connection id -> is Odometry (read raw)

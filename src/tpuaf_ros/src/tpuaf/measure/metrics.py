@@ -77,7 +77,8 @@ class RunRecorder:
     def __init__(self, patrol_map: Any, n_robots: int, *, sample_period_s: float = 1.0,
                  refractory_s: float = 10.0, ground_truth: bool = True,
                  start_time: float = 0.0, max_substep_s: float = 0.25,
-                 field_merge_s: float = 0.5, speed_mps: float | None = None):
+                 field_merge_s: float = 0.5, speed_mps: float | None = None,
+                 teammate_timeout_s: float | None = None):
         if n_robots <= 0:
             raise ValueError(f"need at least one robot, got {n_robots}")
         if not sample_period_s > 0:
@@ -96,6 +97,9 @@ class RunRecorder:
         # [m/s] the robots' speed, for the survivors' ideal (default: the map's nominal speed)
         self.speed_mps = float(patrol_map.settings.nominal_speed if speed_mps is None
                                else speed_mps)
+        # [s] the survivors' teammate timeout: they can know of a death this long after it (the
+        # floor at detection in `recovery`); None: unknown, that floor is NaN
+        self.teammate_timeout_s = teammate_timeout_s
         self._field_t = self.start_time
         self._field_p: np.ndarray | None = None
         self._field_finite = True
@@ -389,13 +393,18 @@ class RunRecorder:
           (`death_floor`: each vertex's idleness at the death plus the shortest drive to it
           from any survivor, at `speed_mps`); worst_idleness_ratio_to_reference: the worst
           idleness after over max(floor, ideal), 1.0 = as good as the death allows;
+        - detection_floor_worst_idleness_after_s: the same floor from the state when the
+          survivors could first know of the death, `teammate_timeout_s` after it (no reaction
+          can start sooner; NaN without a timeout); worst_idleness_ratio_to_detection_reference:
+          the worst idleness after over max(that floor, ideal);
         - intentions: the vertices the dead robot had announced as its next destination in
           the team messages it sent since its last visit (what its teammates may count on it
           for); intentions_honoured: how many of them a teammate visited after the death,
           intention_delays_s: after how long (None: never)."""
         return recovery_after_deaths(
             self.patrol_map, self.n_robots, self.speed_mps, self.start_time, self._vertex_times,
-            self.visits, self.deaths, self.announcements, end_time)
+            self.visits, self.deaths, self.announcements, end_time,
+            teammate_timeout_s=self.teammate_timeout_s)
 
     # -- results --------------------------------------------------------------------------
 
@@ -518,11 +527,12 @@ class _VisitFigures:
 
 
 def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, start_time: float,
-                          vertex_times, visits, deaths, announcements, end_time: float
-                          ) -> list[dict]:
+                          vertex_times, visits, deaths, announcements, end_time: float,
+                          teammate_timeout_s: float | None = None) -> list[dict]:
     """RunRecorder.recovery from a recorder's figures (the Python recorder's and the C++ event
     loop's): vertex_times sorted visit times [s] per vertex, visits (t, robot, vertex),
-    deaths (t, robot), announcements (t, robot, vertex)."""
+    deaths (t, robot), announcements (t, robot, vertex); teammate_timeout_s [s]: the
+    survivors' timeout (None: the floor at detection is NaN)."""
     from tpuaf.maps.tours import reference_tours
 
     end_time = float(end_time)
@@ -567,6 +577,14 @@ def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, star
         floor = _death_floor(patrol_map, speed, log, prev, td, until,
                              [r for r in range(n_robots) if r not in dead])
         reference = max(floor, ideal) if ideal == ideal else floor
+        detect_floor = detect_reference = math.nan
+        if teammate_timeout_s is not None:
+            # the survivors can first know at td + timeout (or the window's end, if sooner:
+            # the same survivors, as the next death ends the window)
+            known = min(td + float(teammate_timeout_s), until)
+            detect_floor = _death_floor(patrol_map, speed, log, log.previous(log.count_until(known)),
+                                        known, until, [r for r in range(n_robots) if r not in dead])
+            detect_reference = max(detect_floor, ideal) if ideal == ideal else detect_floor
         own = log.t[(log.robot == robot) & (log.t <= td)]
         last_own = float(own.max()) if len(own) else start_time
         intentions = sorted({v for t, r, v in announced
@@ -586,6 +604,9 @@ def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, star
             "worst_idleness_ratio": worst / ideal if ideal > 0 else math.nan,
             "floor_worst_idleness_after_s": floor,
             "worst_idleness_ratio_to_reference": worst / reference if reference > 0 else math.nan,
+            "detection_floor_worst_idleness_after_s": detect_floor,
+            "worst_idleness_ratio_to_detection_reference":
+                worst / detect_reference if detect_reference > 0 else math.nan,
             "intentions": [int(ids[v]) for v in intentions],
             "intentions_honoured": sum(1 for d in delays if d == d),
             "intention_delays_s": delays,

@@ -47,12 +47,15 @@ TIME_BASE = "run time [s] since start_time_s (ROS time)"
 class FleetMonitor:
     def __init__(self, patrol_map: Any, n_robots: int, duration_s: float, *,
                  start_after: float = 0.0, death_timeout_s: float = 5.0,
-                 sample_period_s: float = 1.0, lag_s: float = 2.0):
+                 sample_period_s: float = 1.0, lag_s: float = 2.0,
+                 teammate_timeout_s: float = 10.0):
         self.patrol_map = patrol_map
         self.n = int(n_robots)
         self.duration_s = float(duration_s)
         self.start_after = float(start_after)
         self.death_timeout_s = float(death_timeout_s)
+        # [s] the agents' teammate timeout (the recovery metrics' floor at detection)
+        self.teammate_timeout_s = float(teammate_timeout_s)
         self.sample_period_s = float(sample_period_s)
         self.lag_s = float(lag_s)
         self.tolerance = float(patrol_map.settings.goal_tolerance)
@@ -174,7 +177,8 @@ class FleetMonitor:
 
     def _start(self, t: float) -> None:
         self.start_time = t
-        self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s)
+        self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s,
+                                    teammate_timeout_s=self.teammate_timeout_s)
         # START events before the run start: first visits at the start; REACHED before it
         # belong to no run.
         self._visits = sorted((max(s, t) if first else s, r, v, first)

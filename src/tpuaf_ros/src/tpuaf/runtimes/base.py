@@ -60,7 +60,9 @@ class TeamRun:
         """The run's recorder (speed [m/s] of the robots when it differs from the map's)."""
         extra = {} if speed_mps is None else {"speed_mps": speed_mps}
         self.recorder = RunRecorder(self.patrol_map, self.config.robots,
-                                    sample_period_s=self.config.sample_period_s, **extra)
+                                    sample_period_s=self.config.sample_period_s,
+                                    teammate_timeout_s=float(self.config.teammate_timeout_s),
+                                    **extra)
         return self.recorder
 
     def _team(self, machines: list[RobotMachine]) -> None:

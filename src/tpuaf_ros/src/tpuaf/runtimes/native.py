@@ -307,6 +307,8 @@ class NativeRecorder:
         self.n_robots = run.config.robots
         # [m/s] the survivors' ideal of the recovery metrics (RunRecorder's default)
         self.speed_mps = float(run.patrol_map.settings.nominal_speed)
+        # [s] the survivors' teammate timeout (the floor at detection)
+        self.teammate_timeout_s = float(run.config.teammate_timeout_s)
         # Runs with deaths keep every visit: the recovery metrics read the dead robots' own.
         self._keep_visits = any(f.kind == DEATH for f in run.faults)
         self.n_vertices = int(run.patrol_map.num_vertices)
@@ -399,7 +401,8 @@ class NativeRecorder:
         """RunRecorder.recovery of the same run."""
         return recovery_after_deaths(
             self.patrol_map, self.n_robots, self.speed_mps, self.start_time,
-            self._engine.vertex_times, self.visits, self.deaths, self.announcements, end_time)
+            self._engine.vertex_times, self.visits, self.deaths, self.announcements, end_time,
+            teammate_timeout_s=self.teammate_timeout_s)
 
     @property
     def _pos_time(self) -> float | None:
