@@ -48,24 +48,28 @@ def map_arg(name: str) -> str:
 
 
 def death_run(name: str, strategy: str, n: int, k: int, seed: int, duration_s: float,
-              params: dict):
-    """(run, its summary, the dying robots): the graph runtime, K robots (drawn per seed) dying
-    at half the run."""
-    from tpuaf.runtimes.config import RunConfig
+              params: dict, runtime: str = "graph"):
+    """(run, its summary, the dying robots): the graph (or physics) runtime, K robots (drawn
+    per seed) dying at half the run."""
+    from tpuaf.runtimes.config import PhysicsConfig, RunConfig
     from tpuaf.runtimes.native import make_run
+    from tpuaf.runtimes.physics import PhysicsRun
 
     dying = sorted(np.random.default_rng([seed, n, k]).choice(n, k, replace=False).tolist())
-    config = RunConfig(map=map_arg(name), strategy=strategy, robots=n, duration_s=duration_s,
-                       seed=seed, fail=[[int(r), duration_s / 2] for r in dying],
-                       strategy_params=params)
-    run, _ = make_run(config)
+    fields = dict(map=map_arg(name), strategy=strategy, robots=n, duration_s=duration_s,
+                  seed=seed, fail=[[int(r), duration_s / 2] for r in dying],
+                  strategy_params=params)
+    if runtime == "physics":
+        run = PhysicsRun(PhysicsConfig(**fields))
+    else:
+        run, _ = make_run(RunConfig(**fields))
     return run, run.run(), dying
 
 
-def one_run(case: tuple[str, str, int, int, int, float, dict]) -> dict:
-    name, strategy, n, k, seed, duration_s, params = case
+def one_run(case: tuple[str, str, int, int, int, float, dict, str]) -> dict:
+    name, strategy, n, k, seed, duration_s, params, runtime = case
     t0 = time.process_time()
-    run, summary, _ = death_run(name, strategy, n, k, seed, duration_s, params)
+    run, summary, _ = death_run(name, strategy, n, k, seed, duration_s, params, runtime)
     rec = summary["recovery"]
     after = max(r["worst_idleness_after_s"] for r in rec)
     ideal = rec[-1]["ideal_worst_idleness_survivors_s"]
@@ -113,7 +117,11 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--strategies", nargs="+", default=list(STRATEGIES))
     ap.add_argument("--maps", nargs="+", default=list(MAPS), choices=MAPS)
-    ap.add_argument("--out", default="recovery.md")
+    ap.add_argument("--runtime", choices=("graph", "physics"), default="graph",
+                    help="physics: the same deaths in the physics runtime (what a building "
+                         "gets), beside recovery.json's graph-runtime runs of the same seeds")
+    ap.add_argument("--out", default=None,
+                    help="report name (default: recovery.md, recovery_physics.md)")
     ap.add_argument("--reuse", action="store_true",
                     help="run only --strategies on --maps; take the other rows from the last "
                          "run's JSON (same teams, seeds and duration)")
@@ -123,6 +131,8 @@ def main() -> None:
     ap.add_argument("--plus-params", nargs="+", default=[], metavar="KEY=VALUE",
                     help="tpuaf_plus parameters for its runs, e.g. repair=merge")
     args = ap.parse_args()
+    default_out = "recovery.md" if args.runtime == "graph" else "recovery_physics.md"
+    args.out = args.out or default_out
     plus_params = dict(kv.split("=", 1) for kv in args.plus_params if "=" in kv)
     if len(plus_params) != len(args.plus_params):
         ap.error("--plus-params takes KEY=VALUE pairs")
@@ -139,7 +149,8 @@ def main() -> None:
                                                or r["map"] not in maps) and r["N"] in teams]
     strategies = list(args.strategies) + [s for s in STRATEGIES if any(
         r["strategy"] == s for r in kept) and s not in args.strategies]
-    cases = [(m, s, n, k, seed, args.duration, plus_params if s == "tpuaf_plus" else {})
+    cases = [(m, s, n, k, seed, args.duration, plus_params if s == "tpuaf_plus" else {},
+              args.runtime)
              for m in maps for n in teams
              for k in sorted({1, max(1, n // 4)}) for s in args.strategies
              for seed in range(1, seeds + 1)]
@@ -165,12 +176,15 @@ def main() -> None:
              f"Command: `.venv/bin/python benchmarks/bench_recovery.py{' --quick' if args.quick else ''}"
              f" --seeds {seeds} --duration {args.duration:.0f}"
              + (f" --plus-params {' '.join(args.plus_params)}" if plus_params else "")
-             + (f" --out {args.out}" if args.out != "recovery.md" else "")
+             + (f" --runtime {args.runtime}" if args.runtime != "graph" else "")
+             + (f" --strategies {' '.join(args.strategies)}" if not kept
+                and list(args.strategies) != list(STRATEGIES) else "")
+             + (f" --out {args.out}" if args.out != default_out else "")
              + (f" --maps {' '.join(maps)} --strategies {' '.join(args.strategies)} --reuse"
                 + (f" --reuse-from {args.reuse_from}" if args.reuse_from else "")
                 + f"` (the other rows from {source.name})" if kept else "`")
              + (f" (tpuaf_plus with {', '.join(args.plus_params)})" if plus_params else "")
-             + f". {len(cases)} runs now, {len(rows)} in the tables, graph "
+             + f". {len(cases)} runs now, {len(rows)} in the tables, {args.runtime} "
              f"runtime, {args.duration:.0f} s each, deaths at {args.duration / 2:.0f} s; wall "
              f"{wall:.0f} s with {args.workers} workers; load average (1 min) {load_before:.1f} "
              "at the start.", "",
@@ -227,14 +241,16 @@ def main() -> None:
               "|---|---|---|---|---|---|---|---|---|---|"]
     within = lowest = ideal_ok = reachable = detect_within = 0
     for m, n, k, (ours, ours_ref, ours_detect, ours_dref), (other, who) in verdicts:
-        w, lo, reach = ours_ref <= 1.3, ours <= other, ours_detect <= 1.3
+        w, lo, reach = ours_ref <= 1.3, ours <= other and math.isfinite(other), ours_detect <= 1.3
         within += w
         lowest += lo
         ideal_ok += ours <= 1.3
         reachable += reach
         detect_within += ours_dref <= 1.3
-        lines.append(f"| {m} | {n} | {k} | {ours:.2f} | {other:.2f} ({who}) | "
-                     f"{'yes' if lo else '**no**'} | {ours_ref:.2f} | {ours_detect:.2f} | "
+        lines.append(f"| {m} | {n} | {k} | {ours:.2f} | "
+                     + (f"{other:.2f} ({who}) | {'yes' if lo else '**no**'}"
+                        if math.isfinite(other) else "- | -")
+                     + f" | {ours_ref:.2f} | {ours_detect:.2f} | "
                      f"{'yes' if reach else 'no'} | {ours_dref:.2f} |")
     lines += ["", f"- tpuaf_plus after / survivors' ideal within 1.3x (issue 19's target): "
               f"{ideal_ok} of {len(verdicts)} cases.",
@@ -251,11 +267,48 @@ def main() -> None:
               f"{max(ours_settled, default=math.nan):.2f} "
               f"({sum(x <= 1.1 + 1e-9 for x in ours_settled)} of {len(ours_settled)} cases "
               f"within 1.1x, {sum(x <= 1.3 + 1e-9 for x in ours_settled)} within 1.3x).",
-              f"- tpuaf_plus lowest worst idleness after the deaths of the strategies that keep "
-              f"covering: {lowest} of {len(verdicts)} cases.",
+              (f"- tpuaf_plus lowest worst idleness after the deaths of the strategies that keep "
+               f"covering: {lowest} of {len(verdicts)} cases." if len(strategies) > 1 else
+               "- no other strategy in these runs: no ranking."),
               f"- CPU per run: median {statistics.median(r['cpu_s'] for r in rows):.2f} s.",
               f"- Load average (1 min) at the end: {os.getloadavg()[0]:.1f}.", ""]
+    if args.runtime == "physics":
+        lines += against_graph(rows, teams, seeds, args.duration)
     write(args.out, "\n".join(lines))
+
+
+def against_graph(rows: list[dict], teams, seeds: int, duration_s: float) -> list[str]:
+    """Physics runs beside recovery.json's graph-runtime runs of the same cases and seeds
+    (tpuaf_plus): what a building gets against the promise."""
+    saved = RESULTS / "recovery.json"
+    graph = json.loads(saved.read_text()) if saved.is_file() else {}
+    if graph.get("duration_s") != duration_s:
+        return ["(no recovery.json of the same duration to compare with)", ""]
+    lines = ["## Physics against the graph runtime (tpuaf_plus, the same deaths and seeds)", "",
+             "Worst over seeds, over the survivors' ideal (the graph's, at the robots' speed).",
+             "", "| map | N | K | graph: after | physics: after | physics / graph | graph: "
+             "settled | physics: settled |", "|---|---|---|---|---|---|---|---|"]
+    ratios = []
+    for m in MAPS:
+        for n in teams:
+            for k in sorted({1, max(1, n // 4)}):
+                def worst(source, field, m=m, n=n, k=k):
+                    got = [r[field] / r["ideal_s"] for r in source
+                           if (r["map"], r["N"], r["K"], r["strategy"]) == (m, n, k, "tpuaf_plus")
+                           and r["seed"] <= seeds]
+                    return max(got) if got else math.nan
+                ga, pa = worst(graph["rows"], "after_s"), worst(rows, "after_s")
+                if not (math.isfinite(ga) and math.isfinite(pa)):
+                    continue
+                ratios.append(pa / ga)
+                lines.append(f"| {m} | {n} | {k} | {ga:.2f} | {pa:.2f} | {pa / ga:.2f} | "
+                             f"{worst(graph['rows'], 'settled_s'):.2f} | "
+                             f"{worst(rows, 'settled_s'):.2f} |")
+    if ratios:
+        lines += ["", f"- physics / graph worst idleness after the deaths: median "
+                  f"{statistics.median(ratios):.2f}, range {min(ratios):.2f}-{max(ratios):.2f} "
+                  f"over {len(ratios)} cases.", ""]
+    return lines
 
 
 if __name__ == "__main__":
