@@ -12,7 +12,9 @@ survivors notice them from what they stop hearing. Per case the median and worst
   regime the survivors settle into: as good as a fresh plan at about 1.0-1.1);
 - floor at detection / ideal: the same floor from the team's state when the teammate timeout
   ran out (the deaths + RunConfig.teammate_timeout_s): no reaction can start sooner, so where it
-  exceeds 1.3 the target is out of reach for that strategy's pre-death plan.
+  exceeds 1.3 the target is out of reach for that strategy's pre-death plan. The summary's, max
+  over the deaths: with simultaneous deaths the windows of all but the last are empty, and their
+  floor is the idleness at the deaths (as unavoidable).
 
 A strategy "keeps covering" when every vertex is visited again after every death in every run.
 Command: `.venv/bin/python benchmarks/bench_recovery.py [--quick] [--workers 2] [--maps ...]
