@@ -252,30 +252,3 @@ def test_deaths_that_replan_cumberland_do_not_bunch_the_survivors(shared_maps):
     worst = max(r["worst_idleness_after_s"] for r in summary["recovery"])
     assert last["survivors"] == 9
     assert worst <= 2.5 * last["ideal_worst_idleness_survivors_s"]
-
-
-def test_staged_repair_merges_then_all_survivors_move_to_the_fresh_plan(shared_maps):
-    """example, 12 robots on a partition, one dies at 600 s. repair=staged first merges its
-    orphaned part (the plan of repair=merge), then every survivor installs the fresh plan
-    (repair=replan's) at the same moment; the C++ loop calls the Python policy back for it and
-    gives the Python loop's results."""
-    from tpuaf.runtimes.native import make_run
-
-    config = RunConfig(map=str(shared_maps / "example"), strategy="tpuaf_plus", robots=12,
-                       duration_s=1200.0, seed=1, fail=[[4, 600.0]],
-                       strategy_params={"repair": "staged"})
-    run = BatchRun(config)
-    summary = run.run()
-    team = tuple(r for r in range(12) if r != 4)
-    policies = [m.policy for m in run.machines if m.robot in team]
-    pm, starts = run.patrol_map, policies[0].all_starts
-    merged = make_plan(pm, team, starts, "auto", "merge")
-    fresh = make_plan(pm, team, starts, "auto", "replan")
-    assert merged.routes != fresh.routes  # a case where the two stages differ
-    assert all(p.plan.routes == fresh.routes and p.switch_at is None for p in policies)
-    switches = [p.changed_at for p in policies]
-    assert 600.0 + 2.0 * merged.worst_s <= min(switches) <= max(switches) <= min(switches) + 2.0
-    assert summary["recovery"][0]["recovery_time_s"] is not None  # every vertex visited again
-    native, reason = make_run(config)
-    assert "called back" in reason
-    assert native.run() == summary

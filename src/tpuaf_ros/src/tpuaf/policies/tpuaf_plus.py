@@ -26,8 +26,7 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    then recomputes the plan for the survivors (step 1); a cycle re-spaces at once (each
    survivor dwells its share of the survivors' even spacing, capped so that no vertex ahead
    waits beyond L / (m v); `_respace_target`, `_idle_room`), then by step 3;
-   a partition is merged or recomputed (`repair=staged`: merged at once, then recomputed
-   STAGED_LAPS of the merged plan's worst idleness later) and each survivor drives to its new part (several
+   a partition is merged or recomputed and each survivor drives to its new part (several
    robots new to one walk enter it where the start schedule, from where each stood when the
    team changed, puts their slots: `_transition_entries`). A presumed-dead robot
    that speaks again rejoins. Stale information never blocks a vertex: nothing is reserved;
@@ -54,9 +53,6 @@ from tpuaf.team.messages import Intention, Visit
 _EPS = 1e-6
 SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
 FRESH_MARGIN = 1.15  # after a loss, merge unless a fresh plan's worst is lower by more than this
-# repair=staged: the survivors move from the merged plan to the fresh one this many of the merged
-# plan's predicted worst idleness after the team change
-STAGED_LAPS = 2.0
 STAY_S = 1.0  # [s] the runtimes' dwell for a goal equal to the current vertex (runtimes.graph)
 INTENTION_TIMEOUT_S = 30.0  # [s] its visit knowledge drops intentions this old (it hears none)
 
@@ -357,10 +353,8 @@ class TpuafPlus(Policy):
             "auto",
             "after a loss in a partition: 'merge' (orphan parts join a neighbouring part), "
             "'replan' (a fresh plan for the survivors) or 'auto' (merge unless the fresh plan's "
-            "predicted worst idleness is lower by more than 15 %: it moves every survivor); "
-            "'staged': merge at once, then the fresh plan two of the merged plan's predicted "
-            "worst idleness later (the graph runtime then calls this policy from C++)",
-            lambda v: v in ("auto", "merge", "replan", "staged"),
+            "predicted worst idleness is lower by more than 15 %: it moves every survivor)",
+            lambda v: v in ("auto", "merge", "replan"),
         ),
         "gain": Parameter(
             0.5,
@@ -415,21 +409,12 @@ class TpuafPlus(Policy):
     def _team(self, ctx) -> tuple[int, ...]:
         return tuple(sorted(self.alive | {ctx.robot}))
 
-    def _install_plan(self, ctx, initial: bool = False, repair: str | None = None) -> None:
-        """The plan for the team I believe alive, and how I join it; `repair` overrides the
-        parameter (the second stage of repair=staged)."""
+    def _install_plan(self, ctx, initial: bool = False) -> None:
         old_route = self.route if self.plan is not None else None
-        staged = repair is None and self.params["repair"] == "staged"
         self.plan = make_plan(
             ctx.patrol_map, self._team(ctx), self.all_starts, self.params["plan"],
-            "merge" if staged else repair or self.params["repair"],
+            self.params["repair"],
         )
-        # [s] repair=staged: when the survivors move on from the merged plan to a fresh one
-        self.switch_at: float | None = None
-        if staged and not initial and make_plan(
-                ctx.patrol_map, self._team(ctx), self.all_starts, self.params["plan"],
-                "replan").routes != self.plan.routes:
-            self.switch_at = self.changed_at + STAGED_LAPS * self.plan.worst_s
         self.route = self.plan.routes[self.plan.route_of[ctx.robot]]
         self.departure: float | None = None
         self.respace = None
@@ -715,10 +700,6 @@ class TpuafPlus(Policy):
         if not waking:
             self.knowledge.record_visit(here, now)
         self._update_team(ctx)
-        if self.switch_at is not None and now >= self.switch_at:
-            # repair=staged: every survivor dates the switch alike (from the team change)
-            self.changed_at = self.switch_at
-            self._install_plan(ctx, repair="replan")
         route = self.route
         if self.idx is not None and route.walk[self.idx] != here:  # off my walk: rejoin it
             self.idx, self.hold_until = None, None

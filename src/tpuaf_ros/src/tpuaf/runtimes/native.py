@@ -152,20 +152,11 @@ NATIVE_STRATEGIES: dict[str, tuple[str, Callable[[NativeRun, dict], Any]]] = {
 }
 
 
-# Strategy parameters the C++ decision paths do not mirror: name -> test of the parameters
-# (those runs call the Python policy back from C++).
-PYTHON_ONLY_PARAMS: dict[str, Callable[[dict], bool]] = {
-    "tpuaf_plus": lambda params: params.get("repair") == "staged",
-}
-
-
-def native_builder(strategy: str, params: dict | None = None):
+def native_builder(strategy: str):
     """The C++ strategy builder of `strategy`, or None. Only when the registered class is the
-    one the C++ path mirrors (a replaced or renamed class runs as Python) and it mirrors
-    `params` too."""
+    one the C++ path mirrors (a replaced or renamed class runs as Python)."""
     entry = NATIVE_STRATEGIES.get(strategy)
-    python_only = PYTHON_ONLY_PARAMS.get(strategy)
-    if entry is None or (python_only is not None and python_only(params or {})):
+    if entry is None:
         return None
     mirrored, builder = entry
     try:
@@ -205,7 +196,7 @@ def make_run(config: RunConfig, patrol_map=None, engine: str = "auto"):
         return BatchRun(config, patrol_map), (
             f"python engine: the native engine does not support {', '.join(missing)} yet"
         )
-    if native_builder(config.strategy, config.strategy_params) is not None:
+    if native_builder(config.strategy) is not None:
         return NativeRun(config, patrol_map), "native engine, C++ decision path"
     return NativeRun(config, patrol_map), (
         f"native engine, strategy '{config.strategy}' called back in Python (no C++ decision "
@@ -502,7 +493,7 @@ class NativeRun:
         cls = REGISTRY.get(config.strategy)
         self.policies = [cls(config.strategy_params) for _ in range(config.robots)]
         self.params = dict(self.policies[0].params)  # resolved (ParameterError if invalid)
-        builder = native_builder(config.strategy, self.params) if native_policy else None
+        builder = native_builder(config.strategy) if native_policy else None
         self.native_policy = builder is not None
         if builder is not None:
             self._strategy = builder(self, self.params)
