@@ -252,3 +252,27 @@ def test_deaths_that_replan_cumberland_do_not_bunch_the_survivors(shared_maps):
     worst = max(r["worst_idleness_after_s"] for r in summary["recovery"])
     assert last["survivors"] == 9
     assert worst <= 2.5 * last["ideal_worst_idleness_survivors_s"]
+
+
+def test_a_mate_not_heard_since_it_left_its_start_slot_is_on_its_slot():
+    """Start schedule on the 40 m square, robots 0 and 1 at vertex 0: one leaves at once, the
+    other drives to its entry and leaves with its slot. When the message telling that it left
+    is delayed or lost, a robot places that mate on its slot (at its entry at its departure,
+    moving at v), not nowhere: its latest message, from its drive to the entry, is off the
+    walk. A message from after it left places it from that message again."""
+    pm = square(starts=(0, 0))
+    me = REGISTRY.create("tpuaf_plus")
+    me.start(FakeCtx(pm, 0, 2, 0))
+    entry, departure = me.plan.schedule[1]
+    walk, arc, length = me.route.walk, me.route.arc, me.route.length
+    later = departure + 3.0
+    slot = (arc[entry] + 1.0 * (later - departure)) % length
+    assert me._mate_arc(1, later) == pytest.approx(slot)  # never heard
+    # heard only from its drive to its entry: an edge against the walk's direction
+    back = (walk[(entry + 1) % len(walk)], walk[entry])
+    me.heard[1] = (back[0], back[1], 0.0, 0.0)
+    assert me._mate_arc(1, later) == pytest.approx(slot)
+    # heard after it left, from the next walk vertex: placed from that message
+    nxt = (entry + 1) % len(walk)
+    me.heard[1] = (walk[nxt], walk[(nxt + 1) % len(walk)], later - 1.0, later - 1.0)
+    assert me._mate_arc(1, later) == pytest.approx((arc[nxt] + 1.0) % length)

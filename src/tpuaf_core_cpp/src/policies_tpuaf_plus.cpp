@@ -345,23 +345,25 @@ void TpuafPlusStrategy::update_team(GraphEngine& engine, int robot) {
 // ------------------------------------------------------------------ spacing
 
 bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
-  // Mate k's estimated arc [m] on my walk now: on its start slot until it leaves, else
-  // extrapolated at v from its latest timed message; false when unknown or off my walk.
+  // Mate k's estimated arc [m] on my walk now: on its start slot until it leaves (and after,
+  // until a message places it on my walk: the one telling me it left may be delayed or lost),
+  // else extrapolated at v from its latest timed message; false when unknown or off my walk.
   const PlusRoute& route = route_of(r);
   const double L = route.length, speed = params_.speed_mps;
   const std::size_t kk = static_cast<std::size_t>(k);
   const auto& schedule = r.plan->schedule;
-  if (kk < schedule.size() && schedule[kk].first >= 0 &&
-      std::binary_search(route.robots.begin(), route.robots.end(), k) &&
-      now < schedule[kk].second) {
+  const bool scheduled = kk < schedule.size() && schedule[kk].first >= 0 &&
+                         std::binary_search(route.robots.begin(), route.robots.end(), k);
+  const auto on_slot = [&]() {
     arc = py_mod(route.arc[static_cast<std::size_t>(schedule[kk].first)] -
                      speed * (schedule[kk].second - now),
                  L);
     r.mate_arc[kk] = arc;
     r.has_mate_arc[kk] = 1;
     return true;
-  }
-  if (!r.has_heard[kk]) return false;
+  };
+  if (scheduled && now < schedule[kk].second) return on_slot();
+  if (!r.has_heard[kk]) return scheduled ? on_slot() : false;
   const Heard& info = r.heard[kk];
   const std::size_t n = route.walk.size();
   const double moved = speed * (now - info.departure);
@@ -384,7 +386,9 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
       }
     }
   }
-  if (chosen < 0) return false;
+  if (chosen < 0) {
+    return scheduled && info.sent < schedule[kk].second - kEps ? on_slot() : false;
+  }
   arc = py_mod(route.arc[static_cast<std::size_t>(chosen)] + moved, L);
   r.mate_arc[kk] = arc;
   r.has_mate_arc[kk] = 1;

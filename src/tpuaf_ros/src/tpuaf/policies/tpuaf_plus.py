@@ -594,26 +594,32 @@ class TpuafPlus(Policy):
     # ------------------------------------------------------------------ spacing
 
     def _mate_arc(self, k: int, now: float) -> float | None:
-        """Estimated arc position [m] of mate k on my walk now, None when unknown/off it."""
+        """Estimated arc position [m] of mate k on my walk now, None when unknown/off it: on its
+        start slot until it leaves (and after, until a message places it on my walk), then from
+        its latest timed message."""
         route = self.route
         scheduled = self.plan.schedule.get(k)
-        if scheduled is not None and k in route.robots and now < scheduled[1]:
+        if scheduled is not None and k not in route.robots:
+            scheduled = None
+        info = self.heard.get(k)
+        if scheduled is not None and now < scheduled[1]:
             # not started yet: on its start slot (its messages while it drives to its entry
             # vertex place it off the slot)
-            entry, departure = scheduled
-            arc = (route.arc[entry] - self.speed * (departure - now)) % route.length
-            self.mate_arc[k] = arc
-            return arc
-        info = self.heard.get(k)
+            return self._slot_arc(k, scheduled, now)
         if info is None:
-            return None
-        a, b, departure, _ = info
+            # left, not heard yet (delay, loss): on its start slot
+            return None if scheduled is None else self._slot_arc(k, scheduled, now)
+        a, b, departure, sent = info
         walk, n = route.walk, len(route.walk)
         if a == b:
             hits = [i for i in range(n) if walk[i] == a]
         else:
             hits = [i for i in range(n) if walk[i] == a and walk[(i + 1) % n] == b]
         if not hits:
+            if scheduled is not None and sent < scheduled[1] - _EPS:
+                # off my walk in a message from before it left its start slot: the one telling
+                # me it left was delayed or lost; on its start slot
+                return self._slot_arc(k, scheduled, now)
             return None
         # a mate dwelling until `departure` counts as driving behind its vertex: it will be there
         # then, as a robot moving at v would
@@ -625,6 +631,14 @@ class TpuafPlus(Policy):
             i = min(hits, key=lambda h: abs(((route.arc[h] + moved - prev) + route.length / 2)
                                             % route.length - route.length / 2))
         arc = (route.arc[i] + moved) % route.length
+        self.mate_arc[k] = arc
+        return arc
+
+    def _slot_arc(self, k: int, scheduled: tuple[int, float], now: float) -> float:
+        """Mate k's arc [m] on its start slot at `now`: at its entry vertex at its departure
+        time, moving at v (before and after)."""
+        entry, departure = scheduled
+        arc = (self.route.arc[entry] - self.speed * (departure - now)) % self.route.length
         self.mate_arc[k] = arc
         return arc
 
