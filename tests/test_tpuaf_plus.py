@@ -272,6 +272,14 @@ def test_a_mate_not_heard_since_it_left_its_start_slot_is_on_its_slot():
     back = (walk[(entry + 1) % len(walk)], walk[entry])
     me.heard[1] = (back[0], back[1], 0.0, 0.0)
     assert me._mate_arc(1, later) == pytest.approx(slot)
+    # heard from the walk edge into its entry, due there in time: on its slot too; due there
+    # after its departure (it is late): placed from that message
+    into = ((entry - 1) % len(walk), entry)
+    edge = arc[entry] - arc[into[0]] if entry else length - arc[into[0]]
+    for leave, on_slot in ((departure - edge - 1.0, True), (departure - edge + 2.0, False)):
+        me.heard[1] = (walk[into[0]], walk[into[1]], leave, leave)
+        moved = (arc[into[0]] + 1.0 * (later - leave)) % length
+        assert me._mate_arc(1, later) == pytest.approx(slot if on_slot else moved)
     # heard after it left, from the next walk vertex: placed from that message
     nxt = (entry + 1) % len(walk)
     me.heard[1] = (walk[nxt], walk[(nxt + 1) % len(walk)], later - 1.0, later - 1.0)

@@ -346,8 +346,9 @@ void TpuafPlusStrategy::update_team(GraphEngine& engine, int robot) {
 
 bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
   // Mate k's estimated arc [m] on my walk now: on its start slot until it leaves (and after,
-  // until a message places it on my walk: the one telling me it left may be delayed or lost),
-  // else extrapolated at v from its latest timed message; false when unknown or off my walk.
+  // while its latest message is from before that: the one telling me it left may be delayed or
+  // lost), else extrapolated at v from its latest timed message; false when unknown or off my
+  // walk.
   const PlusRoute& route = route_of(r);
   const double L = route.length, speed = params_.speed_mps;
   const std::size_t kk = static_cast<std::size_t>(k);
@@ -386,9 +387,18 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
       }
     }
   }
-  if (chosen < 0) {
-    return scheduled && info.sent < schedule[kk].second - kEps ? on_slot() : false;
+  if (scheduled && info.sent < schedule[kk].second - kEps) {
+    // its latest message is from before it left its start slot: off my walk, or due at its
+    // entry vertex in time, it left unheard (delay, loss)
+    const int entry_vertex = route.walk[static_cast<std::size_t>(schedule[kk].first)];
+    if (chosen < 0 || info.departure + (graph_->distance(info.from, info.to) +
+                                        graph_->distance(info.to, entry_vertex)) /
+                                           speed <=
+                          schedule[kk].second + kEps) {
+      return on_slot();
+    }
   }
+  if (chosen < 0) return false;
   arc = py_mod(route.arc[static_cast<std::size_t>(chosen)] + moved, L);
   r.mate_arc[kk] = arc;
   r.has_mate_arc[kk] = 1;

@@ -595,8 +595,8 @@ class TpuafPlus(Policy):
 
     def _mate_arc(self, k: int, now: float) -> float | None:
         """Estimated arc position [m] of mate k on my walk now, None when unknown/off it: on its
-        start slot until it leaves (and after, until a message places it on my walk), then from
-        its latest timed message."""
+        start slot until it leaves (and after, while its latest message is from before that, off
+        my walk or due at its entry vertex in time), then from its latest timed message."""
         route = self.route
         scheduled = self.plan.schedule.get(k)
         if scheduled is not None and k not in route.robots:
@@ -615,11 +615,14 @@ class TpuafPlus(Policy):
             hits = [i for i in range(n) if walk[i] == a]
         else:
             hits = [i for i in range(n) if walk[i] == a and walk[(i + 1) % n] == b]
+        if scheduled is not None and sent < scheduled[1] - _EPS and (not hits or (
+                departure + (self.dist[a, b] + self.dist[b, route.walk[scheduled[0]]])
+                / self.speed <= scheduled[1] + _EPS)):
+            # its latest message is from before it left its start slot, and it is off my walk
+            # or was due at its entry vertex in time: the message telling me it left was
+            # delayed or lost; on its start slot
+            return self._slot_arc(k, scheduled, now)
         if not hits:
-            if scheduled is not None and sent < scheduled[1] - _EPS:
-                # off my walk in a message from before it left its start slot: the one telling
-                # me it left was delayed or lost; on its start slot
-                return self._slot_arc(k, scheduled, now)
             return None
         # a mate dwelling until `departure` counts as driving behind its vertex: it will be there
         # then, as a robot moving at v would
