@@ -14,7 +14,8 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    each robot drives the shortest route (serving the most uncertain vertices, step 6) to the
    walk vertex where its slot passes soonest after it can be there, and leaves with it; the
    slot phase and robot-to-slot matching are those under which every walk vertex is first
-   visited soonest. Until it leaves, a mate counts as on its slot.
+   visited soonest. Until it leaves, a mate counts as on its slot, and after that while its
+   latest message is older (a delayed or lost departure message).
 3. Spacing. After that, on reaching each walk vertex a robot estimates where its walk mates
    are (arc position from their latest timed message: departure vertex + departure time,
    extrapolated at nominal speed; messages carry the sender's clock, so delay does not bias
