@@ -18,8 +18,9 @@ survivors notice them from what they stop hearing. Per case the median and worst
 
 A strategy "keeps covering" when every vertex is visited again after every death in every run.
 Command: `.venv/bin/python benchmarks/bench_recovery.py [--quick] [--workers 2] [--maps ...]
-[--reuse [--reuse-from JSON]] [--plus-params KEY=VALUE ...] [--out NAME]` (grid and every
-patrolling_sim map by default).
+[--reuse [--reuse-from JSON]] [--plus-params KEY=VALUE ...] [--runtime physics] [--out NAME]`
+(grid and every patrolling_sim map by default). `--runtime physics`: the same deaths in the
+physics runtime (what a building gets), beside recovery.json's graph-runtime runs.
 """
 
 from __future__ import annotations
