@@ -391,12 +391,10 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
     // its latest message is from before it left its start slot: off my walk, or due at its
     // entry vertex in time, it left unheard (delay, loss)
     const int entry_vertex = route.walk[static_cast<std::size_t>(schedule[kk].first)];
-    if (chosen < 0 || info.departure + (graph_->distance(info.from, info.to) +
-                                        graph_->distance(info.to, entry_vertex)) /
-                                           speed <=
-                          schedule[kk].second + kEps) {
-      return on_slot();
-    }
+    const double to_entry_m =
+        graph_->distance(info.from, info.to) + graph_->distance(info.to, entry_vertex);
+    const double due_s = info.departure + to_entry_m / speed;  // at its entry vertex
+    if (chosen < 0 || due_s <= schedule[kk].second + kEps) return on_slot();
   }
   if (chosen < 0) return false;
   arc = py_mod(route.arc[static_cast<std::size_t>(chosen)] + moved, L);

@@ -574,8 +574,8 @@ def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, star
         if (~seen).any():
             worst = max(worst, float((until - prev[~seen]).max()))
         dead = {r for t, r in deaths if t <= td}
-        floor = _death_floor(patrol_map, speed, log, prev, td, until,
-                             [r for r in range(n_robots) if r not in dead])
+        survivors_now = [r for r in range(n_robots) if r not in dead]
+        floor = _death_floor(patrol_map, speed, log, prev, td, until, survivors_now)
         reference = max(floor, ideal) if ideal == ideal else floor
         detect_floor = detect_reference = math.nan
         if teammate_timeout_s is not None:
@@ -583,7 +583,7 @@ def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, star
             # the same survivors, as the next death ends the window)
             known = min(td + float(teammate_timeout_s), until)
             detect_floor = _death_floor(patrol_map, speed, log, log.previous(log.count_until(known)),
-                                        known, until, [r for r in range(n_robots) if r not in dead])
+                                        known, until, survivors_now)
             detect_reference = max(detect_floor, ideal) if ideal == ideal else detect_floor
         own = log.t[(log.robot == robot) & (log.t <= td)]
         last_own = float(own.max()) if len(own) else start_time
