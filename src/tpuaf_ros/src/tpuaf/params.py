@@ -100,6 +100,30 @@ CONTROLLER_DEFAULTS = ControllerDefaults()
 _C = CONTROLLER_DEFAULTS
 
 
+@dataclass(frozen=True)
+class LivenessDefaults:
+    """Defaults of team liveness, in one place, read by every runtime (RunConfig, RobotMachine,
+    TeammateLiveness, HeartbeatLinks, AgentRuntime), the nodes (AgentParams, MonitorParams),
+    the monitor (FleetMonitor), the CLI (`--teammate-timeout`) and the docs; the launch files
+    write the same values (tests/test_defaults.py checks them).
+
+    One rule says when a robot is gone: silent (no heartbeat, no team message) for the teammate
+    timeout. Its teammates then drop it; the monitor's death timeout is the same value (it
+    defaults to the teammate timeout), so the monitor calls a robot dead when its teammates do."""
+
+    teammate_timeout_s: float = 10.0  # [s] a teammate silent this long is lost
+    heartbeat_period_s: float = 1.0  # [s] an agent's AgentEvent HEARTBEAT period
+
+    @property
+    def death_timeout_s(self) -> float:
+        """[s] the monitor: an agent silent this long is dead (= the teammate timeout)."""
+        return self.teammate_timeout_s
+
+
+LIVENESS_DEFAULTS = LivenessDefaults()
+_L = LIVENESS_DEFAULTS
+
+
 @dataclass
 class AgentParams:
     """Private parameters of patrol_agent (units in the comments)."""
@@ -130,10 +154,10 @@ class AgentParams:
     waypoint_tolerance: float = 0.6  # [m] pass-through vertices
     global_planner: bool = True  # builtin navigation: follow paths planned on the map's grid
     scan_beams: int = _C.scan_beams  # laser beams used by the controller at most (the scan is subsampled)
-    heartbeat_period: float = 1.0  # [s] AgentEvent HEARTBEAT period
+    heartbeat_period: float = _L.heartbeat_period_s  # [s] AgentEvent HEARTBEAT period
     lockstep: bool = False  # answer every pose tick with TwistStamped on cmd_vel_stamped
     input_timeout: float = 2.0  # [s wall] pose, scan or clock not advancing this long: stop
-    teammate_timeout: float = 10.0  # [s] a teammate silent this long is lost (intentions dropped)
+    teammate_timeout: float = _L.teammate_timeout_s  # [s] a teammate silent this long is lost (intentions dropped)
     skew_warn: float = 1.0  # [s] warn when a teammate's clock is off by more than this
     max_skew: float = 30.0  # [s] team messages farther than this from our clock are ignored
     clock_offset: float = 0.0  # [s] added to this robot's wall clock (tests: injected skew)
@@ -162,8 +186,8 @@ class MonitorParams:
     duration: float = 3600.0  # [s] run length after the start
     robot_prefix: str = "robot_"  # robot i's ground truth on /<robot_prefix><i>/base_pose_ground_truth
     out: str = ""  # results folder ('' = none written)
-    death_timeout: float = 5.0  # [s] an agent silent this long is dead
-    teammate_timeout: float = 10.0  # [s] the agents' ~teammate_timeout: when survivors can know of a death (recovery's floor at detection)
+    death_timeout: float = _L.death_timeout_s  # [s] an agent silent this long is dead (not set: ~teammate_timeout, one rule)
+    teammate_timeout: float = _L.teammate_timeout_s  # [s] the agents' ~teammate_timeout: when survivors can know of a death (recovery's floor at detection)
     start_delay: float = 1.0  # [s] between all agents ready and the announced start
     start_wall_delay: float = 0.0  # [s of wall time] to wait once all are ready (connections)
     wait_for_recorder: bool = False  # start only once a rosbag recorder subscribes
@@ -186,6 +210,15 @@ class MonitorParams:
         "teammate_timeout": (">", 0), "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0),
         "start_connect_timeout": (">=", 0),
     }
+
+
+def parse_monitor(values: dict[str, Any], node: str) -> MonitorParams:
+    """MonitorParams from {name: value}; ~death_timeout, when not given, is ~teammate_timeout
+    (one liveness rule: the monitor calls a robot dead when its teammates lose it)."""
+    p = parse(MonitorParams, values, node)
+    if "death_timeout" not in values:
+        p.death_timeout = p.teammate_timeout
+    return p
 
 
 def params_help(cls: type) -> str:

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from tpuaf.cli.run import team_size
 from tpuaf.errors import CliError
+from tpuaf.params import LIVENESS_DEFAULTS as _L
 
 # Compared keys and their tolerance: (absolute, relative); a key agrees if within either.
 TOLERANCES = {
@@ -51,7 +52,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="[s] silence that makes an agent dead (default: the run's, else 5)")
     p.add_argument("--teammate-timeout", type=float, default=None,
                    help="[s] the agents' teammate timeout, for the recovery's floor at "
-                        "detection (default: the run's, else 10, the agents' default)")
+                        f"detection (default: the run's, else {_L.teammate_timeout_s:g}, the "
+                        "agents' default)")
     p.add_argument("--robots", type=team_size, default=None,
                    help="team size (default: config.yaml, else the robots seen in the bag)")
     p.add_argument("--force", action="store_true",
@@ -233,6 +235,8 @@ def run(args: argparse.Namespace) -> int:
     if mate_timeout is None and isinstance(given, (int, float)) and not isinstance(given, bool) \
             and math.isfinite(given) and given > 0:
         mate_timeout = float(given)
+    if mate_timeout is None:
+        mate_timeout = _L.teammate_timeout_s
     out = (args.out or folder / "analysis").expanduser()
     created = not out.exists()
     try:

@@ -87,6 +87,18 @@ non_negative_float = finite_float(lambda v: v >= 0, "a finite number >= 0")
 probability = finite_float(lambda v: 0 <= v <= 1, "a probability in [0, 1]")
 
 
+def add_teammate_timeout(p: argparse.ArgumentParser) -> None:
+    """--teammate-timeout SECONDS (`tpuaf run`, `compare`, `fleet`): the one liveness rule's
+    timeout, default tpuaf.params.LIVENESS_DEFAULTS (docs/FLEET.md)."""
+    from tpuaf.params import LIVENESS_DEFAULTS
+
+    default = LIVENESS_DEFAULTS.teammate_timeout_s
+    p.add_argument("--teammate-timeout", type=positive_float, default=default, metavar="SECONDS",
+                   help=f"[s] a teammate silent this long (no heartbeat, no message) is lost: "
+                        f"the others drop its intentions and share out its work; a fleet's "
+                        f"monitor calls it dead then too (default {default:g})")
+
+
 def parse_param_value(raw: str):
     """A `--param` value: a YAML scalar (number, boolean, string); words that YAML leaves as
     strings but Python reads as numbers ('nan', 'inf', '1e3') become floats, so that the
@@ -136,6 +148,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a vertex outside the image's free space is a warning, not an error")
     p.add_argument("--delay", type=non_negative_float, default=0.0, help="team message delay [s]")
     p.add_argument("--loss", type=probability, default=0.0, help="message loss probability")
+    add_teammate_timeout(p)
     p.add_argument(
         "--param",
         action="append",
@@ -276,6 +289,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         delay_s=args.delay,
         loss=args.loss,
+        teammate_timeout_s=args.teammate_timeout,
         strategy_params=parse_params(args.param),
     )
     from tpuaf.cli import limits

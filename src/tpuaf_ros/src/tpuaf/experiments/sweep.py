@@ -51,6 +51,7 @@ import numpy as np
 
 from tpuaf.errors import TpuafError
 from tpuaf.files import atomic_write
+from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.plain import plain
 
 
@@ -283,6 +284,8 @@ class SweepSpec:
     duration_s: float = 3600.0
     strategy_params: dict[str, dict[str, Any]] = field(default_factory=dict)  # per strategy
     scenarios: list[Scenario] = field(default_factory=lambda: [Scenario()])
+    # [s] every run's RunConfig.teammate_timeout_s (`tpuaf compare --teammate-timeout`)
+    teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s
 
     def keys(self) -> list[RunKey]:
         return [RunKey(m.label, s, n, seed, sc.name) for m in self.maps for s in self.strategies
@@ -314,7 +317,8 @@ class SweepSpec:
                 "scenario": sc.name, "runtime": sc.runtime, "robot": sc.robot, "loss": sc.loss,
                 "delay_s": sc.delay_s, "deaths": len(failures),
                 "death_time_s": failures[0][1] if failures else None,
-                "failures": [list(f) for f in failures]}
+                "failures": [list(f) for f in failures],
+                "teammate_timeout_s": float(self.teammate_timeout_s)}
 
 
 _LABEL_OK = re.compile(r"^[A-Za-z0-9_.+-]+$")
@@ -367,9 +371,11 @@ def resolve_strategies(names: Iterable[str]) -> list[str]:
 
 def make_spec(maps: Iterable[str], strategies: Iterable[str], robots: Iterable[int],
               seeds: int | Iterable[int], duration_s: float = 3600.0,
-              first_seed: int = 0, scenarios: Iterable[Scenario] | None = None) -> SweepSpec:
+              first_seed: int = 0, scenarios: Iterable[Scenario] | None = None,
+              teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s) -> SweepSpec:
     """A validated sweep; `seeds` is a count (seeds first_seed .. first_seed + count - 1) or a list.
-    `scenarios` (default: nominal only) come from `make_scenarios`."""
+    `scenarios` (default: nominal only) come from `make_scenarios`; teammate_timeout_s [s]:
+    every run's (RunConfig.teammate_timeout_s)."""
     robots = list(robots)
     for n in robots:
         if not (isinstance(n, int) and n >= 1):
@@ -386,6 +392,9 @@ def make_spec(maps: Iterable[str], strategies: Iterable[str], robots: Iterable[i
             raise SweepError("no seeds given")
     if not (duration_s > 0 and math.isfinite(duration_s)):
         raise SweepError(f"duration must be a finite number of seconds > 0, got {duration_s}")
+    if not (teammate_timeout_s > 0 and math.isfinite(teammate_timeout_s)):
+        raise SweepError(f"teammate timeout must be a finite number of seconds > 0, got "
+                         f"{teammate_timeout_s}")
     scenarios = list(scenarios) if scenarios is not None else [Scenario()]
     for sc in scenarios:
         if sc.death_time_s is not None and sc.deaths != "0" and sc.death_time_s >= duration_s:
@@ -397,7 +406,8 @@ def make_spec(maps: Iterable[str], strategies: Iterable[str], robots: Iterable[i
             raise SweepError(f"scenario {sc.name}: no team size in {robots} keeps a survivor "
                              "with at least one death")
     spec = SweepSpec(resolve_maps(maps), resolve_strategies(strategies),
-                     robots, sorted(set(seed_list)), float(duration_s), scenarios=scenarios)
+                     robots, sorted(set(seed_list)), float(duration_s), scenarios=scenarios,
+                     teammate_timeout_s=float(teammate_timeout_s))
     if not spec.keys():
         raise SweepError("the sweep has no runs")
     return spec
@@ -430,7 +440,9 @@ def run_config(task: dict[str, Any]):
         "map": task["map_source"], "strategy": task["strategy"], "robots": int(task["robots"]),
         "duration_s": float(task["duration_s"]), "seed": int(task["seed"]),
         "strategy_params": dict(task.get("strategy_params") or {}),
-        "delay_s": float(task.get("delay_s") or 0.0), "loss": float(task.get("loss") or 0.0)}
+        "delay_s": float(task.get("delay_s") or 0.0), "loss": float(task.get("loss") or 0.0),
+        "teammate_timeout_s": float(task.get("teammate_timeout_s")
+                                    or LIVENESS_DEFAULTS.teammate_timeout_s)}
     failures = task.get("failures") or []
     if failures:
         if FAIL_FIELD not in fields:
@@ -716,6 +728,13 @@ def check_existing(root: Path, spec: SweepSpec) -> list[RunKey]:
             raise SweepError(
                 f"{path.parent}: finished with duration {run.get('duration_s')} s, but this sweep "
                 f"asks for {duration:g} s; use another --out folder (or delete that run)")
+        # runs of older sweeps name no teammate timeout: theirs was the default
+        mate = float(run.get("teammate_timeout_s") or LIVENESS_DEFAULTS.teammate_timeout_s)
+        if not math.isclose(mate, spec.teammate_timeout_s):
+            raise SweepError(
+                f"{path.parent}: finished with teammate timeout {mate:g} s, but this sweep asks "
+                f"for {spec.teammate_timeout_s:g} s; use another --out folder (or delete that "
+                "run)")
         source = run.get("map_source")
         if source is not None and source != spec.source_of(key.map):
             raise SweepError(
@@ -880,6 +899,7 @@ def _finish(root: Path, spec: SweepSpec, outcome: SweepOutcome) -> None:
             history = []
     record = {"maps": [asdict(m) for m in spec.maps], "strategies": spec.strategies,
               "robots": spec.robots, "seeds": spec.seeds, "duration_s": spec.duration_s,
+              "teammate_timeout_s": spec.teammate_timeout_s,
               "scenarios": [s.name for s in spec.scenarios],
               **{k: v for k, v in outcome.to_dict().items() if k != "computed"}}
     entry = {k: record[k] for k in ("strategies", "robots", "scenarios", "total", "ran",

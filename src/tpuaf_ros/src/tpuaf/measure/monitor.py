@@ -15,9 +15,10 @@ Definitions (SPEC section 6):
   the one definition of a visit of every runtime), at its stamp; a START event is the robot's
   first visit of its start vertex (at the run start if stamped before it), as in the graph
   runtime; ground truth gives only positions (uncertainty X, interference, robot presence);
-- a robot whose agent sent no event (heartbeats every 1 s) for `death_timeout_s` is dead from
-  the first pose group after that (it no longer senses nor interferes); the recorder dates the
-  death at the last event heard (the recovery metrics count from there);
+- a robot whose agent sent no event (heartbeats every 1 s) for `death_timeout_s` (default: the
+  teammate timeout, tpuaf.params.LIVENESS_DEFAULTS) is dead from the first pose group after
+  that (it no longer senses nor interferes); the recorder dates the death at the last event
+  heard (the recovery metrics count from there);
 - `on_announcement(robot, vertex, t)`: a destination a robot announced in a team message
   (tpuaf.robot.machine.announced_vertex), for the recovery metrics' intentions;
 - the run ends at start + duration_s: `finished` becomes True and later input is ignored.
@@ -36,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from tpuaf.measure.metrics import RunRecorder, complete_cycles
+from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.topics import REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
@@ -46,16 +48,18 @@ TIME_BASE = "run time [s] since start_time_s (ROS time)"
 
 class FleetMonitor:
     def __init__(self, patrol_map: Any, n_robots: int, duration_s: float, *,
-                 start_after: float = 0.0, death_timeout_s: float = 5.0,
+                 start_after: float = 0.0, death_timeout_s: float | None = None,
                  sample_period_s: float = 1.0, lag_s: float = 2.0,
-                 teammate_timeout_s: float = 10.0):
+                 teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s):
         self.patrol_map = patrol_map
         self.n = int(n_robots)
         self.duration_s = float(duration_s)
         self.start_after = float(start_after)
-        self.death_timeout_s = float(death_timeout_s)
         # [s] the agents' teammate timeout (the recovery metrics' floor at detection)
         self.teammate_timeout_s = float(teammate_timeout_s)
+        # [s] silence that makes an agent dead; None: the teammate timeout (one liveness rule)
+        self.death_timeout_s = float(self.teammate_timeout_s if death_timeout_s is None
+                                     else death_timeout_s)
         self.sample_period_s = float(sample_period_s)
         self.lag_s = float(lag_s)
         self.tolerance = float(patrol_map.settings.goal_tolerance)

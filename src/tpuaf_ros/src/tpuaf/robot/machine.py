@@ -27,6 +27,7 @@ import math
 from collections.abc import Callable
 from typing import Any, Protocol
 
+from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import Policy, RobotContextBase
 from tpuaf.team.liveness import TeammateLiveness
 from tpuaf.team.messages import IdlenessEstimate, Intention, Visit
@@ -71,7 +72,8 @@ class RobotMachine(RobotContextBase):
 
     def __init__(self, driver: RobotDriver, robot: int, n_robots: int, patrol_map: Any,
                  policy: Policy, rng, emit: Callable[[int, int, int, float], None] | None = None,
-                 start_vertex: int | None = None, teammate_timeout_s: float = 10.0):
+                 start_vertex: int | None = None,
+                 teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s):
         self.driver = driver
         self.robot = int(robot)
         self.n_robots = int(n_robots)

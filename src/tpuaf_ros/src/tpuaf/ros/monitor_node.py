@@ -27,7 +27,7 @@ from tf2_msgs.msg import TFMessage
 from tpuaf.maps import MapError, load_map
 from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
-from tpuaf.params import MonitorParams, NodeParamError, parse
+from tpuaf.params import MonitorParams, NodeParamError, parse_monitor
 from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, run_node
 from tpuaf.team import messages
@@ -236,7 +236,7 @@ class MonitorNode:
 def main():
     rospy.init_node(NODE)
     try:
-        p = parse(MonitorParams, private_params(), rospy.get_name())
+        p = parse_monitor(private_params(), rospy.get_name())
         if p.pose_source not in POSE_SOURCES:
             raise NodeParamError("~pose_source must be one of "
                                  f"{', '.join(POSE_SOURCES)}, got {p.pose_source!r}")

@@ -31,6 +31,7 @@ from tpuaf.navigation import (
     Navigator,
     moved_points,
 )
+from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import Policy
 from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, RobotMachine
 from tpuaf.team.liveness import HEARTBEAT_PERIOD_S
@@ -52,7 +53,8 @@ class AgentRuntime:
                  publish_event: Callable[[int, int, int, float], None],
                  controller: ControllerConfig | None = None,
                  heartbeat_period_s: float = HEARTBEAT_PERIOD_S, waypoint_tolerance_m: float = 0.6,
-                 planner: Any = None, teammate_timeout_s: float = 10.0):
+                 planner: Any = None,
+                 teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s):
         self._publish_team = publish_team
         self._publish_event = publish_event
         self.heartbeat_period_s = float(heartbeat_period_s)

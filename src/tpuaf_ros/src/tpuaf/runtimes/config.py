@@ -10,6 +10,7 @@ from typing import Any
 
 from tpuaf import __version__
 from tpuaf.errors import TpuafError
+from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.faults import Fault, FaultError, resolve_faults
 
@@ -49,7 +50,7 @@ class RunConfig:
     stall: list = field(default_factory=list)
     # [s] a teammate silent this long is lost (the agent node's ~teammate_timeout): in runs with
     # faults, robots notice a death from the heartbeats and messages they stop hearing.
-    teammate_timeout_s: float = 10.0
+    teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s
     # Edge travel of the graph runtime: "declared" (the map's edge lengths, as published
     # comparisons use them) or "planned" (path lengths on the occupancy grid for the robot's
     # footprint: what a robot can achieve; navigation/planner.py).

@@ -23,13 +23,16 @@ import math
 
 import numpy as np
 
-HEARTBEAT_PERIOD_S = 1.0  # [s] the agent node's default ~heartbeat_period
+from tpuaf.params import LIVENESS_DEFAULTS
+
+HEARTBEAT_PERIOD_S = LIVENESS_DEFAULTS.heartbeat_period_s  # [s] the agent node's ~heartbeat_period
 
 
 class TeammateLiveness:
     """Silent-teammate detection for robot `me` of `n_robots` (see the module docstring)."""
 
-    def __init__(self, n_robots: int, me: int, timeout_s: float = 10.0):
+    def __init__(self, n_robots: int, me: int,
+                 timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s):
         if not timeout_s > 0:
             raise ValueError(f"teammate timeout must be > 0 s, got {timeout_s}")
         self.n_robots = int(n_robots)
