@@ -31,18 +31,18 @@ class PythonStrategy : public TeamStrategy {
         on_message_(team_.attr("on_message")),
         on_goal_failed_(py::getattr(team_, "on_goal_failed", py::none())),
         on_teammate_lost_(py::getattr(team_, "on_teammate_lost", py::none())) {}
-  void on_goal_failed(GraphEngine&, int robot, int vertex) override {
+  void on_goal_failed(StrategyHost&, int robot, int vertex) override {
     if (!on_goal_failed_.is_none()) on_goal_failed_(robot, vertex);
   }
-  void on_teammate_lost(GraphEngine&, int robot, int lost) override {
+  void on_teammate_lost(StrategyHost&, int robot, int lost) override {
     if (!on_teammate_lost_.is_none()) on_teammate_lost_(robot, lost);
   }
-  void start(GraphEngine&, int robot) override { start_(robot); }
-  int decide(GraphEngine&, int robot) override {
+  void start(StrategyHost&, int robot) override { start_(robot); }
+  int decide(StrategyHost&, int robot) override {
     py::object goal = decide_(robot);
     return goal.is_none() ? -1 : goal.cast<int>();
   }
-  void on_message(GraphEngine&, int robot, const TeamMessage& message) override {
+  void on_message(StrategyHost&, int robot, const TeamMessage& message) override {
     if (message.kind != TeamMessage::Kind::kOpaque || !message.opaque) {
       throw std::invalid_argument("a Python strategy received a message of a C++ strategy");
     }
@@ -222,8 +222,10 @@ void wrap_tpuaf_plus(py::module_& m) {
 
 // TeamStrategy and its Python, TPUAF, GBS and DTAG (TPUAF+: above) decision paths.
 void wrap_strategies(py::module_& m) {
-  py::class_<TeamStrategy>(m, "TeamStrategy", "A team's decision makers, one per robot.")
-      .def_property_readonly("is_native", &TeamStrategy::is_native,
+  py::class_<TeamStrategy> strategy(m, "TeamStrategy",
+                                    "A team's decision makers, one per robot.");
+  tpuaf::bindings::bind_strategy_calls(strategy);
+  strategy.def_property_readonly("is_native", &TeamStrategy::is_native,
                              "True if it never calls back into Python (the run may release "
                              "the GIL).");
   py::class_<PythonStrategy, TeamStrategy>(

@@ -12,4 +12,12 @@ void bind_engine(pybind11::module_& m);
 void bind_planner(pybind11::module_& m);
 void bind_tours(pybind11::module_& m);
 void bind_assignment(pybind11::module_& m);
+void bind_strategy(pybind11::module_& m);
+}  // namespace tpuaf::bindings
+
+namespace tpuaf {
+class TeamStrategy;
+}
+namespace tpuaf::bindings {
+void bind_strategy_calls(pybind11::class_<TeamStrategy>& strategy);
 }  // namespace tpuaf::bindings

@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "tpuaf_core/engine.hpp"
+#include "tpuaf_core/strategies.hpp"
 
 namespace tpuaf {
 
@@ -14,12 +14,12 @@ namespace {
 inline double py_max(double a, double b) { return b > a ? b : a; }
 constexpr double kIdleRetryS = 1.0;  // tpuaf.policies.common.IDLE_RETRY_S
 
-void check_streams(const std::vector<NumpyPcg64>& rngs, const GraphEngine& engine,
+void check_streams(const std::vector<NumpyPcg64>& rngs, const StrategyHost& host,
                    const char* name) {
-  if (static_cast<int>(rngs.size()) != engine.robots()) {
+  if (static_cast<int>(rngs.size()) != host.robots()) {
     throw std::invalid_argument(std::string(name) + " needs one random stream per robot: got " +
                                 std::to_string(rngs.size()) + " for " +
-                                std::to_string(engine.robots()) + " robots");
+                                std::to_string(host.robots()) + " robots");
   }
 }
 }  // namespace
@@ -61,32 +61,32 @@ GbsStrategy::GbsStrategy(double g1, double g2, double edge_min_m, std::vector<Nu
   last_visit_.resize(rngs_.size());
 }
 
-void GbsStrategy::start(GraphEngine& engine, int robot) {
-  check_streams(rngs_, engine, "GBS");
+void GbsStrategy::start(StrategyHost& host, int robot) {
+  check_streams(rngs_, host, "GBS");
   last_visit_[static_cast<std::size_t>(robot)].assign(
-      static_cast<std::size_t>(engine.graph().num_vertices()), engine.now());
+      static_cast<std::size_t>(host.graph().num_vertices()), host.now());
 }
 
-int GbsStrategy::decide(GraphEngine& engine, int robot) {
+int GbsStrategy::decide(StrategyHost& host, int robot) {
   auto& last = last_visit_[static_cast<std::size_t>(robot)];
-  const double now = engine.now();
-  const int here = engine.current_vertex(robot);
+  const double now = host.now();
+  const int here = host.current_vertex(robot);
   last[static_cast<std::size_t>(here)] = py_max(last[static_cast<std::size_t>(here)], now);
   candidates_.clear();
-  for (int w : engine.graph().neighbours(here)) {
+  for (int w : host.graph().neighbours(here)) {
     if (w != here) candidates_.push_back(w);
   }
   std::sort(candidates_.begin(), candidates_.end());
   candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
   if (candidates_.empty()) {  // wait_nowhere_to_go
-    engine.wake_at(robot, now + kIdleRetryS);
+    host.wake_at(robot, now + kIdleRetryS);
     return -1;
   }
   int next = candidates_[0];
   if (candidates_.size() > 1) {
     scores_.clear();
     for (int c : candidates_) {
-      const double w = py_max(engine.graph().edge_length(here, c), edge_min_m_);
+      const double w = py_max(host.graph().edge_length(here, c), edge_min_m_);
       const double idle = py_max(now - last[static_cast<std::size_t>(c)], 0.0);
       const double gain = idle / w;
       scores_.push_back(gain >= g2_ ? 1.0 : g1_ * std::exp(log_inv_g1_ * gain / g2_));
@@ -100,11 +100,11 @@ int GbsStrategy::decide(GraphEngine& engine, int robot) {
   visit.vertex = here;
   visit.time_s = now;
   visit.next_vertex = -1;  // GBS broadcasts only (robot, vertex reached)
-  engine.send(robot, visit);
+  host.send(robot, visit);
   return next;
 }
 
-void GbsStrategy::on_message(GraphEngine&, int robot, const TeamMessage& message) {
+void GbsStrategy::on_message(StrategyHost&, int robot, const TeamMessage& message) {
   if (message.kind != TeamMessage::Kind::kVisit || message.robot == robot) return;
   auto& last = last_visit_[static_cast<std::size_t>(robot)];
   const int v = message.vertex;
@@ -134,15 +134,15 @@ long long DtagStrategy::replans(int robot) const {
   return states_.at(static_cast<std::size_t>(robot)).replans;
 }
 
-void DtagStrategy::start(GraphEngine& engine, int robot) {
-  check_streams(rngs_, engine, "DTAG");
-  const auto n = static_cast<std::size_t>(engine.graph().num_vertices());
+void DtagStrategy::start(StrategyHost& host, int robot) {
+  check_streams(rngs_, host, "DTAG");
+  const auto n = static_cast<std::size_t>(host.graph().num_vertices());
   if (origin_distance_m_[static_cast<std::size_t>(robot)].size() != n) {
     throw std::invalid_argument("DTAG origin distances need one value per vertex");
   }
   State& s = states_[static_cast<std::size_t>(robot)];
   s.values.assign(n, initial_);
-  s.updated = engine.now();
+  s.updated = host.now();
   s.next = -1;
   s.replans = 0;
   s.replanned = false;
@@ -154,10 +154,10 @@ void DtagStrategy::advance(State& s, double now) {
   s.updated = py_max(s.updated, now);
 }
 
-int DtagStrategy::choose(GraphEngine& engine, int robot, int here, int exclude_a, int exclude_b) {
+int DtagStrategy::choose(StrategyHost& host, int robot, int here, int exclude_a, int exclude_b) {
   const State& s = states_[static_cast<std::size_t>(robot)];
   const auto& origin = origin_distance_m_[static_cast<std::size_t>(robot)];
-  const Eigen::MatrixXd& dist = engine.graph().distances();
+  const Eigen::MatrixXd& dist = host.graph().distances();
   candidates_.clear();
   scores_.clear();
   const int n = static_cast<int>(s.values.size());
@@ -172,40 +172,40 @@ int DtagStrategy::choose(GraphEngine& engine, int robot, int here, int exclude_a
       pick_max_index(scores_, rngs_[static_cast<std::size_t>(robot)]))];
 }
 
-void DtagStrategy::announce(GraphEngine& engine, int robot, int next) {
+void DtagStrategy::announce(StrategyHost& host, int robot, int next) {
   const State& s = states_[static_cast<std::size_t>(robot)];
   auto sent = std::make_shared<std::vector<double>>(s.values);
   (*sent)[static_cast<std::size_t>(next)] = 0.0;  // reservation
   TeamMessage m;
   m.kind = TeamMessage::Kind::kIdlenessEstimate;
   m.robot = robot;
-  m.time_s = engine.now();
+  m.time_s = host.now();
   m.next_vertex = next;
   m.estimate = std::move(sent);
-  engine.send(robot, std::move(m));
+  host.send(robot, std::move(m));
 }
 
-int DtagStrategy::decide(GraphEngine& engine, int robot) {
+int DtagStrategy::decide(StrategyHost& host, int robot) {
   State& s = states_[static_cast<std::size_t>(robot)];
-  const double now = engine.now();
-  const int here = engine.current_vertex(robot);
+  const double now = host.now();
+  const int here = host.current_vertex(robot);
   advance(s, now);
   s.values[static_cast<std::size_t>(here)] = 0.0;
-  const int next = choose(engine, robot, here, here, -1);
+  const int next = choose(host, robot, here, here, -1);
   s.next = next;
   if (next < 0) {
-    engine.wake_at(robot, now + kIdleRetryS);
+    host.wake_at(robot, now + kIdleRetryS);
     return -1;
   }
   s.replanned = false;
-  announce(engine, robot, next);
+  announce(host, robot, next);
   return next;
 }
 
-void DtagStrategy::on_message(GraphEngine& engine, int robot, const TeamMessage& message) {
+void DtagStrategy::on_message(StrategyHost& host, int robot, const TeamMessage& message) {
   if (message.kind != TeamMessage::Kind::kIdlenessEstimate || message.robot == robot) return;
   State& s = states_[static_cast<std::size_t>(robot)];
-  const double now = engine.now();
+  const double now = host.now();
   advance(s, now);
   if (message.estimate && message.estimate->size() == s.values.size()) {  // else another map's
     const double transit = py_max(0.0, now - message.time_s);
@@ -218,13 +218,13 @@ void DtagStrategy::on_message(GraphEngine& engine, int robot, const TeamMessage&
   // Only the higher-id robot yields, once per decision.
   if (s.next >= 0 && message.next_vertex == s.next && message.robot < robot && !s.replanned) {
     s.replanned = true;
-    const int here = engine.current_vertex(robot);
-    const int next = choose(engine, robot, here, here, s.next);
+    const int here = host.current_vertex(robot);
+    const int next = choose(host, robot, here, here, s.next);
     if (next < 0) return;
     ++s.replans;
     s.next = next;
-    engine.change_goal(robot, next);
-    announce(engine, robot, next);
+    host.change_goal(robot, next);
+    announce(host, robot, next);
   }
 }
 

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "tpuaf_core/engine.hpp"
+#include "tpuaf_core/strategies.hpp"
 
 namespace tpuaf {
 
@@ -28,13 +28,13 @@ TpuafKnowledge TpuafStrategy::knowledge(int robot) const {
   return knowledge_[static_cast<std::size_t>(robot)];
 }
 
-void TpuafStrategy::start(GraphEngine& engine, int robot) {
-  if (static_cast<int>(rngs_.size()) != engine.robots()) {
+void TpuafStrategy::start(StrategyHost& host, int robot) {
+  if (static_cast<int>(rngs_.size()) != host.robots()) {
     throw std::invalid_argument("TPUAF needs one random stream per robot: got " +
                                 std::to_string(rngs_.size()) + " for " +
-                                std::to_string(engine.robots()) + " robots");
+                                std::to_string(host.robots()) + " robots");
   }
-  const bool shared = engine.team_hears_alike();
+  const bool shared = host.team_hears_alike();
   if (robot == 0 || shared != shared_) {  // a new run: the team's or every robot's copy
     shared_ = shared;
     knowledge_.assign(shared_ ? 1 : rngs_.size(), prototype_);
@@ -43,17 +43,17 @@ void TpuafStrategy::start(GraphEngine& engine, int robot) {
   }
   Colocation& c = colocated_[static_cast<std::size_t>(robot)];
   c = Colocation{};
-  c.shadows.assign(static_cast<std::size_t>(engine.robots()), 0);
+  c.shadows.assign(static_cast<std::size_t>(host.robots()), 0);
 }
 
-void TpuafStrategy::presume_choice(GraphEngine& engine, int robot, int mate) {
+void TpuafStrategy::presume_choice(StrategyHost& host, int robot, int mate) {
   // Teammate `mate`'s presumed choice here (argmax of the same utility, the first on ties)
   // counts as its announced intention (only under delay: never with a shared knowledge).
   TpuafKnowledge& k = knowledge_of(robot);
-  const double now = engine.now();
-  const int here = engine.current_vertex(robot);
-  const UtilityResult result = k.utilities(engine.graph(), now, here, candidates_,
-                                           engine.average_speed(robot), form_, any_vertex_);
+  const double now = host.now();
+  const int here = host.current_vertex(robot);
+  const UtilityResult result = k.utilities(host.graph(), now, here, candidates_,
+                                           host.average_speed(robot), form_, any_vertex_);
   Eigen::Index best = 0;  // np.argmax: the first maximum (a NaN wins)
   for (Eigen::Index j = 1; j < result.utility.size(); ++j) {
     if (std::isnan(result.utility[best])) break;
@@ -81,16 +81,16 @@ void TpuafStrategy::track_shadow(int robot, const TeamMessage& visit) {
   }
 }
 
-int TpuafStrategy::decide(GraphEngine& engine, int robot) {
+int TpuafStrategy::decide(StrategyHost& host, int robot) {
   TpuafKnowledge& k = knowledge_of(robot);
-  const double now = engine.now();
-  const int here = engine.current_vertex(robot);
+  const double now = host.now();
+  const int here = host.current_vertex(robot);
   k.record_visit(here, now);  // shared: the teammates' hearing of it, too
   // Never count my own old intention (a shared knowledge keeps it for the teammates and
   // leaves it out of my utilities).
   if (!shared_) k.forget_intention(robot);
   const int exclude = shared_ ? robot : -1;
-  const PatrolGraph& graph = engine.graph();
+  const PatrolGraph& graph = host.graph();
   candidates_.clear();
   if (any_vertex_) {
     for (int v = 0; v < graph.num_vertices(); ++v) {
@@ -106,7 +106,7 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
   visit.time_s = now;
   if (candidates_.empty()) {  // a one-vertex graph: stay
     visit.next_vertex = here;
-    engine.send(robot, visit);
+    host.send(robot, visit);
     return here;
   }
   Colocation& col = colocated_[static_cast<std::size_t>(robot)];
@@ -128,11 +128,11 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
     std::sort(mates.begin(), mates.end());
     mates.erase(std::unique(mates.begin(), mates.end()), mates.end());
     for (int mate : mates) {
-      if (mate < robot) presume_choice(engine, robot, mate);
+      if (mate < robot) presume_choice(host, robot, mate);
     }
   }
   const UtilityResult result = k.utilities(graph, now, here, candidates_,
-                                           engine.average_speed(robot), form_, any_vertex_,
+                                           host.average_speed(robot), form_, any_vertex_,
                                            exclude);
   const Eigen::VectorXd& utility = result.utility;
   double top = utility[0];
@@ -166,13 +166,13 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
   }
   const int target = candidates_[static_cast<std::size_t>(chosen)];
   // Own visits and shadows only matter once a message arrived late, which needs a delay.
-  if (colocation_ && engine.config().delay_s > 0) {
+  if (colocation_ && host.messages_may_be_late()) {
     auto& mine = col.my_visits[here];
     mine.emplace_back(now, target);
     while (mine.size() > 4) mine.pop_front();
   }
   visit.next_vertex = target;
-  engine.send(robot, visit);
+  host.send(robot, visit);
   TeamMessage intention;
   intention.kind = TeamMessage::Kind::kIntention;
   intention.robot = robot;
@@ -181,22 +181,22 @@ int TpuafStrategy::decide(GraphEngine& engine, int robot) {
   intention.expected_arrival_s = result.arrival_s[chosen];
   intention.travel_time_s = result.travel_time_s[chosen];
   intention.time_s = now;
-  engine.send(robot, intention);
+  host.send(robot, intention);
   return target;
 }
 
-bool TpuafStrategy::on_team_message(GraphEngine& engine, int sender,
+bool TpuafStrategy::on_team_message(StrategyHost& host, int sender,
                                     const TeamMessage& message) {
   if (!shared_) return false;
   TpuafKnowledge& k = knowledge_[0];
   bool kept = true;
   if (message.kind == TeamMessage::Kind::kVisit) {
-    kept = k.hear_team_visit(message.robot, message.vertex, engine.now());
+    kept = k.hear_team_visit(message.robot, message.vertex, host.now());
   } else if (message.kind == TeamMessage::Kind::kIntention) {
     kept = k.hear_team_intention({message.robot, message.from_vertex, message.vertex,
                                   message.expected_arrival_s, message.travel_time_s,
                                   message.time_s},
-                                 engine.now());
+                                 host.now());
   }
   // Without delay the latency is 0 and nothing of Colocation changes; other kinds are ignored
   // as on_message ignores them.
@@ -207,29 +207,29 @@ bool TpuafStrategy::on_team_message(GraphEngine& engine, int sender,
   return true;
 }
 
-void TpuafStrategy::on_teammate_lost(GraphEngine& engine, int robot, int lost) {
+void TpuafStrategy::on_teammate_lost(StrategyHost& host, int robot, int lost) {
   if (shared_) {
     throw std::logic_error("TPUAF's shared team knowledge cannot forget one robot's teammate");
   }
   knowledge_of(robot).forget_intention(lost);
   Colocation& c = colocated_[static_cast<std::size_t>(robot)];
-  if (lost >= 0 && lost < engine.robots()) c.shadows[static_cast<std::size_t>(lost)] = 0;
+  if (lost >= 0 && lost < host.robots()) c.shadows[static_cast<std::size_t>(lost)] = 0;
 }
 
-void TpuafStrategy::on_message(GraphEngine& engine, int robot, const TeamMessage& message) {
+void TpuafStrategy::on_message(StrategyHost& host, int robot, const TeamMessage& message) {
   TpuafKnowledge& k = knowledge_of(robot);
   if (message.kind == TeamMessage::Kind::kVisit || message.kind == TeamMessage::Kind::kIntention) {
     Colocation& c = colocated_[static_cast<std::size_t>(robot)];
-    const double latency = engine.now() - message.time_s;
+    const double latency = host.now() - message.time_s;
     if (latency > c.latency_s) c.latency_s = latency;  // Python's max(latency, now - sent)
   }
   if (message.kind == TeamMessage::Kind::kVisit) {
-    k.hear_visit(message.robot, message.vertex, message.time_s, engine.now());
-    if (colocation_ && engine.config().delay_s > 0) track_shadow(robot, message);
+    k.hear_visit(message.robot, message.vertex, message.time_s, host.now());
+    if (colocation_ && host.messages_may_be_late()) track_shadow(robot, message);
   } else if (message.kind == TeamMessage::Kind::kIntention) {
     k.hear_intention({message.robot, message.from_vertex, message.vertex,
                       message.expected_arrival_s, message.travel_time_s, message.time_s},
-                     engine.now());
+                     host.now());
   }
 }
 

@@ -71,9 +71,9 @@ std::shared_ptr<const PlusPlan> TpuafPlusStrategy::plan_for(const std::vector<in
 
 // ------------------------------------------------------------------ set-up
 
-void TpuafPlusStrategy::start(GraphEngine& engine, int robot) {
-  const int n = engine.robots();
-  graph_ = &engine.graph();
+void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
+  const int n = host.robots();
+  graph_ = &host.graph();
   if (static_cast<int>(robots_.size()) != n) {
     robots_.clear();
     robots_.reserve(static_cast<std::size_t>(n));
@@ -84,7 +84,7 @@ void TpuafPlusStrategy::start(GraphEngine& engine, int robot) {
   r = Robot(prototype_);
   const std::size_t size = static_cast<std::size_t>(n);
   r.alive.assign(size, 1);
-  r.last_heard.assign(size, engine.now());
+  r.last_heard.assign(size, host.now());
   r.lost_at.assign(size, kInf);
   r.heard.assign(size, Heard{});
   r.has_heard.assign(size, 0);
@@ -93,10 +93,10 @@ void TpuafPlusStrategy::start(GraphEngine& engine, int robot) {
   r.history.assign(size, {});
   r.last_announce = -kInf;
   r.started = true;
-  install_plan(engine, robot, true);
+  install_plan(host, robot, true);
 }
 
-void TpuafPlusStrategy::install_plan(GraphEngine& engine, int robot, bool initial) {
+void TpuafPlusStrategy::install_plan(StrategyHost& host, int robot, bool initial) {
   Robot& r = state(robot);
   std::shared_ptr<const PlusPlan> old_plan = r.plan;
   const PlusRoute* old_route = old_plan ? &route_of(r) : nullptr;
@@ -117,18 +117,18 @@ void TpuafPlusStrategy::install_plan(GraphEngine& engine, int robot, bool initia
     // same walk (a cycle): keep my place on it; after a loss, re-space at once
     if (route.robots.size() < old_route->robots.size()) {
       double target = 0;
-      r.respacing = respace_target(r, robot, engine.now(), target);
+      r.respacing = respace_target(r, robot, host.now(), target);
       r.respace_target = target;
-      r.respace_at = engine.now();
+      r.respace_at = host.now();
     }
   } else if (route.robots.size() == 1 && route.walk.size() > 1) {  // a new part alone
-    r.entry = urgent_entry(r, route, engine.current_vertex(robot), engine.now());
+    r.entry = urgent_entry(r, route, host.current_vertex(robot), host.now());
     r.idx = -1;
   } else {
     // a walk new to several robots: the start schedule's entries from where each stood
     const std::map<int, int> entries = transition_entries(r);
     auto it = entries.find(robot);
-    r.entry = it != entries.end() ? it->second : nearest_entry(*graph_, route, engine.current_vertex(robot));
+    r.entry = it != entries.end() ? it->second : nearest_entry(*graph_, route, host.current_vertex(robot));
     r.idx = -1;
   }
   r.holding = false;
@@ -280,7 +280,7 @@ void TpuafPlusStrategy::remember(Robot& r, int robot, const Heard& entry) {
   if (past.size() > 4) past.pop_front();
 }
 
-void TpuafPlusStrategy::on_message(GraphEngine& engine, int robot, const TeamMessage& message) {
+void TpuafPlusStrategy::on_message(StrategyHost& host, int robot, const TeamMessage& message) {
   Robot& r = state(robot);
   const int k = message.robot;
   if (k < 0 || k >= static_cast<int>(r.heard.size())) return;
@@ -288,7 +288,7 @@ void TpuafPlusStrategy::on_message(GraphEngine& engine, int robot, const TeamMes
   Heard& latest = r.heard[static_cast<std::size_t>(k)];
   char& has = r.has_heard[static_cast<std::size_t>(k)];
   if (message.kind == TeamMessage::Kind::kVisit) {
-    r.knowledge.hear_visit(k, message.vertex, sent, engine.now());
+    r.knowledge.hear_visit(k, message.vertex, sent, host.now());
     heard_from(r, k, sent);
     const int next = message.next_vertex >= 0 ? message.next_vertex : message.vertex;
     const Heard entry{message.vertex, next, sent, sent};
@@ -309,17 +309,17 @@ void TpuafPlusStrategy::on_message(GraphEngine& engine, int robot, const TeamMes
   }
 }
 
-void TpuafPlusStrategy::on_teammate_lost(GraphEngine& engine, int robot, int lost) {
+void TpuafPlusStrategy::on_teammate_lost(StrategyHost& host, int robot, int lost) {
   Robot& r = state(robot);
   if (lost >= 0 && lost < static_cast<int>(r.lost_at.size())) {
-    r.lost_at[static_cast<std::size_t>(lost)] = engine.now();
+    r.lost_at[static_cast<std::size_t>(lost)] = host.now();
   }
 }
 
-void TpuafPlusStrategy::update_team(GraphEngine& engine, int robot) {
+void TpuafPlusStrategy::update_team(StrategyHost& host, int robot) {
   // Mates silent for longer than the timeout (or reported lost) leave; one heard rejoins.
   Robot& r = state(robot);
-  const double now = engine.now();
+  const double now = host.now();
   const std::size_t n = r.alive.size();
   std::vector<char> alive(n, 0);
   for (std::size_t k = 0; k < n; ++k) {
@@ -339,7 +339,7 @@ void TpuafPlusStrategy::update_team(GraphEngine& engine, int robot) {
   }
   r.changed_at = any_gone ? std::min(latest_gone, now) : now;
   r.alive = std::move(alive);
-  install_plan(engine, robot, false);
+  install_plan(host, robot, false);
 }
 
 // ------------------------------------------------------------------ spacing
@@ -446,10 +446,10 @@ double TpuafPlusStrategy::spacing_wait(Robot& r, int robot, double now) {
 
 // ------------------------------------------------------------------ decisions
 
-void TpuafPlusStrategy::announce(GraphEngine& engine, int robot, int here, int next,
+void TpuafPlusStrategy::announce(StrategyHost& host, int robot, int here, int next,
                                  double departure, bool visit) {
   Robot& r = state(robot);
-  const double now = engine.now();
+  const double now = host.now();
   const double travel = next != here ? graph_->edge_length(here, next) / params_.speed_mps : 0.0;
   if (visit) {
     TeamMessage m;
@@ -458,7 +458,7 @@ void TpuafPlusStrategy::announce(GraphEngine& engine, int robot, int here, int n
     m.vertex = here;
     m.time_s = now;
     m.next_vertex = next;
-    engine.send(robot, std::move(m));
+    host.send(robot, std::move(m));
   }
   TeamMessage m;
   m.kind = TeamMessage::Kind::kIntention;
@@ -468,34 +468,34 @@ void TpuafPlusStrategy::announce(GraphEngine& engine, int robot, int here, int n
   m.expected_arrival_s = departure + travel;
   m.travel_time_s = travel;
   m.time_s = now;
-  engine.send(robot, std::move(m));
+  host.send(robot, std::move(m));
   remember(r, robot, Heard{here, next, departure, now});
   r.last_announce = now;
 }
 
-int TpuafPlusStrategy::hold(GraphEngine& engine, int robot, int here, bool waking) {
+int TpuafPlusStrategy::hold(StrategyHost& host, int robot, int here, bool waking) {
   // While dwelling: re-visit my vertex every dwell_revisit_s; kDepart at hold_until.
   Robot& r = state(robot);
-  const double now = engine.now();
+  const double now = host.now();
   const double remaining = r.hold_until - now;
   if (remaining <= kEps) return kDepart;
   const double stay = params_.stay_s;
   if (waking && remaining >= stay - kEps) return here;  // a re-visit; it ends stay_s later
   const double nap =
       remaining < stay + 0.1 ? remaining : std::min(remaining - stay, params_.dwell_revisit_s);
-  engine.wake_at(robot, now + nap);
+  host.wake_at(robot, now + nap);
   return kWait;
 }
 
-int TpuafPlusStrategy::decide(GraphEngine& engine, int robot) {
-  if (!state(robot).started) start(engine, robot);
+int TpuafPlusStrategy::decide(StrategyHost& host, int robot) {
+  if (!state(robot).started) start(host, robot);
   Robot& r = state(robot);
-  const double now = engine.now();
-  const int here = engine.current_vertex(robot);
+  const double now = host.now();
+  const int here = host.current_vertex(robot);
   const bool waking = r.waking;
   r.waking = false;
   if (!waking) r.knowledge.record_visit(here, now);
-  update_team(engine, robot);
+  update_team(host, robot);
   const PlusRoute& route = route_of(r);
   if (r.idx >= 0 && route.walk[static_cast<std::size_t>(r.idx)] != here) {  // off my walk
     r.idx = -1;
@@ -505,25 +505,25 @@ int TpuafPlusStrategy::decide(GraphEngine& engine, int robot) {
   if (r.idx < 0) {  // driving to my walk
     const int target = route.walk[static_cast<std::size_t>(r.entry)];
     if (here != target) {
-      const int hop = repair_hop(engine, robot, here, target);
-      announce(engine, robot, here, hop, now, !waking);
+      const int hop = repair_hop(host, robot, here, target);
+      announce(host, robot, here, hop, now, !waking);
       return hop;
     }
     r.idx = r.entry;
   }
   if (route.walk.size() == 1) {  // a one-vertex part: stay, re-visiting it
     if (now - r.last_announce >= params_.dwell_revisit_s - kEps) {
-      announce(engine, robot, here, here, now + params_.stay_s, true);
+      announce(host, robot, here, here, now + params_.stay_s, true);
     }
     return here;
   }
-  return step(engine, robot, waking);
+  return step(host, robot, waking);
 }
 
-int TpuafPlusStrategy::step(GraphEngine& engine, int robot, bool waking) {
+int TpuafPlusStrategy::step(StrategyHost& host, int robot, bool waking) {
   Robot& r = state(robot);
-  const double now = engine.now();
-  const int here = engine.current_vertex(robot);
+  const double now = host.now();
+  const int here = host.current_vertex(robot);
   const PlusRoute& route = route_of(r);
   const int next_idx = (r.idx + 1) % static_cast<int>(route.walk.size());
   const int next = route.walk[static_cast<std::size_t>(next_idx)];
@@ -540,28 +540,28 @@ int TpuafPlusStrategy::step(GraphEngine& engine, int robot, bool waking) {
     if (wait > params_.deadband_s) {
       r.holding = true;
       r.hold_until = now + wait;
-      announce(engine, robot, here, next, r.hold_until, true);
+      announce(host, robot, here, next, r.hold_until, true);
     }
   } else if (!waking) {
-    announce(engine, robot, here, next, r.hold_until, true);  // heartbeat
+    announce(host, robot, here, next, r.hold_until, true);  // heartbeat
   }
   if (r.holding) {
-    const int action = hold(engine, robot, here, waking);
+    const int action = hold(host, robot, here, waking);
     if (action == kWait) {
       r.waking = true;
       return kWait;
     }
     if (action != kDepart) return action;
     r.holding = false;
-    announce(engine, robot, here, next, now, false);
+    announce(host, robot, here, next, now, false);
   } else {
-    announce(engine, robot, here, next, now, true);
+    announce(host, robot, here, next, now, true);
   }
   r.idx = next_idx;
   return next;
 }
 
-int TpuafPlusStrategy::repair_hop(GraphEngine& engine, int robot, int here, int target) {
+int TpuafPlusStrategy::repair_hop(StrategyHost& host, int robot, int here, int target) {
   // Among the neighbours on a shortest path to target, the one of maximal TPUAF utility
   // (Eq. 13), so that driving to a new part also repairs gaps.
   std::vector<int> nbrs;
@@ -587,7 +587,7 @@ int TpuafPlusStrategy::repair_hop(GraphEngine& engine, int robot, int here, int 
     return pick;
   }
   Robot& r = state(robot);
-  const UtilityResult result = r.knowledge.utilities(*graph_, engine.now(), here, on_path,
+  const UtilityResult result = r.knowledge.utilities(*graph_, host.now(), here, on_path,
                                                      params_.speed_mps, UtilityForm::kEq13, false);
   Eigen::Index pick = 0;  // np.argmax: the first maximum (a NaN wins)
   for (Eigen::Index j = 1; j < result.utility.size(); ++j) {
@@ -597,11 +597,11 @@ int TpuafPlusStrategy::repair_hop(GraphEngine& engine, int robot, int here, int 
   return on_path[static_cast<std::size_t>(pick)];
 }
 
-void TpuafPlusStrategy::on_goal_failed(GraphEngine& engine, int robot, int /*vertex*/) {
+void TpuafPlusStrategy::on_goal_failed(StrategyHost& host, int robot, int /*vertex*/) {
   Robot& r = state(robot);
   r.idx = -1;
   r.holding = false;
-  r.entry = nearest_entry(*graph_, route_of(r), engine.current_vertex(robot));
+  r.entry = nearest_entry(*graph_, route_of(r), host.current_vertex(robot));
 }
 
 }  // namespace tpuaf

@@ -55,12 +55,12 @@ class Script : public TeamStrategy {
   std::vector<std::size_t> k;
   std::vector<std::vector<double>> decide_times, heard_times;
   bool talk = false;
-  void start(GraphEngine& e, int) override {
+  void start(StrategyHost& e, int) override {
     k.resize(static_cast<std::size_t>(e.robots()));
     decide_times.resize(k.size());
     heard_times.resize(k.size());
   }
-  int decide(GraphEngine& e, int robot) override {
+  int decide(StrategyHost& e, int robot) override {
     const auto r = static_cast<std::size_t>(robot);
     decide_times[r].push_back(e.now());
     if (talk) {
@@ -71,7 +71,7 @@ class Script : public TeamStrategy {
     }
     return k[r] < goals[r].size() ? goals[r][k[r]++] : -1;
   }
-  void on_message(GraphEngine& e, int robot, const TeamMessage&) override {
+  void on_message(StrategyHost& e, int robot, const TeamMessage&) override {
     heard_times[static_cast<std::size_t>(robot)].push_back(e.now());
   }
 };

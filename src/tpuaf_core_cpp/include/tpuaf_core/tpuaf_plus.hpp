@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "tpuaf_core/engine.hpp"
+#include "tpuaf_core/strategies.hpp"
 
 namespace tpuaf {
 
@@ -74,11 +74,11 @@ class TpuafPlusStrategy : public TeamStrategy {
   using PlanSource = std::function<std::shared_ptr<const PlusPlan>(const std::vector<int>&)>;
 
   TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params, PlanSource plans);
-  void start(GraphEngine& engine, int robot) override;
-  int decide(GraphEngine& engine, int robot) override;
-  void on_message(GraphEngine& engine, int robot, const TeamMessage& message) override;
-  void on_goal_failed(GraphEngine& engine, int robot, int vertex) override;
-  void on_teammate_lost(GraphEngine& engine, int robot, int lost) override;
+  void start(StrategyHost& host, int robot) override;
+  int decide(StrategyHost& host, int robot) override;
+  void on_message(StrategyHost& host, int robot, const TeamMessage& message) override;
+  void on_goal_failed(StrategyHost& host, int robot, int vertex) override;
+  void on_teammate_lost(StrategyHost& host, int robot, int lost) override;
   bool is_native() const override { return false; }  // plans are made in Python
   bool messages_are_local() const override { return true; }
   // Robot `robot`'s current walk (its vertices) and the robots it believes alive.
@@ -123,7 +123,7 @@ class TpuafPlusStrategy : public TeamStrategy {
   Robot& state(int robot);
   const PlusRoute& route_of(const Robot& r) const { return r.plan->routes[r.route]; }
   std::shared_ptr<const PlusPlan> plan_for(const std::vector<int>& team);
-  void install_plan(GraphEngine& engine, int robot, bool initial);
+  void install_plan(StrategyHost& host, int robot, bool initial);
   int urgent_entry(const Robot& r, const PlusRoute& route, int vertex, double now) const;
   std::map<int, int> transition_entries(const Robot& r) const;
   bool respace_target(Robot& r, int robot, double now, double& target);
@@ -131,15 +131,15 @@ class TpuafPlusStrategy : public TeamStrategy {
   double respace_wait(Robot& r, int robot, double now);
   void heard_from(Robot& r, int k, double sent) const;
   static void remember(Robot& r, int robot, const Heard& entry);
-  void update_team(GraphEngine& engine, int robot);
+  void update_team(StrategyHost& host, int robot);
   bool mate_arc(Robot& r, int k, double now, double& arc);
   bool gaps(Robot& r, int robot, double now, Gaps& out);
   double spacing_wait(Robot& r, int robot, double now);
-  void announce(GraphEngine& engine, int robot, int here, int next, double departure,
+  void announce(StrategyHost& host, int robot, int here, int next, double departure,
                 bool visit);
-  int hold(GraphEngine& engine, int robot, int here, bool waking);
-  int step(GraphEngine& engine, int robot, bool waking);
-  int repair_hop(GraphEngine& engine, int robot, int here, int target);
+  int hold(StrategyHost& host, int robot, int here, bool waking);
+  int step(StrategyHost& host, int robot, bool waking);
+  int repair_hop(StrategyHost& host, int robot, int here, int target);
 
   TpuafKnowledge prototype_;
   TpuafPlusParams params_;

@@ -1,0 +1,160 @@
+// The ground-truth recorder of the graph runtime: visits, 1 Hz samples, interference, the
+// uncertainty field X (Eq. 2-3). Times in seconds, lengths in metres.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <vector>
+
+#include "tpuaf_core/numpy_random.hpp"
+#include "tpuaf_core/run_config.hpp"
+#include "tpuaf_core/uncertainty.hpp"
+
+namespace tpuaf {
+
+struct VisitRecord {
+  double time_s;
+  int robot;
+  int vertex;
+};
+
+struct SampleRow {
+  double time_s, idleness_ins_s, worst_idleness_s, uncertainty_mean;
+  long long visits, interferences;
+};
+
+struct InterferenceRecord {
+  double time_s;
+  int a, b;
+};
+
+struct BusStats {
+  long long sent = 0, delivered = 0, lost = 0;
+};
+
+// Ground truth of one run (tpuaf.measure.metrics.RunRecorder with ground truth, all robots alive).
+class GroundTruthRecorder {
+ public:
+  GroundTruthRecorder(const EngineConfig& config, UncertaintyField field);
+  void record_visit(int robot, int vertex, double time_s);
+  void record_positions(double time_s, const Points& positions);
+  void finish(double end_s);  // robots held at their last positions until end_s
+  // Robot `robot` died at time_s [s]: it no longer senses nor interferes (a NaN position, as
+  // RunRecorder.record_robot_death).
+  void record_robot_death(int robot, double time_s);
+  void record_robot_stall(int robot, double time_s) { stalls_.push_back({time_s, robot, -1}); }
+  void record_announcement(int robot, int vertex, double time_s) {
+    announcements_.push_back({time_s, robot, vertex});
+  }
+  const std::vector<VisitRecord>& deaths() const { return deaths_; }  // (t, robot, -1)
+  const std::vector<VisitRecord>& stalls() const { return stalls_; }
+  const std::vector<VisitRecord>& announcements() const { return announcements_; }
+
+  // The visits still kept (and their interval idleness [s]): visits visits_forgotten() ..
+  // visit_count() - 1 (see forget_visits_before).
+  const std::vector<VisitRecord>& visits() const { return visits_; }
+  const std::vector<double>& visit_idleness() const { return visit_idleness_; }
+  std::size_t visit_count() const { return visits_forgotten_ + visits_.size(); }
+  std::size_t visits_forgotten() const { return visits_forgotten_; }
+  // Visits before index `first` are dropped (a results writer has them on disk): memory of a
+  // long run stays bounded; visit indices, the per-vertex times (vertex_times: intervals,
+  // counts, first visits, worst idleness) and the 1 Hz visit counts are unchanged.
+  void forget_visits_before(std::size_t first) {
+    const std::size_t drop = std::min(first, visit_count()) - std::min(first, visits_forgotten_);
+    visits_.erase(visits_.begin(), visits_.begin() + static_cast<std::ptrdiff_t>(drop));
+    visit_idleness_.erase(visit_idleness_.begin(),
+                          visit_idleness_.begin() + static_cast<std::ptrdiff_t>(drop));
+    visits_forgotten_ += drop;
+  }
+  // The 1 Hz rows still kept: rows rows_forgotten() .. row_count() - 1 (see forget_rows_before).
+  const std::vector<SampleRow>& timeseries() const { return rows_; }
+  std::size_t row_count() const { return rows_forgotten_ + rows_.size(); }
+  std::size_t rows_forgotten() const { return rows_forgotten_; }
+  // Rows before index `first` are dropped (a results writer has them on disk): memory of a
+  // long run stays bounded; row indices and the sums (ins_sum) are unchanged.
+  void forget_rows_before(std::size_t first) {
+    const std::size_t drop = std::min(first, row_count()) - std::min(first, rows_forgotten_);
+    rows_.erase(rows_.begin(), rows_.begin() + static_cast<std::ptrdiff_t>(drop));
+    rows_forgotten_ += drop;
+  }
+  const std::vector<InterferenceRecord>& interferences() const { return interferences_; }
+  const std::vector<std::vector<double>>& vertex_times() const { return vertex_times_; }
+  const Eigen::VectorXd& field_values() const { return values_; }
+  double ins_sum() const { return ins_sum_; }
+  double x_sum() const { return x_sum_; }
+  long long x_count() const { return x_count_; }
+  bool has_positions() const { return has_pos_; }
+  double positions_time() const { return pos_time_; }
+  double worst_idleness(double end_s) const;
+
+ private:
+  void apply_pending(double t);
+  void apply_visit(double vt, int v);
+  void emit_row(double t, double x_mean);
+  void advance_field(double t0, double t1, const Points& p0, const Points& p1, bool finite);
+  void step_field(double dt, const Points& pa, const Points& pb);
+  void interference(double t0, double t1, const Points& p0, const Points& p1, double step);
+  void interference_all(double t0, double t1, const Points& p0, const Points& p1);
+  void enter_pair(std::uint64_t key, int i, int j, double t0, double t1, const Points& p0,
+                  double d1x, double d1y);
+  void keep_fresh();
+  void rebuild_verlet(const Points& p, double reach);
+  long long interferences_until(double t) const;
+
+  int n_robots_, n_vertices_;
+  double period_, refractory_, max_substep_, field_merge_, dif2_, d_if_;
+  UncertaintyField field_;  // targets, importance and growth law of the ground truth
+  Eigen::VectorXd values_;  // ground-truth X_j
+  // Targets bucketed by cells of one sensing radius (the coverage of a robot only looks at
+  // the 3 x 3 cells around it); cell (cx, cy) -> targets, dense over the targets' box.
+  double target_cell_ = 1, target_x0_ = 0, target_y0_ = 0;
+  int target_nx_ = 1, target_ny_ = 1;
+  std::vector<int> target_start_, target_index_;
+  Eigen::VectorXd cover_left_, cover_mid_, cover_right_;
+  Points cover_at_;
+  void coverage(const Points& start, const Points& end, double fraction, Eigen::VectorXd& out);
+  void advance_linear(double dt, const Points& start, const Points& end);
+  Eigen::VectorXd peaks_, radii_;
+  double field_t_ = 0;
+  Points field_p_;
+  bool has_field_p_ = false;
+  bool field_finite_ = true;  // no robot absent at field_p_
+  std::vector<char> alive_;
+  bool all_alive_ = true;
+  Points masked_;  // positions with the dead robots' rows NaN
+  std::vector<VisitRecord> deaths_, stalls_, announcements_;
+
+  std::vector<VisitRecord> visits_;
+  std::vector<double> visit_idleness_;
+  std::size_t visits_forgotten_ = 0;
+  std::vector<std::vector<double>> vertex_times_;
+  std::deque<std::pair<double, int>> pending_;
+  Eigen::VectorXd sample_last_;
+  long long sample_visits_ = 0;
+  double sample_worst_ = 0;
+  double next_sample_;
+  long long sample_k_ = 1;
+  std::vector<SampleRow> rows_;
+  std::size_t rows_forgotten_ = 0;
+  double ins_sum_ = 0, x_sum_ = 0;
+  long long x_count_ = 0;
+
+  bool has_pos_ = false;
+  double pos_time_ = 0;
+  Points pos_;
+  std::vector<std::uint64_t> close_;  // sorted pair keys i * n + j (i < j) within d_if
+  std::unordered_map<std::uint64_t, double> last_count_;  // pair -> last counted entry [s]
+  std::vector<InterferenceRecord> interferences_;
+  // Verlet list of candidate pairs, built through a spatial hash (see interference()).
+  static constexpr std::int64_t kCellStride = std::int64_t{1} << 32;
+  double verlet_skin_;
+  bool verlet_valid_ = false;
+  Points verlet_ref_;
+  double verlet_half_skin2_ = 0;
+  std::vector<std::uint64_t> verlet_pairs_;  // sorted keys i * n + j
+  std::vector<std::pair<std::int64_t, int>> cells_, sorted_cells_;
+  std::vector<std::uint64_t> close_end_;
+  std::vector<InterferenceRecord> fresh_;
+};
+
+}  // namespace tpuaf

@@ -1,0 +1,38 @@
+// Settings and faults of one graph-runtime run (SI units: s, m, m/s).
+#pragma once
+
+#include <vector>
+
+namespace tpuaf {
+
+struct EngineConfig {
+  int robots = 1;
+  double duration_s = 3600;
+  double delay_s = 0;  // team message delay [s]
+  double loss = 0;     // probability that one recipient loses one message
+  double sample_period_s = 1.0;
+  double nominal_speed_mps = 1.0;
+  double stay_s = 1.0;          // dwell when the goal is the current vertex [s]
+  double retry_s = 1.0;         // a waiting strategy without a wake-up decides again after [s]
+  double refractory_s = 10.0;   // interference episodes of a pair closer than this merge [s]
+  double max_substep_s = 0.25;  // ground-truth field substep [s]
+  double field_merge_s = 0.5;   // position updates closer than this merge into one field step
+  double interference_distance_m = 2.0;
+  double sensing_peak = 1.0;
+  double sensing_radius_m = 5.0;
+  std::vector<int> start_vertices;
+  // Runs with faults (GraphEngine::set_faults):
+  double goal_tolerance_m = 0.0;     // a stalled robot dwells only within this of its goal
+  double stall_give_up_s = 60.0;     // a stalled robot's navigator gives up a drive after [s]
+  double teammate_timeout_s = 10.0;  // a teammate silent this long is lost [s]
+  double heartbeat_period_s = 1.0;   // every live robot sends a heartbeat this often [s]
+};
+
+// A robot fault at time_s [s] (tpuaf.runtimes.faults): death, or stall (stops moving for good).
+struct EngineFault {
+  double time_s = 0;
+  int robot = 0;
+  bool death = true;
+};
+
+}  // namespace tpuaf

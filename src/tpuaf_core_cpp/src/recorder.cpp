@@ -1,0 +1,501 @@
+// The graph runtime's ground-truth recorder (visits, samples, interference, X of Eq. 2-3).
+#include "tpuaf_core/recorder.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace tpuaf {
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Python's max(a, b): a unless b > a (the same number for doubles without NaN).
+inline double py_max(double a, double b) { return b > a ? b : a; }
+}  // namespace
+
+// --------------------------------------------------------------------- GroundTruthRecorder
+
+GroundTruthRecorder::GroundTruthRecorder(const EngineConfig& config, UncertaintyField field)
+    : n_robots_(config.robots),
+      n_vertices_(field.size()),
+      period_(config.sample_period_s),
+      refractory_(config.refractory_s),
+      max_substep_(config.max_substep_s),
+      field_merge_(config.field_merge_s),
+      dif2_(config.interference_distance_m * config.interference_distance_m),
+      d_if_(config.interference_distance_m),
+      field_(std::move(field)),
+      values_(field_.values()),
+      peaks_(Eigen::VectorXd::Constant(config.robots, config.sensing_peak)),
+      radii_(Eigen::VectorXd::Constant(config.robots, config.sensing_radius_m)),
+      vertex_times_(static_cast<std::size_t>(n_vertices_)),
+      sample_last_(Eigen::VectorXd::Zero(n_vertices_)),
+      next_sample_(0.0 + config.sample_period_s) {
+  if (!(period_ > 0)) throw std::invalid_argument("sample period must be > 0 s");
+  verlet_skin_ = std::max(2.0 * d_if_, 1e-3);  // [m]
+  // Target cells of one sensing radius over the targets' bounding box.
+  const auto& targets = field_.targets();
+  if (n_vertices_ > 0) {
+    target_x0_ = targets.col(0).minCoeff();
+    target_y0_ = targets.col(1).minCoeff();
+    const double width =
+        std::max(targets.col(0).maxCoeff() - target_x0_, targets.col(1).maxCoeff() - target_y0_);
+    target_cell_ = std::max(config.sensing_radius_m * (1.0 + 1e-9), width / 1024.0 + 1e-9);
+    target_nx_ =
+        static_cast<int>(std::floor((targets.col(0).maxCoeff() - target_x0_) / target_cell_)) + 1;
+    target_ny_ =
+        static_cast<int>(std::floor((targets.col(1).maxCoeff() - target_y0_) / target_cell_)) + 1;
+  }
+  std::vector<int> count(static_cast<std::size_t>(target_nx_) * target_ny_ + 1, 0);
+  std::vector<int> cell_of(static_cast<std::size_t>(n_vertices_));
+  for (int j = 0; j < n_vertices_; ++j) {
+    const int cx = std::min(
+        target_nx_ - 1, static_cast<int>(std::floor((targets(j, 0) - target_x0_) / target_cell_)));
+    const int cy = std::min(
+        target_ny_ - 1, static_cast<int>(std::floor((targets(j, 1) - target_y0_) / target_cell_)));
+    cell_of[static_cast<std::size_t>(j)] = cx * target_ny_ + cy;
+    ++count[static_cast<std::size_t>(cell_of[static_cast<std::size_t>(j)]) + 1];
+  }
+  for (std::size_t c = 1; c < count.size(); ++c) count[c] += count[c - 1];
+  target_start_ = count;
+  target_index_.assign(static_cast<std::size_t>(n_vertices_), 0);
+  for (int j = 0; j < n_vertices_; ++j) {
+    target_index_[static_cast<std::size_t>(
+        count[static_cast<std::size_t>(cell_of[static_cast<std::size_t>(j)])]++)] = j;
+  }
+}
+
+void GroundTruthRecorder::record_visit(int robot, int vertex, double time) {
+  if (vertex < 0 || vertex >= n_vertices_) {
+    throw std::out_of_range("vertex index " + std::to_string(vertex) + " out of range (map has " +
+                            std::to_string(n_vertices_) + ")");
+  }
+  auto& times = vertex_times_[static_cast<std::size_t>(vertex)];
+  double prev;
+  if (times.empty() || time >= times.back()) {
+    prev = times.empty() ? kNaN : times.back();
+    times.push_back(time);
+  } else {
+    auto it = std::upper_bound(times.begin(), times.end(), time);
+    prev = it == times.begin() ? kNaN : *(it - 1);
+    times.insert(it, time);
+  }
+  visit_idleness_.push_back(time - prev);
+  visits_.push_back({time, robot, vertex});
+  if (time <= next_sample_ - period_) {  // its row is already out
+    apply_visit(time, vertex);
+  } else if (pending_.empty() || time >= pending_.back().first) {
+    pending_.emplace_back(time, vertex);
+  } else {
+    auto it =
+        std::upper_bound(pending_.begin(), pending_.end(), time,
+                         [](double t, const std::pair<double, int>& p) { return t < p.first; });
+    pending_.insert(it, {time, vertex});
+  }
+}
+
+void GroundTruthRecorder::apply_pending(double t) {
+  while (!pending_.empty() && pending_.front().first <= t) {
+    const auto [vt, v] = pending_.front();
+    pending_.pop_front();
+    apply_visit(vt, v);
+  }
+}
+
+void GroundTruthRecorder::apply_visit(double vt, int v) {
+  sample_worst_ = py_max(sample_worst_, vt - sample_last_[v]);
+  sample_last_[v] = py_max(sample_last_[v], vt);
+  ++sample_visits_;
+}
+
+long long GroundTruthRecorder::interferences_until(double t) const {
+  auto it =
+      std::upper_bound(interferences_.begin(), interferences_.end(), t,
+                       [](double time, const InterferenceRecord& r) { return time < r.time_s; });
+  return static_cast<long long>(it - interferences_.begin());
+}
+
+void GroundTruthRecorder::emit_row(double t, double x_mean) {
+  apply_pending(t);
+  const double mean_last = numpy_mean(sample_last_.data(), static_cast<std::size_t>(n_vertices_));
+  const double ins = t - mean_last;
+  const double worst = py_max(sample_worst_, t - sample_last_.minCoeff());
+  ins_sum_ += ins;
+  if (!std::isnan(x_mean)) {
+    x_sum_ += x_mean;
+    ++x_count_;
+  }
+  rows_.push_back({t, ins, worst, x_mean, sample_visits_, interferences_until(t)});
+}
+
+void GroundTruthRecorder::record_robot_death(int robot, double time_s) {
+  if (robot < 0 || robot >= n_robots_) {
+    throw std::out_of_range("unknown robot " + std::to_string(robot));
+  }
+  if (alive_.empty()) alive_.assign(static_cast<std::size_t>(n_robots_), 1);
+  if (!alive_[static_cast<std::size_t>(robot)]) return;
+  alive_[static_cast<std::size_t>(robot)] = 0;
+  all_alive_ = false;
+  deaths_.push_back({time_s, robot, -1});
+}
+
+void GroundTruthRecorder::record_positions(double t1, const Points& given) {
+  if (given.rows() != n_robots_) throw std::invalid_argument("need one position per robot");
+  // A dead robot's row is NaN (absent): it neither senses nor interferes.
+  const Points* rows = &given;
+  if (!all_alive_) {
+    masked_ = given;
+    for (int i = 0; i < n_robots_; ++i) {
+      if (!alive_[static_cast<std::size_t>(i)]) masked_.row(i).setConstant(kNaN);
+    }
+    rows = &masked_;
+  }
+  const Points& p1 = *rows;
+  // No NaN in p1 (nor in the previous positions: deaths are for good) while all are alive.
+  const bool finite = all_alive_;
+  if (!has_pos_) {
+    // Pairs already close at the start are not counted (they did not come close).
+    close_.clear();
+    for (int i = 0; i < n_robots_; ++i) {
+      for (int j = i + 1; j < n_robots_; ++j) {
+        const double dx = p1(i, 0) - p1(j, 0), dy = p1(i, 1) - p1(j, 1);
+        if (dx * dx + dy * dy <= dif2_) {  // NaN compares false
+          close_.push_back(static_cast<std::uint64_t>(i) * n_robots_ + j);
+        }
+      }
+    }
+    if (!finite || next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
+      advance_field(field_t_, t1, p1, p1, finite && field_finite_);
+      field_t_ = t1;
+      field_p_ = p1;
+      has_field_p_ = true;
+      field_finite_ = finite;
+    }
+  } else {
+    const double t0 = pos_time_;
+    if (t1 < t0) {
+      throw std::invalid_argument("positions at " + std::to_string(t1) +
+                                  " s are earlier than the previous ones");
+    }
+    if (n_robots_ > 1) {
+      if (finite) {
+        const double step = (p1 - pos_).cwiseAbs().maxCoeff();
+        interference(t0, t1, pos_, p1, step);
+      } else {
+        interference_all(t0, t1, pos_, p1);
+      }
+    }
+    // The field advances over chunks of >= field_merge_s, at every sample time and whenever a
+    // robot is absent.
+    if (!finite || next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
+      advance_field(field_t_, t1, has_field_p_ ? field_p_ : pos_, p1, finite && field_finite_);
+      field_t_ = t1;
+      field_p_ = p1;
+      has_field_p_ = true;
+      field_finite_ = finite;
+    }
+  }
+  pos_time_ = t1;
+  pos_ = p1;
+  has_pos_ = true;
+}
+
+void GroundTruthRecorder::enter_pair(std::uint64_t key, int i, int j, double t0, double t1,
+                                     const Points& p0, double d1x, double d1y) {
+  // Pair (i, j), d1 = p1_i - p1_j [m], moving linearly from t0 to t1 [s]: the exact time it
+  // comes within d_if, counted when the refractory time has passed since its last entry.
+  const double x0 = p0(i, 0) - p0(j, 0), y0 = p0(i, 1) - p0(j, 1);
+  if (x0 != x0 || y0 != y0) return;  // absent at t0: appears now, not an entry
+  const double vx = d1x - x0, vy = d1y - y0;
+  const double a = vx * vx + vy * vy;
+  const double b = x0 * vx + y0 * vy;  // half the linear coefficient
+  const double c0 = x0 * x0 + y0 * y0;
+  double s_in;
+  if (c0 <= dif2_) {
+    s_in = 0.0;
+  } else {
+    const double s_star = a > 0 ? std::min(py_max(-b / a, 0.0), 1.0) : 0.0;
+    if (a * s_star * s_star + 2 * b * s_star + c0 > dif2_) return;  // never within d_if
+    // smallest root of a s^2 + 2 b s + (c0 - d^2) = 0
+    s_in = (-b - std::sqrt(py_max(b * b - a * (c0 - dif2_), 0.0))) / a;
+  }
+  const double t_in = t0 + std::min(py_max(s_in, 0.0), 1.0) * (t1 - t0);
+  auto it = last_count_.find(key);
+  const double last = it == last_count_.end() ? -kInf : it->second;
+  if (t_in - last >= refractory_) {
+    last_count_[key] = t_in;
+    fresh_.push_back({t_in, i, j});
+  }
+}
+
+void GroundTruthRecorder::keep_fresh() {
+  // This interval's entries, in (time, a, b) order, after the earlier ones.
+  if (fresh_.empty()) return;
+  std::sort(fresh_.begin(), fresh_.end(),
+            [](const InterferenceRecord& x, const InterferenceRecord& y) {
+              if (x.time_s != y.time_s) return x.time_s < y.time_s;
+              if (x.a != y.a) return x.a < y.a;
+              return x.b < y.b;
+            });
+  interferences_.insert(interferences_.end(), fresh_.begin(), fresh_.end());
+}
+
+void GroundTruthRecorder::interference_all(double t0, double t1, const Points& p0,
+                                           const Points& p1) {
+  // RunRecorder._interference when a robot is absent: every pair of live robots is a
+  // candidate (reach = inf), with the same arithmetic as interference().
+  const int n = n_robots_;
+  const std::uint64_t un = static_cast<std::uint64_t>(n);
+  close_end_.clear();
+  fresh_.clear();
+  for (int i = 0; i < n; ++i) {
+    if (std::isnan(p1(i, 0)) || std::isnan(p1(i, 1))) continue;
+    for (int j = i + 1; j < n; ++j) {
+      const double d1x = p1(i, 0) - p1(j, 0), d1y = p1(i, 1) - p1(j, 1);
+      const double c1 = d1x * d1x + d1y * d1y;
+      if (!(c1 <= kInf)) continue;  // an absent robot (NaN) is never near
+      const std::uint64_t key = static_cast<std::uint64_t>(i) * un + j;
+      if (c1 <= dif2_) close_end_.push_back(key);
+      if (std::binary_search(close_.begin(), close_.end(), key)) continue;
+      enter_pair(key, i, j, t0, t1, p0, d1x, d1y);
+    }
+  }
+  keep_fresh();
+  close_.swap(close_end_);  // keys ascending
+  verlet_valid_ = false;
+}
+
+void GroundTruthRecorder::interference(double t0, double t1, const Points& p0, const Points& p1,
+                                       double step) {
+  // Exact episode entries for linear motion p0 (t0) -> p1 (t1), as RunRecorder._interference.
+  // Candidate pairs come from a Verlet list (pairs within reach + skin when it was built, found
+  // through a spatial hash): a pair outside it stays farther than d_if until some robot has
+  // moved skin / 2 from where the list was built, which rebuilds it. So every pair that can
+  // come within d_if is examined, with the same arithmetic as the all-pairs Python code.
+  const double reach = d_if_ + 2.8285 * step;
+  const double reach2 = reach * reach;
+  const int n = n_robots_;
+  bool valid = verlet_valid_;
+  if (valid) {
+    for (int i = 0; i < n && valid; ++i) {
+      const double dx = p1(i, 0) - verlet_ref_(i, 0), dy = p1(i, 1) - verlet_ref_(i, 1);
+      valid = dx * dx + dy * dy <= verlet_half_skin2_;
+    }
+  }
+  if (!valid) rebuild_verlet(p1, reach);
+  close_end_.clear();
+  fresh_.clear();
+  const std::uint64_t un = static_cast<std::uint64_t>(n);
+  for (const std::uint64_t key : verlet_pairs_) {
+    const int i = static_cast<int>(key / un), j = static_cast<int>(key % un);
+    const double d1x = p1(i, 0) - p1(j, 0), d1y = p1(i, 1) - p1(j, 1);
+    const double c1 = d1x * d1x + d1y * d1y;
+    if (!(c1 <= reach2)) continue;  // not near
+    if (c1 <= dif2_) close_end_.push_back(key);
+    // A pair close at both ends is close throughout; it enters at most once per interval.
+    if (std::binary_search(close_.begin(), close_.end(), key)) continue;
+    enter_pair(key, i, j, t0, t1, p0, d1x, d1y);
+  }
+  keep_fresh();
+  close_.swap(close_end_);  // sorted: the Verlet list is
+}
+
+void GroundTruthRecorder::rebuild_verlet(const Points& p, double reach) {
+  const int n = n_robots_;
+  const double skin = verlet_skin_;
+  const double radius = (reach + skin) * (1.0 + 1e-9);
+  const double radius2 = radius * radius;
+  double extent = 1.0;
+  for (int i = 0; i < n; ++i) extent = std::max({extent, std::abs(p(i, 0)), std::abs(p(i, 1))});
+  const double cell = std::max(radius, extent * 1e-6);
+  // Spatial hash: robots sorted by cell; each robot looks at its own and the 8 cells around.
+  cells_.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const auto cx = static_cast<std::int64_t>(std::floor(p(i, 0) / cell));
+    const auto cy = static_cast<std::int64_t>(std::floor(p(i, 1) / cell));
+    cells_[static_cast<std::size_t>(i)] = {cx * kCellStride + cy, i};
+  }
+  sorted_cells_ = cells_;
+  std::sort(sorted_cells_.begin(), sorted_cells_.end());
+  verlet_pairs_.clear();
+  const std::uint64_t un = static_cast<std::uint64_t>(n);
+  for (int i = 0; i < n; ++i) {
+    const std::int64_t key = cells_[static_cast<std::size_t>(i)].first;
+    for (std::int64_t dx = -1; dx <= 1; ++dx) {
+      for (std::int64_t dy = -1; dy <= 1; ++dy) {
+        const std::int64_t neighbour = key + dx * kCellStride + dy;
+        auto it = std::lower_bound(sorted_cells_.begin(), sorted_cells_.end(),
+                                   std::make_pair(neighbour, -1));
+        for (; it != sorted_cells_.end() && it->first == neighbour; ++it) {
+          const int j = it->second;
+          if (j <= i) continue;
+          const double ex = p(i, 0) - p(j, 0), ey = p(i, 1) - p(j, 1);
+          if (ex * ex + ey * ey <= radius2)
+            verlet_pairs_.push_back(static_cast<std::uint64_t>(i) * un + j);
+        }
+      }
+    }
+  }
+  std::sort(verlet_pairs_.begin(), verlet_pairs_.end());
+  verlet_ref_ = p;
+  const double half = 0.5 * skin * (1.0 - 1e-6);
+  verlet_half_skin2_ = half * half;
+  verlet_valid_ = true;
+}
+
+void GroundTruthRecorder::advance_field(double t0, double t1, const Points& p0_all,
+                                        const Points& p1_all, bool finite) {
+  // Not finite: only the robots present at both ends sense (RunRecorder._advance_field).
+  Points live0, live1;
+  if (!finite) {
+    std::vector<Eigen::Index> live;
+    for (Eigen::Index i = 0; i < p0_all.rows(); ++i) {
+      if (!std::isnan(p0_all(i, 0)) && !std::isnan(p1_all(i, 0))) live.push_back(i);
+    }
+    live0.resize(static_cast<Eigen::Index>(live.size()), 2);
+    live1.resize(static_cast<Eigen::Index>(live.size()), 2);
+    for (std::size_t k = 0; k < live.size(); ++k) {
+      live0.row(static_cast<Eigen::Index>(k)) = p0_all.row(live[k]);
+      live1.row(static_cast<Eigen::Index>(k)) = p1_all.row(live[k]);
+    }
+  }
+  const Points& p0 = finite ? p0_all : live0;
+  const Points& p1 = finite ? p1_all : live1;
+  double ta = t0;
+  Points pa = p0;
+  const double span = t1 - t0;
+  while (next_sample_ <= t1 + 1e-9) {
+    const double ts = next_sample_;
+    Points pb = span > 0 ? Points(p0 + (p1 - p0) * ((ts - t0) / span)) : p1;
+    step_field(ts - ta, pa, pb);
+    emit_row(ts, numpy_mean(values_.data(), static_cast<std::size_t>(n_vertices_)));
+    ++sample_k_;
+    next_sample_ = 0.0 + static_cast<double>(sample_k_) * period_;
+    ta = ts;
+    pa = pb;
+  }
+  if (t1 > ta) step_field(t1 - ta, pa, p1);
+}
+
+void GroundTruthRecorder::step_field(double dt, const Points& pa, const Points& pb) {
+  if (dt <= 0) return;
+  if (pa.rows() == 0) {  // UncertaintyField::advance_uncovered: no coverage, one step
+    const UncertaintyModel& model = field_.model();
+    const Eigen::VectorXd& importance = field_.importance();
+    for (Eigen::Index j = 0; j < values_.size(); ++j) {
+      values_[j] = model.evolve(values_[j], importance[j] - 0.0, dt);
+    }
+    return;
+  }
+  advance_linear(dt, pa, pb);
+}
+
+void GroundTruthRecorder::coverage(const Points& start, const Points& end, double fraction,
+                                   Eigen::VectorXd& out) {
+  // total_perception (Eq. 1 summed over robots) at start + fraction (end - start), robot by
+  // robot in index order as there, over the targets within one cell of the robot only.
+  cover_at_ = start + fraction * (end - start);
+  out.setZero(n_vertices_);
+  const auto& targets = field_.targets();
+  for (Eigen::Index i = 0; i < cover_at_.rows(); ++i) {
+    const double r2 = radii_[i] * radii_[i];
+    const double scale = peaks_[i] / (r2 * r2);
+    const double qx = cover_at_(i, 0), qy = cover_at_(i, 1);
+    const double fx = std::floor((qx - target_x0_) / target_cell_);
+    const double fy = std::floor((qy - target_y0_) / target_cell_);
+    if (!(fx >= -1 && fx <= target_nx_ && fy >= -1 && fy <= target_ny_)) continue;  // far away
+    const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
+    for (int gx = std::max(cx - 1, 0); gx <= std::min(cx + 1, target_nx_ - 1); ++gx) {
+      for (int gy = std::max(cy - 1, 0); gy <= std::min(cy + 1, target_ny_ - 1); ++gy) {
+        const int c = gx * target_ny_ + gy;
+        for (int k = target_start_[c]; k < target_start_[c + 1]; ++k) {
+          const int j = target_index_[k];
+          const double dx = targets(j, 0) - qx;
+          const double dy = targets(j, 1) - qy;
+          const double s2 = dx * dx + dy * dy;
+          if (s2 <= r2) {
+            const double d = s2 - r2;
+            out[j] += scale * d * d;
+          }
+        }
+      }
+    }
+  }
+}
+
+void GroundTruthRecorder::advance_linear(double dt, const Points& start, const Points& end) {
+  // UncertaintyField::advance_linear, step for step (Simpson's rule per substep, exact
+  // constant-coverage solution), with the coverage through the target cells.
+  const int steps = std::max(1, static_cast<int>(std::ceil(dt / max_substep_)));
+  const double h = dt / steps;
+  const UncertaintyModel& model = field_.model();
+  const Eigen::VectorXd& importance = field_.importance();
+  const bool affine = model.is_affine();
+  const double a0 = model.growth_coefficients[0];
+  const double a1 = model.growth_coefficients.size() > 1 ? model.growth_coefficients[1] : 0.0;
+  coverage(start, end, 0.0, cover_left_);
+  for (int k = 0; k < steps; ++k) {
+    coverage(start, end, (k + 0.5) / steps, cover_mid_);
+    coverage(start, end, (k + 1.0) / steps, cover_right_);
+    // One exp pair per distinct rate: the uncovered targets of a uniform map share theirs.
+    double cached_rate = kNaN, growth = 0, offset = 0;
+    bool saturated = false;
+    for (Eigen::Index j = 0; j < values_.size(); ++j) {
+      const double mean = (cover_left_[j] + 4.0 * cover_mid_[j] + cover_right_[j]) / 6.0;
+      const double rate = importance[j] - mean;
+      if (!affine || !(h > 0)) {
+        values_[j] = model.evolve(values_[j], rate, h);
+        continue;
+      }
+      if (!(rate == cached_rate)) {  // UncertaintyModel::evolve, affine branch
+        cached_rate = rate;
+        const double z = a1 * rate * h;
+        saturated = z > 700;
+        if (!saturated) {
+          growth = std::exp(z);
+          const double ratio = std::abs(z) < 1e-12 ? 1.0 + 0.5 * z : std::expm1(z) / z;
+          offset = a0 * rate * h * ratio;
+        }
+      }
+      if (saturated) {
+        values_[j] = model.max_value;
+        continue;
+      }
+      const double x = values_[j] * growth + offset;
+      values_[j] = !(x > 0) ? 0.0 : std::min(x, model.max_value);
+    }
+    cover_left_.swap(cover_right_);
+  }
+}
+
+double GroundTruthRecorder::worst_idleness(double end_s) const {
+  double worst = 0.0;
+  for (const auto& times : vertex_times_) {
+    double prev = 0.0;
+    for (double t : times) {
+      worst = py_max(worst, t - prev);
+      prev = t;
+    }
+    worst = py_max(worst, end_s - prev);
+  }
+  return worst;
+}
+
+void GroundTruthRecorder::finish(double end_s) {
+  if (has_pos_ && end_s > pos_time_) {
+    const Points held = pos_;
+    record_positions(end_s, held);
+  }
+  if (has_pos_ && field_t_ < pos_time_) {  // a merged chunk still pending
+    const bool finite = field_finite_ && all_alive_;
+    advance_field(field_t_, pos_time_, field_p_, pos_, finite);
+    field_t_ = pos_time_;
+    field_p_ = pos_;
+    field_finite_ = finite;
+  }
+}
+
+}  // namespace tpuaf
