@@ -2,12 +2,14 @@
 
 The any-vertex variant `tpuaf_any` was removed (issue 13): it was worse than TPUAF in I_max and X
 on every map and team size of the canonical comparison and under faults (docs/STRATEGIES.md).
-`any_vertex` stays a class switch, mirrored by the C++ decision path.
+`any_vertex` stays a switch of the core strategy.
 
 Each robot keeps the shared set Q (latest known visit of every vertex, announced intentions of
 the others, stale entries dropped) and its own estimate of every target's uncertainty X_j,
-grown with the model of Eq. 2 and cut at every known visit. That bookkeeping and the utility
-evaluation live in the C++ core (`tpuaf_core.TpuafKnowledge`); this class only decides.
+grown with the model of Eq. 2 and cut at every known visit. The bookkeeping, the utility
+evaluation and the decision live in the C++ core (`tpuaf_core.TpuafStrategy`,
+policies_tpuaf.cpp), the one implementation every runtime runs; this class declares the
+parameters and builds it.
 
 Late messages and platoons (issue 12, "delay hurts more than total loss"): robots that reach a
 vertex at the same time decide from the same knowledge, and with delayed messages neither hears
@@ -26,8 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tpuaf.policies.base import Parameter, Policy, RobotContext, register
-from tpuaf.team.messages import Intention, Visit
+from tpuaf.policies.base import Parameter, register
+from tpuaf.policies.core import CoreStrategyPolicy
 
 
 def _positive(x) -> bool:
@@ -52,7 +54,7 @@ def new_knowledge(patrol_map, intention_timeout_s: float, silence_timeout_s: flo
 
 
 @register
-class Tpuaf(Policy):
+class Tpuaf(CoreStrategyPolicy):
     """TPUAF as the paper states it: the next target is the neighbour of maximal utility."""
 
     name = "tpuaf"
@@ -80,115 +82,18 @@ class Tpuaf(Policy):
         ),
     }
 
-    def start(self, ctx: RobotContext) -> None:
+    @classmethod
+    def core_strategy(cls, params: dict, patrol_map, n_robots: int, streams: list):
         import tpuaf_core
 
-        self.knowledge = new_knowledge(
-            ctx.patrol_map, self.params["intention_timeout_s"], self.params["silence_timeout_s"]
-        )
-        self.form = (
-            tpuaf_core.UtilityForm.EQ14
-            if self.params["utility"] == "eq14"
-            else tpuaf_core.UtilityForm.EQ13
-        )
-        self.last_utilities = None  # the last decision's UtilityResult, for inspection
-        self.colocation = self.params["colocation"] in (True, 1, "true")
-        self.latency_s = 0.0  # [s] largest message latency seen (receive time - send time)
-        self.my_visits: dict[int, list[tuple[float, int]]] = {}  # vertex -> [(time, next)]
-        self.shadows: set[int] = set()  # teammates seen following my vertices at my times
+        knowledge = new_knowledge(patrol_map, params["intention_timeout_s"],
+                                  params["silence_timeout_s"])
+        form = (tpuaf_core.UtilityForm.EQ14 if params["utility"] == "eq14"
+                else tpuaf_core.UtilityForm.EQ13)
+        colocation = params["colocation"] in (True, 1, "true")
+        return tpuaf_core.TpuafStrategy(knowledge, form, cls.any_vertex, streams, colocation)
 
-    def candidates(self, ctx: RobotContext) -> list[int]:
-        graph = ctx.patrol_map.graph
-        if self.any_vertex:
-            return [v for v in range(graph.num_vertices) if v != ctx.current_vertex]
-        return list(graph.neighbours(ctx.current_vertex))
-
-    def decide(self, ctx: RobotContext) -> int | None:
-        now, here = ctx.now, ctx.current_vertex
-        knowledge = self.knowledge
-        knowledge.record_visit(here, now)
-        knowledge.forget_intention(ctx.robot)  # never count my own old intention
-        candidates = self.candidates(ctx)
-        if not candidates:  # a one-vertex graph: stay
-            ctx.send(Visit(ctx.robot, here, now, here))
-            return here
-        if self.colocation and self.latency_s > 0:  # no late messages: nothing to resolve
-            for mate in self.colocated(ctx):  # lower-indexed teammates here decide first
-                if mate < ctx.robot:
-                    self._presume_choice(ctx, mate, candidates)
-        result = knowledge.utilities(
-            ctx.patrol_map.graph, now, here, candidates, ctx.average_speed, self.form,
-            self.any_vertex,
-        )
-        self.last_utilities = result
-        utility = result.utility
-        top = utility.max()
-        best = np.flatnonzero(utility >= top - 1e-12 * max(1.0, abs(top)))
-        k = int(best[0]) if len(best) == 1 else int(ctx.rng.choice(best))  # seeded tie-break
-        target = candidates[k]
-        mine = self.my_visits.setdefault(here, [])
-        mine.append((now, target))
-        del mine[:-4]
-        ctx.send(Visit(ctx.robot, here, now, target))
-        ctx.send(
-            Intention(
-                ctx.robot, here, target, float(result.arrival_s[k]),
-                float(result.travel_time_s[k]), now,
-            )
-        )
-        return target
-
-    def colocated(self, ctx: RobotContext) -> list[int]:
-        """Teammates that reached my vertex within the message latency of now and whose next
-        decision I have not heard (their intention for it still held), and my shadows."""
-        now, here = ctx.now, ctx.current_vertex
-        window = self.latency_s + 1e-6
-        mates = {
-            robot for robot, _, vertex, arrival, _, _ in self.knowledge.intentions
-            if robot != ctx.robot and vertex == here and now - window <= arrival <= now + 1e-6
-        }
-        return sorted(mates | (self.shadows - {ctx.robot}))
-
-    def _presume_choice(self, ctx: RobotContext, mate: int, candidates: list[int]) -> None:
-        """Count teammate `mate`'s presumed choice here (argmax of the same utility, lowest
-        index on ties) as its announced intention."""
-        now, here = ctx.now, ctx.current_vertex
-        result = self.knowledge.utilities(
-            ctx.patrol_map.graph, now, here, candidates, ctx.average_speed, self.form,
-            self.any_vertex,
-        )
-        k = int(np.argmax(result.utility))
-        self.knowledge.hear_intention(
-            mate, here, candidates[k], float(result.arrival_s[k]),
-            float(result.travel_time_s[k]), now, now,
-        )
-
-    def _track_shadow(self, message: Visit) -> None:
-        """A teammate's visit at (about) my own visit of that vertex, followed by the same next
-        vertex, makes it my shadow; any other visit of it ends that."""
-        tol = max(1.0, 0.1 * self.latency_s)
-        same = [nxt for t, nxt in self.my_visits.get(message.vertex, ())
-                if abs(t - message.time) <= tol]
-        if same and message.next_vertex in same:
-            self.shadows.add(message.robot)
-        else:
-            self.shadows.discard(message.robot)
-
-    def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:
-        self.knowledge.forget_intention(robot)
-        self.shadows.discard(robot)
-
-    def on_message(self, message, ctx: RobotContext) -> None:
-        kind = type(message)
-        if kind in (Visit, Intention):
-            self.latency_s = max(self.latency_s, ctx.now - message.time)
-        if kind is Visit:
-            self.knowledge.hear_visit(message.robot, message.vertex, message.time, ctx.now)
-            if self.colocation:
-                self._track_shadow(message)
-        elif kind is Intention:
-            self.knowledge.hear_intention(
-                message.robot, message.from_vertex, message.vertex, message.expected_arrival,
-                message.travel_time, message.time, ctx.now,
-            )
-
+    @property
+    def knowledge(self):
+        """What this robot knows (a copy of the core's TpuafKnowledge: Q, X estimates)."""
+        return self.strategy.knowledge(self.robot)

@@ -39,7 +39,6 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
 
 from __future__ import annotations
 
-import math
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -47,9 +46,9 @@ import numpy as np
 import tpuaf_core
 
 from tpuaf.maps import tours
-from tpuaf.policies.base import Parameter, Policy, RobotContext, register
+from tpuaf.policies.base import Parameter, register
+from tpuaf.policies.core import CoreStrategyPolicy
 from tpuaf.policies.tpuaf import new_knowledge
-from tpuaf.team.messages import Intention, Visit
 
 _EPS = 1e-6
 SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
@@ -113,27 +112,6 @@ def predicted_mean_uncertainty(patrol_map, walk, n_robots: int, speed: float) ->
         samples = [model.evolve(x, c, gap * f) for f in (0.25, 0.5, 0.75, 1.0)]
         total.append(float(np.mean(samples)))
     return float(np.mean(total)) if total else 0.0
-
-
-def _entry_index(route: Route, vertex: int, dist) -> int:
-    """Walk index where a robot at `vertex` joins `route`: its nearest walk vertex (first
-    occurrence; ties to the lowest vertex index)."""
-    best = min(set(route.walk), key=lambda w: (dist[vertex, w], w))
-    return route.walk.index(best)
-
-
-def _urgent_entry(route: Route, vertex: int, dist, last_visit, now: float, speed: float) -> int:
-    """Walk index where a lone robot at `vertex` joins a new walk (after a loss): the one whose
-    first lap leaves the most idle vertex waiting least: min over entries k of max over walk
-    vertices of (now - last visit + drive to walk[k] + arc from k to it) [s]; ties to the
-    nearest entry. Its vertices (an orphaned part) must not wait a whole lap."""
-    walk = np.asarray(route.walk)
-    arc = np.asarray(route.arc)
-    idle = now - np.asarray(last_visit, dtype=float)[walk]  # [s] per walk entry
-    reach = np.asarray(dist[vertex, walk], dtype=float) / speed  # [s] to each entry
-    ahead = np.mod(arc[None, :] - arc[:, None], route.length) / speed  # [k, i] k -> i [s]
-    worst = (reach[:, None] + ahead + idle[None, :]).max(axis=1)
-    return int(np.lexsort((np.arange(len(walk)), reach, np.round(worst, 6)))[0])
 
 
 def start_schedule(graph, route: Route, starts: dict, speed: float, late_m: dict | None = None,
@@ -335,7 +313,7 @@ def silence_timeout(graph, speed: float, setting: float) -> float:
 
 
 @register
-class TpuafPlus(Policy):
+class TpuafPlus(CoreStrategyPolicy):
     """TPUAF+: shared tour plan, even spacing from timed messages, re-plan on silence."""
 
     name = "tpuaf_plus"
@@ -376,411 +354,45 @@ class TpuafPlus(Policy):
         ),
     }
 
-    # ------------------------------------------------------------------ set-up
+    @classmethod
+    def core_strategy(cls, params: dict, patrol_map, n_robots: int, streams: list):
+        """The core's TpuafPlusStrategy (policies_tpuaf_plus.cpp: spacing, dwelling, faults,
+        repair); its plans are `make_plan`'s, asked for when a robot's view of the team
+        changes."""
+        import types
 
-    def start(self, ctx: RobotContext) -> None:
-        pm = ctx.patrol_map
-        self.speed = float(pm.settings.nominal_speed)  # plan speed [m/s]
-        self.graph = pm.graph
-        self.dist = np.asarray(self.graph.distances)
         from tpuaf.policies.cyclic import team_start_vertices
 
-        self.all_starts = tuple(team_start_vertices(ctx))
-        self.robot = ctx.robot
-        timeout = silence_timeout(self.graph, self.speed, self.params["silence_timeout_s"])
-        self.silence_timeout_s = timeout
-        self.knowledge = new_knowledge(pm, INTENTION_TIMEOUT_S, timeout)
-        self.alive = set(range(ctx.n_robots))
-        self.last_heard = {k: ctx.now for k in range(ctx.n_robots)}
-        self.lost_at: dict[int, float] = {}  # robot -> when the runtime reported it lost [s]
-        # latest timed message per mate: (from vertex, to vertex, departure [s], sent [s])
-        self.heard: dict[int, tuple[int, int, float, float]] = {}
-        self.mate_arc: dict[int, float] = {}  # last estimated arc [m] (disambiguates walks)
-        # the last few timed announcements per robot, mine included, in the order sent: where
-        # every robot stood when the team changed (`_transition_entries`)
-        self.history: dict[int, list[tuple[int, int, float, float]]] = {}
-        self.changed_at = 0.0  # [s] when the team last changed, as every survivor dates it
-        self.hold_until: float | None = None  # planned departure while dwelling [s]
-        self.respace: tuple[float, float] | None = None  # after a loss: (target arc [m], at [s])
-        self.waking = False
-        self.last_announce = -np.inf
-        self.plan = None
-        self._install_plan(ctx, initial=True)
+        del streams  # TPUAF+ draws no random numbers
+        speed = float(patrol_map.settings.nominal_speed)
+        ctx = types.SimpleNamespace(patrol_map=patrol_map, n_robots=n_robots)
+        all_starts = tuple(team_start_vertices(ctx))
+        out = tpuaf_core.TpuafPlusParams()
+        out.speed_mps = speed
+        out.gain = float(params["gain"])
+        out.deadband_s = float(params["deadband_s"])
+        out.dwell_revisit_s = float(params["dwell_revisit_s"])
+        out.silence_timeout_s = silence_timeout(patrol_map.graph, speed,
+                                                params["silence_timeout_s"])
+        out.stay_s = STAY_S
 
-    def _team(self, ctx) -> tuple[int, ...]:
-        return tuple(sorted(self.alive | {ctx.robot}))
+        def plans(team: list[int]):
+            plan = make_plan(patrol_map, tuple(team), all_starts, params["plan"],
+                             params["repair"])
+            routes = [(list(r.walk), list(r.arc), r.length, list(r.robots)) for r in plan.routes]
+            route_of = [plan.route_of.get(k, -1) for k in range(n_robots)]
+            schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n_robots)]
+            return routes, route_of, schedule
 
-    def _install_plan(self, ctx, initial: bool = False) -> None:
-        old_route = self.route if self.plan is not None else None
-        self.plan = make_plan(
-            ctx.patrol_map, self._team(ctx), self.all_starts, self.params["plan"],
-            self.params["repair"],
-        )
-        self.route = self.plan.routes[self.plan.route_of[ctx.robot]]
-        self.departure: float | None = None
-        self.respace = None
-        if initial and ctx.robot in self.plan.schedule:
-            self.entry, self.departure = self.plan.schedule[ctx.robot]
-            self.idx = None
-        elif old_route is not None and old_route.walk == self.route.walk:
-            # same walk (a cycle): keep my place on it; after a loss, re-space at once
-            if len(self.route.robots) < len(old_route.robots):
-                self.respace = self._respace_target(ctx)
-        elif len(self.route.robots) == 1 and len(self.route.walk) > 1:  # a new part alone
-            self.entry = _urgent_entry(self.route, ctx.current_vertex, self.dist,
-                                       np.asarray(self.knowledge.last_visit), ctx.now, self.speed)
-            self.idx = None
-        else:
-            # a walk new to several robots: enter where the start schedule (from where every
-            # robot stood when the team changed) puts my slot, not all at the nearest vertex;
-            # leave on arrival (waiting for the slot left vertices idle longer, measured) and
-            # let the spacing rule even the gaps
-            entries = self._transition_entries()
-            self.entry = entries.get(ctx.robot)
-            if self.entry is None:
-                self.entry = _entry_index(self.route, ctx.current_vertex, self.dist)
-            self.idx = None
-        self.hold_until = None
+        knowledge = new_knowledge(patrol_map, INTENTION_TIMEOUT_S, out.silence_timeout_s)
+        return tpuaf_core.TpuafPlusStrategy(knowledge, out, plans)
 
-    def _transition_entries(self) -> dict[int, int]:
-        """Robot -> entry index on my new walk: `start_schedule`'s entries with each of its
-        robots at the vertex its last announcement before the team change (`changed_at`) was
-        heading to, from when it gets there. Every survivor computes it from the same messages
-        (unless loss or delay kept one from it), so they agree on the entries. {} when a robot
-        of the walk has not been heard."""
-        t_ref, route = self.changed_at, self.route
-        starts, late = {}, {}
-        for r in route.robots:
-            info = None
-            for entry in self.history.get(r, ()):
-                if entry[3] <= t_ref + _EPS:
-                    info = entry  # the latest sent by then (an intention after its visit)
-            if info is None:
-                return {}
-            a, b, departure, _ = info
-            starts[r] = b
-            late[r] = max(0.0, departure + float(self.dist[a, b]) / self.speed - t_ref) * self.speed
-        idle = np.maximum(t_ref - np.asarray(self.knowledge.last_visit, dtype=float), 0.0)
-        plan = start_schedule(self.graph, route, starts, self.speed, late, idle)
-        return {r: k for r, (k, _) in plan.items()}
+    @property
+    def walk(self) -> list[int]:
+        """This robot's current walk (its vertices in order)."""
+        return list(self.strategy.walk(self.robot))
 
-    def _remember(self, robot: int, entry: tuple[int, int, float, float]) -> None:
-        past = self.history.setdefault(robot, [])
-        past.append(entry)
-        if len(past) > 4:
-            del past[0]
-
-    def _respace_target(self, ctx) -> tuple[float, float] | None:
-        """After a loss on a shared walk: (my target arc [m], at time [s]) of the survivors'
-        even spacing L / m that keeps their cyclic order and asks the least dwell of anyone
-        (robots only wait). With survivors at unwrapped arcs p_0 <= ... < p_0 + L and
-        e_j = p_j - j L / m, survivor j dwells (e_j - min e) / v, once, at its next walk
-        vertex; the spacing rule then trims what my estimates of the mates got wrong."""
-        route, now = self.route, ctx.now
-        L, m = route.length, len(route.robots)
-        if self.idx is None or m < 2 or L <= 0:
-            return None
-        mine = route.arc[self.idx]
-        if self.hold_until is not None:  # dwelling counts as driving behind my vertex
-            mine -= self.speed * max(0.0, self.hold_until - now)
-        arcs = {ctx.robot: mine % L}
-        for k in route.robots:
-            if k != ctx.robot:
-                arc = self._mate_arc(k, now)
-                if arc is None:
-                    return None  # a mate I cannot place: leave it to the spacing rule
-                arcs[k] = arc
-        # cyclic order from my position (ties: lower robot index ahead, as in spacing_wait)
-        order = sorted(arcs, key=lambda k: ((arcs[k] - arcs[ctx.robot]) % L, -k))
-        unwrapped = np.array([arcs[ctx.robot] + (arcs[k] - arcs[ctx.robot]) % L for k in order])
-        e = unwrapped - np.arange(m) * (L / m)
-        # my target: where I would be after my dwell; it moves on at v from `now`
-        return float(mine - (e[0] - e.min())), now
-
-    def _idle_room(self, now: float) -> float:
-        """How long [s] I can dwell before some walk vertex ahead of me, up to the nearest mate
-        ahead (where it is now, dwelling or not) and within L / m, waits longer than the even
-        spacing's L / (m v) for me: min over them of L / (m v) - its idleness now (my visit
-        knowledge) - my drive to it; never negative."""
-        route = self.route
-        n, L = len(route.walk), route.length
-        here = route.arc[self.idx]
-        even = L / len(route.robots)  # [m]
-        reach = even
-        for k in route.robots:
-            arc = self._mate_arc(k, now) if k != self.robot else None
-            if arc is not None:
-                if k in self.heard:  # a dwelling mate is at its vertex, not behind it
-                    arc += self.speed * max(0.0, self.heard[k][2] - now)
-                reach = min(reach, (arc - here) % L)
-        last = self.knowledge.last_visit
-        room = np.inf
-        for step in range(1, n):
-            i = (self.idx + step) % n
-            d = (route.arc[i] - here) % L
-            if d > reach + _EPS:
-                break
-            room = min(room, (even - d) / self.speed - (now - float(last[route.walk[i]])))
-        return max(0.0, float(room)) if np.isfinite(room) else 0.0
-
-    def _respace_wait(self, ctx, now: float) -> float:
-        """Dwell [s] towards my re-spacing target after a loss: what is left of it, but never
-        so long that a vertex ahead of me waits longer than the even spacing allows (the robot
-        ahead dwells its share first; `_idle_room`). Done when less than the deadband is left
-        or after a lap."""
-        target, at = self.respace
-        L = self.route.length
-        behind = (self.route.arc[self.idx] - target - self.speed * (now - at)) % L  # [m]
-        left = behind / self.speed if behind < L / 2 else 0.0  # [s]
-        wait = min(left, self._idle_room(now))
-        if left - wait <= self.params["deadband_s"] or now - at > L / self.speed:
-            self.respace = None
-        return wait
-
-    # ------------------------------------------------------------------ messages
-
-    def on_message(self, message, ctx: RobotContext) -> None:
-        # the hottest call of a run (every message x every recipient): locals, one dict lookup
-        kind = type(message)
-        if kind is Visit:
-            k, sent = message.robot, message.time
-            self.knowledge.hear_visit(k, message.vertex, sent, ctx.now)
-            self._heard_from(k, sent)
-            nxt = message.next_vertex if message.next_vertex >= 0 else message.vertex
-            self._remember(k, (message.vertex, nxt, sent, sent))
-            old = self.heard.get(k)
-            if old is None or sent > old[3] + _EPS:
-                self.heard[k] = (message.vertex, nxt, sent, sent)
-        elif kind is Intention:
-            k, sent = message.robot, message.time
-            self._heard_from(k, sent)
-            departure = message.expected_arrival - message.travel_time
-            self._remember(k, (message.from_vertex, message.vertex, departure, sent))
-            old = self.heard.get(k)
-            if old is None or sent >= old[3] - _EPS:
-                self.heard[k] = (message.from_vertex, message.vertex, departure, sent)
-
-    def _heard_from(self, k: int, sent: float) -> None:
-        sent = float(sent)
-        last_heard = self.last_heard
-        if sent > last_heard.get(k, -math.inf):
-            last_heard[k] = sent
-        lost_at = self.lost_at
-        if lost_at and sent > lost_at.get(k, math.inf):
-            del lost_at[k]  # heard again after it was reported lost
-
-    def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:
-        """The runtime's liveness timeout (faster than my own silence timeout)."""
-        self.lost_at[robot] = ctx.now
-
-    def _update_team(self, ctx) -> None:
-        """Mates silent for longer than the timeout leave the team; a mate heard again rejoins."""
-        now = ctx.now
-        alive = {
-            k for k in range(ctx.n_robots)
-            if k == ctx.robot or (
-                k not in self.lost_at
-                and now - self.last_heard.get(k, -np.inf) <= self.silence_timeout_s
-            )
-        }
-        if alive != self.alive:
-            # dated as every survivor dates it: the loss report, else the end of the silence
-            gone = [min(self.lost_at.get(k, np.inf),
-                        self.last_heard.get(k, -np.inf) + self.silence_timeout_s)
-                    for k in self.alive - alive]
-            self.changed_at = min(max(gone), now) if gone else now
-            self.alive = alive
-            self._install_plan(ctx)
-
-    # ------------------------------------------------------------------ spacing
-
-    def _mate_arc(self, k: int, now: float) -> float | None:
-        """Estimated arc position [m] of mate k on my walk now, None when unknown/off it: on its
-        start slot until it leaves (and after, while its latest message is from before that, off
-        my walk or due at its entry vertex in time), then from its latest timed message."""
-        route = self.route
-        scheduled = self.plan.schedule.get(k)
-        if scheduled is not None and k not in route.robots:
-            scheduled = None
-        info = self.heard.get(k)
-        if scheduled is not None and now < scheduled[1]:
-            # not started yet: on its start slot (its messages while it drives to its entry
-            # vertex place it off the slot)
-            return self._slot_arc(k, scheduled, now)
-        if info is None:
-            # left, not heard yet (delay, loss): on its start slot
-            return None if scheduled is None else self._slot_arc(k, scheduled, now)
-        a, b, departure, sent = info
-        walk, n = route.walk, len(route.walk)
-        if a == b:
-            hits = [i for i in range(n) if walk[i] == a]
-        else:
-            hits = [i for i in range(n) if walk[i] == a and walk[(i + 1) % n] == b]
-        if scheduled is not None and sent < scheduled[1] - _EPS and (not hits or (
-                departure + (self.dist[a, b] + self.dist[b, route.walk[scheduled[0]]])
-                / self.speed <= scheduled[1] + _EPS)):
-            # its latest message is from before it left its start slot, and it is off my walk
-            # or was due at its entry vertex in time: the message telling me it left was
-            # delayed or lost; on its start slot
-            return self._slot_arc(k, scheduled, now)
-        if not hits:
-            return None
-        # a mate dwelling until `departure` counts as driving behind its vertex: it will be there
-        # then, as a robot moving at v would
-        moved = self.speed * (now - departure)
-        prev = self.mate_arc.get(k)
-        if prev is None or len(hits) == 1:
-            i = hits[0]
-        else:
-            i = min(hits, key=lambda h: abs(((route.arc[h] + moved - prev) + route.length / 2)
-                                            % route.length - route.length / 2))
-        arc = (route.arc[i] + moved) % route.length
-        self.mate_arc[k] = arc
-        return arc
-
-    def _slot_arc(self, k: int, scheduled: tuple[int, float], now: float) -> float:
-        """Mate k's arc [m] on its start slot at `now`: at its entry vertex at its departure
-        time, moving at v (before and after)."""
-        entry, departure = scheduled
-        arc = (self.route.arc[entry] - self.speed * (departure - now)) % self.route.length
-        self.mate_arc[k] = arc
-        return arc
-
-    def _gaps(self, ctx, now: float) -> tuple[float, float, float] | None:
-        """(gap ahead, gap behind, even gap L / m) [m] from the current walk vertex to the
-        nearest placed mates; None when no mate is placed."""
-        route = self.route
-        L = route.length
-        me = ctx.robot
-        here_arc = route.arc[self.idx]
-        ahead = behind = None
-        mates = [k for k in route.robots if k != me and k in self.alive]
-        for k in mates:
-            arc = self._mate_arc(k, now)
-            if arc is None:
-                continue
-            d = (arc - here_arc) % L
-            if d < _EPS or L - d < _EPS:  # together: the lower index is ahead
-                fwd, back = (0.0, L) if k < me else (L, 0.0)
-            else:
-                fwd, back = d, L - d
-            ahead = fwd if ahead is None else min(ahead, fwd)
-            behind = back if behind is None else min(behind, back)
-        if ahead is None:
-            return None
-        return ahead, behind, L / (len(mates) + 1)
-
-    def spacing_wait(self, ctx, now: float) -> float:
-        """Dwell [s] at the current walk vertex: gain * (gap_behind - gap_ahead) / (2 v)."""
-        gaps = self._gaps(ctx, now) if self.route.length > 0 else None
-        if gaps is None:
-            return 0.0
-        ahead, behind, ideal = gaps
-        wait = self.params["gain"] * (behind - ahead) / (2.0 * self.speed)
-        deadband = self.params["deadband_s"]
-        if behind > ahead + _EPS and behind > ideal + 2.0 * deadband * self.speed:
-            # gaps may step up by less than the deadband from robot to robot round the walk;
-            # a robot with a long gap behind it dwells at least past the deadband
-            wait = max(wait, deadband + 0.1)
-        return float(min(max(wait, 0.0), ideal / self.speed))
-
-    # ------------------------------------------------------------------ decisions
-
-    def _announce(self, ctx, here: int, nxt: int, departure: float, visit: bool) -> None:
-        now = ctx.now
-        travel = self.graph.edge_length(here, nxt) / self.speed if nxt != here else 0.0
-        if visit:
-            ctx.send(Visit(ctx.robot, here, now, nxt))
-        ctx.send(Intention(ctx.robot, here, nxt, departure + travel, travel, now))
-        self._remember(ctx.robot, (here, nxt, departure, now))
-        self.last_announce = now
-
-    def _hold(self, ctx, here: int, waking: bool) -> int | None:
-        """While dwelling: re-visit `here` every dwell_revisit_s, depart at hold_until."""
-        now = ctx.now
-        remaining = self.hold_until - now
-        if remaining <= _EPS:
-            return None  # caller departs
-        if waking and remaining >= STAY_S - _EPS:
-            return here  # a re-visit; it ends STAY_S later
-        if remaining < STAY_S + 0.1:
-            nap = remaining
-        else:
-            nap = min(remaining - STAY_S, self.params["dwell_revisit_s"])
-        ctx.wake_at(now + nap)
-        return -1
-
-    def decide(self, ctx: RobotContext) -> int | None:
-        if getattr(self, "plan", None) is None:
-            self.start(ctx)
-        now, here = ctx.now, ctx.current_vertex
-        waking, self.waking = self.waking, False
-        if not waking:
-            self.knowledge.record_visit(here, now)
-        self._update_team(ctx)
-        route = self.route
-        if self.idx is not None and route.walk[self.idx] != here:  # off my walk: rejoin it
-            self.idx, self.hold_until = None, None
-            self.entry = _entry_index(route, here, self.dist)
-        if self.idx is None:  # driving to my walk
-            target = route.walk[self.entry]
-            if here != target:
-                hop = self._repair_hop(ctx, here, target)
-                self._announce(ctx, here, hop, now, visit=not waking)
-                return hop
-            self.idx = self.entry
-        if len(route.walk) == 1:  # a one-vertex part: stay, re-visiting it
-            if now - self.last_announce >= self.params["dwell_revisit_s"] - _EPS:
-                self._announce(ctx, here, here, now + STAY_S, visit=True)
-            return here
-        return self._step(ctx, waking)
-
-    def _step(self, ctx, waking: bool = False) -> int | None:
-        now, here = ctx.now, ctx.current_vertex
-        route = self.route
-        nxt_idx = (self.idx + 1) % len(route.walk)
-        nxt = route.walk[nxt_idx]
-        if self.hold_until is None:
-            if self.departure is not None:  # the start schedule
-                wait, self.departure = max(0.0, self.departure - now), None
-            elif self.respace is not None:
-                wait = self._respace_wait(ctx, now)
-            else:
-                wait = self.spacing_wait(ctx, now)
-            if wait > self.params["deadband_s"]:
-                self.hold_until = now + wait
-                self._announce(ctx, here, nxt, self.hold_until, visit=True)
-        elif not waking:
-            self._announce(ctx, here, nxt, self.hold_until, visit=True)  # heartbeat
-        if self.hold_until is not None:
-            action = self._hold(ctx, here, waking)
-            if action == -1:
-                self.waking = True
-                return None
-            if action is not None:
-                return action
-            self.hold_until = None
-            self._announce(ctx, here, nxt, now, visit=False)
-        else:
-            self._announce(ctx, here, nxt, now, visit=True)
-        self.idx = nxt_idx
-        return nxt
-
-    def _repair_hop(self, ctx, here: int, target: int) -> int:
-        """Next vertex towards `target`: among neighbours on a shortest path, the one of
-        maximal TPUAF utility (Eq. 13), so that driving to a new part also repairs gaps."""
-        dist = self.dist
-        nbrs = sorted({int(w) for w in self.graph.neighbours(here) if int(w) != here})
-        best = dist[here, target]
-        on_path = [
-            w for w in nbrs
-            if abs(self.graph.edge_length(here, w) + dist[w, target] - best) <= 1e-6 * (1 + best)
-        ]
-        if len(on_path) <= 1:
-            return on_path[0] if on_path else min(nbrs, key=lambda w: (dist[w, target], w))
-        result = self.knowledge.utilities(self.graph, ctx.now, here, on_path, self.speed)
-        return on_path[int(np.argmax(result.utility))]
-
-    def on_goal_failed(self, vertex, ctx: RobotContext) -> None:
-        self.idx, self.hold_until = None, None
-        self.entry = _entry_index(self.route, ctx.current_vertex, self.dist)
+    @property
+    def team(self) -> list[int]:
+        """The robots this robot believes alive (itself included)."""
+        return list(self.strategy.team(self.robot))

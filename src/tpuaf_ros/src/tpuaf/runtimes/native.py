@@ -28,19 +28,19 @@ from __future__ import annotations
 import inspect
 from collections.abc import Callable
 from dataclasses import asdict
-from typing import Any
 
 import numpy as np
 
 from tpuaf.maps import load_map, start_vertices
 from tpuaf.measure.metrics import RunRecorder, build_summary, recovery_after_deaths
 from tpuaf.navigation import navigator_give_up_s
-from tpuaf.policies import REGISTRY, Policy, RobotContextBase
+from tpuaf.policies import REGISTRY, RobotContextBase
+from tpuaf.policies.core import CoreStrategyPolicy
 from tpuaf.robot.machine import announced_vertex
 from tpuaf.runtimes.base import TeamRun, liveness_summary
 from tpuaf.runtimes.config import RunConfig, run_description, travel_map
 from tpuaf.runtimes.faults import DEATH
-from tpuaf.runtimes.graph import DEFAULT_RETRY_S, STAY_S, BatchRun
+from tpuaf.runtimes.graph import DEFAULT_RETRY_S, STAY_S
 from tpuaf.team.bus import BusStats
 
 ENGINES = ("auto", "native", "python")
@@ -61,153 +61,16 @@ def _rng_stream(seed: int, *key: int):
     return tpuaf_core.NumpyPcg64(np.random.default_rng([seed, *key]).bit_generator.state)
 
 
-def _tpuaf_strategy(run: NativeRun, params: dict, any_vertex: bool):
-    import tpuaf_core
-
-    from tpuaf.policies.tpuaf import new_knowledge
-
-    knowledge = new_knowledge(
-        run.patrol_map, params["intention_timeout_s"], params["silence_timeout_s"]
-    )
-    form = (
-        tpuaf_core.UtilityForm.EQ14 if params["utility"] == "eq14" else tpuaf_core.UtilityForm.EQ13
-    )
-    rngs = [_rng_stream(run.seed, 2, i) for i in range(run.config.robots)]
-    colocation = params.get("colocation", False) in (True, 1, "true")  # as Tpuaf.start
-    return tpuaf_core.TpuafStrategy(knowledge, form, any_vertex, rngs, colocation)
-
-
-def _gbs_strategy(run: NativeRun, params: dict):
-    import types
-
-    import tpuaf_core
-
-    # G2 and edge_min resolved exactly as GreedyBayesian.start does (per-map table by N).
-    policy = run.policies[0]
-    ctx = types.SimpleNamespace(patrol_map=run.patrol_map, n_robots=run.config.robots)
-    g2, edge_min = policy.defaults(ctx)
-    g2 = float(params["g2"]) if params["g2"] is not None else g2
-    edge_min = float(params["edge_min"]) if params["edge_min"] is not None else edge_min
-    rngs = [_rng_stream(run.seed, 2, i) for i in range(run.config.robots)]
-    return tpuaf_core.GbsStrategy(float(params["g1"]), g2, edge_min, rngs)
-
-
-def _dtag_strategy(run: NativeRun, params: dict):
-    import tpuaf_core
-
-    pos = np.asarray(run.patrol_map.positions, dtype=float)
-    origin_distance = []
-    for v in run.start_vertices:  # DTAG's origin term, with numpy's hypot as the policy
-        origin = np.asarray((float(pos[v][0]), float(pos[v][1])), dtype=float)
-        origin_distance.append(np.hypot(*(pos - origin).T).tolist())
-    rngs = [_rng_stream(run.seed, 2, i) for i in range(run.config.robots)]
-    return tpuaf_core.DtagStrategy(
-        float(params["initial_estimate"]), float(params["w_idleness"]),
-        float(params["w_path"]), float(params["w_origin"]), origin_distance, rngs,
-    )
-
-
-def _tpuaf_plus_strategy(run: NativeRun, params: dict):
-    """TPUAF+'s C++ decision path; its plans are the Python planner's (tpuaf_plus.make_plan),
-    called back when a robot's view of the team changes."""
-    import types
-
-    import tpuaf_core
-
-    from tpuaf.policies import tpuaf_plus
-    from tpuaf.policies.cyclic import team_start_vertices
-    from tpuaf.policies.tpuaf import new_knowledge
-
-    pm, n = run.patrol_map, run.config.robots
-    speed = float(pm.settings.nominal_speed)
-    ctx = types.SimpleNamespace(patrol_map=pm, n_robots=n)
-    all_starts = tuple(team_start_vertices(ctx))
-    out = tpuaf_core.TpuafPlusParams()
-    out.speed_mps = speed
-    out.gain = float(params["gain"])
-    out.deadband_s = float(params["deadband_s"])
-    out.dwell_revisit_s = float(params["dwell_revisit_s"])
-    out.silence_timeout_s = tpuaf_plus.silence_timeout(pm.graph, speed,
-                                                       params["silence_timeout_s"])
-    out.stay_s = tpuaf_plus.STAY_S
-
-    def plans(team: list[int]):
-        plan = tpuaf_plus.make_plan(pm, tuple(team), all_starts, params["plan"],
-                                    params["repair"])
-        routes = [(list(r.walk), list(r.arc), r.length, list(r.robots)) for r in plan.routes]
-        route_of = [plan.route_of.get(k, -1) for k in range(n)]
-        schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n)]
-        return routes, route_of, schedule
-
-    knowledge = new_knowledge(pm, tpuaf_plus.INTENTION_TIMEOUT_S, out.silence_timeout_s)
-    return tpuaf_core.TpuafPlusStrategy(knowledge, out, plans)
-
-
-# Strategies with a C++ decision path: name -> (Python class it mirrors, builder(run, params)).
-NATIVE_STRATEGIES: dict[str, tuple[str, Callable[[NativeRun, dict], Any]]] = {
-    "tpuaf": ("Tpuaf", lambda run, params: _tpuaf_strategy(run, params, any_vertex=False)),
-    "gbs": ("GreedyBayesian", _gbs_strategy),
-    "dtag": ("DynamicTaskAssignmentGreedy", _dtag_strategy),
-    "tpuaf_plus": ("TpuafPlus", _tpuaf_plus_strategy),
-}
-
-
-def native_builder(strategy: str):
-    """The C++ strategy builder of `strategy`, or None. Only when the registered class is the
-    one the C++ path mirrors (a replaced or renamed class runs as Python)."""
-    entry = NATIVE_STRATEGIES.get(strategy)
-    if entry is None:
-        return None
-    mirrored, builder = entry
-    try:
-        cls = REGISTRY.get(strategy)
-    except KeyError:
-        return None
-    return builder if cls.__name__ == mirrored else None
-
-
-def unsupported_options(config: RunConfig) -> list[str]:
-    """Options of `config` the native engine does not support (empty: it can run it). Every
-    option of the graph runtime is supported, faults included (deaths, random deaths, stalls,
-    with the heartbeats and liveness checks of BatchRun)."""
-    del config
-    return []
-
-
-def make_run(config: RunConfig, patrol_map=None, engine: str = "auto"):
-    """The graph runtime for `config`: 'python' (BatchRun), 'native' (NativeRun, C++ loop) or
-    'auto' (native whenever every option is supported: with the strategy's C++ decision path,
-    or its Python policy called back from C++, which is still faster than BatchRun with the
-    same results; benchmarks/results/native_faults.md). Returns (run, reason): reason says why
-    auto chose what it chose."""
-    if engine not in ENGINES:
-        raise EngineChoiceError(f"unknown engine '{engine}' (valid: {', '.join(ENGINES)})")
+def make_run(config: RunConfig, patrol_map=None):
+    """The graph runtime's run of `config` (the C++ event loop)."""
     config.validate()
-    missing = unsupported_options(config)
-    if engine == "python":
-        return BatchRun(config, patrol_map), "python engine requested"
-    if engine == "native":
-        if missing:
-            raise EngineChoiceError(
-                f"the native engine does not support {', '.join(missing)}; use --engine python"
-            )
-        return NativeRun(config, patrol_map), "native engine requested"
-    if missing:
-        return BatchRun(config, patrol_map), (
-            f"python engine: the native engine does not support {', '.join(missing)} yet"
-        )
-    if native_builder(config.strategy) is not None:
-        return NativeRun(config, patrol_map), "native engine, C++ decision path"
-    return NativeRun(config, patrol_map), (
-        f"native engine, strategy '{config.strategy}' called back in Python (no C++ decision "
-        "path; faster than the python engine, same results)"
-    )
+    return NativeRun(config, patrol_map)
 
 
 class _NativeRobot(RobotContextBase):
     """The RobotContext a Python policy sees, backed by the C++ engine."""
 
-    def __init__(self, run: NativeRun, index: int, start_vertex: int, policy: Policy, rng):
+    def __init__(self, run: NativeRun, index: int, start_vertex: int, policy, rng):
         self._engine = run._engine
         self.robot = index
         self.n_robots = run.config.robots
@@ -435,14 +298,10 @@ class NativeRun:
 
     runtime = "graph"
 
-    def __init__(self, config: RunConfig, patrol_map=None, *, native_policy: bool = True):
-        """native_policy=False runs even a strategy with a C++ path as its Python policy."""
+    def __init__(self, config: RunConfig, patrol_map=None):
         import tpuaf_core
 
         config.validate()
-        missing = unsupported_options(config)
-        if missing:
-            raise EngineChoiceError(f"the native engine does not support {', '.join(missing)}")
         self.config = config
         self.faults = config.faults()  # resolved (--fail-random drawn as BatchRun draws it)
         self.patrol_map = travel_map(config, patrol_map if patrol_map is not None
@@ -493,10 +352,11 @@ class NativeRun:
         cls = REGISTRY.get(config.strategy)
         self.policies = [cls(config.strategy_params) for _ in range(config.robots)]
         self.params = dict(self.policies[0].params)  # resolved (ParameterError if invalid)
-        builder = native_builder(config.strategy) if native_policy else None
-        self.native_policy = builder is not None
-        if builder is not None:
-            self._strategy = builder(self, self.params)
+        self.native_policy = issubclass(cls, CoreStrategyPolicy)
+        if self.native_policy:
+            streams = [_rng_stream(self.seed, 2, i) for i in range(config.robots)]
+            self._strategy = cls.core_strategy(self.params, self.patrol_map, config.robots,
+                                               streams)
             self.robots: list[_NativeRobot] = []
         else:
             self.robots = [
