@@ -196,9 +196,46 @@ def _config_beside(folder: Path) -> dict:
     return {}
 
 
+def _config_of(folder: Path) -> dict:
+    """The run's config.yaml (or fleet_config.yaml) in `folder`, {} if none (CliError naming
+    the line when it is unreadable)."""
+    try:
+        return _config_beside(folder)
+    except CliError:
+        try:  # the strict reader's message names the line
+            from tpuaf_core import yamlfile
+
+            yamlfile.read_yaml(folder / "config.yaml", CliError)
+        except CliError as err:
+            raise CliError(f"unreadable configuration beside the bag: {err}") from None
+        return {}
+
+
+def _seconds(value) -> float | None:
+    """A finite number of seconds > 0 from config.yaml, else None."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool) \
+            and math.isfinite(value) and value > 0:
+        return float(value)
+    return None
+
+
+def _liveness_timeouts(args: argparse.Namespace, config: dict) -> tuple[float | None, float]:
+    """(death timeout, teammate timeout) [s]: the options, else the run's config.yaml; else
+    the death timeout is left to tpuaf.measure.bag (None) and the teammate timeout is the
+    agents' default (tpuaf.params.LIVENESS_DEFAULTS)."""
+    timeout = args.death_timeout
+    if timeout is None:
+        timeout = _seconds(config.get("death_timeout_s"))
+    mate_timeout = args.teammate_timeout
+    if mate_timeout is None:
+        mate_timeout = _seconds(config.get("teammate_timeout_s"))
+    if mate_timeout is None:
+        mate_timeout = _L.teammate_timeout_s
+    return timeout, mate_timeout
+
+
 def run(args: argparse.Namespace) -> int:
     from tpuaf.cli import limits
-    from tpuaf.cli.run import format_summary
     from tpuaf.errors import TpuafError
     from tpuaf.experiments.results import ResultsWriter, prepare_out_dir
     from tpuaf.maps import load_map
@@ -209,16 +246,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"{args.bag}: bag not found")
     bag = _bag_path(args.bag.expanduser())
     folder = bag.parent
-    try:
-        config = _config_beside(folder)
-    except CliError:
-        try:  # the strict reader's message names the line
-            from tpuaf_core import yamlfile
-
-            yamlfile.read_yaml(folder / "config.yaml", CliError)
-        except CliError as err:
-            raise CliError(f"unreadable configuration beside the bag: {err}") from None
-        config = {}
+    config = _config_of(folder)
     map_ref = args.map or config.get("map")
     if not map_ref or not isinstance(map_ref, str):
         raise CliError(f"no config.yaml naming the map beside {bag}: give --map")
@@ -226,17 +254,7 @@ def run(args: argparse.Namespace) -> int:
     robots = args.robots or (given if isinstance(given, int) and not isinstance(given, bool)
                              and 0 < given <= 1_000 else None)
     robots_from = "--robots" if args.robots else "config.yaml beside the bag"
-    timeout = args.death_timeout
-    if timeout is None and isinstance(config.get("death_timeout_s"), (int, float)) \
-            and math.isfinite(config["death_timeout_s"]) and config["death_timeout_s"] > 0:
-        timeout = float(config["death_timeout_s"])
-    mate_timeout = args.teammate_timeout
-    given = config.get("teammate_timeout_s")
-    if mate_timeout is None and isinstance(given, (int, float)) and not isinstance(given, bool) \
-            and math.isfinite(given) and given > 0:
-        mate_timeout = float(given)
-    if mate_timeout is None:
-        mate_timeout = _L.teammate_timeout_s
+    timeout, mate_timeout = _liveness_timeouts(args, config)
     out = (args.out or folder / "analysis").expanduser()
     created = not out.exists()
     try:
@@ -284,6 +302,15 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         _interrupted(out, bag)
         raise
+    return _report(bag, result, out)
+
+
+def _report(bag: Path, result, out: Path) -> int:
+    """Print the analysis; compare it with the monitor's summary.json beside the bag, if any
+    (comparison.json): 1 when a metric differs beyond its tolerance, else 0."""
+    from tpuaf.cli.run import format_summary
+
+    summary, info, folder = result.summary, result.info, bag.parent
     print(f"{bag}: {result.robots} robots; analysed {result.span_s:.1f} s of the bag's "
           f"{info.span_s:.1f} s (from t = {result.start_s - info.start_s:.1f} s to "
           f"{result.end_s - info.start_s:.1f} s)")

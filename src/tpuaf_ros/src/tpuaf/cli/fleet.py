@@ -1,16 +1,17 @@
 """`tpuaf fleet`: one headless ROS experiment (simulator, N agents, monitor, rosbag) to completion.
 
-It starts its own roscore on a free port (ROS_HOME under the run folder, ROS_IP=127.0.0.1),
-runs tpuaf_ros/fleet.launch through the devel or install space, shows a progress bar in simulated
-time (from the monitor's /fleet/metrics), and stops only the processes it started, by PID: SIGINT
-to roslaunch (which stops its nodes; rosbag closes the bag), wait, then SIGTERM/SIGKILL; the same
-on Ctrl-C. Then it checks the bag is closed and prints the monitor's summary.
+This module is the command: its options (all checked before any ROS process starts: one-line
+error, exit code 2), the run folder's input files (world, strategy parameters, fleet_config.yaml)
+and roslaunch args, and the summary printed at the end. It runs tpuaf_ros/fleet.launch through
+the devel or install space under its own roscore (`tpuaf.cli.fleet_supervisor`: the processes,
+stopped only by PID, also on Ctrl-C), and shows a progress bar in simulated time from the
+monitor's /fleet/metrics (`tpuaf.cli.fleet_ros`, the only rospy code of tpuaf.cli). Then it
+checks the bag is closed and prints the monitor's summary.
 
 Stepping (docs/FLEET.md): lock-step by default (the roscpp simulator advances one control tick
 only once every live agent has answered the previous one; an agent silent for --lockstep-timeout
 wall seconds is unresponsive: its robot stops, the run goes on, the summary counts it), paced
-(`--no-lockstep --rtf X`) or free-running (`--no-lockstep --rtf 0`). Every option is checked
-before any ROS process starts (one-line error, exit code 2).
+(`--no-lockstep --rtf X`) or free-running (`--no-lockstep --rtf 0`).
 """
 
 from __future__ import annotations
@@ -18,17 +19,19 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-import os
 import re
 import shlex
-import signal
-import socket
-import subprocess
 import sys
 import time
 from pathlib import Path
 
+from tpuaf.cli.fleet_supervisor import (
+    free_port,  # noqa: F401 (tests/ros/conftest.py uses it)
+    supervise,
+    wait_bag_closed,
+)
 from tpuaf.cli.run import (
+    add_teammate_timeout,
     finite_float,
     format_summary,
     non_negative_float,
@@ -39,7 +42,6 @@ from tpuaf.cli.run import (
 )
 from tpuaf.errors import CliError
 from tpuaf.paths import catkin_prefix
-from tpuaf.topics import METRICS_TOPIC
 
 # numpy, yaml, tpuaf.files and tpuaf.runtimes are imported where used: this module's
 # add_arguments (the `tpuaf` parser) needs none of them.
@@ -125,6 +127,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="[s of sim time] team message delay, through a relay (as tpuaf run)")
     p.add_argument("--loss", type=probability, default=0.0,
                    help="team message loss probability per recipient, through a relay")
+    add_teammate_timeout(p)
     p.add_argument("--timeout", type=positive_float, default=None,
                    help="wall-clock limit [s] (default: duration + 300)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -206,14 +209,37 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     """Write world.yaml (+ its resolved form for the simulator), strategy_params.yaml and
     fleet_config.yaml; the roslaunch args."""
     import yaml
-    from tpuaf_stage.resolve import write_resolved
 
-    from tpuaf.maps import MapError, builtin_map_names, load_map, start_vertices
-    from tpuaf.policies import REGISTRY, ParameterError
     from tpuaf.runtimes.config import choose_robot
-    from tpuaf_stage.config import WorldError, parse_world
 
     check_options(args)
+    patrol_map, strategy, params = load_inputs(args)
+    robot = choose_robot(args.robot, patrol_map.settings)
+    faults = fault_plan(args)
+    from tpuaf.experiments.results import prepare_out_dir, record_written
+    from tpuaf.files import atomic_write_text
+    from tpuaf.maps import builtin_map_names
+
+    prepare_out_dir(args.out, overwrite=args.overwrite)  # a file, unwritable, earlier results
+    out = args.out.expanduser().resolve()
+    record_written(out, *FLEET_FILES)
+    map_ref = args.map if args.map in builtin_map_names() else str(Path(args.map).expanduser().resolve())
+    world, resolved = write_world(args, out, map_ref, robot)
+    given = parse_params(args.param)
+    strategy_file = ""
+    if given:
+        strategy_file = str(out / "strategy_params.yaml")
+        atomic_write_text(strategy_file, yaml.safe_dump(given, sort_keys=False))
+    config = fleet_config(args, out, patrol_map, map_ref, strategy, params, world, robot, faults)
+    atomic_write_text(out / "fleet_config.yaml", yaml.safe_dump(config, sort_keys=False))
+    return roslaunch_args(args, out, config, resolved, strategy_file), config
+
+
+def load_inputs(args: argparse.Namespace):
+    """(the patrol map, the strategy's name, its parameters with the defaults), or CliError."""
+    from tpuaf.maps import MapError, load_map
+    from tpuaf.policies import REGISTRY, ParameterError
+
     try:
         patrol_map = load_map(args.map, allow_occupied_vertices=args.allow_occupied_vertices)
         cls = REGISTRY.get(args.strategy)
@@ -222,15 +248,17 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
         raise CliError(str(err)) from None
     except KeyError as err:
         raise CliError(err.args[0]) from None
-    robot = choose_robot(args.robot, patrol_map.settings)
-    faults = fault_plan(args)
-    from tpuaf.experiments.results import prepare_out_dir, record_written
-    from tpuaf.files import atomic_write_text
+    return patrol_map, cls.name, params
 
-    prepare_out_dir(args.out, overwrite=args.overwrite)  # a file, unwritable, earlier results
-    out = args.out.expanduser().resolve()
-    record_written(out, *FLEET_FILES)
-    map_ref = args.map if args.map in builtin_map_names() else str(Path(args.map).expanduser().resolve())
+
+def write_world(args: argparse.Namespace, out: Path, map_ref: str, robot) -> tuple[dict, Path]:
+    """world.yaml of the simulator and its resolved form (CliError if it is not a world)."""
+    import yaml
+    from tpuaf_stage.resolve import write_resolved
+
+    from tpuaf.files import atomic_write_text
+    from tpuaf_stage.config import WorldError, parse_world
+
     world = {
         "patrol_map": map_ref,
         "seed": int(args.seed),
@@ -242,21 +270,22 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     world_file = out / "world.yaml"
     atomic_write_text(world_file, yaml.safe_dump(world, sort_keys=False))
     try:
-        resolved = write_resolved(parse_world(world, world_file), out)
+        return world, write_resolved(parse_world(world, world_file), out)
     except WorldError as err:
         raise CliError(str(err)) from None
-    given = parse_params(args.param)
-    strategy_file = ""
-    if given:
-        strategy_file = str(out / "strategy_params.yaml")
-        atomic_write_text(strategy_file, yaml.safe_dump(given, sort_keys=False))
+
+
+def fleet_config(args, out: Path, patrol_map, map_ref: str, strategy: str, params: dict,
+                 world: dict, robot, faults: list[dict]) -> dict:
+    """fleet_config.yaml: what the monitor merges into the results' config.yaml."""
+    from tpuaf.maps import start_vertices
+
     starts = start_vertices(patrol_map, args.robots)
-    relay = args.delay > 0 or args.loss > 0
-    config = {
+    return {
         "runtime": "ros",
         "map": map_ref,
         "map_name": patrol_map.name,
-        "strategy": cls.name,
+        "strategy": strategy,
         "robots": int(args.robots),
         "duration_s": float(args.duration),
         "seed": int(args.seed),
@@ -271,27 +300,39 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
                   "note": robot.note},
         "faults": faults,
         "team_bus": {"delay_s": float(args.delay), "loss": float(args.loss),
-                     "relay": relay},
+                     "relay": uses_relay(args)},
+        # agents and monitor alike (the monitor's death timeout follows it: one liveness rule)
+        "teammate_timeout_s": float(args.teammate_timeout),
         "navigation_module": "tpuaf.navigation (GraphRoute + LocalController)",
         "bag": None if args.no_record else str(out / "run.bag"),
         "record_regex": None if args.no_record else record_regex(args.record),
     }
-    atomic_write_text(out / "fleet_config.yaml", yaml.safe_dump(config, sort_keys=False))
-    stalls = ",".join(f"{f['robot']}@{f['time_s']:g}" for f in faults if f["kind"] == "stall")
-    launch_args = [
-        f"map:={map_ref}", f"strategy:={cls.name}", f"robots:={args.robots}",
+
+
+def uses_relay(args: argparse.Namespace) -> bool:
+    """Team messages go through the team_relay node when they are delayed or lost."""
+    return args.delay > 0 or args.loss > 0
+
+
+def roslaunch_args(args, out: Path, config: dict, resolved: Path, strategy_file: str) -> list[str]:
+    """fleet.launch's args (name:=value) for this run."""
+    stalls = ",".join(f"{f['robot']}@{f['time_s']:g}" for f in config["faults"]
+                      if f["kind"] == "stall")
+    robot = config["robot"]
+    return [
+        f"map:={config['map']}", f"strategy:={config['strategy']}", f"robots:={args.robots}",
         f"duration:={args.duration}", f"seed:={args.seed}",
         f"record:={'false' if args.no_record else 'true'}", f"out:={out}",
         f"world:={resolved}", f"rtf:={args.rtf}", f"strategy_params:={strategy_file}",
         f"config_file:={out / 'fleet_config.yaml'}",
         f"lockstep:={'true' if args.lockstep else 'false'}",
         f"lockstep_timeout:={args.lockstep_timeout}",
-        f"max_linear_speed:={robot.speed_mps}", f"robot_radius:={robot.radius_m}",
+        f"max_linear_speed:={robot['max_linear_speed_mps']}", f"robot_radius:={robot['radius_m']}",
         f"stall:={stalls}", f"sim_summary:={out / 'simulator.json'}",
         f"record_regex:={config['record_regex'] or ''}",
-        f"relay:={'true' if relay else 'false'}", f"delay:={args.delay}", f"loss:={args.loss}",
+        f"relay:={'true' if uses_relay(args) else 'false'}", f"delay:={args.delay}",
+        f"loss:={args.loss}", f"teammate_timeout:={args.teammate_timeout}",
     ]
-    return launch_args, config
 
 
 def on_run_clock(summary: dict) -> dict:
@@ -308,86 +349,6 @@ def on_run_clock(summary: dict) -> dict:
     return shown
 
 
-# ---------------------------------------------------------------------------------------------
-# Processes
-
-
-def free_port() -> int:
-    while True:
-        with socket.socket() as s:
-            s.bind(("127.0.0.1", 0))
-            port = s.getsockname()[1]
-        if port != 11311:
-            return port
-
-
-def ros_env(port: int, home: Path) -> dict[str, str]:
-    env = dict(os.environ)
-    env.pop("ROS_HOSTNAME", None)
-    env.update({"ROS_MASTER_URI": f"http://127.0.0.1:{port}/", "ROS_HOME": str(home),
-                "ROS_LOG_DIR": str(home / "log"), "ROS_IP": "127.0.0.1",
-                "PYTHONUNBUFFERED": "1", "PATH": "/usr/bin:/bin:" + env.get("PATH", "")})
-    return env
-
-
-def start(cmd: list[str], env: dict, log: Path) -> subprocess.Popen:
-    from tpuaf.files import open_fresh
-
-    f = open_fresh(log, "wb")  # the child keeps it; never through a link
-    # SIGINT at its default in the child even when tpuaf runs with it ignored (a background
-    # job): `stop` relies on SIGINT to make roslaunch stop its nodes and close the bag.
-    return subprocess.Popen(cmd, env=env, stdout=f, stderr=subprocess.STDOUT,
-                            stdin=subprocess.DEVNULL, start_new_session=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-
-
-def stop(proc: subprocess.Popen, grace_s: float = 20.0) -> None:
-    """SIGINT to the process (group we created), wait, then SIGTERM, then SIGKILL."""
-    for sig, wait in ((signal.SIGINT, grace_s), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
-        if proc.poll() is not None:
-            return
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, sig)
-        try:
-            proc.wait(wait)
-            return
-        except subprocess.TimeoutExpired:
-            continue
-
-
-def master_up(port: int) -> bool:
-    import xmlrpc.client
-
-    try:
-        code, _, _ = xmlrpc.client.ServerProxy(f"http://127.0.0.1:{port}/").getSystemState("/x")
-        return code == 1
-    except (OSError, xmlrpc.client.Error):
-        return False
-
-
-def node_pid(master_uri: str, node: str) -> int | None:
-    """PID of a node, asked from the node itself (its XML-RPC getPid) via the master."""
-    import xmlrpc.client
-
-    try:
-        code, _, uri = xmlrpc.client.ServerProxy(master_uri).lookupNode("/tpuaf_fleet", node)
-        if code != 1:
-            return None
-        code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/tpuaf_fleet")
-        return int(pid) if code == 1 else None
-    except (OSError, xmlrpc.client.Error, ValueError):
-        return None
-
-
-def wait_bag_closed(bag: Path, timeout_s: float = 30.0) -> bool:
-    """True once run.bag exists and no run.bag.active remains (the recorder closed it)."""
-    active = bag.with_name(bag.name + ".active")
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if bag.is_file() and not active.exists():
-            return True
-        time.sleep(0.2)
-    return False
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
@@ -397,6 +358,7 @@ def write_json_atomic(path: Path, data: dict) -> None:
 
 
 # ---------------------------------------------------------------------------------------------
+# The command
 
 
 def run(args: argparse.Namespace) -> int:
@@ -415,41 +377,26 @@ def run(args: argparse.Namespace) -> int:
         print(f"tpuaf fleet: note: {config['robot']['note']}", file=sys.stderr)
     home = out / "ros_home"
     home.mkdir(exist_ok=True)
-    port = free_port()
-    env = ros_env(port, home)
-    procs: list[subprocess.Popen] = []
     summary_path = out / "summary.json"
     sim_summary = out / "simulator.json"
     for stale in (summary_path, sim_summary):
         with contextlib.suppress(FileNotFoundError):
             stale.unlink()
-    # SIGTERM and SIGHUP (e.g. from `timeout`) clean up like Ctrl-C: tpuaf.cli.signals
     mode = ("lock-step" if args.lockstep else "paced" if args.rtf > 0 else "free-running")
     title = (f"{config['strategy']} on {config['map_name']}, N = {args.robots}, "
              f"{args.duration:g} s, {mode}")
     wall0 = time.monotonic()
-    interrupted = False
-    finished = False
-    sim_elapsed = 0.0
-    wall_run = 0.0
+    deaths = [f for f in config["faults"] if f["kind"] == "death"]
     deaths_done: list[dict] = []
-    try:
-        core = start([str(ros_env_sh), "roscore", "-p", str(port)], env, home / "roscore.log")
-        procs.append(core)
-        deadline = time.monotonic() + 30
-        while not master_up(port):
-            if core.poll() is not None or time.monotonic() > deadline:
-                raise CliError(f"roscore did not start (log: {home / 'roscore.log'})")
-            time.sleep(0.1)
-        launch = start([str(ros_env_sh), *cmd], env, out / "roslaunch.log")
-        procs.append(launch)
-        deaths = [f for f in config["faults"] if f["kind"] == "death"]
-        finished, sim_elapsed, wall_run = follow(args, env, launch, deaths, deaths_done)
-    except KeyboardInterrupt:
-        interrupted = True
-    finally:
-        for proc in reversed(procs):
-            stop(proc)
+
+    def follow(env, launch):
+        from tpuaf.cli.fleet_ros import follow
+
+        return follow(args, env, launch, deaths, deaths_done, PREFIX)
+
+    # SIGTERM and SIGHUP (e.g. from `timeout`) clean up like Ctrl-C: tpuaf.cli.signals
+    followed, interrupted = supervise(ros_env_sh, cmd, home, out / "roslaunch.log", follow)
+    finished, sim_elapsed, wall_run = followed if followed is not None else (False, 0.0, 0.0)
     wall = time.monotonic() - wall0
     bag = out / "run.bag"
     bag_ok = args.no_record or wait_bag_closed(bag)
@@ -457,19 +404,60 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"the monitor wrote no summary (logs: {out / 'roslaunch.log'}, "
                        f"{home / 'log'})")
     summary = json.loads(summary_path.read_text())
+    rtf = add_fleet_facts(summary, read_simulator_summary(sim_summary), config, deaths_done,
+                          mode, wall, wall_run if finished else 0.0)
+    write_json_atomic(summary_path, summary)
+    state = "finished" if finished else ("interrupted" if interrupted else "stopped early")
+    print(f"\n{title} ({state})")
+    print_outcome(args, summary, config, rtf, wall, wall_run, out, bag, bag_ok)
+    write_json_atomic(out / "fleet_timing.json",
+                      {"wall_total_s": wall, "wall_run_s": wall_run if finished else None,
+                       "real_time_factor": rtf, "finished": finished,
+                       "sim_elapsed_s": sim_elapsed})
+    if interrupted:
+        from tpuaf.cli import signals
+
+        return signals.exit_code()
+    return 0 if finished and bag_ok else 1
+
+
+def read_simulator_summary(path: Path) -> dict:
+    """The simulator's events file ({} if missing or unreadable)."""
+    sim = {}
+    if path.is_file():
+        with contextlib.suppress(ValueError):
+            sim = json.loads(path.read_text())
+    return sim
+
+
+def add_fleet_facts(summary: dict, sim: dict, config: dict, deaths_done: list[dict], mode: str,
+                    wall: float, wall_run: float) -> float | None:
+    """Add to the monitor's summary what only the command knows (wall times, stepping, the
+    simulator's unresponsive agents, the deaths injected, the robot model); wall_run: 0 unless
+    the run finished. Returns the real-time factor of the run (None if unknown)."""
     summary["wall_time_s"] = wall
-    rtf = summary.get("duration_s", 0.0) / wall_run if finished and wall_run > 0 else None
+    rtf = summary.get("duration_s", 0.0) / wall_run if wall_run > 0 else None
     summary["real_time_factor"] = rtf
     summary["stepping"] = mode
-    sim = {}
-    if sim_summary.is_file():
-        with contextlib.suppress(ValueError):
-            sim = json.loads(sim_summary.read_text())
-    # A killed agent (--fail) goes silent: the simulator reports it unresponsive (roscpp keeps
-    # retrying its publisher link), but that is the injected death, not a slow agent.
-    # Only the run counts: a slow first answer while the agents start up (before the run
-    # start, e.g. under a CPU hog) is listed but not counted.
-    killed = {d["robot"] for d in deaths_done}
+    per_robot, before_start = count_unresponsive(summary, sim, {d["robot"] for d in deaths_done})
+    summary["unresponsive_events"] = sum(per_robot)
+    summary["unresponsive_per_robot"] = per_robot
+    summary["unresponsive_events_before_start"] = before_start
+    summary["simulator_events"] = sim.get("events", [])
+    summary.setdefault("faults", config["faults"])
+    summary["fleet_deaths_injected"] = deaths_done
+    summary["robot_model"] = config["robot"]
+    return rtf
+
+
+def count_unresponsive(summary: dict, sim: dict, killed: set[int]) -> tuple[list[int], int]:
+    """The simulator's unresponsive-agent events during the run, per robot, and the number
+    before its start.
+
+    A killed agent (--fail) goes silent: the simulator reports it unresponsive (roscpp keeps
+    retrying its publisher link), but that is the injected death, not a slow agent. Only the
+    run counts: a slow first answer while the agents start up (before the run start, e.g.
+    under a CPU hog) is listed but not counted."""
     start_s = summary.get("start_time_s")
     end_s = None if start_s is None else start_s + summary.get("duration_s", 0.0)
     per_robot = [0] * len(sim.get("unresponsive_per_robot", []))
@@ -483,16 +471,12 @@ def run(args: argparse.Namespace) -> int:
             before_start += 1
         elif t <= end_s:
             per_robot[robot] += 1
-    summary["unresponsive_events"] = sum(per_robot)
-    summary["unresponsive_per_robot"] = per_robot
-    summary["unresponsive_events_before_start"] = before_start
-    summary["simulator_events"] = sim.get("events", [])
-    summary.setdefault("faults", config["faults"])
-    summary["fleet_deaths_injected"] = deaths_done
-    summary["robot_model"] = config["robot"]
-    write_json_atomic(summary_path, summary)
-    state = "finished" if finished else ("interrupted" if interrupted else "stopped early")
-    print(f"\n{title} ({state})")
+    return per_robot, before_start
+
+
+def print_outcome(args, summary: dict, config: dict, rtf: float | None, wall: float,
+                  wall_run: float, out: Path, bag: Path, bag_ok: bool) -> None:
+    """The summary table and the run's facts, after the title line."""
     print(format_summary(on_run_clock(summary)))
     if rtf:
         print(f"  simulated {summary['duration_s']:,.0f} s in {wall_run:.1f} s wall from the start "
@@ -504,75 +488,3 @@ def run(args: argparse.Namespace) -> int:
         print(f"  robot: {config['robot']['note']}")
     print(f"  results: {out}" + ("" if args.no_record else f"; bag: {bag}"
                                 + ("" if bag_ok else " (NOT closed)")))
-    write_json_atomic(out / "fleet_timing.json",
-                      {"wall_total_s": wall, "wall_run_s": wall_run if finished else None,
-                       "real_time_factor": rtf, "finished": finished,
-                       "sim_elapsed_s": sim_elapsed})
-    if interrupted:
-        from tpuaf.cli import signals
-
-        return signals.exit_code()
-    return 0 if finished and bag_ok else 1
-
-
-def follow(args, env, launch, deaths, deaths_done) -> tuple[bool, float, float]:
-    """Follow /fleet/metrics with a progress bar until finished, roslaunch died or timeout;
-    kill agents at their --fail times. Returns (finished, elapsed run s, wall s of the run)."""
-    os.environ.update({k: env[k] for k in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME", "ROS_LOG_DIR")})
-    import rospy
-    from tqdm import tqdm
-
-    from tpuaf_ros.msg import LiveMetrics
-
-    state = {"elapsed": 0.0, "finished": False, "t_first": None, "t_last": None}
-
-    def on_metrics(msg):
-        now = time.monotonic()
-        if state["t_first"] is None:
-            state["t_first"] = now
-            state["e_first"] = msg.elapsed
-        state["elapsed"] = msg.elapsed
-        state["t_last"] = now
-        if msg.finished:
-            state["finished"] = True
-
-    rospy.init_node("tpuaf_fleet_cli", anonymous=True, disable_signals=True)
-    rospy.Subscriber(METRICS_TOPIC, LiveMetrics, on_metrics, queue_size=10)
-    bar = tqdm(total=args.duration, unit="sim s", disable=args.quiet, desc=args.strategy,
-               bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} sim s [{elapsed}<{remaining}]",
-               file=sys.stderr)
-    timeout = args.timeout if args.timeout else args.duration + 300.0
-    pending = list(deaths)
-    t0 = time.monotonic()
-    try:
-        while not state["finished"]:
-            if launch.poll() is not None:
-                break
-            if time.monotonic() - t0 > timeout:
-                print(f"tpuaf fleet: wall-clock limit of {timeout:g} s reached", file=sys.stderr)
-                break
-            while pending and state["t_first"] is not None and state["elapsed"] >= pending[0]["time_s"]:
-                fault = pending.pop(0)
-                node = f"/{PREFIX}{fault['robot']}/patrol_agent"
-                pid = node_pid(env["ROS_MASTER_URI"], node)
-                if pid is not None:
-                    with contextlib.suppress(ProcessLookupError):
-                        os.kill(pid, signal.SIGKILL)
-                deaths_done.append({**fault, "killed_at_s": state["elapsed"], "pid": pid})
-                bar.write(f"tpuaf fleet: killed {node} (pid {pid}) at run time "
-                          f"{state['elapsed']:.1f} s")
-            bar.update(state["elapsed"] - bar.n)
-            time.sleep(0.1)
-        bar.update(state["elapsed"] - bar.n)
-    finally:
-        bar.close()
-        if state["finished"]:
-            time.sleep(1.0)  # let rosbag write the last messages
-        rospy.signal_shutdown("tpuaf fleet done")
-    wall_run = 0.0
-    if state["t_first"] is not None:
-        # metrics start at elapsed ~0: wall time per simulated second from first to last message
-        span = state["elapsed"] - state["e_first"]
-        wall = state["t_last"] - state["t_first"]
-        wall_run = wall * args.duration / span if span > 0 else 0.0
-    return state["finished"], state["elapsed"], wall_run

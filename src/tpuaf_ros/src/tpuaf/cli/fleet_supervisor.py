@@ -1,0 +1,140 @@
+"""The processes of `tpuaf fleet`: its own roscore on a free port (ROS_HOME under the run folder,
+ROS_IP=127.0.0.1), then roslaunch (which starts the simulator, agents, monitor and rosbag), and
+their stop by PID only: SIGINT to the process group we created (roslaunch stops its nodes;
+rosbag closes the bag), wait, then SIGTERM, then SIGKILL; the same on Ctrl-C. An agent killed
+for a fault (`kill_node`) is found by the PID the node itself reports through the master.
+
+No rospy here (the master and nodes are asked over XML-RPC): `tpuaf.cli.fleet_ros` follows the
+run. Standard library only at import time (the `tpuaf` parser imports tpuaf.cli.fleet).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TypeVar
+
+from tpuaf.errors import CliError
+
+MASTER_START_S = 30.0  # [s of wall time] roscore must answer within this
+T = TypeVar("T")
+
+
+def free_port() -> int:
+    while True:
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+        if port != 11311:
+            return port
+
+
+def ros_env(port: int, home: Path) -> dict[str, str]:
+    env = dict(os.environ)
+    env.pop("ROS_HOSTNAME", None)
+    env.update({"ROS_MASTER_URI": f"http://127.0.0.1:{port}/", "ROS_HOME": str(home),
+                "ROS_LOG_DIR": str(home / "log"), "ROS_IP": "127.0.0.1",
+                "PYTHONUNBUFFERED": "1", "PATH": "/usr/bin:/bin:" + env.get("PATH", "")})
+    return env
+
+
+def start(cmd: list[str], env: dict, log: Path) -> subprocess.Popen:
+    from tpuaf.files import open_fresh
+
+    f = open_fresh(log, "wb")  # the child keeps it; never through a link
+    # SIGINT at its default in the child even when tpuaf runs with it ignored (a background
+    # job): `stop` relies on SIGINT to make roslaunch stop its nodes and close the bag.
+    return subprocess.Popen(cmd, env=env, stdout=f, stderr=subprocess.STDOUT,
+                            stdin=subprocess.DEVNULL, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+
+def stop(proc: subprocess.Popen, grace_s: float = 20.0) -> None:
+    """SIGINT to the process (group we created), wait, then SIGTERM, then SIGKILL."""
+    for sig, wait in ((signal.SIGINT, grace_s), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+        if proc.poll() is not None:
+            return
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, sig)
+        try:
+            proc.wait(wait)
+            return
+        except subprocess.TimeoutExpired:
+            continue
+
+
+def master_up(port: int) -> bool:
+    import xmlrpc.client
+
+    try:
+        code, _, _ = xmlrpc.client.ServerProxy(f"http://127.0.0.1:{port}/").getSystemState("/x")
+        return code == 1
+    except (OSError, xmlrpc.client.Error):
+        return False
+
+
+def node_pid(master_uri: str, node: str) -> int | None:
+    """PID of a node, asked from the node itself (its XML-RPC getPid) via the master."""
+    import xmlrpc.client
+
+    try:
+        code, _, uri = xmlrpc.client.ServerProxy(master_uri).lookupNode("/tpuaf_fleet", node)
+        if code != 1:
+            return None
+        code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/tpuaf_fleet")
+        return int(pid) if code == 1 else None
+    except (OSError, xmlrpc.client.Error, ValueError):
+        return None
+
+
+def kill_node(master_uri: str, node: str) -> int | None:
+    """SIGKILL to a node's process (an injected death); its PID, or None if not found."""
+    pid = node_pid(master_uri, node)
+    if pid is not None:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+    return pid
+
+
+def wait_bag_closed(bag: Path, timeout_s: float = 30.0) -> bool:
+    """True once run.bag exists and no run.bag.active remains (the recorder closed it)."""
+    active = bag.with_name(bag.name + ".active")
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if bag.is_file() and not active.exists():
+            return True
+        time.sleep(0.2)
+    return False
+
+
+def supervise(ros_env_sh: Path, cmd: list[str], home: Path, launch_log: Path,
+              follow: Callable[[dict, subprocess.Popen], T]) -> tuple[T | None, bool]:
+    """roscore on a free port, then `cmd` (roslaunch) through `ros_env_sh`, both logged;
+    `follow(env, launch)` while they run; then both stopped by PID, also on Ctrl-C (or
+    SIGTERM/SIGHUP: tpuaf.cli.signals). Returns (what follow returned, None when interrupted;
+    interrupted). CliError when roscore does not start."""
+    port = free_port()
+    env = ros_env(port, home)
+    procs: list[subprocess.Popen] = []
+    try:
+        core = start([str(ros_env_sh), "roscore", "-p", str(port)], env, home / "roscore.log")
+        procs.append(core)
+        deadline = time.monotonic() + MASTER_START_S
+        while not master_up(port):
+            if core.poll() is not None or time.monotonic() > deadline:
+                raise CliError(f"roscore did not start (log: {home / 'roscore.log'})")
+            time.sleep(0.1)
+        launch = start([str(ros_env_sh), *cmd], env, launch_log)
+        procs.append(launch)
+        return follow(env, launch), False
+    except KeyboardInterrupt:
+        return None, True
+    finally:
+        for proc in reversed(procs):
+            stop(proc)
