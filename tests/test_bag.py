@@ -421,7 +421,7 @@ def test_poses_read_raw_equal_rosbags_deserialisation(tmp_path, poses):
     """The analysis reads Odometry and PoseWithCovarianceStamped poses from their bytes (the
     standard definitions only): the same stamps and positions as rosbags' deserialiser."""
     from rosbags.rosbag1 import Reader
-    from tpuaf.measure.bag import _raw_pose, raw_pose_reader
+    from tpuaf.measure.bag_decode import raw_pose, raw_pose_reader
 
     plain_bag(tmp_path, poses=poses)
     store = typestore()
@@ -433,7 +433,7 @@ def test_poses_read_raw_equal_rosbags_deserialisation(tmp_path, poses):
                 continue
             msg = store.deserialize_ros1(raw, conn.msgtype)
             st, p = msg.header.stamp, msg.pose.pose.position
-            assert _raw_pose(raw, odometry) == (st.sec + st.nanosec * 1e-9, p.x, p.y)
+            assert raw_pose(raw, odometry) == (st.sec + st.nanosec * 1e-9, p.x, p.y)
             checked += 1
     assert checked > 100
     # another definition of the same type name is not read raw
@@ -442,14 +442,14 @@ def test_poses_read_raw_equal_rosbags_deserialisation(tmp_path, poses):
 
 
 def test_messages_come_in_rosbags_order_with_the_same_bytes(tmp_path):
-    """The analysis' own index walk (tpuaf.measure.bag._messages) yields what rosbags'
-    Reader.messages yields, in the same order, for any subset of connections."""
+    """The analysis' own index walk (tpuaf.measure.bag_decode.index_messages) yields what
+    rosbags' Reader.messages yields, in the same order, for any subset of connections."""
     from rosbags.rosbag1 import Reader
-    from tpuaf.measure.bag import _messages
+    from tpuaf.measure.bag_decode import index_messages
 
     plain_bag(tmp_path, poses="odom", events=True)
     with Reader(tmp_path / "run.bag") as reader:
         for conns in (reader.connections, reader.connections[::2], reader.connections[1:2]):
-            ours = [(c.id, t, bytes(raw)) for c, t, raw in _messages(reader, list(conns))]
+            ours = [(c.id, t, bytes(raw)) for c, t, raw in index_messages(reader, list(conns))]
             theirs = [(c.id, t, bytes(raw)) for c, t, raw in reader.messages(connections=conns)]
             assert ours == theirs and len(ours) > 0

@@ -17,145 +17,62 @@ the bag is refused. Memory: messages are streamed; state is per robot and per ve
 recorder's rows (one per second of the analysed span).
 
 Entry points (pure functions of a file; every problem is a BagError naming it):
-`inspect(path)` -> BagInfo and `analyze(path, patrol_map, ...)` -> Analysis.
+`inspect(path)` -> BagInfo (tpuaf.measure.bag_info: what the bag holds) and
+`analyze(path, patrol_map, ...)` -> Analysis (here: the span, the replay, the metrics). Reading
+and decoding the bag: tpuaf.measure.bag_decode.
 """
 
 from __future__ import annotations
 
-import bisect
-import contextvars
 import math
-import re
-import statistics
-import struct
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from tpuaf.errors import TpuafError
+from tpuaf.measure.bag_decode import (
+    BagError,
+    guarded,
+    in_stamp_order,
+    is_type,
+    open_bag,
+    raw_pose_reader,
+    raw_readers,
+    read_messages,
+    stamp_of,
+    typestore,
+)
+from tpuaf.measure.bag_info import (
+    BASE_FRAME,
+    MAP_FRAME,
+    STAMP_MARGIN_S,
+    TF_TOPICS,
+    VISITS_BASENAME,
+    BagInfo,
+    inspect,
+    inspect_reader,
+    is_visit,
+)
 from tpuaf.measure.monitor import STAMP_EPS_S, FleetMonitor, with_epoch
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
-from tpuaf.team import messages as team_messages
 from tpuaf.topics import (
     AMCL_POSE,
     DEFAULT_TEAM_NS,
     EVENTS_TOPIC,
     GROUND_TRUTH,
     HEARTBEAT,
-    METRICS_TOPIC,
     ODOM,
     REACHED,
     START,
     START_TOPIC,
-    TEAM_TOPICS,
 )
 
-# /<robot name>/<kind>: a robot's pose topics; a name ends in its index (robot_0, tb3_1).
-POSE_TOPIC = re.compile(
-    rf"^/(?P<name>(?P<prefix>[^/]*?)(?P<index>\d+))/(?P<kind>{GROUND_TRUTH}|{AMCL_POSE}|{ODOM})$")
-POSE_KIND = {GROUND_TRUTH: "ground_truth", AMCL_POSE: "amcl", ODOM: "odom"}
-TF_TOPICS = ("/tf", "/tf_static")
-# /fleet/start: tpuaf_ros/RunStart (messages version 2), std_msgs/Float64 in version 1 bags.
-FLEET_TYPES = {(START_TOPIC, "tpuaf_ros/RunStart"), (START_TOPIC, "std_msgs/Float64"),
-               (METRICS_TOPIC, "tpuaf_ros/LiveMetrics"), (EVENTS_TOPIC, "tpuaf_ros/AgentEvent")}
-# [s] run starts closer than this are one start (re-latched copies of it)
-SAME_START_S = 1e-3
-MAP_FRAME = "map"
-BASE_FRAME = "base_footprint"
-# Team topic basename -> message kind (the team namespace may differ from /team).
-TEAM_BASENAMES = {name: class_name for class_name, name in TEAM_TOPICS.items()}
-VISITS_BASENAME = TEAM_TOPICS[team_messages.Visit.__name__]
-# [s] messages stamped this far outside the bag's span are ignored (garbled or foreign stamps).
-STAMP_MARGIN_S = 5.0
-# [s] a record-time/stamp offset larger than this is a recorder on another clock.
-CLOCK_OFFSET_S = 5.0
-NS = 1e-9
-
-
-class BagError(TpuafError):
-    """The bag is missing, unreadable or lacks what the analysis needs."""
-
-
-# The message being handled (topic and type), named when its content does not fit its type.
-_CURRENT = contextvars.ContextVar("tpuaf_bag_message", default="")
-# What a message whose definition differs from ours (or holds impossible values) raises.
-_UNFIT = (AttributeError, TypeError, ValueError, KeyError, IndexError, OverflowError,
-          ZeroDivisionError, struct.error)
-
-
-def _guarded(function):
-    """A public entry point: every failure caused by the bag's content is a BagError."""
-    import functools
-
-    @functools.wraps(function)
-    def wrapper(path, *args, **kwargs):
-        token = _CURRENT.set("")
-        try:
-            return function(path, *args, **kwargs)
-        except BagError:
-            raise
-        except _UNFIT as err:
-            where = _CURRENT.get()
-            raise BagError(f"{path}: " + (f"a message on {where}" if where else "the bag")
-                           + f" does not fit what the analysis expects ({type(err).__name__}: "
-                           f"{err})") from None
-        finally:
-            _CURRENT.reset(token)
-
-    return wrapper
-
-
-@dataclass
-class BagInfo:
-    path: Path
-    start_s: float  # bag span on the messages' clock [s]
-    end_s: float
-    topics: dict[str, int] = field(default_factory=dict)  # topic -> message count
-    types: dict[str, str] = field(default_factory=dict)  # topic -> message type
-    robots: int = 0  # robots seen (max index + 1)
-    names: dict[int, str] = field(default_factory=dict)  # robot index -> name (robot_0)
-    prefix: str = "robot_"
-    fleet_start_s: float | None = None  # the run's start: the earliest in the span [s]
-    fleet_starts: list[tuple[float, str]] = field(default_factory=list)  # every distinct
-    # start on /fleet/start, (epoch [s], announcer), in time order
-    fleet_duration_s: float | None = None  # /fleet/metrics duration [s]
-    monitor_finished: bool = False
-    monitor_final: dict | None = None
-    clock_offset_s: float = 0.0  # record time - stamp [s], when the recorder's clock differs
-    events: int = 0  # AgentEvent messages
-    visit_events: int = 0  # START (with a vertex) and REACHED events: the visits reported
-    visit_messages: int = 0  # Visit team messages
-    team_topics: dict[str, str] = field(default_factory=dict)  # topic -> Visit, Intention...
-    pose_topics: dict[str, dict[int, str]] = field(default_factory=dict)  # source -> i -> topic
-    tf_robots: set[int] = field(default_factory=set)  # robots whose tf chain reaches map
-    out_of_span: int = 0  # messages of an analysis ignored: stamped outside the bag's span
-
-    @property
-    def span_s(self) -> float:
-        return self.end_s - self.start_s
-
-    @property
-    def start_time(self) -> float | None:  # the monitored run's start (compatibility)
-        return self.fleet_start_s
-
-    @property
-    def duration(self) -> float | None:
-        return self.fleet_duration_s
-
-    def pose_sources(self, n: int) -> list[str]:
-        """Sources (best first) that give every robot 0..n-1 a pose."""
-        out = []
-        for source in POSE_SOURCES:
-            have = self.tf_robots if source == "tf" else set(self.pose_topics.get(source, {}))
-            if n and all(i in have for i in range(n)):
-                out.append(source)
-        return out
+__all__ = ["Analysis", "BagError", "BagInfo", "analyze", "inspect", "is_visit"]
 
 
 @dataclass
 class Analysis:
+    """The metrics of the run in a bag (analyze), with what they were computed from."""
+
     summary: dict
     recorder: Any  # the RunRecorder (results writer input)
     info: BagInfo
@@ -173,413 +90,7 @@ class Analysis:
         return self.end_s - self.start_s
 
 
-# ---------------------------------------------------------------------------------------------
-# Reading
-
-
-def _typestore(reader: Any):
-    """The types of the bag's connections, from the definitions the bag stores (ROS 1 bags
-    carry them all): 0.07 s; the whole Noetic store (0.3 s more) only when one is missing.
-    Stores are kept per set of definitions (inspect and analyze read the same bag)."""
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    definitions = {c.msgtype: (c.msgdef.data if c.msgdef else None, c.topic)
-                   for c in reader.connections}
-    key = tuple(sorted((t, d) for t, (d, _) in definitions.items()))
-    if key in _STORES:
-        return _STORES[key]
-    complete = all(text for text, _ in definitions.values())
-    store = get_typestore(Stores.EMPTY if complete else Stores.ROS1_NOETIC)
-    types: dict = {}
-    for msgtype, (text, topic) in definitions.items():
-        if msgtype not in store.types and text:
-            try:
-                types.update(get_types_from_msg(text, msgtype))
-            except Exception as err:  # noqa: BLE001 - name the topic
-                raise BagError(f"{reader.path}: cannot parse the definition of {msgtype} "
-                               f"({topic}): {err}") from None
-    if types:
-        try:
-            store.register(types)
-        except Exception as err:  # noqa: BLE001 - a definition clashing with a known type
-            raise BagError(f"{reader.path}: message definitions do not fit the known types "
-                           f"({err})") from None
-    if len(_STORES) >= 8:
-        _STORES.pop(next(iter(_STORES)))
-    _STORES[key] = store
-    return store
-
-
-_STORES: dict = {}  # definitions -> typestore
-
-
-def _damaged(path: Path, err: BaseException) -> BagError:
-    return BagError(f"{path}: not a readable ROS 1 bag ({type(err).__name__}: {err}); a bag cut "
-                    "short by a crash can often be repaired with `rosbag reindex`")
-
-
-@contextmanager
-def _open(path: Path) -> Iterator[Any]:
-    """An open rosbags Reader; a damaged or foreign file is a BagError naming it."""
-    from rosbags.rosbag1 import Reader
-
-    if not path.is_file():
-        raise BagError(f"{path}: bag not found")
-    reader = Reader(path)
-    try:
-        reader.open()
-    except Exception as err:  # noqa: BLE001 - ReaderError and what a garbled header raises
-        raise _damaged(path, err) from None
-    try:
-        yield reader
-    finally:
-        reader.close()
-
-
-# Poses read straight from the serialised bytes (60-90 us a message through rosbags, 1 us
-# here): (stamp [s], x [m], y [m]) of the standard definitions (their md5 sums), whose header
-# (uint32 seq, uint32 sec, uint32 nsec, string frame_id) is followed by the pose, after
-# child_frame_id for an Odometry.
-_RAW_POSES = {("nav_msgs/msg/Odometry", "cd5e73d190d741a2f92e81eda573aca7"): True,
-              ("geometry_msgs/msg/PoseWithCovarianceStamped",
-               "953b798c0f514ff060a53a3498ce6246"): False}
-_U32 = struct.Struct("<I")
-_STAMP = struct.Struct("<III")
-_XY = struct.Struct("<dd")
-
-
-def _raw_pose(raw: bytes, odometry: bool) -> tuple[float, float, float]:
-    sec, nsec, frame_len = _STAMP.unpack_from(raw, 4)
-    offset = 16 + frame_len
-    if odometry:
-        offset += 4 + _U32.unpack_from(raw, offset)[0]
-    x, y = _XY.unpack_from(raw, offset)
-    return sec + nsec * NS, x, y
-
-
-class RawEvent:
-    """A tpuaf_ros/AgentEvent (messages version 2) read from its bytes: the fields the
-    analysis uses, `t` its header stamp [s]."""
-
-    __slots__ = ("t", "robot", "robot_index", "event", "vertex", "from_vertex")
-
-    def __init__(self, raw: bytes):
-        sec, nsec, frame_len = _STAMP.unpack_from(raw, 4)
-        offset = 16 + frame_len
-        (name_len,) = _U32.unpack_from(raw, offset)
-        offset += 4
-        self.robot = raw[offset:offset + name_len].decode("utf-8", "replace")
-        (self.robot_index, self.event, self.vertex,
-         self.from_vertex) = _EVENT.unpack_from(raw, offset + name_len)
-        self.t = sec + nsec * NS
-
-
-_EVENT = struct.Struct("<iBqq")  # robot_index, event, vertex, from_vertex
-# The AgentEvent definition read raw (its md5 sum, version 2).
-_RAW_EVENT = ("tpuaf_ros/msg/AgentEvent", "3ce9ce20732c9c9397c66ce50f7f6d89")
-
-
-def raw_readers(connections: list) -> dict:
-    """connection id -> how `_stream` reads it raw: True / False (an Odometry or a
-    PoseWithCovarianceStamped pose), RawEvent; connections of other definitions are absent."""
-    out: dict = {}
-    for conn in connections:
-        if (conn.msgtype, conn.digest) == _RAW_EVENT:
-            out[conn.id] = RawEvent
-        elif raw_pose_reader(conn) is not None:
-            out[conn.id] = raw_pose_reader(conn)
-    return out
-
-
-def raw_pose_reader(conn: Any) -> bool | None:
-    """For a pose connection of a standard definition: whether it is an Odometry (the raw
-    reader applies), else None (rosbags deserialises it)."""
-    return _RAW_POSES.get((conn.msgtype, conn.digest))
-
-
-_OP_MSGDATA, _OP_CONNECTION = 2, 7
-_CHUNKS_KEPT = 8
-
-
-def _record_fields(chunk: bytes, offset: int) -> tuple[dict[bytes, bytes], int]:
-    """The header fields of the record at `offset` of a chunk, and where its data starts."""
-    (size,) = _U32.unpack_from(chunk, offset)
-    pos, end = offset + 4, offset + 4 + size
-    fields = {}
-    while pos < end:
-        (n,) = _U32.unpack_from(chunk, pos)
-        name, _, value = chunk[pos + 4:pos + 4 + n].partition(b"=")
-        fields[name] = value
-        pos += 4 + n
-    if pos != end:
-        raise ValueError("a record header overruns its size")
-    return fields, end
-
-
-def _messages(reader: Any, connections: list) -> Iterator[tuple[Any, int, bytes]]:
-    """(connection, record time [ns], serialised message) of `connections`, in the order of
-    rosbags' `Reader.messages` (record time; ties: the connections' order, then each one's
-    index order), read from rosbags' index of the open bag at a few us a message instead of
-    its generic record parser (60 us): the order is one numpy lexsort of the index."""
-    import numpy as np
-
-    indexes = [reader.indexes[c.id] for c in connections]
-    count = sum(len(ix) for ix in indexes)
-    if not count:
-        return
-    times = np.fromiter((e.time for ix in indexes for e in ix), np.int64, count)
-    which = np.repeat(np.arange(len(indexes), dtype=np.int32), [len(ix) for ix in indexes])
-    rank = np.concatenate([np.arange(len(ix), dtype=np.int64) for ix in indexes])
-    order = np.lexsort((rank, which, times))
-    del times
-    connmap = {c.id: c for c in reader.connections}
-    # Neighbouring chunks overlap in record time (the recorder writes topics through separate
-    # queues): the last few decompressed chunks are kept (memory: _CHUNKS_KEPT x ~1 MB).
-    recent: dict[int, bytes] = {}
-    chunk_pos, chunk = None, b""
-    for k in order.tolist():
-        entry = indexes[which[k]][rank[k]]
-        if entry.chunk_pos != chunk_pos:
-            chunk_pos = entry.chunk_pos
-            chunk = recent.pop(chunk_pos, None)
-            if chunk is None:
-                info = reader.chunks[chunk_pos]
-                reader.bio.seek(info.datapos)
-                chunk = info.decompressor(reader.bio.read(info.datasize))
-                if len(recent) >= _CHUNKS_KEPT:
-                    recent.pop(next(iter(recent)))
-            recent[chunk_pos] = chunk
-        offset = entry.offset
-        while True:
-            fields, data_at = _record_fields(chunk, offset)
-            op = fields.get(b"op", b"\0")[0]
-            (size,) = _U32.unpack_from(chunk, data_at)
-            if op != _OP_CONNECTION:
-                break
-            offset = data_at + 4 + size
-        if op != _OP_MSGDATA:
-            raise ValueError("expected message data at an index entry")
-        (conn_id,) = _U32.unpack_from(fields[b"conn"])
-        yield connmap[conn_id], entry.time, chunk[data_at + 4:data_at + 4 + size]
-
-
-def _stream(path: Path, reader: Any, store: Any, connections: list,
-            raw_poses: dict | None = None) -> Iterator[tuple]:
-    """(connection, record time [s], message) in record order; a damaged chunk or message
-    is a BagError naming the bag (never a traceback). Connections in `raw_poses` (id ->
-    is Odometry) give (stamp, x, y) tuples instead of messages."""
-    if not connections:
-        return
-    raw_poses = raw_poses or {}
-    it = _messages(reader, connections)
-    while True:
-        try:
-            conn, t_ns, raw = next(it)
-        except StopIteration:
-            return
-        except Exception as err:  # noqa: BLE001 - decompression, truncation, bad index
-            raise _damaged(path, err) from None
-        try:
-            how = raw_poses.get(conn.id)
-            if how is not None:
-                _CURRENT.set(f"{conn.topic} ({conn.msgtype}, t = {t_ns * NS:.3f} s)")
-                yield conn, t_ns * NS, how(raw) if how is RawEvent else _raw_pose(raw, how)
-                continue
-            msg = store.deserialize_ros1(raw, conn.msgtype)
-        except Exception as err:  # noqa: BLE001
-            raise BagError(f"{path}: message {t_ns * NS:.3f} s on {conn.topic} cannot be read "
-                           f"as {conn.msgtype} ({type(err).__name__}: {err})") from None
-        _CURRENT.set(f"{conn.topic} ({conn.msgtype}, t = {t_ns * NS:.3f} s)")
-        yield conn, t_ns * NS, msg
-
-
-def _stamp(msg: Any) -> float:
-    if type(msg) is RawEvent:
-        return msg.t
-    st = msg.header.stamp if hasattr(msg, "header") else msg.stamp
-    return st.sec + st.nanosec * NS
-
-
-# [s of stamp time] rosbag's record times lag the message stamps by up to tens of seconds of
-# simulated time on a loaded machine, and by different amounts per topic: the replay puts the
-# messages back in stamp order within this window (memory: the messages of one window).
-REORDER_WINDOW_S = 60.0
-
-
-def _order_key(msg: Any, t_rec: float) -> float:
-    """The stamp a message is replayed at: its header or own stamp, a TF message's first
-    transform's, else its record time."""
-    if type(msg) is tuple:  # a raw pose (stamp, x, y)
-        return msg[0]
-    try:
-        if hasattr(msg, "transforms"):
-            return _stamp(msg.transforms[0]) if len(msg.transforms) else t_rec
-        return _stamp(msg)
-    except AttributeError:
-        return t_rec
-
-
-def _in_stamp_order(stream: Iterator[tuple], window_s: float = REORDER_WINDOW_S
-                    ) -> Iterator[tuple]:
-    """(connection, record time, message) of `stream` in stamp order (ties: arrival order),
-    given that no message is recorded more than `window_s` after one stamped later: a bounded
-    reorder buffer, sorted in batches (Timsort on nearly sorted runs, instead of a heap
-    operation per message); it holds at most about two windows of messages."""
-    held: list[tuple] = []  # (key, seq, connection, record time, message)
-    newest = -math.inf
-    next_sort = -math.inf
-    for seq, (conn, t_rec, msg) in enumerate(stream):
-        key = _order_key(msg, t_rec)
-        if key > newest:
-            newest = key
-        held.append((key, seq, conn, t_rec, msg))
-        if newest >= next_sort:  # (key, seq) are unique: tuples compare on them alone
-            held.sort()
-            cut = bisect.bisect_left(held, (newest - window_s,))  # keys < newest - window
-            yield from ((c, t, m) for _, _, c, t, m in held[:cut])
-            del held[:cut]
-            next_sort = newest + window_s
-    held.sort()
-    yield from ((c, t, m) for _, _, c, t, m in held)
-
-
-def _team_kind(topic: str) -> str | None:
-    base = topic.rsplit("/", 1)[-1]
-    return TEAM_BASENAMES.get(base) if topic.count("/") >= 2 else None
-
-
-def _is_type(conn: Any, short: str) -> bool:
-    return conn.msgtype.replace("/msg/", "/") == short
-
-
-@_guarded
-def inspect(path: str | Path) -> BagInfo:
-    """What the bag holds for an analysis: its span, robots, team and pose topics (one pass
-    over the small topics, and over /tf until every robot's chain to map is known)."""
-
-    path = Path(path)
-    with _open(path) as reader:
-        return _inspect(path, reader)
-
-
-def _inspect(path: Path, reader: Any) -> BagInfo:
-    store = _typestore(reader)
-    if reader.message_count == 0:
-        raise BagError(f"{path}: the bag holds no messages")
-    info = BagInfo(path, reader.start_time * NS, reader.end_time * NS)
-    small, tf_conns = [], []
-    for conn in reader.connections:
-        info.topics[conn.topic] = info.topics.get(conn.topic, 0) + conn.msgcount
-        info.types[conn.topic] = conn.msgtype
-        m = POSE_TOPIC.match(conn.topic)
-        if m:
-            kind = POSE_KIND[m["kind"]]
-            if _is_type(conn, "geometry_msgs/PoseWithCovarianceStamped" if kind == "amcl"
-                        else "nav_msgs/Odometry"):
-                info.pose_topics.setdefault(kind, {})[int(m["index"])] = conn.topic
-                info.names.setdefault(int(m["index"]), m["name"])
-        elif conn.topic in TF_TOPICS and _is_type(conn, "tf2_msgs/TFMessage"):
-            tf_conns.append(conn)
-        elif (conn.topic, conn.msgtype.replace("/msg/", "/")) in FLEET_TYPES:
-            small.append(conn)
-        elif _team_kind(conn.topic) and conn.msgtype.startswith("tpuaf_ros/"):
-            info.team_topics[conn.topic] = _team_kind(conn.topic)
-            small.append(conn)
-    offsets: list[float] = []
-    for conn, t_rec, msg in _stream(path, reader, store, small, raw_readers(small)):
-        if conn.topic == START_TOPIC:
-            _add_start(info, msg)
-        elif conn.topic == METRICS_TOPIC:
-            info.fleet_duration_s = float(msg.duration)
-            if msg.finished:
-                info.monitor_finished = True
-                info.monitor_final = {k: getattr(msg, k) for k in (
-                    "elapsed", "visits", "idleness_avg", "interferences", "robots_alive")}
-        else:  # agent events and team messages: robots, names, clock
-            r = int(msg.robot_index)
-            if 0 <= r < 10_000:
-                info.robots = max(info.robots, r + 1)
-                if msg.robot:
-                    info.names.setdefault(r, str(msg.robot).strip("/"))
-            if conn.topic == EVENTS_TOPIC:
-                info.events += 1
-                info.visit_events += is_visit(int(msg.event), int(msg.vertex))
-            elif info.team_topics[conn.topic] == "Visit":
-                info.visit_messages += 1
-            if len(offsets) < 2001:
-                offsets.append(t_rec - _stamp(msg))
-    if info.pose_topics:
-        info.robots = max(info.robots, max(max(d) for d in info.pose_topics.values()) + 1)
-    if offsets:
-        offset = statistics.median(offsets)
-        if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
-            info.clock_offset_s = offset
-            info.start_s -= offset
-            info.end_s -= offset
-    inside = [s for s, _ in info.fleet_starts
-              if info.start_s - STAMP_MARGIN_S <= s < info.end_s]
-    info.fleet_start_s = min(inside) if inside else None
-    names = {r: info.names.get(r, f"{_prefix(info)}{r}") for r in range(info.robots)}
-    info.prefix = _prefix(info)
-    if tf_conns and names:
-        chains = robot_chains([names[r] for r in range(info.robots)], MAP_FRAME, BASE_FRAME)
-        for _conn, _t, msg in _stream(path, reader, store, tf_conns):
-            for r in feed_chains(chains, msg.transforms):
-                if chains[r].pose() is not None:
-                    info.tf_robots.add(r)
-            if len(info.tf_robots) == len(chains):
-                break
-    return info
-
-
-def _add_start(info: BagInfo, msg: Any) -> None:
-    """A run start on /fleet/start: RunStart (its header stamp) or, version 1, Float64."""
-    if hasattr(msg, "data"):
-        start, announcer = float(msg.data), ""
-    else:
-        start, announcer = _stamp(msg), str(msg.announcer)
-    if not math.isfinite(start):
-        return
-    if all(abs(start - s) > SAME_START_S for s, _ in info.fleet_starts):
-        info.fleet_starts.append((start, announcer))
-        info.fleet_starts.sort()
-
-
-def _start_notes(info: BagInfo, start_offset_s: float | None) -> list[str]:
-    """Notes on the bag's run starts: several (a robot that restarted and announced a new
-    run), or one outside the bag."""
-    if not info.fleet_starts:
-        return []
-
-    def when(s):
-        by = next((a for t, a in info.fleet_starts if t == s), "")
-        return f"{s - info.start_s:+.1f} s" + (f" (by {by})" if by else "")
-    if info.fleet_start_s is None:
-        return [f"the run start{'s' if len(info.fleet_starts) > 1 else ''} on {START_TOPIC} "
-                f"({', '.join(when(s) for s, _ in info.fleet_starts)} from the bag's beginning) "
-                "lie outside the bag: analysed from its beginning"]
-    if len(info.fleet_starts) == 1:
-        return []
-    used = ("--start" if start_offset_s is not None
-            else f"the earliest, {when(info.fleet_start_s)}")
-    return [f"the bag holds {len(info.fleet_starts)} different run starts on {START_TOPIC} "
-            f"({', '.join(when(s) for s, _ in info.fleet_starts)} from the bag's beginning; "
-            f"an agent that restarted and announced a new run?): analysed from {used}"]
-
-
-def _prefix(info: BagInfo) -> str:
-    for name in info.names.values():
-        m = re.match(r"^(.*?)\d+$", name)
-        if m:
-            return m.group(1)
-    return "robot_"
-
-
-# ---------------------------------------------------------------------------------------------
-# Analysis
-
-
-@_guarded
+@guarded
 def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
             start_offset_s: float | None = None, duration_s: float | None = None,
             death_timeout_s: float | None = None, pose_source: str | None = None,
@@ -595,14 +106,14 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
     pose_source: ground_truth | tf | amcl | odom (default: the best one the bag has)."""
 
     path = Path(path)
-    with _open(path) as reader:  # one open: rosbags reads the whole index on opening
+    with open_bag(path) as reader:  # one open: rosbags reads the whole index on opening
         return _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s,
                         death_timeout_s, pose_source, team_ns, teammate_timeout_s)
 
 
 def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death_timeout_s,
              pose_source, team_ns, teammate_timeout_s=None) -> Analysis:
-    info = _inspect(path, reader)
+    info = inspect_reader(path, reader)
     notes: list[str] = []
     n = int(robots) if robots else info.robots
     if n <= 0:
@@ -622,52 +133,13 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
         raise BagError(f"teammate timeout must be > 0 s, got {teammate_timeout_s:g}")
     mate_timeout = 10.0 if teammate_timeout_s is None else float(teammate_timeout_s)
 
-    # Visits: REACHED events, else Visit team messages.
     team = {t: k for t, k in info.team_topics.items()
             if team_ns is None or t.startswith(team_ns.rstrip("/") + "/")}
-    visit_topics = [t for t, k in team.items() if k == "Visit"]
-    if info.visit_events:
-        visit_source = f"START and REACHED events ({EVENTS_TOPIC})"
-    elif info.visit_messages:
-        visit_source = f"Visit team messages ({', '.join(visit_topics)})"
-        notes.append(f"visits from the Visit team messages (no START/REACHED events on "
-                     f"{EVENTS_TOPIC}): a strategy that also sends one when it decides again "
-                     "after a failed goal (TPUAF) counts those too; record the events for exact "
-                     "counts")
-    else:
-        visit_source = "none"
-        notes.append(f"no visit reports: neither START/REACHED events on {EVENTS_TOPIC} nor "
-                     f"Visit messages on {DEFAULT_TEAM_NS}/{VISITS_BASENAME}: visits and "
-                     "idleness cannot be computed")
-    # Liveness: heartbeats (agent events); team messages only when a timeout is given.
-    liveness = info.events > 0 or death_timeout_s is not None
-    timeout = death_timeout_s if death_timeout_s is not None else 5.0
-    if not liveness:
-        timeout = math.inf
-        notes.append(f"deaths not detected: no agent heartbeats ({EVENTS_TOPIC}) in the bag "
-                     "(give --death-timeout to judge liveness from the team messages)")
-    elif not info.events:
-        notes.append(f"liveness judged from the team messages (no heartbeats on "
-                     f"{EVENTS_TOPIC}): a robot silent for {timeout:g} s is dead")
+    visit_source = _visit_source(info, team, notes)
+    liveness, timeout = _liveness(info, death_timeout_s, notes)
+    source = _pose_source(path, info, n, pose_source, notes)
 
-    # Poses.
-    available = info.pose_sources(n)
-    if pose_source is not None:
-        if pose_source not in POSE_SOURCES:
-            raise BagError(f"pose source must be one of {', '.join(POSE_SOURCES)}, got "
-                           f"{pose_source!r}")
-        if pose_source not in available:
-            raise BagError(f"{path}: no {pose_source} poses for every robot 0..{n - 1} "
-                           f"(available: {', '.join(available) or 'none'})")
-        source = pose_source
-    else:
-        source = available[0] if available else None
-    if source is None:
-        notes.append(_missing_poses(info, n))
-    else:
-        notes.append(f"positions (X, interference) from {POSE_SOURCES[source]}")
-
-    store = _typestore(reader)
+    store = typestore(reader)
     if source is None:
         recorder, reports = _replay_reports(path, reader, store, info, patrol_map, n, start,
                                             end, timeout, team, liveness)
@@ -695,6 +167,83 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
             summary[key] = None
     return Analysis(summary, recorder, info, n, start_used, end_used, source, visit_source,
                     n_reports, liveness, notes)
+
+
+def _visit_source(info: BagInfo, team: dict[str, str], notes: list[str]) -> str:
+    """Visits: START/REACHED events, else Visit team messages; the notes say which."""
+    visit_topics = [t for t, k in team.items() if k == "Visit"]
+    if info.visit_events:
+        return f"START and REACHED events ({EVENTS_TOPIC})"
+    if info.visit_messages:
+        notes.append(f"visits from the Visit team messages (no START/REACHED events on "
+                     f"{EVENTS_TOPIC}): a strategy that also sends one when it decides again "
+                     "after a failed goal (TPUAF) counts those too; record the events for exact "
+                     "counts")
+        return f"Visit team messages ({', '.join(visit_topics)})"
+    notes.append(f"no visit reports: neither START/REACHED events on {EVENTS_TOPIC} nor "
+                 f"Visit messages on {DEFAULT_TEAM_NS}/{VISITS_BASENAME}: visits and "
+                 "idleness cannot be computed")
+    return "none"
+
+
+def _liveness(info: BagInfo, death_timeout_s: float | None, notes: list[str]
+              ) -> tuple[bool, float]:
+    """(deaths are judged, silence [s] that makes a robot dead): heartbeats (agent events);
+    team messages only when a timeout is given."""
+    liveness = info.events > 0 or death_timeout_s is not None
+    timeout = death_timeout_s if death_timeout_s is not None else 5.0
+    if not liveness:
+        timeout = math.inf
+        notes.append(f"deaths not detected: no agent heartbeats ({EVENTS_TOPIC}) in the bag "
+                     "(give --death-timeout to judge liveness from the team messages)")
+    elif not info.events:
+        notes.append(f"liveness judged from the team messages (no heartbeats on "
+                     f"{EVENTS_TOPIC}): a robot silent for {timeout:g} s is dead")
+    return liveness, timeout
+
+
+def _pose_source(path: Path, info: BagInfo, n: int, pose_source: str | None,
+                 notes: list[str]) -> str | None:
+    """The pose source asked for (a BagError if the bag lacks it), else the best one the bag
+    has for every robot, else None (no positions)."""
+    available = info.pose_sources(n)
+    if pose_source is not None:
+        if pose_source not in POSE_SOURCES:
+            raise BagError(f"pose source must be one of {', '.join(POSE_SOURCES)}, got "
+                           f"{pose_source!r}")
+        if pose_source not in available:
+            raise BagError(f"{path}: no {pose_source} poses for every robot 0..{n - 1} "
+                           f"(available: {', '.join(available) or 'none'})")
+        source = pose_source
+    else:
+        source = available[0] if available else None
+    if source is None:
+        notes.append(_missing_poses(info, n))
+    else:
+        notes.append(f"positions (X, interference) from {POSE_SOURCES[source]}")
+    return source
+
+
+def _start_notes(info: BagInfo, start_offset_s: float | None) -> list[str]:
+    """Notes on the bag's run starts: several (a robot that restarted and announced a new
+    run), or one outside the bag."""
+    if not info.fleet_starts:
+        return []
+
+    def when(s):
+        by = next((a for t, a in info.fleet_starts if t == s), "")
+        return f"{s - info.start_s:+.1f} s" + (f" (by {by})" if by else "")
+    if info.fleet_start_s is None:
+        return [f"the run start{'s' if len(info.fleet_starts) > 1 else ''} on {START_TOPIC} "
+                f"({', '.join(when(s) for s, _ in info.fleet_starts)} from the bag's beginning) "
+                "lie outside the bag: analysed from its beginning"]
+    if len(info.fleet_starts) == 1:
+        return []
+    used = ("--start" if start_offset_s is not None
+            else f"the earliest, {when(info.fleet_start_s)}")
+    return [f"the bag holds {len(info.fleet_starts)} different run starts on {START_TOPIC} "
+            f"({', '.join(when(s) for s, _ in info.fleet_starts)} from the bag's beginning; "
+            f"an agent that restarted and announced a new run?): analysed from {used}"]
 
 
 def _missing_poses(info: BagInfo, n: int) -> str:
@@ -748,7 +297,7 @@ def _in_span(info: BagInfo, t: float) -> bool:
 def _report_connections(reader: Any, info: BagInfo, team: dict[str, str]) -> list:
     conns = []
     for conn in reader.connections:
-        if info.events and conn.topic == EVENTS_TOPIC and _is_type(conn, "tpuaf_ros/AgentEvent"):
+        if info.events and conn.topic == EVENTS_TOPIC and is_type(conn, "tpuaf_ros/AgentEvent"):
             conns.append(conn)
         elif conn.topic in team:
             conns.append(conn)
@@ -768,7 +317,7 @@ class _Reports:
 
     def __call__(self, conn: Any, msg: Any) -> tuple[int, int | None, int, float] | None:
         r = int(msg.robot_index)
-        t = _stamp(msg)
+        t = stamp_of(msg)
         if not 0 <= r < self.n or not _in_span(self.info, t):
             return None
         if conn.topic == EVENTS_TOPIC and not self.use_visits:
@@ -787,11 +336,6 @@ class _Reports:
         return r, kind, vertex, t
 
 
-def is_visit(kind: int, vertex: int) -> bool:
-    """START (the start vertex's first visit) and REACHED are the agents' visit reports."""
-    return kind in (START, REACHED) and vertex >= 0
-
-
 def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team, source,
             teammate_timeout_s):
     """Reports and poses, in bag order, through a FleetMonitor."""
@@ -802,7 +346,7 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     raw_poses: dict[int, bool] = {}  # connection id -> is Odometry (read raw)
     if source == "tf":
         conns += [c for c in reader.connections if c.topic in TF_TOPICS
-                  and _is_type(c, "tf2_msgs/TFMessage")]
+                  and is_type(c, "tf2_msgs/TFMessage")]
     else:
         topics = {t: r for r, t in info.pose_topics[source].items() if r < n}
         for c in reader.connections:
@@ -818,7 +362,7 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     report_of = _Reports(info, patrol_map, n, team)
 
     raw_poses.update(raw_readers([c for c in conns if c.topic == EVENTS_TOPIC]))
-    for conn, _t_rec, msg in _in_stamp_order(_stream(path, reader, store, conns, raw_poses)):
+    for conn, _t_rec, msg in in_stamp_order(read_messages(path, reader, store, conns, raw_poses)):
         if conn.topic in TF_TOPICS:
             for r in feed_chains(chains, msg.transforms):
                 pose = chain_pose(chains[r])
@@ -828,7 +372,7 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
             if type(msg) is tuple:  # read raw: (stamp, x, y)
                 t, x, y = msg
             else:
-                t, p = _stamp(msg), msg.pose.pose.position
+                t, p = stamp_of(msg), msg.pose.pose.position
                 x, y = p.x, p.y
             if not _in_span(info, t):
                 continue
@@ -876,8 +420,8 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
                 recorder.record_robot_death(r, round(heard[r] + timeout - start, 9))
 
     conns = _report_connections(reader, info, team)
-    for conn, _t, msg in _in_stamp_order(
-            _stream(path, reader, store, conns, raw_readers(conns))):
+    for conn, _t, msg in in_stamp_order(
+            read_messages(path, reader, store, conns, raw_readers(conns))):
         rep = report_of(conn, msg)
         if rep is None:
             continue
