@@ -10,7 +10,8 @@ A world file (documented key by key in src/tpuaf_stage/config/world_template.yam
     laser: {preset: lds01, beams: 360, ...}
     robots: [[x, y, theta], ...]        # poses [m, m, rad], or a count with patrol_map
 
-Unknown keys are refused; every error names the file and line (WorldError).
+Unknown keys are refused; every error names the file and line (WorldError). The maps are read
+by tpuaf_stage.map_sources (the one module that uses tpuaf).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 import tpuaf_core
 from tpuaf_core import TpuafError, yamlfile
 
+from .map_sources import MapSourceError, map_server_grid, patrol_map_grid
 from .presets import LASER_PRESETS, ROBOT_PRESETS
 
 
@@ -265,9 +267,8 @@ def _poses(path, node, doc) -> list[tuple[float, float, float]] | int:
 
 
 def parse_world(doc: Any, path: Path | None = None) -> WorldConfig:
-    """A WorldConfig from a parsed world document; `path` for messages and relative paths."""
-    from tpuaf.maps import MapError, load_map, load_occupancy, start_poses
-
+    """A WorldConfig from a parsed world document; `path` for messages and relative paths. The
+    grid (and start poses) of `map` and `patrol_map` come from tpuaf_stage.map_sources."""
     if not isinstance(doc, dict):
         raise WorldError(f"{_where(path, doc)}: a world file is a mapping, got "
                          f"{type(doc).__name__}")
@@ -286,21 +287,17 @@ def parse_world(doc: Any, path: Path | None = None) -> WorldConfig:
         if "map" in doc:
             if not isinstance(doc["map"], str):
                 raise WorldError(f"{_where(path, doc)}: 'map' must be a path, got {doc['map']!r}")
-            map_path = (base / doc["map"]).expanduser()
-            grid = load_occupancy(map_path)
-            description = f"map_server {map_path}"
+            grid, description = map_server_grid((base / doc["map"]).expanduser())
         else:
             ref = doc["patrol_map"]
             if not isinstance(ref, str):
                 raise WorldError(f"{_where(path, doc)}: 'patrol_map' must be a name or path, got "
                                  f"{ref!r}")
-            candidate = (base / ref).expanduser()
-            pm = load_map(candidate if ("/" in ref or candidate.exists()) else ref)
-            grid = pm.occupancy_grid()
-            description = f"patrol map {pm.name} ({pm.source or ref})"
-            if isinstance(poses, int):
-                poses = start_poses(pm, poses, robot.radius)  # footprints never overlap
-    except MapError as err:
+            grid, description, starts = patrol_map_grid(
+                ref, base, poses if isinstance(poses, int) else None, robot.radius)
+            if starts is not None:
+                poses = starts  # footprints never overlap
+    except MapSourceError as err:
         raise WorldError(f"{_where(path, doc)}: {err}") from None
     return WorldConfig(
         source=path, occupied=np.asarray(grid.occupied, dtype=bool), resolution=float(grid.resolution),
