@@ -20,6 +20,7 @@ from tpuaf.navigation import (
     Status,
     scan_points,
 )
+from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.agent import AgentRuntime
 
@@ -233,7 +234,9 @@ def test_monitor_records_a_dead_robot(grid):
     s = mon.summary()
     assert s["deaths"] == 1 and s["dead_robots"] == [1]
     t_death = mon.deaths[0][0]
-    assert 44.0 <= t_death <= 46.5  # last heartbeat in (39, 40] s, silent for > 5 s
+    # last heartbeat in (39, 40] s, silent for > the death timeout (the teammate timeout)
+    silent = LIVENESS_DEFAULTS.death_timeout_s
+    assert 39.0 + silent <= t_death <= 41.5 + silent
     # The others kept visiting after the death.
     later = [r for t, r, _ in mon.recorder.visits if t > t_death + 10]
     assert set(later) == {0, 2}
