@@ -81,85 +81,14 @@ class PlainBag:
 
         store = typestore(self.msg_version)
         T = store.types
-        n = len(self.routes)
-        ids = [int(v) for v in self.patrol_map.vertex_ids]
-        tracks = [self.trajectory(r) for r in range(n)]
+        tracks = [self.trajectory(r) for r in range(len(self.routes))]
         end = max(k[-1][0] for k, _ in tracks) + 2.0
         items = []  # (t, topic, message)
-
-        def stamp(t):
-            sec = int(math.floor(t))
-            return T["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9)))
-
-        def header(t, frame):
-            return T["std_msgs/msg/Header"](seq=0, stamp=stamp(t), frame_id=frame)
-
-        def silent(r, t):
-            return t >= self.silent_after.get(r, math.inf)
-
-        def team_msg(kind, t, **fields):
-            """A tpuaf_ros message stamped t: a header (version 2) or a bare stamp (1)."""
-            when = ({"header": header(t, "")} if self.msg_version == 2 else {"stamp": stamp(t)})
-            return T[f"tpuaf_ros/msg/{kind}"](**when, **fields)
-
         for r, (knots, arrivals) in enumerate(tracks):
-            name = f"{self.prefix}{r}"
-            for k, (t, v) in enumerate(arrivals):
-                if silent(r, t):
-                    break
-                nxt = arrivals[k + 1][1] if k + 1 < len(arrivals) else -1
-                items.append((t, "/team/visits", team_msg(
-                    "Visit", t, robot=name, robot_index=r, vertex=ids[v],
-                    next_vertex=ids[nxt] if nxt >= 0 else -1)))
-                self.visits.append((t, r, v))
-                if nxt >= 0:
-                    items.append((t + 0.01, "/team/intentions", team_msg(
-                        "Intention", t + 0.01, robot=name, robot_index=r, from_vertex=ids[v],
-                        vertex=ids[nxt], expected_arrival=t + 5.0, travel_time=5.0)))
-                if self.events and self.visit_events:  # START (0), then REACHED (2)
-                    items.append((t, "/fleet/agent_events", team_msg(
-                        "AgentEvent", t, robot=name, robot_index=r, event=0 if k == 0 else 2,
-                        vertex=ids[v], from_vertex=-1)))
-            if self.events:
-                for t in np.arange(self.t0, end, 1.0):
-                    if not silent(r, t):
-                        items.append((t, "/fleet/agent_events", team_msg(
-                            "AgentEvent", t, robot=name, robot_index=r, event=4, vertex=-1,
-                            from_vertex=-1)))
-            if self.poses == "none":
-                continue
-            for t in np.arange(self.t0, end, 1.0 / self.rate):
-                if silent(r, t):
-                    break
-                x = float(np.interp(t, knots[:, 0], knots[:, 1]))
-                y = float(np.interp(t, knots[:, 0], knots[:, 2]))
-                if self.poses == "tf":
-                    # odom origin at (1, -1) in map; base in odom
-                    items.append((t, "/tf", T["tf2_msgs/msg/TFMessage"](transforms=[
-                        self._tf(T, header(t, f"{name}/odom"), f"{name}/base_footprint",
-                                 x - 1.0, y + 1.0),
-                        self._tf(T, header(t, "map"), f"{name}/odom", 1.0, -1.0)])))
-                elif self.poses == "odom":
-                    items.append((t, f"/{name}/odom", self._odom(T, header(t, f"{name}/odom"),
-                                                                  x, y)))
-                elif self.poses == "amcl":
-                    if round(t * self.rate) % 5 == 0:  # 2 Hz
-                        p = T["geometry_msgs/msg/PoseWithCovariance"](
-                            pose=self._pose(T, x, y), covariance=np.zeros(36))
-                        items.append((t, f"/{name}/amcl_pose",
-                                      T["geometry_msgs/msg/PoseWithCovarianceStamped"](
-                                          header=header(t, "map"), pose=p)))
-        # the first agent's run start (wall clock), latched on /fleet/start; a restarted agent
-        # of version 1 announced a new one
-        for k, offset in enumerate(self.starts):
-            epoch = self.t0 + offset
-            if self.msg_version == 1:
-                start = T["std_msgs/msg/Float64"](data=epoch)
-            else:
-                start = T["tpuaf_ros/msg/RunStart"](
-                    header=header(epoch, ""), announcer=f"/{self.prefix}{k}/patrol_agent",
-                    robots=n, team=[f"{self.prefix}{i}" for i in range(n)])
-            items.append((epoch + 0.1, "/fleet/start", start))
+            items += self._team_items(T, r, arrivals, end)
+            if self.poses != "none":
+                items += self._pose_items(T, r, knots, end)
+        items += self._start_items(T)
         items.sort(key=lambda item: item[0])
         path = Path(path)
         with Writer(path) as writer:
@@ -170,6 +99,94 @@ class PlainBag:
                 writer.write(conns[topic], int(round(t * 1e9)),
                              store.serialize_ros1(msg, msg.__msgtype__))
         return path
+
+    @staticmethod
+    def _stamp(T, t):
+        sec = int(math.floor(t))
+        return T["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9)))
+
+    @classmethod
+    def _header(cls, T, t, frame):
+        return T["std_msgs/msg/Header"](seq=0, stamp=cls._stamp(T, t), frame_id=frame)
+
+    def _silent(self, r, t):
+        return t >= self.silent_after.get(r, math.inf)
+
+    def _team_msg(self, T, kind, t, **fields):
+        """A tpuaf_ros message stamped t: a header (version 2) or a bare stamp (1)."""
+        when = ({"header": self._header(T, t, "")} if self.msg_version == 2
+                else {"stamp": self._stamp(T, t)})
+        return T[f"tpuaf_ros/msg/{kind}"](**when, **fields)
+
+    def _team_items(self, T, r, arrivals, end):
+        """Robot r's Visit and Intention messages, and its agent events when `events`."""
+        ids = [int(v) for v in self.patrol_map.vertex_ids]
+        name, items = f"{self.prefix}{r}", []
+        for k, (t, v) in enumerate(arrivals):
+            if self._silent(r, t):
+                break
+            nxt = arrivals[k + 1][1] if k + 1 < len(arrivals) else -1
+            items.append((t, "/team/visits", self._team_msg(
+                T, "Visit", t, robot=name, robot_index=r, vertex=ids[v],
+                next_vertex=ids[nxt] if nxt >= 0 else -1)))
+            self.visits.append((t, r, v))
+            if nxt >= 0:
+                items.append((t + 0.01, "/team/intentions", self._team_msg(
+                    T, "Intention", t + 0.01, robot=name, robot_index=r, from_vertex=ids[v],
+                    vertex=ids[nxt], expected_arrival=t + 5.0, travel_time=5.0)))
+            if self.events and self.visit_events:  # START (0), then REACHED (2)
+                items.append((t, "/fleet/agent_events", self._team_msg(
+                    T, "AgentEvent", t, robot=name, robot_index=r, event=0 if k == 0 else 2,
+                    vertex=ids[v], from_vertex=-1)))
+        if self.events:
+            for t in np.arange(self.t0, end, 1.0):
+                if not self._silent(r, t):
+                    items.append((t, "/fleet/agent_events", self._team_msg(
+                        T, "AgentEvent", t, robot=name, robot_index=r, event=4, vertex=-1,
+                        from_vertex=-1)))
+        return items
+
+    def _pose_items(self, T, r, knots, end):
+        """Robot r's poses at `rate` Hz (amcl: 2 Hz) on tf, odom or amcl_pose."""
+        name, items = f"{self.prefix}{r}", []
+        for t in np.arange(self.t0, end, 1.0 / self.rate):
+            if self._silent(r, t):
+                break
+            x = float(np.interp(t, knots[:, 0], knots[:, 1]))
+            y = float(np.interp(t, knots[:, 0], knots[:, 2]))
+            if self.poses == "tf":
+                # odom origin at (1, -1) in map; base in odom
+                items.append((t, "/tf", T["tf2_msgs/msg/TFMessage"](transforms=[
+                    self._tf(T, self._header(T, t, f"{name}/odom"), f"{name}/base_footprint",
+                             x - 1.0, y + 1.0),
+                    self._tf(T, self._header(T, t, "map"), f"{name}/odom", 1.0, -1.0)])))
+            elif self.poses == "odom":
+                items.append((t, f"/{name}/odom",
+                              self._odom(T, self._header(T, t, f"{name}/odom"), x, y)))
+            elif self.poses == "amcl":
+                if round(t * self.rate) % 5 == 0:  # 2 Hz
+                    p = T["geometry_msgs/msg/PoseWithCovariance"](
+                        pose=self._pose(T, x, y), covariance=np.zeros(36))
+                    items.append((t, f"/{name}/amcl_pose",
+                                  T["geometry_msgs/msg/PoseWithCovarianceStamped"](
+                                      header=self._header(T, t, "map"), pose=p)))
+        return items
+
+    def _start_items(self, T):
+        """The first agent's run start (wall clock), latched on /fleet/start; a restarted
+        agent of version 1 announced a new one."""
+        n, items = len(self.routes), []
+        for k, offset in enumerate(self.starts):
+            epoch = self.t0 + offset
+            if self.msg_version == 1:
+                start = T["std_msgs/msg/Float64"](data=epoch)
+            else:
+                start = T["tpuaf_ros/msg/RunStart"](
+                    header=self._header(T, epoch, ""),
+                    announcer=f"/{self.prefix}{k}/patrol_agent",
+                    robots=n, team=[f"{self.prefix}{i}" for i in range(n)])
+            items.append((epoch + 0.1, "/fleet/start", start))
+        return items
 
     @staticmethod
     def _pose(T, x, y):
