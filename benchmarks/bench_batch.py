@@ -258,8 +258,7 @@ def targets_section(repeats: int) -> list[str]:
 def one_run(map_name: str, strategy: str, robots: int, engine: str, duration_s: float) -> dict:
     """One run in this process: timings of its phases and this process's peak RSS."""
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.graph import BatchRun
-    from tpuaf.runtimes.native import NativeRun
+    from tpuaf.runtimes.graph import GraphRun
 
     t0 = time.perf_counter()
     patrol_map = load(map_name)
@@ -267,13 +266,14 @@ def one_run(map_name: str, strategy: str, robots: int, engine: str, duration_s: 
     t1 = time.perf_counter()
     config = RunConfig(map=map_name, strategy=strategy, robots=robots, duration_s=duration_s,
                        seed=1)
-    run = NativeRun(config, patrol_map) if engine == "native" else BatchRun(config, patrol_map)
+    del engine  # one event loop: the C++ one
+    run = GraphRun(config, patrol_map)
     t2, c2 = time.perf_counter(), time.process_time()
     summary = run.run()
     t3, c3 = time.perf_counter(), time.process_time()
     return {"map_s": t1 - t0, "setup_s": t2 - t1, "run_s": t3 - t2, "run_cpu_s": c3 - c2,
             "visits": summary["visits"],
-            "native_policy": bool(getattr(run, "native_policy", False)),
+            "native_policy": bool(run.core_strategy),
             "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
 
 

@@ -59,7 +59,7 @@ def one(case: dict) -> dict:
 
     from tpuaf.maps import load_map
     from tpuaf.runtimes.config import PhysicsConfig, choose_robot
-    from tpuaf.runtimes.native import make_run
+    from tpuaf.runtimes.graph import make_run
     from tpuaf.runtimes.physics import PhysicsRun
 
     pm = load_map(map_ref(case["map"]))
@@ -76,7 +76,7 @@ def one(case: dict) -> dict:
 
         base = RunConfig(**{k: getattr(cfg, k) for k in RunConfig.__dataclass_fields__})
         try:
-            run, _ = make_run(base, graph_map)
+            run = make_run(base, graph_map)
             s = run.run()
         except Exception as err:  # a map whose edges cannot be driven: say so in the table
             out[label] = {"error": str(err)}

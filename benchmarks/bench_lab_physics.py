@@ -27,7 +27,7 @@ STRATEGIES = ("tpuaf", "tpuaf_plus")
 
 def one(case: tuple[str, str, int, int, float]) -> tuple[tuple, dict]:
     from tpuaf.runtimes.config import PhysicsConfig, RunConfig
-    from tpuaf.runtimes.native import make_run
+    from tpuaf.runtimes.graph import make_run
     from tpuaf.runtimes.physics import PhysicsRun
 
     runtime, strategy, n, seed, duration = case
@@ -35,7 +35,7 @@ def one(case: tuple[str, str, int, int, float]) -> tuple[tuple, dict]:
     if runtime == "physics":
         s = PhysicsRun(PhysicsConfig(**common, robot="burger")).run()
     else:
-        run, _ = make_run(RunConfig(**common))
+        run = make_run(RunConfig(**common))
         s = run.run()
     return case, {"ins": s["idleness_ins_mean_s"], "x": s["uncertainty_mean"],
                   "visits": s["visits"], "failures": s.get("goal_failures", 0)}

@@ -69,7 +69,7 @@ def liveness_share(strategy: str, extra: list[str]) -> tuple[float, float, int]:
     """(run s, liveness s, checks) of one in-process run of the current tree."""
     from tpuaf.maps import load_map
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.graph import BatchRun
+    from tpuaf.runtimes.graph import GraphRun
 
     spent = [0.0, 0]
 
@@ -87,7 +87,7 @@ def liveness_share(strategy: str, extra: list[str]) -> tuple[float, float, int]:
     loss = float(extra[1]) if extra else 0.0
     config = RunConfig(map=str(CUMBERLAND), strategy=strategy, robots=12, duration_s=3600.0,
                        fail=["0@1800", "4@1800", "8@1800"], loss=loss)
-    engine = BatchRun(config, load_map(str(CUMBERLAND)))
+    engine = GraphRun(config, load_map(str(CUMBERLAND)))
     # Only the outermost liveness calls are timed (planning is also called from a check).
     engine.liveness_due = timed(engine.liveness_due, count=True)
     engine.start_liveness = timed(engine.start_liveness)
@@ -106,13 +106,13 @@ EFFECT_FAULTS = [{}, {"loss": 0.3}, {"delay_s": 5.0}, {"loss": 0.3, "delay_s": 5
 def effects() -> list[dict]:
     """One 1 h run per (map, strategy, faults) at N = 8, robots 0 and 4 dying at 1800 s."""
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.graph import BatchRun
+    from tpuaf.runtimes.graph import GraphRun
 
     rows = []
     for m in EFFECT_MAPS:
         for strategy in EFFECT_STRATEGIES:
             for faults in EFFECT_FAULTS:
-                s = BatchRun(RunConfig(map=m, strategy=strategy, robots=8, duration_s=3600.0,
+                s = GraphRun(RunConfig(map=m, strategy=strategy, robots=8, duration_s=3600.0,
                                        seed=0, fail=["0@1800", "4@1800"], **faults)).run()
                 rec = s["recovery"]
                 rows.append({"map": Path(m).name, "strategy": strategy, "faults": faults,

@@ -27,12 +27,12 @@ STEADY_FROM_S = 600.0  # [s] the steady state's visit gaps start after this (pas
 
 def one_run(case: tuple[str, int, int, str]) -> dict:
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.native import make_run
+    from tpuaf.runtimes.graph import make_run
 
     name, n, seed, fault = case
     config = RunConfig(map=map_arg(name), strategy="tpuaf_plus", robots=n,
                        duration_s=DURATION_S, seed=seed, **FAULTS[fault])
-    run, _ = make_run(config)
+    run = make_run(config)
     summary = run.run()
     steady = 0.0
     for times in run.recorder.vertex_times:

@@ -98,14 +98,14 @@ def best_known() -> dict[tuple[str, int], float]:
 
 def one_run(name: str, n: int, seed: int, deaths: int, duration_s: float) -> dict:
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.graph import BatchRun
+    from tpuaf.runtimes.graph import GraphRun
 
     pm = load(name)
     fail = []
     if deaths:
         dying = sorted(np.random.default_rng([seed, n, deaths]).choice(n, deaths, replace=False))
         fail = [[int(r), duration_s / 2] for r in dying]
-    run = BatchRun(RunConfig(map=name, strategy="tpuaf_plus", robots=n, duration_s=duration_s,
+    run = GraphRun(RunConfig(map=name, strategy="tpuaf_plus", robots=n, duration_s=duration_s,
                              seed=seed, fail=fail), patrol_map=pm)
     summary = run.run()
     half = duration_s / 2

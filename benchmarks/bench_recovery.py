@@ -55,7 +55,7 @@ def death_run(name: str, strategy: str, n: int, k: int, seed: int, duration_s: f
     """(run, its summary, the dying robots): the graph (or physics) runtime, K robots (drawn
     per seed) dying at half the run."""
     from tpuaf.runtimes.config import PhysicsConfig, RunConfig
-    from tpuaf.runtimes.native import make_run
+    from tpuaf.runtimes.graph import make_run
     from tpuaf.runtimes.physics import PhysicsRun
 
     dying = sorted(np.random.default_rng([seed, n, k]).choice(n, k, replace=False).tolist())
@@ -65,7 +65,7 @@ def death_run(name: str, strategy: str, n: int, k: int, seed: int, duration_s: f
     if runtime == "physics":
         run = PhysicsRun(PhysicsConfig(**fields))
     else:
-        run, _ = make_run(RunConfig(**fields))
+        run = make_run(RunConfig(**fields))
     return run, run.run(), dying
 
 

@@ -41,7 +41,7 @@ def run_one(job: tuple) -> tuple:
     """(strategy, map, N, seed, scenario dict) -> (job, I_max [s], X mean, wall [s])."""
     strategy, map_name, n, seed, scenario = job
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.graph import BatchRun
+    from tpuaf.runtimes.graph import GraphRun
 
     fail = []
     if scenario.get("fail_quarter"):
@@ -53,12 +53,7 @@ def run_one(job: tuple) -> tuple:
         strategy_params=dict(scenario.get("params", {})), fail=fail,
     )
     t0 = time.perf_counter()
-    try:  # the C++ event loop when it can run this configuration (same results)
-        from tpuaf.runtimes.native import make_run
-
-        engine, _ = make_run(config, _load(map_name), "auto")
-    except ImportError:
-        engine = BatchRun(config, patrol_map=_load(map_name))
+    engine = GraphRun(config, patrol_map=_load(map_name))
     summary = engine.run()
     # worst idleness also counts a vertex never visited again (a dead robot's part)
     return job, summary["idleness_max_s"], summary["uncertainty_mean"], (

@@ -9,7 +9,7 @@ import pytest
 from tpuaf.maps import MapError, MapSettings, PatrolMap, load_map
 from tpuaf.policies import ParameterError
 from tpuaf.runtimes.config import ConfigError, RunConfig
-from tpuaf.runtimes.graph import BatchRun
+from tpuaf.runtimes.graph import GraphRun
 
 
 def ring_map(n: int = 8, radius_m: float = 10.0) -> PatrolMap:
@@ -27,8 +27,8 @@ def ring_map(n: int = 8, radius_m: float = 10.0) -> PatrolMap:
     )
 
 
-def run(patrol_map=None, **kwargs) -> tuple[dict, BatchRun]:
-    engine = BatchRun(RunConfig(**kwargs), patrol_map)
+def run(patrol_map=None, **kwargs) -> tuple[dict, GraphRun]:
+    engine = GraphRun(RunConfig(**kwargs), patrol_map)
     return engine.run(), engine
 
 
@@ -102,19 +102,19 @@ def test_eq14_variant_runs():
 )
 def test_bad_configs_are_refused(kwargs, match):
     with pytest.raises(ConfigError, match=match):
-        BatchRun(RunConfig(map="grid", **kwargs))
+        GraphRun(RunConfig(map="grid", **kwargs))
 
 
 def test_strategy_names_are_case_insensitive():
-    engine = BatchRun(RunConfig(map="grid", strategy="TPUAF", robots=1, duration_s=10))
+    engine = GraphRun(RunConfig(map="grid", strategy="TPUAF", robots=1, duration_s=10))
     assert engine.config.strategy == "tpuaf"
 
 
 def test_unknown_strategy_parameter_is_refused():
     with pytest.raises(ParameterError, match=r"unknown parameter\(s\) speed .*valid: .*utility"):
-        BatchRun(RunConfig(map="grid", strategy_params={"speed": 3}))
+        GraphRun(RunConfig(map="grid", strategy_params={"speed": 3}))
     with pytest.raises(ParameterError, match="invalid value 'eq99'"):
-        BatchRun(RunConfig(map="grid", strategy_params={"utility": "eq99"}))
+        GraphRun(RunConfig(map="grid", strategy_params={"utility": "eq99"}))
 
 
 def test_unknown_map_lists_builtins():

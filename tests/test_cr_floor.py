@@ -25,7 +25,7 @@ import statistics
 import pytest
 from tpuaf.maps import load_map
 from tpuaf.runtimes.config import RunConfig
-from tpuaf.runtimes.native import make_run
+from tpuaf.runtimes.graph import make_run
 
 COORDINATED = ["gbs", "sebs", "cbls", "dtag", "dtap", "tpuaf", "tpuaf_plus", "cgg", "msp"]
 SEEDS = range(1, 6)
@@ -41,7 +41,7 @@ def cr_floor(shared_maps):
         for seed in SEEDS:
             config = RunConfig(map=map_name, strategy=strategy, robots=8, duration_s=DURATION_S,
                                seed=seed)
-            run, _ = make_run(config, maps[map_name], "auto")
+            run = make_run(config, maps[map_name])
             values.append(run.run()["idleness_max_s"])
         return statistics.median(values)
 

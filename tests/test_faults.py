@@ -11,15 +11,15 @@ from tpuaf.maps.tours import reference_tours
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.config import ConfigError, RunConfig
 from tpuaf.runtimes.faults import DEATH, STALL, resolve_faults
-from tpuaf.runtimes.graph import BatchRun
+from tpuaf.runtimes.graph import GraphRun
 
 from .conftest import REPO
 
 TPUAF = [str(REPO / ".venv" / "bin" / "tpuaf")]
 
 
-def run(**kwargs) -> tuple[dict, BatchRun]:
-    engine = BatchRun(RunConfig(**kwargs))
+def run(**kwargs) -> tuple[dict, GraphRun]:
+    engine = GraphRun(RunConfig(**kwargs))
     return engine.run(), engine
 
 
@@ -29,13 +29,9 @@ def test_a_dead_robot_stops_moving_visiting_and_sending():
     assert summary["faults"] == [{"kind": DEATH, "robot": 1, "time_s": 300.0}]
     assert [r for t, r, _ in engine.recorder.visits if t > 300.0 and r == 1] == []
     assert [r for t, r, _ in engine.recorder.visits if t > 300.0 and r != 1]  # others go on
-    p300 = engine.position_of(1, 300.0)
-    assert engine.position_of(1, 900.0) == p300  # frozen where it died
-    robot = engine.robots[1]
-    assert not robot.alive and robot.goal is None
-    sent_before = engine.bus.stats.sent
-    robot.send(object())  # a dead robot's messages go nowhere
-    assert engine.bus.stats.sent == sent_before
+    assert not engine._engine.alive(1)
+    _, earlier = run(map="grid", robots=4, duration_s=450, seed=2, fail=[(1, 300.0)])
+    assert earlier._engine.position(1) == engine._engine.position(1)  # frozen where it died
     assert "faults" in engine.effective_config()
 
 
@@ -46,7 +42,7 @@ def test_teammates_are_not_told_but_hear_the_silence():
         def on_teammate_lost(self, robot, ctx):
             lost.append((ctx.robot, robot, ctx.now))
 
-    engine = BatchRun(RunConfig(map="grid", strategy="cgg", robots=3, duration_s=200,
+    engine = GraphRun(RunConfig(map="grid", strategy="cgg", robots=3, duration_s=200,
                                 fail=[(2, 50.0)], teammate_timeout_s=10.0))
     for r in engine.robots:
         r.policy.__class__ = Listener
@@ -100,11 +96,14 @@ def test_intentions_of_the_dead_robot_are_tracked():
 def test_a_stalled_robot_keeps_talking_and_gives_up_goals():
     summary, engine = run(map="grid", strategy="tpuaf", robots=3, duration_s=600, seed=1,
                           stall=[(0, 100.0)])
-    robot = engine.robots[0]
-    assert robot.alive and robot.stalled and robot.failures >= 5
+    assert engine._engine.alive(0) and engine._engine.stalled(0)
     assert summary["stalled_robots"] == [0] and summary["deaths"] == 0
-    p = engine.position_of(0, 100.0)
-    assert engine.position_of(0, 600.0) == p
+    _, earlier = run(map="grid", strategy="tpuaf", robots=3, duration_s=150, seed=1,
+                     stall=[(0, 100.0)])
+    p = engine._engine.position(0)
+    assert earlier._engine.position(0) == p  # it stopped where it stalled
+    # it keeps talking: its Visit and Intention messages went on after the stall
+    assert summary["messages"]["sent"] > earlier.summary()["messages"]["sent"]
     # It never reaches a vertex it is not standing on.
     here = engine.patrol_map.nearest_vertex(*p)
     assert {v for t, r, v in engine.recorder.visits if r == 0 and t > 101.0} <= {here}
@@ -112,15 +111,15 @@ def test_a_stalled_robot_keeps_talking_and_gives_up_goals():
 
 def test_fault_options_are_checked():
     with pytest.raises(ConfigError, match=r"robot index must be in 0\.\.3"):
-        BatchRun(RunConfig(map="grid", robots=4, fail=[(4, 10.0)]))
+        GraphRun(RunConfig(map="grid", robots=4, fail=[(4, 10.0)]))
     with pytest.raises(ConfigError, match="after the run's end"):
-        BatchRun(RunConfig(map="grid", robots=4, duration_s=100, fail=["1@200"]))
+        GraphRun(RunConfig(map="grid", robots=4, duration_s=100, fail=["1@200"]))
     with pytest.raises(ConfigError, match="names a robot twice"):
-        BatchRun(RunConfig(map="grid", robots=4, fail=["1@20", "1@30"]))
+        GraphRun(RunConfig(map="grid", robots=4, fail=["1@20", "1@30"]))
     with pytest.raises(ConfigError, match="only 2 robot"):
-        BatchRun(RunConfig(map="grid", robots=3, fail=["1@20"], fail_random=3))
+        GraphRun(RunConfig(map="grid", robots=3, fail=["1@20"], fail_random=3))
     with pytest.raises(ConfigError, match="expects ROBOT@TIME"):
-        BatchRun(RunConfig(map="grid", robots=3, stall=["one@20"]))
+        GraphRun(RunConfig(map="grid", robots=3, stall=["one@20"]))
 
 
 def test_random_deaths_are_seeded_and_within_the_run():

@@ -16,7 +16,7 @@ from tpuaf.cli.run import parse_param_value
 from tpuaf.maps import load_map
 from tpuaf.policies import REGISTRY, ParameterError
 from tpuaf.runtimes.config import ConfigError, RunConfig
-from tpuaf.runtimes.graph import BatchRun
+from tpuaf.runtimes.graph import GraphRun
 
 GRID = load_map("grid")
 FUZZ_EXAMPLES = int(os.environ.get("TPUAF_FUZZ_EXAMPLES", "1000"))  # fewer while iterating
@@ -127,6 +127,6 @@ def test_fuzz_param_values(strategy, data):
     config = RunConfig(map="grid", strategy=strategy, robots=2, duration_s=5.0,
                        strategy_params={key: value})
     try:
-        BatchRun(config, GRID).run()
+        GraphRun(config, GRID).run()
     except ConfigError:
         pass

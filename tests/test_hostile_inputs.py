@@ -142,10 +142,10 @@ def test_streamed_rows_are_forgotten_by_the_engine(tmp_path):
     the C++ loop forgets them, and the visits too (3.5 M of them held 110 MB)."""
     from tpuaf.experiments.results import ResultsWriter
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.native import make_run
+    from tpuaf.runtimes.graph import make_run
 
-    run, _ = make_run(RunConfig(map="grid", strategy="tpuaf", robots=2, duration_s=3000.0),
-                      load_map("grid"), "native")
+    run = make_run(RunConfig(map="grid", strategy="tpuaf", robots=2, duration_s=3000.0),
+                   load_map("grid"))
     with ResultsWriter(tmp_path / "out", run.effective_config()) as writer:
         summary = run.run(lambda now: writer.sync(run.recorder))
         writer.finish(summary, run.recorder)

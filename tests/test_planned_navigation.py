@@ -21,7 +21,7 @@ from tpuaf.policies import REGISTRY
 from tpuaf.robot.machine import STAY_S
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.config import PhysicsConfig, RunConfig, choose_robot
-from tpuaf.runtimes.graph import BatchRun
+from tpuaf.runtimes.graph import GraphRun
 from tpuaf.runtimes.physics import PhysicsRun
 
 from .conftest import REPO, run_cli
@@ -358,7 +358,7 @@ def test_cumberland_edges_drivable_and_physics_close_to_planned_graph_runs(share
         assert c.planned_m > math.dist(pm.positions[c.u], pm.positions[c.v]) + 0.1
     kwargs = dict(map=str(folder), strategy="tpuaf", robots=4, duration_s=300, seed=0)
     physics = PhysicsRun(PhysicsConfig(**kwargs)).run()
-    graph = BatchRun(RunConfig(**kwargs, travel="planned")).run()
+    graph = GraphRun(RunConfig(**kwargs, travel="planned")).run()
     assert physics["goal_failures"] == 0
     assert physics["visits"] >= 0.8 * graph["visits"], (physics["visits"], graph["visits"])
 

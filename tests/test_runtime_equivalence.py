@@ -1,12 +1,15 @@
-"""One robot state machine behind every runtime (issue 9 item 1).
+"""The graph runtime against committed results, and one robot state machine behind every runtime.
 
-1. Golden outputs: the graph runtime's summary and visit log for fixed configs, recorded before
-   the robot protocol moved into `tpuaf.robot.machine`, must stay identical to the last digit.
+1. Golden outputs: the graph runtime (the C++ event loop, `tpuaf.runtimes.graph.GraphRun`) must
+   give the committed summary and visit log of fixed configurations to the last digit: every
+   strategy, with delay, loss, deaths, random deaths, stalls and false losses. The first 24 were
+   recorded by the former Python event loop and still hold for the C++ one; the others were
+   recorded when the Python and C++ loops were proved equal (issue 31 removed the Python loop).
    Regenerate (only after checking that a difference is intended, e.g. a strategy change):
        .venv/bin/python tests/test_runtime_equivalence.py --regenerate
-   The goldens carry a fingerprint of the strategy sources; when a strategy file changed since
-   they were written, a mismatch is reported as a skip naming the changed files (the guard then
-   protects nothing until the goldens are regenerated), never silently.
+   The goldens carry a fingerprint of the strategy and event-loop sources; when one of them
+   changed since they were written, a mismatch is reported as a skip naming the changed files
+   (the guard then protects nothing until the goldens are regenerated), never silently.
 2. The graph runtime, the physics runtime and the agent runtime (what the ROS agent node runs)
    drive the same `RobotMachine`: one scripted scenario gives the same decision sequence in each.
 """
@@ -25,56 +28,107 @@ REPO = Path(__file__).resolve().parents[1]
 GOLDEN = REPO / "tests" / "data" / "runtime_golden"
 CUMBERLAND = REPO.parent / "shared" / "maps" / "patrolling_sim" / "cumberland"
 PKG = REPO / "src" / "tpuaf_ros" / "src" / "tpuaf"
-FINGERPRINTED = sorted(str(p.relative_to(PKG)) for p in (PKG / "policies").glob("*.py")) + [
-    "tours.py", "messages.py"]
+CORE = REPO / "src" / "tpuaf_core_cpp"
+FINGERPRINTED = sorted(
+    [p for p in (PKG / "policies").glob("*.py")]
+    + [PKG / "maps" / "tours.py", PKG / "team" / "messages.py", PKG / "runtimes" / "graph.py"]
+    + [CORE / "src" / f for f in ("engine.cpp", "recorder.cpp", "heartbeats.cpp",
+                                  "policies_tpuaf.cpp", "policies_tpuaf_plus.cpp")])
 
 MAPS = {"grid": "grid", "cumberland": str(CUMBERLAND)}
-CASES = [(m, n, s) for m in ("grid", "cumberland") for n in (1, 4, 12)
-         for s in ("tpuaf", "dtag", "dtap", "gbs")]
 DURATION_S, DELAY_S, LOSS, SEED = 600.0, 2.0, 0.2, 3
 
 
-def _name(map_name: str, n: int, strategy: str) -> str:
-    return f"{map_name}_n{n}_{strategy}"
+def _case(map_name, strategy, robots, duration_s=DURATION_S, seed=SEED, delay_s=DELAY_S,
+          loss=LOSS, tag="", **faults) -> tuple[str, dict]:
+    name = f"{map_name}_n{robots}_{strategy}" + (f"_{tag}" if tag else "")
+    return name, dict(map=map_name, strategy=strategy, robots=robots, duration_s=duration_s,
+                      seed=seed, delay_s=delay_s, loss=loss, **faults)
+
+
+DEATH = dict(fail=[(1, 200.0)])
+DEATHS_AT_ONCE = dict(fail=[(0, 150.0), (2, 150.0), (3, 150.0)])
+DEATHS_APART = dict(fail=[(3, 100.0), (1, 260.5)])
+STALL = dict(stall=[(2, 130.0)])
+STALL_AND_DEATH = dict(stall=[(0, 90.0)], fail=[(3, 240.0)])
+CASES = dict(
+    [_case(m, s, n) for m in ("grid", "cumberland") for n in (1, 4, 12)
+     for s in ("tpuaf", "dtag", "dtap", "gbs")]
+    + [_case(m, "tpuaf_plus", n) for m in ("grid", "cumberland") for n in (1, 4, 12)]
+    + [_case("grid", "tpuaf", 4, 1200, 7, 1.0, 0.2, tag="long"),
+       _case("cumberland", "tpuaf", 12, 900, 15, 0.5, 0.1, tag="long"),
+       _case("cumberland", "tpuaf", 4, 900, 7, 0.0, 0.0, tag="no_faults"),
+       _case("grid", "tpuaf_plus", 6, 600, 3, 0.0, 0.0, tag="no_faults"),
+       _case("grid", "tpuaf", 4, 600, 11, 0.0, 0.0, tag="death", **DEATH),
+       _case("grid", "tpuaf", 6, 600, 13, 0.0, 0.0, tag="deaths", **DEATHS_AT_ONCE),
+       _case("grid", "tpuaf", 5, 600, 12, 0.0, 0.0, tag="random", fail_random=2),
+       _case("grid", "tpuaf", 4, 600, 11, 0.0, 0.0, tag="stall", **STALL),
+       _case("grid", "tpuaf", 5, 600, 12, 5.0, 0.3, tag="lossy_death", **DEATH),
+       _case("grid", "gbs", 5, 600, 12, 0.0, 0.0, tag="deaths", **DEATHS_APART),
+       _case("grid", "gbs", 4, 600, 11, 0.0, 0.0, tag="stall_death", **STALL_AND_DEATH),
+       _case("grid", "dtag", 6, 600, 13, 0.0, 0.0, tag="deaths", **DEATHS_AT_ONCE),
+       _case("grid", "tpuaf_plus", 4, 600, 11, 0.0, 0.0, tag="death", **DEATH),
+       _case("grid", "tpuaf_plus", 6, 600, 13, 0.0, 0.0, tag="deaths", **DEATHS_AT_ONCE),
+       _case("grid", "tpuaf_plus", 4, 600, 11, 0.0, 0.0, tag="stall_death", **STALL_AND_DEATH),
+       _case("grid", "tpuaf_plus", 5, 600, 12, 5.0, 0.3, tag="lossy_death", **DEATH),
+       _case("grid", "tpuaf_plus", 5, 400, 3, 0.0, 0.6, tag="false_losses",
+             teammate_timeout_s=3.0, fail=[(2, 120.0)], stall=[(4, 60.0)]),
+       _case("cumberland", "tpuaf_plus", 12, 900, 1, 0.0, 0.0, tag="deaths",
+             fail=[(0, 450.0), (5, 450.0), (9, 450.0)]),
+       _case("grid", "cgg", 4, 600, 11, 0.0, 0.0, tag="stall_death", **STALL_AND_DEATH),
+       _case("grid", "tpuaf", 3, 300, 1, 0.0, 0.0, tag="all_dead",
+             fail=[(0, 0.0), (1, 100.0), (2, 100.0)])])
 
 
 def _fingerprints() -> dict[str, str]:
-    return {f: hashlib.sha256((PKG / f).read_bytes()).hexdigest()[:16] for f in FINGERPRINTED}
+    return {str(f.relative_to(REPO)): hashlib.sha256(f.read_bytes()).hexdigest()[:16]
+            for f in FINGERPRINTED}
 
 
-def _run(map_name: str, n: int, strategy: str) -> tuple[dict, str]:
+def _digest(*parts) -> str:
+    return hashlib.sha256(repr(parts).encode()).hexdigest()[:32]
+
+
+def _run(name: str) -> tuple[dict, str]:
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.graph import BatchRun
+    from tpuaf.runtimes.graph import GraphRun
 
-    engine = BatchRun(RunConfig(map=MAPS[map_name], strategy=strategy, robots=n,
-                                duration_s=DURATION_S, seed=SEED, delay_s=DELAY_S, loss=LOSS))
+    config = dict(CASES[name])
+    config["map"] = MAPS[config["map"]]
+    engine = GraphRun(RunConfig(**config))
     summary = engine.run()
     rec = engine.recorder
     lines = ["time_s,robot,vertex_index,interval_idleness_s"]
     for (t, r, v), idl in zip(rec.visits, rec.visit_idleness, strict=True):
         lines.append(f"{t!r},{r},{v},{idl!r}")
-    return json.loads(json.dumps(summary)), "\n".join(lines) + "\n"
+    out = json.loads(json.dumps(summary))
+    if name not in _FIRST_24:  # the later cases also pin the 1 Hz rows, interference episodes, X and the losses
+        out["digest"] = _digest(rec.timeseries, rec.interferences, rec.uncertainty().tolist(),
+                                engine.losses, rec.announcements, engine.now)
+    return out, "\n".join(lines) + "\n"
+
+
+_FIRST_24 = {f"{m}_n{n}_{s}" for m in ("grid", "cumberland") for n in (1, 4, 12)
+             for s in ("tpuaf", "dtag", "dtap", "gbs")}
 
 
 def regenerate() -> None:
     GOLDEN.mkdir(parents=True, exist_ok=True)
-    for case in CASES:
-        summary, visits = _run(*case)
-        name = _name(*case)
+    for name in CASES:
+        summary, visits = _run(name)
         (GOLDEN / f"{name}.summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True))
         (GOLDEN / f"{name}.visits.csv").write_text(visits)
         print(name, summary["visits"], summary["idleness_avg_s"])
     (GOLDEN / "fingerprints.json").write_text(json.dumps(_fingerprints(), indent=1))
 
 
-@pytest.mark.parametrize("case", CASES, ids=[_name(*c) for c in CASES])
-def test_graph_runtime_matches_its_golden_output(case):
-    if case[0] == "cumberland" and not CUMBERLAND.is_dir():
+@pytest.mark.parametrize("name", list(CASES))
+def test_graph_runtime_matches_its_golden_output(name):
+    if CASES[name]["map"] == "cumberland" and not CUMBERLAND.is_dir():
         pytest.skip(f"reference map not found at {CUMBERLAND}")
-    name = _name(*case)
     want_summary = json.loads((GOLDEN / f"{name}.summary.json").read_text())
     want_visits = (GOLDEN / f"{name}.visits.csv").read_text()
-    summary, visits = _run(*case)
+    summary, visits = _run(name)
     if summary == want_summary and visits == want_visits:
         return
     recorded = json.loads((GOLDEN / "fingerprints.json").read_text())
@@ -83,6 +137,20 @@ def test_graph_runtime_matches_its_golden_output(case):
         pytest.skip(f"goldens predate changes to {', '.join(changed)}: regenerate them")
     assert visits == want_visits
     assert summary == want_summary
+
+
+def test_fault_cases_exercise_their_faults():
+    """The committed fault cases did what they are named for (deaths noticed, stalls)."""
+    for name in ("grid_n6_tpuaf_deaths", "grid_n4_tpuaf_plus_stall_death",
+                 "grid_n5_tpuaf_plus_false_losses"):
+        summary = json.loads((GOLDEN / f"{name}.summary.json").read_text())
+        assert summary["deaths"] == len(CASES[name].get("fail", []))
+        assert all(d["noticed_by"] > 0 for d in summary["liveness"]["deaths"])
+    assert json.loads((GOLDEN / "grid_n5_tpuaf_plus_false_losses.summary.json").read_text())[
+        "liveness"]["false_losses"] > 10
+    everyone_dead = json.loads((GOLDEN / "grid_n3_tpuaf_all_dead.summary.json").read_text())
+    assert everyone_dead["dead_robots"] == [0, 1, 2]  # nobody is left to notice the last two
+    assert [d["noticed_by"] for d in everyone_dead["liveness"]["deaths"]] == [2, 0, 0]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -153,13 +221,11 @@ def _start_vertices_grid():
 
 
 def _graph_logs(scripted):
-    from tpuaf.robot.machine import RobotMachine
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.graph import BatchRun
+    from tpuaf.runtimes.graph import GraphRun
 
-    graph = BatchRun(RunConfig(map="grid", strategy=scripted.name, robots=2, duration_s=200))
+    graph = GraphRun(RunConfig(map="grid", strategy=scripted.name, robots=2, duration_s=200))
     graph.run()
-    assert all(isinstance(r, RobotMachine) for r in graph.robots)
     reached = {r: [v for _, rr, v in graph.recorder.visits if rr == r][1:] for r in (0, 1)}
     return _check_scripted([r.policy for r in graph.robots], reached)
 

@@ -7,7 +7,7 @@ import pytest
 from tpuaf.maps import load_map
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.config import RunConfig
-from tpuaf.runtimes.graph import BatchRun
+from tpuaf.runtimes.graph import GraphRun
 
 from .conftest import PATROLLING_SIM_MAPS
 
@@ -37,7 +37,7 @@ def test_strategy_visits_every_vertex_in_one_hour(strategy, map_name, robots):
     # A random walk's cover time on cumberland's long corridors exceeds 1 h for N <= 2
     # (seen: vertex 35 unvisited); RAND gets 4 h there. Every other case is held to 1 h.
     duration = 4 * 3600 if strategy == "rand" and robots <= 2 else 3600
-    engine = BatchRun(
+    engine = GraphRun(
         RunConfig(map=map_name, strategy=strategy, robots=robots, duration_s=duration, seed=1), pm
     )
     summary = engine.run()

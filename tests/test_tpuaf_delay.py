@@ -9,7 +9,7 @@ import statistics
 
 from tpuaf.maps import load_map
 from tpuaf.runtimes.config import RunConfig
-from tpuaf.runtimes.graph import BatchRun
+from tpuaf.runtimes.graph import GraphRun
 
 GRID = load_map("grid")
 
@@ -18,7 +18,7 @@ def i_max(delay=0.0, loss=0.0, seed=1, robots=8, **params):
     """I_max [s] of a 30 min run (the platoon forms within minutes)."""
     config = RunConfig(map="grid", strategy="tpuaf", robots=robots, duration_s=1800.0,
                        seed=seed, delay_s=delay, loss=loss, strategy_params=params)
-    return BatchRun(config, patrol_map=GRID).run()["idleness_max_s"]
+    return GraphRun(config, patrol_map=GRID).run()["idleness_max_s"]
 
 
 def test_delay_no_worse_than_total_loss():

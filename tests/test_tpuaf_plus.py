@@ -9,7 +9,7 @@ from tpuaf.maps.model import MapSettings, PatrolMap
 from tpuaf.policies import REGISTRY
 from tpuaf.policies.tpuaf_plus import make_plan
 from tpuaf.runtimes.config import RunConfig
-from tpuaf.runtimes.graph import BatchRun
+from tpuaf.runtimes.graph import GraphRun
 from tpuaf.team.messages import Intention, Visit
 
 
@@ -32,7 +32,7 @@ def path4(starts=(0, 3)) -> PatrolMap:
 def run(pm, robots, duration, **kw):
     config = RunConfig(map=pm.name, strategy="tpuaf_plus", robots=robots, duration_s=duration,
                        seed=1, **kw)
-    engine = BatchRun(config, patrol_map=pm)
+    engine = GraphRun(config, patrol_map=pm)
     return engine, engine.run()
 
 
@@ -79,27 +79,6 @@ class FakeCtx:
         self.wakes.append(t)
 
 
-def test_spacing_rule_exact():
-    pm = square(starts=(0, 2))  # opposite corners: already evenly spaced, no start wait
-    policy = REGISTRY.create("tpuaf_plus")
-    ctx = FakeCtx(pm, 0, 2, 0)
-    policy.start(ctx)
-    walk = policy.route.walk
-    me = walk.index(0)
-    policy.idx = me
-    # the mate left the vertex 10 m ahead of me at t = 0: gap ahead 10, behind 30
-    ahead = walk[(me + 1) % 4]
-    after = walk[(me + 2) % 4]
-    policy.on_message(Intention(1, ahead, after, 10.0, 10.0, 0.0), ctx)
-    assert policy.spacing_wait(ctx, 0.0) == pytest.approx(0.5 * (30 - 10) / 2)  # gain 0.5
-    # seen 4 s later (delay: the message keeps the sender's clock) it is 14 m ahead
-    assert policy.spacing_wait(ctx, 4.0) == pytest.approx(0.5 * (26 - 14) / 2)
-    # a mate 10 m behind me: gap ahead 30 > behind 10, I never wait (the one ahead does)
-    policy.on_message(Visit(1, walk[(me - 1) % 4], 5.0, 0), ctx)
-    policy.on_message(Intention(1, walk[(me - 1) % 4], 0, 15.0, 10.0, 5.0), ctx)
-    assert policy.spacing_wait(ctx, 5.0) == 0.0
-
-
 def test_decide_dwells_with_revisits_and_announces_departure():
     pm = square(starts=(0, 1))
     policy = REGISTRY.create("tpuaf_plus")
@@ -126,8 +105,8 @@ def test_decide_dwells_with_revisits_and_announces_departure():
 def test_silent_mate_is_dropped_and_cycle_respaced():
     pm = square(starts=(0, 2))
     engine, summary = run(pm, 2, 600.0, fail=["1@100"])
-    survivor = engine.robots[0].policy
-    assert survivor.plan.routes[0].robots == (0,)
+    assert engine._strategy.team(0) == [0]
+    assert sorted(engine._strategy.walk(0)) == [0, 1, 2, 3]  # the whole square, alone
     # after the death robot 0 tours alone: every vertex every 40 s, never worse
     assert 40.0 - 1e-6 <= summary["idleness_max_s"] <= 40.0 + 20.0
     # the dead robot's vertices wait no longer than the survivor's own lap (ideal 40 s)
@@ -142,14 +121,14 @@ def test_silence_timeout_without_runtime_report():
     policy = REGISTRY.create("tpuaf_plus", {"silence_timeout_s": 30.0})
     ctx = FakeCtx(pm, 0, 2, 0)
     policy.start(ctx)
-    assert policy.plan.routes[0].robots == (0, 1)
+    assert policy.team == [0, 1]
     ctx.now = 31.0
     policy.decide(ctx)
-    assert policy.plan.routes[0].robots == (0,)
+    assert policy.team == [0]
     policy.on_message(Visit(1, 2, 32.0, 3), ctx)  # it speaks again: back in the team
     ctx.now = 33.0
     policy.decide(ctx)
-    assert policy.plan.routes[0].robots == (0, 1)
+    assert policy.team == [0, 1]
 
 
 @pytest.mark.parametrize("fault", [{"delay_s": 5.0}, {"loss": 0.3}])
@@ -157,7 +136,7 @@ def test_grid_faults_stay_near_the_tour(fault):
     grid = load_map("grid")
     config = RunConfig(map="grid", strategy="tpuaf_plus", robots=4, duration_s=1800.0, seed=2,
                        **fault)
-    summary = BatchRun(config, patrol_map=grid).run()
+    summary = GraphRun(config, patrol_map=grid).run()
     assert summary["idleness_max_s"] <= 1.3 * 37.05  # best-known tour, grid N = 4
 
 
@@ -168,7 +147,7 @@ def test_two_deaths_on_the_cycle_respaced_at_once():
     vertex ahead waits beyond L / 6, stays on that figure; the gradual rule alone gave 1.70x."""
     config = RunConfig(map="grid", strategy="tpuaf_plus", robots=8, duration_s=1200.0, seed=1,
                        fail=[[0, 600.0], [5, 600.0]])
-    summary = BatchRun(config, patrol_map=load_map("grid")).run()
+    summary = GraphRun(config, patrol_map=load_map("grid")).run()
     assert summary["recovery"][-1]["worst_idleness_ratio"] <= 1.52
 
 
@@ -212,34 +191,6 @@ def test_start_schedule_spreads_a_team_from_one_vertex():
     assert 6.0 <= summary["first_coverage_s"] <= 8.0 + 1e-9
 
 
-def test_transition_to_a_new_shared_walk_spreads_the_entries():
-    """After a team change, robots entering a walk new to them enter where the start schedule,
-    from where each stood when the team changed, puts their slots, instead of all at their
-    nearest vertex: two robots heading for vertex 0 of the 40 m square (one there at the
-    change, the other 1 s behind) and a third robot's vertex 2 long unvisited: one of them
-    enters the walk on the far side (vertex 2 or 3), not both at vertex 0."""
-    pm = square(starts=(0, 0, 0))
-    policy = REGISTRY.create("tpuaf_plus")
-    ctx = FakeCtx(pm, 0, 3, 0)
-    policy.start(ctx)
-    walk = policy.route.walk
-    policy.route = type(policy.route)(walk, policy.route.arc, policy.route.length, (0, 1))
-    policy.changed_at = 100.0
-    policy.knowledge.record_visit(0, 99.0)
-    policy.knowledge.record_visit(1, 95.0)
-    policy.knowledge.record_visit(3, 95.0)  # vertex 2: never visited (idle 100 s)
-    # robot 1's later message (after the change) is not used: where it stood at the change
-    policy.history = {0: [(1, 0, 90.0, 90.0)], 1: [(1, 0, 91.0, 91.0), (0, 3, 120.0, 120.0)]}
-    entries = policy._transition_entries()
-    assert set(entries) == {0, 1}
-    vertices = sorted(walk[k] for k in entries.values())
-    assert vertices[0] == 0 and vertices[1] in (2, 3), vertices
-    assert policy.dist[0, 2] == pytest.approx(20.0)
-    # a robot never heard before the change: no entries (nearest vertex instead)
-    policy.history = {0: [(1, 0, 90.0, 90.0)], 1: [(0, 3, 120.0, 120.0)]}
-    assert policy._transition_entries() == {}
-
-
 def test_deaths_that_replan_cumberland_do_not_bunch_the_survivors(shared_maps):
     """Cumberland, 12 robots on a partition, 3 of them die at 900 s: the survivors re-plan one
     shared cycle. Joining it on evenly spaced slots keeps the worst idleness after the deaths
@@ -247,40 +198,10 @@ def test_deaths_that_replan_cumberland_do_not_bunch_the_survivors(shared_maps):
     dying = [2, 9, 10]  # bench_recovery.py's seed 2 draw
     config = RunConfig(map=str(shared_maps / "cumberland"), strategy="tpuaf_plus", robots=12,
                        duration_s=1800.0, seed=2, fail=[[r, 900.0] for r in dying])
-    summary = BatchRun(config).run()
+    summary = GraphRun(config).run()
     last = summary["recovery"][-1]
     worst = max(r["worst_idleness_after_s"] for r in summary["recovery"])
     assert last["survivors"] == 9
     assert worst <= 2.5 * last["ideal_worst_idleness_survivors_s"]
 
 
-def test_a_mate_not_heard_since_it_left_its_start_slot_is_on_its_slot():
-    """Start schedule on the 40 m square, robots 0 and 1 at vertex 0: one leaves at once, the
-    other drives to its entry and leaves with its slot. When the message telling that it left
-    is delayed or lost, a robot places that mate on its slot (at its entry at its departure,
-    moving at v), not nowhere: its latest message, from its drive to the entry, is off the
-    walk. A message from after it left places it from that message again."""
-    pm = square(starts=(0, 0))
-    me = REGISTRY.create("tpuaf_plus")
-    me.start(FakeCtx(pm, 0, 2, 0))
-    entry, departure = me.plan.schedule[1]
-    walk, arc, length = me.route.walk, me.route.arc, me.route.length
-    later = departure + 3.0
-    slot = (arc[entry] + 1.0 * (later - departure)) % length
-    assert me._mate_arc(1, later) == pytest.approx(slot)  # never heard
-    # heard only from its drive to its entry: an edge against the walk's direction
-    back = (walk[(entry + 1) % len(walk)], walk[entry])
-    me.heard[1] = (back[0], back[1], 0.0, 0.0)
-    assert me._mate_arc(1, later) == pytest.approx(slot)
-    # heard from the walk edge into its entry, due there in time: on its slot too; due there
-    # after its departure (it is late): placed from that message
-    into = ((entry - 1) % len(walk), entry)
-    edge = arc[entry] - arc[into[0]] if entry else length - arc[into[0]]
-    for leave, on_slot in ((departure - edge - 1.0, True), (departure - edge + 2.0, False)):
-        me.heard[1] = (walk[into[0]], walk[into[1]], leave, leave)
-        moved = (arc[into[0]] + 1.0 * (later - leave)) % length
-        assert me._mate_arc(1, later) == pytest.approx(slot if on_slot else moved)
-    # heard after it left, from the next walk vertex: placed from that message
-    nxt = (entry + 1) % len(walk)
-    me.heard[1] = (walk[nxt], walk[(nxt + 1) % len(walk)], later - 1.0, later - 1.0)
-    assert me._mate_arc(1, later) == pytest.approx((arc[nxt] + 1.0) % length)

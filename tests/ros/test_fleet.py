@@ -75,11 +75,11 @@ def test_bag_is_closed_and_analyze_matches_the_monitor(tpuaf_run):
 
 def test_batch_and_fleet_idleness_within_factor(tpuaf_run):
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.graph import BatchRun
+    from tpuaf.runtimes.graph import GraphRun
 
     out, _ = tpuaf_run
     fleet = json.loads((out / "summary.json").read_text())["idleness_avg_s"]
-    batch = BatchRun(RunConfig(map="grid", strategy="tpuaf", robots=4, duration_s=600.0,
+    batch = GraphRun(RunConfig(map="grid", strategy="tpuaf", robots=4, duration_s=600.0,
                                seed=1)).run()["idleness_avg_s"]
     factor = fleet / batch
     print(f"I_avg fleet {fleet:.2f} s, batch {batch:.2f} s, factor {factor:.3f}")

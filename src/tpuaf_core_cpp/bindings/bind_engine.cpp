@@ -247,23 +247,6 @@ void wrap_strategies(py::module_& m) {
                              "True if the team holds one knowledge (a bus without loss and "
                              "delay).");
 
-  py::class_<GbsStrategy, TeamStrategy>(m, "GbsStrategy",
-                                        "GBS's decision path in C++ (tpuaf.policies.bayesian).")
-      .def(py::init([](double g1, double g2, double edge_min_m, std::vector<NumpyPcg64> rngs) {
-             return std::make_unique<GbsStrategy>(g1, g2, edge_min_m, std::move(rngs));
-           }),
-           py::arg("g1"), py::arg("g2"), py::arg("edge_min_m"), py::arg("rngs"));
-  py::class_<DtagStrategy, TeamStrategy>(m, "DtagStrategy",
-                                         "DTAG's decision path in C++ (tpuaf.policies.dtag).")
-      .def(py::init([](double initial, double w_idleness, double w_path, double w_origin,
-                       std::vector<std::vector<double>> origin_distance_m,
-                       std::vector<NumpyPcg64> rngs) {
-             return std::make_unique<DtagStrategy>(initial, w_idleness, w_path, w_origin,
-                                                   std::move(origin_distance_m), std::move(rngs));
-           }),
-           py::arg("initial_estimate_s"), py::arg("w_idleness"), py::arg("w_path"),
-           py::arg("w_origin"), py::arg("origin_distance_m"), py::arg("rngs"))
-      .def("replans", &DtagStrategy::replans, py::arg("robot"));
   wrap_tpuaf_plus(m);
 }
 

@@ -1,4 +1,4 @@
-// The C++ decision paths of TPUAF (Eq. 6-14), GBS and DTAG: each strategy's one implementation.
+// TPUAF's decision path (Eq. 6-14): the strategy's one implementation, run by every runtime.
 #pragma once
 
 #include <deque>
@@ -55,63 +55,6 @@ class TpuafStrategy : public TeamStrategy {
   std::vector<TpuafKnowledge> knowledge_;  // per robot, or the team's
   std::vector<Colocation> colocated_;
   std::vector<int> candidates_;
-};
-
-// Candidate of largest score, ties (within tol * max(1, |max|)) at random with rng.integers:
-// tpuaf.policies.common.pick_max. Returns an index into scores.
-int pick_max_index(const std::vector<double>& scores, NumpyPcg64& rng, double tol = 1e-9);
-
-// GBS (tpuaf.policies.bayesian.GreedyBayesian): argmax over the neighbours of
-// P = G1 exp(ln(1/G1) gain / G2), gain = shared idleness / max(edge, edge_min). G2 and edge_min
-// come resolved from the Python policy. exp is the C library's, where numpy uses its own SIMD
-// exp (both within 1 ulp); the decision compares P with a 1e-9 tolerance, so the runs agree
-// unless a P falls within 1 ulp of that threshold (tests/test_engine_golden.py checks).
-class GbsStrategy : public TeamStrategy {
- public:
-  GbsStrategy(double g1, double g2, double edge_min_m, std::vector<NumpyPcg64> rngs);
-  void start(StrategyHost& host, int robot) override;
-  int decide(StrategyHost& host, int robot) override;
-  void on_message(StrategyHost& host, int robot, const TeamMessage& message) override;
-  bool messages_are_local() const override { return true; }
-
- private:
-  double g1_, g2_, edge_min_m_, log_inv_g1_;
-  std::vector<NumpyPcg64> rngs_;
-  std::vector<std::vector<double>> last_visit_;  // per robot, per vertex [s]
-  std::vector<int> candidates_;
-  std::vector<double> scores_;
-};
-
-// DTAG (tpuaf.policies.dtag): argmax over all vertices of w_idleness E[v] - w_path path(cv, v)
-// - w_origin |pos(v) - origin|; estimates shared (min-merge), the next vertex reserved, the
-// higher-id robot of a clash re-plans once per decision (change_goal). origin_distance_m:
-// per robot, |pos(v) - start position| computed by numpy (np.hypot) on the Python side.
-class DtagStrategy : public TeamStrategy {
- public:
-  DtagStrategy(double initial_estimate_s, double w_idleness, double w_path, double w_origin,
-               std::vector<std::vector<double>> origin_distance_m, std::vector<NumpyPcg64> rngs);
-  void start(StrategyHost& host, int robot) override;
-  int decide(StrategyHost& host, int robot) override;
-  void on_message(StrategyHost& host, int robot, const TeamMessage& message) override;
-  long long replans(int robot) const;
-
- private:
-  struct State {
-    std::vector<double> values;  // E[v] [s]
-    double updated = 0;
-    int next = -1;
-    bool replanned = false;
-    long long replans = 0;
-  };
-  void advance(State& s, double now);
-  int choose(StrategyHost& host, int robot, int here, int exclude_a, int exclude_b);
-  void announce(StrategyHost& host, int robot, int next);
-  double initial_, w_idleness_, w_path_, w_origin_;
-  std::vector<std::vector<double>> origin_distance_m_;
-  std::vector<NumpyPcg64> rngs_;
-  std::vector<State> states_;
-  std::vector<int> candidates_;
-  std::vector<double> scores_;
 };
 
 }  // namespace tpuaf

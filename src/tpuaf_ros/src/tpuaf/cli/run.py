@@ -12,7 +12,7 @@ from tpuaf.errors import CliError
 
 # Imported by tpuaf.cli before the run's stop handling (see _main).
 PRELOAD = ("numpy", "tpuaf_core", "tpuaf.maps", "tpuaf.policies", "tpuaf.runtimes.config",
-           "tpuaf.runtimes.faults", "tpuaf.runtimes.native")
+           "tpuaf.runtimes.faults", "tpuaf.runtimes.graph")
 
 
 def _int_at_least(lowest: int):
@@ -157,10 +157,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="strategy parameter (repeatable), e.g. --param utility=eq14",
     )
     add_runtime_arguments(p)
-    p.add_argument("--engine", choices=("auto", "native", "python"), default="auto",
-                   help="graph runtime's event loop: native (C++), python, or auto (native: "
-                        "with the strategy's C++ decision path, or its Python policy called "
-                        "back; same results either way, runtimes/native.py)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--no-plots", action="store_true",
                    help="no summary.png in the --out folder (scripted sweeps of many runs)")
@@ -210,15 +206,9 @@ def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
 
         return PhysicsRun(PhysicsConfig(**kwargs, robot=args.robot), patrol_map)
     from tpuaf.runtimes.config import RunConfig
-    from tpuaf.runtimes.native import EngineChoiceError, make_run
+    from tpuaf.runtimes.graph import make_run
 
-    try:
-        run, why = make_run(RunConfig(**kwargs), patrol_map, getattr(args, "engine", "auto"))
-    except EngineChoiceError as err:
-        raise CliError(str(err)) from None
-    if not getattr(args, "quiet", False) or "does not support" in why:
-        print(f"tpuaf run: {why}", file=sys.stderr)
-    return run
+    return make_run(RunConfig(**kwargs), patrol_map)
 
 
 def format_faults(summary: dict) -> str:

@@ -143,7 +143,7 @@ def _params_hash(strategy: str, given_json: str) -> str:
 
 
 NOMINAL = "nominal"
-RUNTIMES = ("graph", "physics")  # graph: runtimes/graph.py (BatchRun); physics: runtimes/physics.py
+RUNTIMES = ("graph", "physics")  # graph: runtimes/graph.py (GraphRun, the C++ loop); physics: runtimes/physics.py
 _FRACTION = re.compile(r"^(\d+)/(\d+)$")
 
 
@@ -457,14 +457,12 @@ def run_config(task: dict[str, Any]):
 
 
 def make_engine(config, patrol_map, runtime: str = "graph"):
-    """The engine of a runtime: graph = the C++ event loop (`make_run` auto: with the
-    strategy's C++ decision path or its Python policy called back; BatchRun only for an
-    unsupported option; same results either way, runtimes/native.py); physics =
-    runtimes/physics.py PhysicsRun."""
+    """The engine of a runtime: graph = runtimes/graph.py GraphRun (the C++ event loop);
+    physics = runtimes/physics.py PhysicsRun."""
     if runtime == "graph":
-        from tpuaf.runtimes.native import make_run
+        from tpuaf.runtimes.graph import make_run
 
-        return make_run(config, patrol_map, "auto")[0]
+        return make_run(config, patrol_map)
     if runtime == "physics":
         from tpuaf.runtimes.physics import PhysicsRun
 

@@ -1,238 +1,396 @@
 """Graph runtime: an event-driven simulation of the team without ROS (the reference runtime).
 
-Robots drive shortest paths along graph edges at nominal speed (straight segments between
-vertex positions, each taking edge length / speed). Each robot is a `RobotMachine`
-(robot/machine.py, shared with the physics and agent runtimes); this module is its driver:
-event queue clock and segment motion; `TeamRun` (runtimes/base.py) holds the `TeamBus`
-(delay, loss), the recorder and the faults. Ground truth (uncertainty, idleness, interference)
-is measured by `tpuaf.measure.metrics.RunRecorder` from the true, piecewise-linear positions;
-visits are the machines' REACHED events. Faults (death, stall) are injected at configured times
-(runtimes/faults.py); the survivors notice a death from what they stop hearing (heartbeats and
-messages: `TeamRun` liveness, one queued check per robot). Runs are deterministic for a seed.
+The event loop is the C++ core's `tpuaf_core.GraphEngine` (engine.cpp), the only one: robots
+drive shortest paths along graph edges at nominal speed (straight segments between vertex
+positions, each taking edge length / speed), the team bus delays and loses messages, faults
+(deaths, `--fail-random`, stalls) are injected at their times, heartbeats (`HeartbeatLinks`, loss
+draws from the streams [seed, 4, sender]) feed every robot's teammate liveness, and the
+ground-truth recorder measures visits, idleness, interference and X. Runs are deterministic
+for a seed. Two kinds of strategies:
+
+- a strategy of the core (`CoreStrategyPolicy`: tpuaf, tpuaf_plus) runs in C++ between start
+  and finish; its messages go straight to the other robots' C++ state;
+- any other strategy is the Python `Policy` it is, called back from C++ only at its decisions,
+  message deliveries, goal failures and lost teammates, with a `RobotContext`.
+
+`GraphRun` has the interface every runtime's run has (config, patrol_map, now, recorder,
+run(progress), summary(), effective_config()).
 """
 
 from __future__ import annotations
 
-import heapq
+import inspect
 from collections.abc import Callable
+from dataclasses import asdict
 
 import numpy as np
 
-from tpuaf.maps import start_vertices
-from tpuaf.navigation import GraphRoute, navigator_give_up_s
-from tpuaf.policies import REGISTRY
-from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, RobotMachine
-from tpuaf.runtimes.base import TeamRun
-from tpuaf.runtimes.config import RunConfig, run_description
+from tpuaf.maps import load_map, start_vertices
+from tpuaf.measure.metrics import RunRecorder, build_summary, recovery_after_deaths
+from tpuaf.navigation import navigator_give_up_s
+from tpuaf.policies import REGISTRY, RobotContextBase
+from tpuaf.policies.core import CoreStrategyPolicy
+from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, announced_vertex
+from tpuaf.runtimes.base import TeamRun, liveness_summary
+from tpuaf.runtimes.config import RunConfig, run_description, travel_map
+from tpuaf.runtimes.faults import DEATH
+from tpuaf.team.bus import BusStats
 
-__all__ = ["DEFAULT_RETRY_S", "STAY_S", "BatchRun"]
 
-_ARRIVE, _WAKE, _DELIVER, _FAULT, _GIVE_UP, _LIVENESS = 0, 1, 2, 3, 4, 5
+def _recorder_default(name: str) -> float:
+    """A RunRecorder keyword default (refractory_s, max_substep_s, field_merge_s)."""
+    return float(inspect.signature(RunRecorder).parameters[name].default)
 
 
-class BatchRun(TeamRun):
-    """One graph-runtime run. `run()` returns the summary; the recorder holds visits and time
-    series. It is the `RobotDriver` of every robot's machine (`self.robots`)."""
+def _rng_stream(seed: int, *key: int):
+    import tpuaf_core
+
+    return tpuaf_core.NumpyPcg64(np.random.default_rng([seed, *key]).bit_generator.state)
+
+
+def make_run(config: RunConfig, patrol_map=None):
+    """The graph runtime's run of `config` (the C++ event loop)."""
+    config.validate()
+    return GraphRun(config, patrol_map)
+
+
+class _GraphRobot(RobotContextBase):
+    """The RobotContext a Python policy sees, backed by the C++ engine."""
+
+    def __init__(self, run: GraphRun, index: int, start_vertex: int, policy, rng):
+        self._engine = run._engine
+        self.robot = index
+        self.n_robots = run.config.robots
+        self.patrol_map = run.patrol_map
+        self.rng = rng
+        self.policy = policy
+        self._start_vertex = start_vertex
+        p = run.patrol_map.positions[start_vertex]
+        self._start_position = (float(p[0]), float(p[1]))
+
+    @property
+    def now(self) -> float:
+        return self._engine.now
+
+    @property
+    def current_vertex(self) -> int:
+        return self._engine.current_vertex(self.robot)
+
+    @property
+    def _current(self) -> int:
+        return self._engine.current_vertex(self.robot)
+
+    @property
+    def travelled_m(self) -> float:
+        return self._engine.travelled_m(self.robot)
+
+    @property
+    def travel_time_s(self) -> float:
+        return self._engine.travel_time_s(self.robot)
+
+    @property
+    def average_speed(self) -> float:
+        return self._engine.average_speed(self.robot)
+
+    @property
+    def position(self) -> tuple[float, float]:
+        return self._engine.position(self.robot)
+
+    def send(self, message) -> None:
+        self._engine.send(self.robot, message, announced_vertex(message))
+
+    def wake_at(self, time: float) -> None:
+        self._engine.wake_at(self.robot, float(time))
+
+    def change_goal(self, vertex: int) -> None:
+        """Redirect a moving robot: it finishes its current edge, then heads to `vertex`."""
+        self._engine.change_goal(self.robot, self.checked_vertex(vertex))
+
+
+class _PythonTeam:
+    """The callbacks the C++ loop makes into Python policies (only at their decisions)."""
+
+    def __init__(self, robots: list[_GraphRobot]):
+        self.robots = robots
+
+    def start(self, i: int) -> None:
+        robot = self.robots[i]
+        robot.policy.start(robot)
+
+    def decide(self, i: int):
+        robot = self.robots[i]
+        return robot.call_decide(robot.policy)
+
+    def on_message(self, i: int, message) -> None:
+        robot = self.robots[i]
+        robot.policy.on_message(message, robot)
+
+    def on_goal_failed(self, i: int, vertex: int) -> None:
+        robot = self.robots[i]
+        robot.policy.on_goal_failed(vertex, robot)
+
+    def on_teammate_lost(self, i: int, lost: int) -> None:
+        robot = self.robots[i]
+        hook = getattr(robot.policy, "on_teammate_lost", None)
+        if hook is not None:
+            hook(int(lost), robot)
+
+
+class _Bus:
+    """The run's bus as the results writer reads it: only the counters."""
+
+    def __init__(self, engine):
+        self._engine = engine
+
+    @property
+    def stats(self) -> BusStats:
+        sent, delivered, lost = self._engine.bus_stats
+        return BusStats(sent=sent, delivered=delivered, lost=lost)
+
+
+class GraphRecorder:
+    """RunRecorder's read side over the C++ recorder (what results.ResultsWriter reads)."""
+
+    def __init__(self, run: GraphRun):
+        self._engine = run._engine
+        self.patrol_map = run.patrol_map
+        self.n_robots = run.config.robots
+        # [m/s] the survivors' ideal of the recovery metrics (RunRecorder's default)
+        self.speed_mps = float(run.patrol_map.settings.nominal_speed)
+        # [s] the survivors' teammate timeout (the floor at detection)
+        self.teammate_timeout_s = float(run.config.teammate_timeout_s)
+        # Runs with deaths keep every visit: the recovery metrics read the dead robots' own.
+        self._keep_visits = any(f.kind == DEATH for f in run.faults)
+        self.n_vertices = int(run.patrol_map.num_vertices)
+        self.start_time = 0.0
+        self.sample_period_s = float(run.config.sample_period_s)
+        self.d_if = float(run.patrol_map.settings.interference_distance)
+        self._visits: list = []
+        self._idleness: list = []
+        self._rows: list = []
+
+    @property
+    def visits(self) -> list[tuple[float, int, int]]:
+        if len(self._visits) < self._engine.visit_count:
+            self._visits.extend(self._engine.visits(len(self._visits)))
+        return self._visits
+
+    @property
+    def visit_idleness(self) -> list[float]:
+        if len(self._idleness) < self._engine.visit_count:
+            self._idleness.extend(self._engine.visit_idleness(len(self._idleness)))
+        return self._idleness
+
+    @property
+    def timeseries(self) -> list[dict]:
+        if len(self._rows) < self._engine.row_count:
+            self._rows.extend(self._engine.timeseries(len(self._rows)))
+        return self._rows
+
+    def timeseries_since(self, first: int) -> list[dict]:
+        """The 1 Hz rows from index `first` on, not cached here."""
+        return self._engine.timeseries(first)
+
+    def forget_timeseries_before(self, first: int) -> None:
+        """The engine drops the rows before index `first` (a results writer has them on
+        disk: a long run's memory stays bounded; `timeseries` can then no longer be read from
+        the start)."""
+        self._engine.forget_rows_before(first)
+        self._rows = []
+
+    def visits_since(self, first: int) -> tuple[list, list]:
+        """(visits, their idleness) from index `first` on, not cached here."""
+        return self._engine.visits(first), self._engine.visit_idleness(first)
+
+    def forget_visits_before(self, first: int) -> None:
+        """The engine drops the visits before index `first` (a results writer has them in
+        visits.csv); the summary needs none of them (per-vertex times stay in the engine), but
+        `visits` can then no longer be read from the start. A run with deaths keeps them (its
+        recovery metrics read them)."""
+        if self._keep_visits:
+            return
+        self._engine.forget_visits_before(first)
+        self._visits = []
+        self._idleness = []
+
+    @property
+    def interferences(self) -> list[tuple[float, int, int]]:
+        return self._engine.interferences
+
+    @property
+    def interval_samples(self) -> list[float]:
+        return self._engine.interval_samples.tolist()
+
+    @property
+    def first_visit_times(self) -> list[float]:
+        """[s] each vertex's first visit (NaN: none), without reading the visit log."""
+        return list(self._engine.first_visit_times)
+
+    @property
+    def visit_counts(self) -> list[int]:
+        return [int(c) for c in self._engine.visit_counts]
+
+    @property
+    def deaths(self) -> list[tuple[float, int]]:
+        return self._engine.deaths
+
+    @property
+    def stalls(self) -> list[tuple[float, int]]:
+        return self._engine.stalls
+
+    @property
+    def announcements(self) -> list[tuple[float, int, int]]:
+        return self._engine.announcements
+
+    @property
+    def vertex_times(self) -> list[list[float]]:
+        """Per vertex, its visit times [s], sorted (runs with deaths keep every visit)."""
+        return self._engine.vertex_times
+
+    def recovery(self, end_time: float) -> list[dict]:
+        """RunRecorder.recovery of the same run."""
+        return recovery_after_deaths(
+            self.patrol_map, self.n_robots, self.speed_mps, self.start_time,
+            self._engine.vertex_times, self.visits, self.deaths, self.announcements, end_time,
+            teammate_timeout_s=self.teammate_timeout_s)
+
+    @property
+    def _pos_time(self) -> float | None:
+        return self._engine.positions_time
+
+    def worst_idleness(self, end_time: float) -> float:
+        return self._engine.worst_idleness(float(end_time))
+
+    def uncertainty(self) -> np.ndarray:
+        self._engine.finish()
+        return np.asarray(self._engine.field_values, dtype=float)
+
+    def summary(self, end_time: float) -> dict:
+        """RunRecorder.summary of the same run, key for key and digit for digit."""
+        engine = self._engine
+        engine.finish()
+        end_time = float(end_time)
+        deaths = self.deaths
+        return build_summary(
+            self, end_time, interval_samples=engine.interval_samples, ins_sum=engine.ins_sum,
+            n_rows=engine.row_count, worst=engine.worst_idleness(end_time), x_sum=engine.x_sum,
+            x_count=engine.x_count, x_final=float(np.mean(engine.field_values)),
+            n_interferences=len(engine.interferences), n_visits=engine.visit_count,
+            deaths=deaths, stalls=self.stalls,
+            recovery=self.recovery(end_time) if deaths else None)
+
+
+class GraphRun:
+    """One graph-runtime run on the C++ event loop."""
 
     runtime = "graph"
 
     def __init__(self, config: RunConfig, patrol_map=None):
-        super().__init__(config, patrol_map)
-        graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
-        self.graph = graph
-        self.speed = float(self.patrol_map.settings.nominal_speed)
-        self._events: list = []
-        self._seq = 0
-        n = config.robots
+        import tpuaf_core
+
+        config.validate()
+        self.config = config
+        self.faults = config.faults()  # resolved (--fail-random drawn)
+        self.patrol_map = travel_map(config, patrol_map if patrol_map is not None
+                                     else load_map(config.map))
+        self.graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
+        s = self.patrol_map.settings
+        self.speed = float(s.nominal_speed)
+        self.seed = int(config.seed)
+        starts = [int(v) for v in start_vertices(self.patrol_map, config.robots)]
+        self.start_vertices = starts
+        ec = tpuaf_core.EngineConfig()
+        ec.robots = config.robots
+        ec.duration_s = float(config.duration_s)
+        ec.delay_s = float(config.delay_s)
+        ec.loss = float(config.loss)
+        ec.sample_period_s = float(config.sample_period_s)
+        ec.nominal_speed_mps = self.speed
+        ec.stay_s = STAY_S
+        ec.retry_s = DEFAULT_RETRY_S
+        ec.refractory_s = _recorder_default("refractory_s")
+        ec.max_substep_s = _recorder_default("max_substep_s")
+        ec.field_merge_s = _recorder_default("field_merge_s")
+        ec.interference_distance_m = float(s.interference_distance)
+        ec.sensing_peak = float(s.sensing_peak)
+        ec.sensing_radius_m = float(s.sensing_radius)
+        ec.start_vertices = starts
+        ec.goal_tolerance_m = float(s.goal_tolerance)
+        ec.stall_give_up_s = float(navigator_give_up_s())
+        ec.teammate_timeout_s = float(config.teammate_timeout_s)
+        ec.heartbeat_period_s = float(TeamRun.heartbeat_period_s)
+        positions = np.asarray(self.patrol_map.positions, dtype=float)
+        field = tpuaf_core.UncertaintyField(
+            positions,
+            np.asarray(self.patrol_map.importance, dtype=float),
+            np.asarray(self.patrol_map.initial_uncertainty, dtype=float),
+            self.patrol_map.uncertainty_model(),
+        )
+        self._engine = tpuaf_core.GraphEngine(
+            self.graph, positions, ec, field, _rng_stream(self.seed, 1)
+        )
+        if self.faults:
+            # Heartbeat losses: stream [seed, 4, sender] (HeartbeatLinks), only drawn with loss.
+            heartbeat_rngs = ([_rng_stream(self.seed, 4, j) for j in range(config.robots)]
+                              if float(config.loss) > 0 else [])
+            self._engine.set_faults([float(f.time_s) for f in self.faults],
+                                    [int(f.robot) for f in self.faults],
+                                    [f.kind == DEATH for f in self.faults], heartbeat_rngs)
         cls = REGISTRY.get(config.strategy)
-        starts = start_vertices(self.patrol_map, n)
-        self._record()
-        self.robots = [
-            RobotMachine(self, i, n, self.patrol_map, cls(config.strategy_params),
-                         np.random.default_rng([self.seed, 2, i]), self.visit_listener(i),
-                         starts[i], teammate_timeout_s=float(config.teammate_timeout_s))
-            for i in range(n)
-        ]
-        self._team(self.robots)
-        self._last_positions_time = -1.0
-        # Motion of every robot: its route, and one straight segment from p0 at t0 to t1 at
-        # `velocity` (a vectorised table for positions). `_pending[i]` is the sequence number
-        # of its one awaited ARRIVE or GIVE_UP event (others are stale).
-        self._routes: list[GraphRoute | None] = [None] * n
-        self._p0 = np.array([self.patrol_map.positions[s] for s in starts], dtype=float)
-        self._velocity = np.zeros_like(self._p0)
-        self._t0 = np.zeros(n)
-        self._t1 = np.zeros(n)
-        self._pending = [-1] * n
-        self.stall_give_up_s = navigator_give_up_s()
-
-    # --- event queue ---
-    def push(self, time: float, kind: int, payload) -> int:
-        self._seq += 1
-        heapq.heappush(self._events, (time, kind, self._seq, payload))
-        return self._seq
-
-    def position_of(self, robot: int, t: float | None = None):
-        """True position of one robot at time t [m] (default now), from the segment table."""
-        if t is None:
-            t = self.now
-        elapsed = min(max(t - self._t0[robot], 0.0), self._t1[robot] - self._t0[robot])
-        p = self._p0[robot] + self._velocity[robot] * elapsed
-        return (float(p[0]), float(p[1]))
-
-    def positions(self, t: float) -> np.ndarray:
-        """True positions of all robots at time t [m], vectorised over robots."""
-        elapsed = np.minimum(np.maximum(t - self._t0, 0.0), self._t1 - self._t0)
-        return self._p0 + self._velocity * elapsed[:, None]
-
-    # --- RobotDriver ---
-    def transmit(self, robot: int, message) -> None:
-        self.bus.send(robot, message, self.now)
-
-    def schedule_wake(self, robot: int, time: float) -> None:
-        self.push(time, _WAKE, robot)
-
-    def halt(self, robot: int) -> None:
-        """No goal: the robot stands where its last segment ended (nothing to do), unless it
-        is stopped mid-segment (death)."""
-
-    def drive(self, robot: int, from_vertex: int, goal: int) -> None:
-        route = GraphRoute(self.graph, self.patrol_map.positions, from_vertex, goal)
-        self._routes[robot] = route
-        if self.robots[robot].stalled:
-            self._give_up_later(robot)
+        self.policies = [cls(config.strategy_params) for _ in range(config.robots)]
+        self.params = dict(self.policies[0].params)  # resolved (ParameterError if invalid)
+        self.core_strategy = issubclass(cls, CoreStrategyPolicy)
+        if self.core_strategy:
+            streams = [_rng_stream(self.seed, 2, i) for i in range(config.robots)]
+            self._strategy = cls.core_strategy(self.params, self.patrol_map, config.robots,
+                                               streams)
+            self.robots: list[_GraphRobot] = []
         else:
-            self._start_segment(robot, from_vertex, route.next_waypoint)
+            self.robots = [
+                _GraphRobot(self, i, starts[i], self.policies[i],
+                             np.random.default_rng([self.seed, 2, i]))
+                for i in range(config.robots)
+            ]
+            self._strategy = tpuaf_core.PythonStrategy(_PythonTeam(self.robots))
+        self._engine.set_strategy(self._strategy)
+        self.recorder = GraphRecorder(self)
+        self.bus = _Bus(self._engine)
 
-    def dwell(self, robot: int, vertex: int, duration_s: float) -> None:
-        self._routes[robot] = None
-        self._segment(robot, vertex, vertex, duration_s)
+    @property
+    def now(self) -> float:
+        return self._engine.now
 
-    # --- motion ---
-    def _segment(self, i: int, here: int, nxt: int, duration: float) -> None:
-        positions = self.patrol_map.positions
-        p0 = positions[here].astype(float)
-        t1 = self.now + duration
-        self._p0[i], self._t0[i], self._t1[i] = p0, self.now, t1
-        self._velocity[i] = (positions[nxt] - p0) / duration  # [m/s] along the straight segment
-        self._pending[i] = self.push(t1, _ARRIVE, i)
+    @property
+    def events(self) -> int:
+        """Events processed by the loop (arrivals, wake-ups, deliveries, faults, give-ups,
+        liveness checks; stale ones included)."""
+        return self._engine.events
 
-    def _start_segment(self, i: int, here: int, nxt: int) -> None:
-        if nxt == here:
-            self._segment(i, here, nxt, STAY_S)
-            return
-        length = self.graph.edge_length(here, nxt)
-        duration = length / self.speed
-        robot = self.robots[i]
-        robot.travelled_m += length
-        robot.travel_time_s += duration
-        self._segment(i, here, nxt, duration)
-
-    def _arrive(self, i: int) -> None:
-        robot = self.robots[i]
-        route = self._routes[i]
-        if route is None:  # the end of a dwell
-            robot.on_vertex(robot.current_vertex, True)
-            return
-        vertex = route.advance()
-        if robot.on_vertex(vertex, route.done):
-            self._start_segment(i, vertex, route.next_waypoint)  # pass-through vertex
-
-    def _freeze(self, i: int) -> None:
-        """Stop robot i where it is now; its awaited arrival becomes stale."""
-        p = self.positions(self.now)[i]
-        self._p0[i] = p
-        self._velocity[i] = 0.0
-        self._t0[i] = self._t1[i] = self.now
-        self._pending[i] = -1
-
-    def _give_up_later(self, i: int) -> None:
-        self._pending[i] = self.push(self.now + self.stall_give_up_s, _GIVE_UP, i)
-
-    # --- faults (TeamRun hooks) ---
-    def _stop_motion(self, i: int) -> None:
-        self._freeze(i)
-
-    def _after_stall(self, i: int) -> None:
-        if not self.robots[i].dwelling:  # a dwell needs no motion: it ends as planned
-            self._freeze(i)
-            if self.robots[i].goal is not None:
-                self._give_up_later(i)
-
-    def _liveness_at(self, time_s: float, i: int, token: int) -> None:
-        self.push(time_s, _LIVENESS, (i, token))
-
-    def _give_up(self, i: int) -> None:
-        robot = self.robots[i]
-        goal = robot.goal
-        self._routes[i] = None
-        if goal is not None:
-            robot.on_goal_failed(goal, self.patrol_map.nearest_vertex(*self.position_of(i)))
-
-    def _record_positions(self, t: float) -> None:
-        if t > self._last_positions_time:
-            self.recorder.record_positions(t, self.positions(t))
-            self._last_positions_time = t
-
-    # --- main loop ---
     def run(self, progress: Callable[[float], None] | None = None) -> dict:
         """Simulate until duration_s. `progress(now)` is called now and then."""
-        end = float(self.config.duration_s)
-        self._record_positions(0.0)
-        for fault in self.faults:
-            self.push(fault.time_s, _FAULT, fault)
-        for robot in self.robots:
-            robot.start()
-        self.deliver_ready()
-        for robot in self.robots:
-            robot.decide()
-            self.deliver_ready()
-        self.start_liveness()
-        next_progress = 0.0
-        events = self._events
-        robots = self.robots
-        pending = self._pending
-        bus = self.bus
-        while True:
-            # The next event: the queue's, or a message in flight on the bus, which comes
-            # after arrivals and wake-ups of the same time and before faults (kind order).
-            due = bus.next_due_s()
-            from_bus = not events or (due, _DELIVER) < events[0][:2]
-            time = due if from_bus else events[0][0]
-            if time > end:
-                break
-            if from_bus:
-                bus.release_next()
-                kind = _DELIVER
-            else:
-                time, kind, seq, payload = heapq.heappop(events)
-            if time > self.now:
-                self._record_positions(time)
-                self.now = time
-            if kind == _ARRIVE:
-                if pending[payload] == seq:
-                    self._arrive(payload)
-            elif kind == _WAKE:
-                robots[payload].on_wake()
-            elif kind == _FAULT:
-                self.inject(payload)
-            elif kind == _LIVENESS:
-                self.liveness_due(*payload)
-            elif kind == _GIVE_UP:
-                if pending[payload] == seq:
-                    self._give_up(payload)
-            self.deliver_ready()
-            if progress is not None and self.now >= next_progress:
-                progress(self.now)
-                next_progress = self.now + end / 200.0
-        self._record_positions(end)
-        self.now = end
-        if progress is not None:
-            progress(end)
+        self._engine.run(progress, release_gil=self._strategy.is_native)
         return self.summary()
 
+    @property
+    def losses(self) -> list[tuple[float, int, int]]:
+        """(t [s], observer, lost teammate) of every liveness loss (TeamRun.losses)."""
+        return self._engine.losses
+
     def effective_config(self) -> dict:
-        """Everything that determines this run, with defaults resolved (written to config.yaml)."""
+        """Everything that determines this run, the engine included."""
         return run_description(
-            self, [r.start_vertex for r in self.robots], self.robots[0].policy.params, self.faults,
+            self, self.start_vertices, self.params, self.faults,
+            engine="C++ event loop" + (", C++ strategy" if self.core_strategy
+                                       else ", Python strategy called back"),
             motion="straight segments between vertices, edge length / nominal speed each")
+
+    def summary(self) -> dict:
+        summary = self.recorder.summary(self.now)
+        summary["messages"] = asdict(self.bus.stats)
+        summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
+        if self.faults:
+            died_at = {int(robot): float(t) for t, robot in self._engine.deaths}
+            summary["liveness"] = liveness_summary(
+                float(self.config.teammate_timeout_s), float(TeamRun.heartbeat_period_s),
+                died_at, self.losses)
+        return summary

@@ -52,7 +52,7 @@ def controller_config(robot: int, speed_mps: float, radius_m: float) -> Controll
 
 
 class PhysicsRun(TeamRun):
-    """One physics-runtime run; the interface of BatchRun (config, patrol_map, now, recorder,
+    """One physics-runtime run; the interface of GraphRun (config, patrol_map, now, recorder,
     run(progress), summary(), effective_config())."""
 
     runtime = "physics"
