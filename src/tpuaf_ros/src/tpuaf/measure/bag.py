@@ -54,6 +54,7 @@ from tpuaf.measure.bag_info import (
 )
 from tpuaf.measure.monitor import STAMP_EPS_S, FleetMonitor, with_epoch
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
+from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.topics import (
     AMCL_POSE,
     DEFAULT_TEAM_NS,
@@ -131,7 +132,8 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
         raise BagError(f"death timeout must be > 0 s, got {death_timeout_s:g}")
     if teammate_timeout_s is not None and not teammate_timeout_s > 0:
         raise BagError(f"teammate timeout must be > 0 s, got {teammate_timeout_s:g}")
-    mate_timeout = 10.0 if teammate_timeout_s is None else float(teammate_timeout_s)
+    mate_timeout = (LIVENESS_DEFAULTS.teammate_timeout_s if teammate_timeout_s is None
+                    else float(teammate_timeout_s))
 
     team = {t: k for t, k in info.team_topics.items()
             if team_ns is None or t.startswith(team_ns.rstrip("/") + "/")}

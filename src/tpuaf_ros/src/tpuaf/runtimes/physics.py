@@ -39,6 +39,7 @@ from tpuaf.navigation import (
     scan_points_batch,
 )
 from tpuaf.navigation.planner import shared_planner
+from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import REGISTRY
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.base import TeamRun
@@ -91,7 +92,8 @@ class PhysicsRun(TeamRun):
                          planner=self.planner, teammate_timeout_s=config.teammate_timeout_s)
             for i in range(n)
         ]
-        self.heartbeat_period_s = self.agents[0].heartbeat_period_s if n else 1.0
+        self.heartbeat_period_s = (self.agents[0].heartbeat_period_s if n
+                                   else LIVENESS_DEFAULTS.heartbeat_period_s)
         self._liveness_checks: list[tuple[float, int, int]] = []  # heap: (t [s], robot, token)
         self._team([a.machine for a in self.agents])
         self.steps_per_control = round(config.control_period_s / config.physics_step_s)
