@@ -354,7 +354,7 @@ int GraphEngine::nearest_vertex(double x, double y) const {
 }
 
 void GraphEngine::drive(int robot) {
-  // BatchRun.drive: a stalled robot cannot move; its navigator gives up later.
+  // A stalled robot cannot move; its navigator gives up later.
   if (robots_[static_cast<std::size_t>(robot)].stalled) {
     give_up_later(robot);
   } else {
@@ -368,7 +368,7 @@ void GraphEngine::give_up_later(int robot) {
 }
 
 void GraphEngine::give_up(int robot) {
-  // BatchRun._give_up, then RobotMachine.on_goal_failed.
+  // The navigator gave up: the strategy hears the goal failed (as RobotMachine.on_goal_failed).
   Robot& r = robots_[static_cast<std::size_t>(robot)];
   const int goal = r.goal;
   if (goal < 0 || !r.alive) return;

@@ -1,6 +1,6 @@
-// TPUAF+'s decision path in C++: the same steps as tpuaf/policies/tpuaf_plus.py, in the same
-// order and with the same floating-point operations (Python's float % is py_mod), so that a
-// run equals the Python policy's to the last digit (tests/test_tpuaf_plus_native.py).
+// TPUAF+'s decisions (the strategy's one implementation; docs/STRATEGIES.md has the rule):
+// spacing, dwelling, start schedule, re-spacing and repair. Python's float % is py_mod, as the
+// recorded runs of tests/test_runtime_equivalence.py were made with it.
 #include "tpuaf_core/tpuaf_plus.hpp"
 
 #include <algorithm>

@@ -36,7 +36,7 @@ class GraphEngine final : public StrategyHost {
   void set_strategy(TeamStrategy* strategy) { strategy_ = strategy; }
   // The run's faults (time order, as resolved by tpuaf.runtimes.faults) and, when there is one,
   // the heartbeat streams (numpy default_rng([seed, 4, sender]) per sender; unused without
-  // loss). With faults every robot's liveness is fed and checked as in BatchRun.
+  // loss). With faults every robot's liveness is fed and checked.
   void set_faults(std::vector<EngineFault> faults, std::vector<NumpyPcg64> heartbeat_rngs);
   bool has_faults() const { return !faults_.empty(); }
   bool alive(int robot) const { return robot_at(robot).alive; }
