@@ -1,10 +1,8 @@
 // TeamMessage, PolicyHost and the TeamStrategy calls: how one robot's policy (physics runtime,
 // ROS agents) runs a C++ strategy, the same one the graph runtime's event loop runs.
-#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include <memory>
 #include <vector>
 
 #include "bindings.hpp"
@@ -13,60 +11,19 @@
 namespace py = pybind11;
 using namespace tpuaf;
 
-namespace {
-
-TeamMessage visit(int robot, int vertex, double time_s, int next_vertex) {
-  TeamMessage m;
-  m.kind = TeamMessage::Kind::kVisit;
-  m.robot = robot;
-  m.vertex = vertex;
-  m.time_s = time_s;
-  m.next_vertex = next_vertex;
-  return m;
-}
-
-TeamMessage intention(int robot, int from_vertex, int vertex, double expected_arrival_s,
-                      double travel_time_s, double time_s) {
-  TeamMessage m;
-  m.kind = TeamMessage::Kind::kIntention;
-  m.robot = robot;
-  m.from_vertex = from_vertex;
-  m.vertex = vertex;
-  m.expected_arrival_s = expected_arrival_s;
-  m.travel_time_s = travel_time_s;
-  m.time_s = time_s;
-  return m;
-}
-
-TeamMessage idleness_estimate(int robot, double time_s, std::vector<double> estimate,
-                              int next_vertex) {
-  TeamMessage m;
-  m.kind = TeamMessage::Kind::kIdlenessEstimate;
-  m.robot = robot;
-  m.time_s = time_s;
-  m.next_vertex = next_vertex;
-  m.estimate = std::make_shared<const std::vector<double>>(std::move(estimate));
-  return m;
-}
-
-}  // namespace
-
 void tpuaf::bindings::bind_strategy(py::module_& m) {
   py::class_<TeamMessage> message(m, "TeamMessage",
                                   "A team message of a C++ strategy (tpuaf.team.messages).");
   py::enum_<TeamMessage::Kind>(message, "Kind")
       .value("VISIT", TeamMessage::Kind::kVisit)
       .value("INTENTION", TeamMessage::Kind::kIntention)
-      .value("IDLENESS_ESTIMATE", TeamMessage::Kind::kIdlenessEstimate)
       .value("OPAQUE", TeamMessage::Kind::kOpaque);
   message
-      .def_static("visit", &visit, py::arg("robot"), py::arg("vertex"), py::arg("time_s"),
-                  py::arg("next_vertex"))
-      .def_static("intention", &intention, py::arg("robot"), py::arg("from_vertex"),
+      .def_static("visit", &TeamMessage::visit, py::arg("robot"), py::arg("vertex"),
+                  py::arg("time_s"), py::arg("next_vertex"))
+      .def_static("intention", &TeamMessage::intention, py::arg("robot"), py::arg("from_vertex"),
                   py::arg("vertex"), py::arg("expected_arrival_s"), py::arg("travel_time_s"),
                   py::arg("time_s"))
-      .def_static("idleness_estimate", &idleness_estimate, py::arg("robot"), py::arg("time_s"),
-                  py::arg("estimate"), py::arg("next_vertex"))
       .def_readonly("kind", &TeamMessage::kind)
       .def_readonly("robot", &TeamMessage::robot)
       .def_readonly("vertex", &TeamMessage::vertex)
@@ -74,10 +31,7 @@ void tpuaf::bindings::bind_strategy(py::module_& m) {
       .def_readonly("next_vertex", &TeamMessage::next_vertex)
       .def_readonly("from_vertex", &TeamMessage::from_vertex)
       .def_readonly("expected_arrival_s", &TeamMessage::expected_arrival_s)
-      .def_readonly("travel_time_s", &TeamMessage::travel_time_s)
-      .def_property_readonly("estimate", [](const TeamMessage& msg) {
-        return msg.estimate ? *msg.estimate : std::vector<double>{};
-      });
+      .def_readonly("travel_time_s", &TeamMessage::travel_time_s);
 
   py::class_<PolicyHost>(m, "PolicyHost",
                          "One robot's strategy host on a live clock: set_state before each "

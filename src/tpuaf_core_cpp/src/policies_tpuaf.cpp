@@ -99,14 +99,8 @@ int TpuafStrategy::decide(StrategyHost& host, int robot) {
   } else {
     candidates_ = graph.neighbours(here);
   }
-  TeamMessage visit;
-  visit.kind = TeamMessage::Kind::kVisit;
-  visit.robot = robot;
-  visit.vertex = here;
-  visit.time_s = now;
   if (candidates_.empty()) {  // a one-vertex graph: stay
-    visit.next_vertex = here;
-    host.send(robot, visit);
+    host.send(robot, TeamMessage::visit(robot, here, now, here));
     return here;
   }
   Colocation& col = colocated_[static_cast<std::size_t>(robot)];
@@ -131,9 +125,8 @@ int TpuafStrategy::decide(StrategyHost& host, int robot) {
       if (mate < robot) presume_choice(host, robot, mate);
     }
   }
-  const UtilityResult result = k.utilities(graph, now, here, candidates_,
-                                           host.average_speed(robot), form_, any_vertex_,
-                                           exclude);
+  const UtilityResult result = k.utilities(graph, now, here, candidates_, host.average_speed(robot),
+                                           form_, any_vertex_, exclude);
   const Eigen::VectorXd& utility = result.utility;
   double top = utility[0];
   for (Eigen::Index j = 1; j < utility.size(); ++j) {
@@ -171,32 +164,23 @@ int TpuafStrategy::decide(StrategyHost& host, int robot) {
     mine.emplace_back(now, target);
     while (mine.size() > 4) mine.pop_front();
   }
-  visit.next_vertex = target;
-  host.send(robot, visit);
-  TeamMessage intention;
-  intention.kind = TeamMessage::Kind::kIntention;
-  intention.robot = robot;
-  intention.from_vertex = here;
-  intention.vertex = target;
-  intention.expected_arrival_s = result.arrival_s[chosen];
-  intention.travel_time_s = result.travel_time_s[chosen];
-  intention.time_s = now;
-  host.send(robot, intention);
+  host.send(robot, TeamMessage::visit(robot, here, now, target));
+  host.send(robot, TeamMessage::intention(robot, here, target, result.arrival_s[chosen],
+                                          result.travel_time_s[chosen], now));
   return target;
 }
 
-bool TpuafStrategy::on_team_message(StrategyHost& host, int sender,
-                                    const TeamMessage& message) {
+bool TpuafStrategy::on_team_message(StrategyHost& host, int sender, const TeamMessage& message) {
   if (!shared_) return false;
   TpuafKnowledge& k = knowledge_[0];
   bool kept = true;
   if (message.kind == TeamMessage::Kind::kVisit) {
     kept = k.hear_team_visit(message.robot, message.vertex, host.now());
   } else if (message.kind == TeamMessage::Kind::kIntention) {
-    kept = k.hear_team_intention({message.robot, message.from_vertex, message.vertex,
-                                  message.expected_arrival_s, message.travel_time_s,
-                                  message.time_s},
-                                 host.now());
+    kept =
+        k.hear_team_intention({message.robot, message.from_vertex, message.vertex,
+                               message.expected_arrival_s, message.travel_time_s, message.time_s},
+                              host.now());
   }
   // Without delay the latency is 0 and nothing of Colocation changes; other kinds are ignored
   // as on_message ignores them.

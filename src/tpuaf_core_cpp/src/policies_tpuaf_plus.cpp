@@ -1,13 +1,13 @@
 // TPUAF+'s decisions (the strategy's one implementation; docs/STRATEGIES.md has the rule):
 // spacing, dwelling, start schedule, re-spacing and repair. Python's float % is py_mod, as the
 // recorded runs of tests/test_runtime_equivalence.py were made with it.
-#include "tpuaf_core/tpuaf_plus.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "tpuaf_core/tpuaf_plus.hpp"
 
 namespace tpuaf {
 namespace {
@@ -128,7 +128,8 @@ void TpuafPlusStrategy::install_plan(StrategyHost& host, int robot, bool initial
     // a walk new to several robots: the start schedule's entries from where each stood
     const std::map<int, int> entries = transition_entries(r);
     auto it = entries.find(robot);
-    r.entry = it != entries.end() ? it->second : nearest_entry(*graph_, route, host.current_vertex(robot));
+    r.entry = it != entries.end() ? it->second
+                                  : nearest_entry(*graph_, route, host.current_vertex(robot));
     r.idx = -1;
   }
   r.holding = false;
@@ -256,9 +257,9 @@ double TpuafPlusStrategy::respace_wait(Robot& r, int robot, double now) {
   // after a lap.
   const PlusRoute& route = route_of(r);
   const double L = route.length, speed = params_.speed_mps;
-  const double behind = py_mod(route.arc[static_cast<std::size_t>(r.idx)] - r.respace_target -
-                                   speed * (now - r.respace_at),
-                               L);
+  const double behind = py_mod(
+      route.arc[static_cast<std::size_t>(r.idx)] - r.respace_target - speed * (now - r.respace_at),
+      L);
   const double left = behind < L / 2 ? behind / speed : 0.0;
   const double wait = std::min(left, idle_room(r, robot, now));
   if (left - wait <= params_.deadband_s || now - r.respace_at > L / speed) r.respacing = false;
@@ -333,8 +334,8 @@ void TpuafPlusStrategy::update_team(StrategyHost& host, int robot) {
   for (std::size_t k = 0; k < n; ++k) {
     if (r.alive[k] && !alive[k]) {
       any_gone = true;
-      latest_gone = std::max(
-          latest_gone, std::min(r.lost_at[k], r.last_heard[k] + params_.silence_timeout_s));
+      latest_gone = std::max(latest_gone,
+                             std::min(r.lost_at[k], r.last_heard[k] + params_.silence_timeout_s));
     }
   }
   r.changed_at = any_gone ? std::min(latest_gone, now) : now;
@@ -451,24 +452,8 @@ void TpuafPlusStrategy::announce(StrategyHost& host, int robot, int here, int ne
   Robot& r = state(robot);
   const double now = host.now();
   const double travel = next != here ? graph_->edge_length(here, next) / params_.speed_mps : 0.0;
-  if (visit) {
-    TeamMessage m;
-    m.kind = TeamMessage::Kind::kVisit;
-    m.robot = robot;
-    m.vertex = here;
-    m.time_s = now;
-    m.next_vertex = next;
-    host.send(robot, std::move(m));
-  }
-  TeamMessage m;
-  m.kind = TeamMessage::Kind::kIntention;
-  m.robot = robot;
-  m.from_vertex = here;
-  m.vertex = next;
-  m.expected_arrival_s = departure + travel;
-  m.travel_time_s = travel;
-  m.time_s = now;
-  host.send(robot, std::move(m));
+  if (visit) host.send(robot, TeamMessage::visit(robot, here, now, next));
+  host.send(robot, TeamMessage::intention(robot, here, next, departure + travel, travel, now));
   remember(r, robot, Heard{here, next, departure, now});
   r.last_announce = now;
 }

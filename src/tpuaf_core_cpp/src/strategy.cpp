@@ -1,4 +1,5 @@
-// PolicyHost: one robot's strategy on a live clock (physics runtime, ROS agents).
+// TeamMessage factories; PolicyHost: one robot's strategy on a live clock (physics runtime, ROS
+// agents).
 #include "tpuaf_core/strategy.hpp"
 
 #include <limits>
@@ -6,6 +7,29 @@
 #include <string>
 
 namespace tpuaf {
+
+TeamMessage TeamMessage::visit(int robot, int vertex, double time_s, int next_vertex) {
+  TeamMessage m;
+  m.kind = Kind::kVisit;
+  m.robot = robot;
+  m.vertex = vertex;
+  m.time_s = time_s;
+  m.next_vertex = next_vertex;
+  return m;
+}
+
+TeamMessage TeamMessage::intention(int robot, int from_vertex, int vertex,
+                                   double expected_arrival_s, double travel_time_s, double time_s) {
+  TeamMessage m;
+  m.kind = Kind::kIntention;
+  m.robot = robot;
+  m.from_vertex = from_vertex;
+  m.vertex = vertex;
+  m.expected_arrival_s = expected_arrival_s;
+  m.travel_time_s = travel_time_s;
+  m.time_s = time_s;
+  return m;
+}
 
 PolicyHost::PolicyHost(const PatrolGraph& graph, int robots, int robot)
     : graph_(&graph),

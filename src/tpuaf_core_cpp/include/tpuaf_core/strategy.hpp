@@ -14,19 +14,24 @@ namespace tpuaf {
 
 // A team message (tpuaf.team.messages). `opaque` carries a message of a Python strategy unchanged.
 struct TeamMessage {
-  enum class Kind { kVisit, kIntention, kIdlenessEstimate, kOpaque };
+  enum class Kind { kVisit, kIntention, kOpaque };
+  // A Visit: `robot` at `vertex` at time_s [s], heading to next_vertex (-1: undecided).
+  static TeamMessage visit(int robot, int vertex, double time_s, int next_vertex);
+  // An Intention: `robot` leaves from_vertex for `vertex`, due at expected_arrival_s [s] after
+  // travel_time_s [s] of driving; sent at time_s [s].
+  static TeamMessage intention(int robot, int from_vertex, int vertex, double expected_arrival_s,
+                               double travel_time_s, double time_s);
   Kind kind = Kind::kOpaque;
   int robot = -1;
   int vertex = -1;
   double time_s = 0;
-  int next_vertex = -1;  // Visit, IdlenessEstimate
+  int next_vertex = -1;  // Visit
   int from_vertex = -1;  // Intention
   double expected_arrival_s = 0;
   double travel_time_s = 0;
-  std::shared_ptr<const std::vector<double>> estimate;  // IdlenessEstimate E[v] [s]
   std::shared_ptr<void> opaque;
   // The destination an opaque message announces (tpuaf.robot.machine.announced_vertex; -1:
-  // none); the other kinds announce their next_vertex (Visit, IdlenessEstimate) or vertex.
+  // none); a Visit announces its next_vertex, an Intention its vertex.
   int announced = -1;
 };
 
