@@ -49,7 +49,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="[s] length of the analysed span, within the bag (default: the "
                         "monitored run's, else up to the bag's end)")
     p.add_argument("--death-timeout", type=float, default=None,
-                   help="[s] silence that makes an agent dead (default: the run's, else 5)")
+                   help="[s] silence that makes an agent dead (default: the run's, else the teammate "
+                        "timeout, as the monitor)")
     p.add_argument("--teammate-timeout", type=float, default=None,
                    help="[s] the agents' teammate timeout, for the recovery's floor at "
                         f"detection (default: the run's, else {_L.teammate_timeout_s:g}, the "

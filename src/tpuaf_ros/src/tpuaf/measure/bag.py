@@ -138,7 +138,7 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
     team = {t: k for t, k in info.team_topics.items()
             if team_ns is None or t.startswith(team_ns.rstrip("/") + "/")}
     visit_source = _visit_source(info, team, notes)
-    liveness, timeout = _liveness(info, death_timeout_s, notes)
+    liveness, timeout = _liveness(info, death_timeout_s, mate_timeout, notes)
     source = _pose_source(path, info, n, pose_source, notes)
 
     store = typestore(reader)
@@ -188,12 +188,13 @@ def _visit_source(info: BagInfo, team: dict[str, str], notes: list[str]) -> str:
     return "none"
 
 
-def _liveness(info: BagInfo, death_timeout_s: float | None, notes: list[str]
-              ) -> tuple[bool, float]:
+def _liveness(info: BagInfo, death_timeout_s: float | None, teammate_timeout_s: float,
+              notes: list[str]) -> tuple[bool, float]:
     """(deaths are judged, silence [s] that makes a robot dead): heartbeats (agent events);
-    team messages only when a timeout is given."""
+    team messages only when a timeout is given. Not given, the silence is the teammate timeout:
+    the monitor's rule (FleetMonitor), so that the analysis of a bag agrees with it."""
     liveness = info.events > 0 or death_timeout_s is not None
-    timeout = death_timeout_s if death_timeout_s is not None else 5.0
+    timeout = death_timeout_s if death_timeout_s is not None else teammate_timeout_s
     if not liveness:
         timeout = math.inf
         notes.append(f"deaths not detected: no agent heartbeats ({EVENTS_TOPIC}) in the bag "
