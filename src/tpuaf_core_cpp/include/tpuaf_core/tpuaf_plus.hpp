@@ -86,6 +86,7 @@ class TpuafPlusStrategy : public TeamStrategy {
   std::vector<int> team(int robot) const;
 
  private:
+  friend class TpuafPlusProbe;  // test/test_tpuaf_plus.cpp: the spacing rule's parts, by hand
   // A timed announcement: (from vertex, to vertex, departure [s], sent [s]).
   struct Heard {
     int from = -1, to = -1;

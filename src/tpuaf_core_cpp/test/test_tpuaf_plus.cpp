@@ -1,0 +1,144 @@
+// TPUAF+'s spacing rule, its mates' placement and its transition entries, hand-checked on the
+// 40 m square 0-1-2-3-0 (10 m edges, 1 m/s). The plans are the ones tpuaf_plus.make_plan gives
+// for these starts (a cycle over the square, its start schedule).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "tpuaf_core/strategy.hpp"
+#include "tpuaf_core/tpuaf_plus.hpp"
+
+namespace tpuaf {
+
+// Reaches the strategy's private state and steps (a friend of TpuafPlusStrategy).
+class TpuafPlusProbe {
+ public:
+  using Heard = TpuafPlusStrategy::Heard;
+  static TpuafPlusStrategy::Robot& robot(TpuafPlusStrategy& s, int i) { return s.state(i); }
+  static double spacing_wait(TpuafPlusStrategy& s, int i, double now) {
+    return s.spacing_wait(s.state(i), i, now);
+  }
+  static double mate_arc(TpuafPlusStrategy& s, int i, int k, double now) {
+    double arc = -1;
+    EXPECT_TRUE(s.mate_arc(s.state(i), k, now, arc));
+    return arc;
+  }
+  static void hear(TpuafPlusStrategy& s, int i, int k, Heard h) {
+    auto& r = s.state(i);
+    r.heard[static_cast<std::size_t>(k)] = h;
+    r.has_heard[static_cast<std::size_t>(k)] = 1;
+  }
+  static std::map<int, int> transition_entries(TpuafPlusStrategy& s, int i) {
+    return s.transition_entries(s.state(i));
+  }
+};
+
+namespace {
+
+PatrolGraph square() {
+  Points p(4, 2);
+  p << 0, 0, 10, 0, 10, 10, 0, 10;
+  return PatrolGraph(p, {{0, 1, 10.0}, {1, 2, 10.0}, {2, 3, 10.0}, {3, 0, 10.0}});
+}
+
+PlusRoute square_walk(std::vector<int> robots) {
+  return PlusRoute{{0, 1, 2, 3}, {0.0, 10.0, 20.0, 30.0}, 40.0, std::move(robots)};
+}
+
+// One cycle for the team, with this start schedule (entry walk index, departure [s]).
+std::unique_ptr<TpuafPlusStrategy> strategy(std::vector<std::pair<int, double>> schedule) {
+  const auto n = static_cast<int>(schedule.size());
+  std::vector<int> team;
+  for (int k = 0; k < n; ++k) team.push_back(k);
+  auto plan = std::make_shared<PlusPlan>();
+  plan->routes = {square_walk(team)};
+  plan->route_of.assign(static_cast<std::size_t>(n), 0);
+  plan->schedule = std::move(schedule);
+  TpuafKnowledge knowledge(Eigen::VectorXd::Ones(4), Eigen::VectorXd::Ones(4), {}, 8.0 / 15.0, 10.0,
+                           30.0, 60.0);
+  return std::make_unique<TpuafPlusStrategy>(
+      knowledge, TpuafPlusParams{},
+      [plan](const std::vector<int>&) { return std::shared_ptr<const PlusPlan>(plan); });
+}
+
+TEST(TpuafPlus, SpacingRuleExact) {
+  const PatrolGraph graph = square();
+  auto s = strategy({{0, 0.0}, {2, 0.0}});  // starts (0, 2): already evenly spaced
+  PolicyHost host(graph, 2, 0);
+  host.set_state(0.0, 0, 1.0);
+  s->start(host, 0);
+  TpuafPlusProbe::robot(*s, 0).idx = 0;  // on my walk at vertex 0
+  // the mate left the vertex 10 m ahead of me at t = 0: gap ahead 10, behind 30
+  s->on_message(host, 0, TeamMessage::intention(1, 1, 2, 10.0, 10.0, 0.0));
+  EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 0, 0.0), 0.5 * (30 - 10) / 2, 1e-9);  // gain 0.5
+  // seen 4 s later (the message keeps the sender's clock) it is 14 m ahead
+  EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 0, 4.0), 0.5 * (26 - 14) / 2, 1e-9);
+  // a mate 10 m behind me: gap ahead 30 > behind 10, I never wait (the one ahead does)
+  host.set_state(5.0, 0, 1.0);
+  s->on_message(host, 0, TeamMessage::visit(1, 3, 5.0, 0));
+  s->on_message(host, 0, TeamMessage::intention(1, 3, 0, 15.0, 10.0, 5.0));
+  EXPECT_EQ(TpuafPlusProbe::spacing_wait(*s, 0, 5.0), 0.0);
+}
+
+TEST(TpuafPlus, AMateNotHeardSinceItLeftItsStartSlotIsOnItsSlot) {
+  // Starts (0, 0): robot 1 drives to walk index 3 (vertex 3) and leaves with its slot at 10 s.
+  // When the message telling that it left is delayed or lost, it is placed on its slot (at its
+  // entry at its departure, moving at v), not nowhere; a message from after it left places it.
+  const PatrolGraph graph = square();
+  auto s = strategy({{0, 0.0}, {3, 10.0}});
+  PolicyHost host(graph, 2, 0);
+  host.set_state(0.0, 0, 1.0);
+  s->start(host, 0);
+  const double later = 13.0, slot = 33.0;                              // arc 30 + 1 m/s x 3 s
+  EXPECT_NEAR(TpuafPlusProbe::mate_arc(*s, 0, 1, later), slot, 1e-9);  // never heard
+  // heard only from its drive to its entry: an edge against the walk's direction
+  TpuafPlusProbe::hear(*s, 0, 1, {0, 3, 0.0, 0.0});
+  EXPECT_NEAR(TpuafPlusProbe::mate_arc(*s, 0, 1, later), slot, 1e-9);
+  // from the walk edge 2 -> 3 into its entry: due there in time, on its slot; due after its
+  // departure (late), placed from that message
+  TpuafPlusProbe::hear(*s, 0, 1, {2, 3, -1.0, -1.0});
+  EXPECT_NEAR(TpuafPlusProbe::mate_arc(*s, 0, 1, later), slot, 1e-9);
+  TpuafPlusProbe::hear(*s, 0, 1, {2, 3, 2.0, 2.0});
+  EXPECT_NEAR(TpuafPlusProbe::mate_arc(*s, 0, 1, later), 20.0 + (later - 2.0), 1e-9);
+  // heard after it left, from the next walk vertex: placed from that message
+  TpuafPlusProbe::hear(*s, 0, 1, {0, 1, later - 1.0, later - 1.0});
+  EXPECT_NEAR(TpuafPlusProbe::mate_arc(*s, 0, 1, later), 1.0, 1e-9);
+}
+
+TEST(TpuafPlus, TransitionToANewSharedWalkSpreadsTheEntries) {
+  // Two robots heading for vertex 0 when the team changed (one there, one 1 s behind) and
+  // vertex 2 long unvisited: one of them enters on the far side (2 or 3), not both at 0.
+  const PatrolGraph graph = square();
+  auto s = strategy({{0, 0.0}, {0, 40.0 / 3.0}, {3, 50.0 / 3.0}});  // starts (0, 0, 0)
+  PolicyHost host(graph, 3, 0);
+  host.set_state(0.0, 0, 1.0);
+  s->start(host, 0);
+  auto& r = TpuafPlusProbe::robot(*s, 0);
+  auto plan = std::make_shared<PlusPlan>(*r.plan);
+  plan->routes[0].robots = {0, 1};
+  r.plan = plan;
+  r.changed_at = 100.0;
+  r.knowledge.record_visit(0, 99.0);
+  r.knowledge.record_visit(1, 95.0);
+  r.knowledge.record_visit(3, 95.0);  // vertex 2: never visited (idle 100 s)
+  // robot 1's later message (after the change) is not used: where it stood at the change
+  r.history[0] = {{1, 0, 90.0, 90.0}};
+  r.history[1] = {{1, 0, 91.0, 91.0}, {0, 3, 120.0, 120.0}};
+  const std::map<int, int> entries = TpuafPlusProbe::transition_entries(*s, 0);
+  ASSERT_EQ(entries.size(), 2u);
+  ASSERT_TRUE(entries.count(0) && entries.count(1));
+  std::vector<int> vertices{entries.at(0), entries.at(1)};  // walk index = vertex here
+  std::sort(vertices.begin(), vertices.end());
+  EXPECT_EQ(vertices[0], 0);
+  EXPECT_TRUE(vertices[1] == 2 || vertices[1] == 3) << vertices[1];
+  EXPECT_DOUBLE_EQ(graph.distance(0, 2), 20.0);
+  // a robot never heard before the change: no entries (nearest vertex instead)
+  r.history[1] = {{0, 3, 120.0, 120.0}};
+  EXPECT_TRUE(TpuafPlusProbe::transition_entries(*s, 0).empty());
+}
+
+}  // namespace
+}  // namespace tpuaf
