@@ -41,12 +41,7 @@ void tpuaf::bindings::bind_strategy(py::module_& m) {
       .def_property_readonly("robot", &PolicyHost::robot)
       .def("set_state", &PolicyHost::set_state, py::arg("now_s"), py::arg("current_vertex"),
            py::arg("average_speed_mps"))
-      .def("take_messages",
-           [](PolicyHost& h) {
-             std::vector<TeamMessage> out;
-             for (auto& o : h.take_messages()) out.push_back(std::move(o.message));
-             return out;
-           })
+      .def("take_messages", &PolicyHost::take_messages)
       .def("take_wake_time", &PolicyHost::take_wake_time, "[s], NaN: no wake-up asked.")
       .def("take_goal_change", &PolicyHost::take_goal_change, "-1: the goal stays.");
 }

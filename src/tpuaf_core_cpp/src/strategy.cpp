@@ -61,7 +61,7 @@ double PolicyHost::average_speed(int robot) const {
 
 void PolicyHost::send(int robot, TeamMessage message) {
   check_robot(robot);
-  outbox_.push_back({robot, std::move(message)});
+  outbox_.push_back(std::move(message));
 }
 
 void PolicyHost::wake_at(int robot, double time_s) {
@@ -80,8 +80,8 @@ void PolicyHost::set_state(double now_s, int current_vertex, double average_spee
   speed_mps_ = average_speed_mps;
 }
 
-std::vector<PolicyHost::Outgoing> PolicyHost::take_messages() {
-  std::vector<Outgoing> out;
+std::vector<TeamMessage> PolicyHost::take_messages() {
+  std::vector<TeamMessage> out;
   out.swap(outbox_);
   return out;
 }

@@ -63,10 +63,6 @@ class StrategyHost {
 // (messages sent, wake-up asked, goal changed) after it.
 class PolicyHost final : public StrategyHost {
  public:
-  struct Outgoing {
-    int robot;
-    TeamMessage message;
-  };
   // graph: kept by reference, must outlive the host.
   PolicyHost(const PatrolGraph& graph, int robots, int robot);
   double now() const override { return now_; }
@@ -85,7 +81,7 @@ class PolicyHost final : public StrategyHost {
   void set_state(double now_s, int current_vertex, double average_speed_mps);
   // What the strategy did since the last take_*(): its messages, the wake-up time asked (NaN:
   // none) and the new goal (-1: none).
-  std::vector<Outgoing> take_messages();
+  std::vector<TeamMessage> take_messages();
   double take_wake_time();
   int take_goal_change();
 
@@ -95,7 +91,7 @@ class PolicyHost final : public StrategyHost {
   int robots_, robot_;
   double now_ = 0, speed_mps_ = 0;
   int current_ = 0;
-  std::vector<Outgoing> outbox_;
+  std::vector<TeamMessage> outbox_;
   double wake_s_;
   int goal_change_ = -1;
 };

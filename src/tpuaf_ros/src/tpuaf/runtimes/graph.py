@@ -337,8 +337,8 @@ class GraphRun:
                                     [int(f.robot) for f in self.faults],
                                     [f.kind == DEATH for f in self.faults], heartbeat_rngs)
         cls = REGISTRY.get(config.strategy)
-        self.policies = [cls(config.strategy_params) for _ in range(config.robots)]
-        self.params = dict(self.policies[0].params)  # resolved (ParameterError if invalid)
+        first = cls(config.strategy_params)  # resolves the parameters (ParameterError)
+        self.params = dict(first.params)
         self.core_strategy = issubclass(cls, CoreStrategyPolicy)
         if self.core_strategy:
             streams = [_rng_stream(self.seed, 2, i) for i in range(config.robots)]
@@ -347,8 +347,8 @@ class GraphRun:
             self.robots: list[_GraphRobot] = []
         else:
             self.robots = [
-                _GraphRobot(self, i, starts[i], self.policies[i],
-                             np.random.default_rng([self.seed, 2, i]))
+                _GraphRobot(self, i, starts[i], first if i == 0 else cls(config.strategy_params),
+                            np.random.default_rng([self.seed, 2, i]))
                 for i in range(config.robots)
             ]
             self._strategy = tpuaf_core.PythonStrategy(_PythonTeam(self.robots))
