@@ -1,5 +1,5 @@
-"""The graph runtime's C++ event loop: numpy's streams and sums bit for bit, heartbeats as the
-physics runtime's, the strategies of the core reached from every runtime, clear errors.
+"""The graph runtime's C++ event loop: numpy's streams and sums bit for bit, the strategies of
+the core reached from every runtime, clear errors.
 
 Its results against committed outputs: tests/test_runtime_equivalence.py.
 """
@@ -33,42 +33,6 @@ def test_numpy_mean_is_bit_identical():
     for n in [1, 5, 8, 9, 127, 128, 129, 1000, 8191, 8192, 8193, 20011, 100003]:
         a = rng.random(n) * 1e3
         assert tpuaf_core.numpy_mean(a) == float(np.mean(a))
-
-
-@pytest.mark.parametrize(("loss", "delay_s", "period_s"), [(0.0, 0.0, 1.0), (0.4, 5.0, 1.0),
-                                                          (0.7, 0.3, 0.7)])
-def test_heartbeat_links_in_cpp_equal_python_s(loss, delay_s, period_s):
-    """Every query of the C++ HeartbeatLinks answers as tpuaf.team.liveness.HeartbeatLinks,
-    before and after deaths (at a heartbeat's instant and between two)."""
-    import math
-
-    import tpuaf_core
-    from tpuaf.team.liveness import HeartbeatLinks
-
-    n, duration, timeout, seed = 5, 120.0, 3.0, 11
-    python = HeartbeatLinks(n, duration, timeout, delay_s, loss, seed, period_s)
-    rngs = [tpuaf_core.NumpyPcg64(np.random.default_rng([seed, 4, j]).bit_generator.state)
-            for j in range(n)]
-    native = tpuaf_core.HeartbeatLinks(n, duration, timeout, delay_s, loss, period_s, rngs)
-    rng = np.random.default_rng(0)
-    checked, dead = 0, False
-    for now in np.sort(rng.uniform(0.0, duration + 10.0, 150)).tolist() + [7 * period_s]:
-        if now > 40.0 and not dead:
-            dead = True
-            for links in (python, native):
-                links.died(1, 40.0)
-                links.died(3, 21 * period_s)  # exactly at a heartbeat
-        for i in range(n):
-            for j in range(n):
-                assert native.last_arrival_s(i, j, now) == python.last_arrival_s(i, j, now)
-                last_heard = python.last_arrival_s(i, j, now)
-                for heard in (last_heard, -math.inf, now - 0.5 * timeout):
-                    for lost in (False, True):
-                        assert native.next_check_s(i, j, heard, lost, now) == \
-                            python.next_check_s(i, j, heard, lost, now)
-                        checked += 1
-    assert dead and checked > 10000
-
 
 
 def test_a_plan_without_a_walk_for_a_robot_is_refused():

@@ -14,7 +14,7 @@ from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.config import PhysicsConfig, RunConfig
 from tpuaf.runtimes.graph import GraphRun
 from tpuaf.runtimes.physics import PhysicsRun
-from tpuaf.team.liveness import HeartbeatLinks
+from tpuaf.team.liveness import heartbeat_links
 
 QUIET = "cr"  # a strategy that sends no team messages: only heartbeats are heard
 
@@ -44,7 +44,7 @@ def graph(**kwargs) -> tuple[GraphRun, dict, list]:
 
 
 def test_links_without_loss_hear_every_heartbeat_until_the_death():
-    links = HeartbeatLinks(3, 100.0, timeout_s=10.0, delay_s=0.5)
+    links = heartbeat_links(3, 100.0, timeout_s=10.0, delay_s=0.5)
     assert links.last_arrival_s(0, 1, 0.4) == -math.inf  # the first arrives at 0.5 s
     assert links.last_arrival_s(0, 1, 7.2) == 6.5
     assert links.next_check_s(0, 1, 6.5, False, 7.2) == 110.5  # the last (100 s) + 0.5 + 10
@@ -57,11 +57,11 @@ def test_links_without_loss_hear_every_heartbeat_until_the_death():
 
 
 def test_lossy_links_draw_per_recipient_and_find_each_silence():
-    links = HeartbeatLinks(3, 3600.0, timeout_s=10.0, loss=0.6, seed=4)
-    again = HeartbeatLinks(3, 3600.0, timeout_s=10.0, loss=0.6, seed=4)
+    links = heartbeat_links(3, 3600.0, timeout_s=10.0, loss=0.6, seed=4)
+    again = heartbeat_links(3, 3600.0, timeout_s=10.0, loss=0.6, seed=4)
     a = [links.last_arrival_s(r, 2, 1000.0) for r in (0, 1)]
     assert a == [again.last_arrival_s(r, 2, 1000.0) for r in (0, 1)]  # seeded
-    received, silences = links._of(0, 2)
+    received, silences = links.received(0, 2), links.silences(0, 2)
     assert 0.3 < len(received) / links.count < 0.5  # 60 % lost
     # A silence: two heartbeats heard more than the timeout apart; none in between is heard.
     assert len(silences) > 0
@@ -120,7 +120,7 @@ def test_loss_moves_each_survivors_detection_to_its_last_heartbeat_heard():
     assert {t for _, r, t in clean_heard if r == 5} == {410.0}
     times = {o: t for o, r, t in lossy_heard if r == 5}
     assert sorted(times) == [0, 1, 2, 3, 4, 6, 7]
-    links = HeartbeatLinks(8, 900.0, timeout_s=10.0, loss=0.5, seed=3)  # the run's own draws
+    links = heartbeat_links(8, 900.0, timeout_s=10.0, loss=0.5, seed=3)  # the run's own draws
     links.died(5, 400.0)
     for o, t in times.items():
         assert t == links.last_arrival_s(o, 5, 900.0) + 10.0
@@ -138,7 +138,7 @@ def test_heavy_loss_takes_live_teammates_for_lost_until_heard_again():
     false = [(o, r, t) for o, r, t in heard if r != 3 or t < 1700.0]
     assert summary["liveness"]["false_losses"] == len(false) > 0
     o, r, t = false[0]
-    links = HeartbeatLinks(4, 1800.0, timeout_s=10.0, loss=0.7, seed=2)  # the run's own draws
+    links = heartbeat_links(4, 1800.0, timeout_s=10.0, loss=0.7, seed=2)  # the run's own draws
     links.died(3, 1700.0)
     assert links.last_arrival_s(o, r, 1800.0) > t  # heard again later
 

@@ -135,12 +135,12 @@ void wrap_config(py::module_& m) {
       .def_readwrite("heartbeat_period_s", &EngineConfig::heartbeat_period_s);
 }
 
-// HeartbeatLinks: the heartbeats of runs with faults (tpuaf.team.liveness.HeartbeatLinks).
+// HeartbeatLinks: the heartbeats of runs with faults, of the graph and physics runtimes.
 void wrap_heartbeats(py::module_& m) {
   py::class_<HeartbeatLinks>(m, "HeartbeatLinks",
-                             "Heartbeats of a run with faults, as "
-                             "tpuaf.team.liveness.HeartbeatLinks (rngs: default_rng([seed, 4, "
-                             "sender]) per sender, needed with loss).")
+                             "Heartbeats of a run with faults (rngs: default_rng([seed, 4, "
+                             "sender]) per sender, needed with loss; "
+                             "tpuaf.team.liveness.heartbeat_links builds one).")
       .def(py::init<int, double, double, double, double, double, std::vector<NumpyPcg64>>(),
            py::arg("robots"), py::arg("duration_s"), py::arg("timeout_s"), py::arg("delay_s"),
            py::arg("loss"), py::arg("period_s"), py::arg("rngs"))
@@ -148,10 +148,14 @@ void wrap_heartbeats(py::module_& m) {
       .def("last_arrival_s", &HeartbeatLinks::last_arrival_s, py::arg("recipient"),
            py::arg("sender"), py::arg("t"))
       .def("next_check_s", &HeartbeatLinks::next_check_s, py::arg("recipient"), py::arg("sender"),
-           py::arg("last_heard"), py::arg("lost"), py::arg("now"));
+           py::arg("last_heard"), py::arg("lost"), py::arg("now"))
+      .def_property_readonly("period_s", &HeartbeatLinks::period_s)
+      .def_property_readonly("count", &HeartbeatLinks::count)
+      .def("received", &HeartbeatLinks::received, py::arg("recipient"), py::arg("sender"))
+      .def("silences", &HeartbeatLinks::silences, py::arg("recipient"), py::arg("sender"));
 }
 
-// TPUAF+'s decision path; its plans come from a Python callable (tpuaf.runtimes.native):
+// TPUAF+'s decision path; its plans come from a Python callable (TpuafPlus.core_strategy):
 // plans(team) -> (routes, route_of, schedule) with routes [(walk, arc [m], L [m], robots)],
 // route_of [route index or -1 per robot], schedule [(entry index or -1, departure [s]) per
 // robot]. It is called with the GIL held (the run keeps it: is_native() is false).
@@ -199,22 +203,21 @@ void wrap_tpuaf_plus(py::module_& m) {
       .def_readwrite("stay_s", &TpuafPlusParams::stay_s);
   py::class_<TpuafPlusStrategy, TeamStrategy>(
       m, "TpuafPlusStrategy", "TPUAF+'s decision path in C++ (tpuaf.policies.tpuaf_plus).")
-      .def(py::init([](const TpuafKnowledge& knowledge, TpuafPlusParams params,
-                       py::function plans) {
-             auto plan_source = [plans](const std::vector<int>& team) {
-               py::tuple t = plans(team);
-               auto plan = std::make_shared<PlusPlan>();
-               for (py::handle item : py::reinterpret_borrow<py::list>(t[0])) {
-                 plan->routes.push_back(route_from_python(item));
-               }
-               plan->route_of = t[1].cast<std::vector<int>>();
-               plan->schedule = t[2].cast<std::vector<std::pair<int, double>>>();
-               return std::shared_ptr<const PlusPlan>(std::move(plan));
-             };
-             return std::make_unique<TpuafPlusStrategy>(knowledge, std::move(params),
-                                                        plan_source);
-           }),
-           py::arg("knowledge"), py::arg("params"), py::arg("plans"))
+      .def(
+          py::init([](const TpuafKnowledge& knowledge, TpuafPlusParams params, py::function plans) {
+            auto plan_source = [plans](const std::vector<int>& team) {
+              py::tuple t = plans(team);
+              auto plan = std::make_shared<PlusPlan>();
+              for (py::handle item : py::reinterpret_borrow<py::list>(t[0])) {
+                plan->routes.push_back(route_from_python(item));
+              }
+              plan->route_of = t[1].cast<std::vector<int>>();
+              plan->schedule = t[2].cast<std::vector<std::pair<int, double>>>();
+              return std::shared_ptr<const PlusPlan>(std::move(plan));
+            };
+            return std::make_unique<TpuafPlusStrategy>(knowledge, std::move(params), plan_source);
+          }),
+          py::arg("knowledge"), py::arg("params"), py::arg("plans"))
       .def("walk", &TpuafPlusStrategy::walk, py::arg("robot"), "Robot `robot`'s current walk.")
       .def("team", &TpuafPlusStrategy::team, py::arg("robot"),
            "The robots `robot` believes alive (itself included).");
@@ -222,12 +225,11 @@ void wrap_tpuaf_plus(py::module_& m) {
 
 // TeamStrategy and its Python, TPUAF, GBS and DTAG (TPUAF+: above) decision paths.
 void wrap_strategies(py::module_& m) {
-  py::class_<TeamStrategy> strategy(m, "TeamStrategy",
-                                    "A team's decision makers, one per robot.");
+  py::class_<TeamStrategy> strategy(m, "TeamStrategy", "A team's decision makers, one per robot.");
   tpuaf::bindings::bind_strategy_calls(strategy);
   strategy.def_property_readonly("is_native", &TeamStrategy::is_native,
-                             "True if it never calls back into Python (the run may release "
-                             "the GIL).");
+                                 "True if it never calls back into Python (the run may release "
+                                 "the GIL).");
   py::class_<PythonStrategy, TeamStrategy>(
       m, "PythonStrategy",
       "Calls team.start(robot), team.decide(robot) -> int | None, team.on_message(robot, msg).")

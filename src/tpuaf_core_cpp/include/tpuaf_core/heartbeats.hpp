@@ -8,7 +8,8 @@
 
 namespace tpuaf {
 
-// Heartbeats of a run with faults (tpuaf.team.liveness.HeartbeatLinks, step for step): robot j
+// Heartbeats of a run with faults (the graph and physics runtimes; tpuaf.team.liveness.
+// heartbeat_links builds one for the physics runtime): robot j
 // sends heartbeat k at k * period [s] while alive (k * period <= its death time) and within the
 // run; robot i hears it delay [s] later unless lost, one draw per (sender, recipient, heartbeat)
 // from the sender's stream numpy default_rng([seed, 4, sender]).random((n, count)).
@@ -22,6 +23,16 @@ class HeartbeatLinks {
   double last_arrival_s(int recipient, int sender, double t);
   // [s] the next time recipient's view of sender can change from heartbeats alone (+inf: never).
   double next_check_s(int recipient, int sender, double last_heard, bool lost, double now);
+  double period_s() const { return period_s_; }
+  std::int64_t count() const { return count_; }  // heartbeats per sender over the run
+  // Heartbeat indices `recipient` hears of `sender` (ascending), and the positions p among them
+  // whose next one arrives more than the timeout later (a silence).
+  const std::vector<std::int32_t>& received(int recipient, int sender) {
+    return link(recipient, sender).received;
+  }
+  const std::vector<std::int32_t>& silences(int recipient, int sender) {
+    return link(recipient, sender).silences;
+  }
 
  private:
   struct Link {

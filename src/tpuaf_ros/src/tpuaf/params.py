@@ -103,7 +103,7 @@ _C = CONTROLLER_DEFAULTS
 @dataclass(frozen=True)
 class LivenessDefaults:
     """Defaults of team liveness, in one place, read by every runtime (RunConfig, RobotMachine,
-    TeammateLiveness, HeartbeatLinks, AgentRuntime), the nodes (AgentParams, MonitorParams),
+    TeammateLiveness, heartbeat_links, AgentRuntime), the nodes (AgentParams, MonitorParams),
     the monitor (FleetMonitor), the CLI (`--teammate-timeout`) and the docs; the launch files
     write the same values (tests/test_defaults.py checks them).
 

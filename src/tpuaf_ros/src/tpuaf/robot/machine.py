@@ -14,7 +14,7 @@ A runtime ("driver") owns the clock, the transport and the motion. It calls `sta
 `die` and `stall`, and feeds the robot's liveness (`TeammateLiveness`, team/liveness.py):
 `hear(robot, t)` for every team message and heartbeat delivered, `check_liveness(now)` when a
 check is due (the ROS agent node: 4 Hz; graph and physics: when a silence can end, from
-`HeartbeatLinks`), which calls the policy's `on_teammate_lost` for a teammate silent for the
+`heartbeat_links`), which calls the policy's `on_teammate_lost` for a teammate silent for the
 timeout; the machine calls back the driver (`RobotDriver`) to move, dwell, halt,
 send and schedule wake-ups, and reports what happened through `emit(kind, vertex, from_vertex,
 t)` with the AgentEvent kinds of tpuaf.topics: START, GOAL, REACHED (the one definition of a

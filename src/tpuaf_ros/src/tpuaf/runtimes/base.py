@@ -8,7 +8,7 @@ the run summary. A runtime subclasses it and supplies motion through three hooks
 (call `liveness_due(i, token)` at run time t [s]).
 
 Liveness (runs with faults): every robot's machine is fed the team messages delivered to it and
-the heartbeats it hears (`HeartbeatLinks`: one a second from every live robot, with the bus's
+the heartbeats it hears (`heartbeat_links`: one a second from every live robot, with the bus's
 loss and delay), and checks its teammates' silence when one can reach the timeout
 (`config.teammate_timeout_s`, the agent node's ~teammate_timeout): a death is detected from what
 the survivors hear, later under loss; a stalled robot keeps its heartbeats. One pending check per
@@ -32,7 +32,7 @@ from tpuaf.robot.machine import RobotMachine
 from tpuaf.runtimes.config import RunConfig, travel_map
 from tpuaf.runtimes.faults import DEATH, Fault
 from tpuaf.team.bus import TeamBus
-from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, HeartbeatLinks
+from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, heartbeat_links
 from tpuaf.topics import REACHED, START
 
 
@@ -51,7 +51,7 @@ class TeamRun:
         self.faults = config.faults()
         self.recorder: RunRecorder | None = None
         self.machines: list[RobotMachine] = []
-        self.links: HeartbeatLinks | None = None  # heartbeats, in runs with faults
+        self.links = None  # tpuaf_core.HeartbeatLinks: heartbeats, in runs with faults
         self._liveness_token: list[int] = []  # per robot: the id of its one pending check
         self.losses: list[tuple[float, int, int]] = []  # (t [s], observer, lost teammate)
         self._died_at: dict[int, float] = {}
@@ -73,9 +73,9 @@ class TeamRun:
             for machine in machines:
                 machine.on_announce = self.announcer(machine.robot)
             cfg = self.config
-            self.links = HeartbeatLinks(cfg.robots, float(cfg.duration_s),
-                                        float(cfg.teammate_timeout_s), self.bus.delay_s,
-                                        self.bus.loss, self.seed, self.heartbeat_period_s)
+            self.links = heartbeat_links(cfg.robots, float(cfg.duration_s),
+                                         float(cfg.teammate_timeout_s), self.bus.delay_s,
+                                         self.bus.loss, self.seed, self.heartbeat_period_s)
             self._liveness_token = [0] * len(machines)
 
     heartbeat_period_s = HEARTBEAT_PERIOD_S  # [s] (the physics runtime: its agents')

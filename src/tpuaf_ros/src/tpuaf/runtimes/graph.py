@@ -3,7 +3,7 @@
 The event loop is the C++ core's `tpuaf_core.GraphEngine` (engine.cpp), the only one: robots
 drive shortest paths along graph edges at nominal speed (straight segments between vertex
 positions, each taking edge length / speed), the team bus delays and loses messages, faults
-(deaths, `--fail-random`, stalls) are injected at their times, heartbeats (`HeartbeatLinks`, loss
+(deaths, `--fail-random`, stalls) are injected at their times, heartbeats (heartbeats.cpp, loss
 draws from the streams [seed, 4, sender]) feed every robot's teammate liveness, and the
 ground-truth recorder measures visits, idleness, interference and X. Runs are deterministic
 for a seed. Two kinds of strategies:
@@ -35,6 +35,7 @@ from tpuaf.runtimes.base import TeamRun, liveness_summary
 from tpuaf.runtimes.config import RunConfig, run_description, travel_map
 from tpuaf.runtimes.faults import DEATH
 from tpuaf.team.bus import BusStats
+from tpuaf.team.liveness import heartbeat_streams
 
 
 def _recorder_default(name: str) -> float:
@@ -330,12 +331,10 @@ class GraphRun:
             self.graph, positions, ec, field, _rng_stream(self.seed, 1)
         )
         if self.faults:
-            # Heartbeat losses: stream [seed, 4, sender] (HeartbeatLinks), only drawn with loss.
-            heartbeat_rngs = ([_rng_stream(self.seed, 4, j) for j in range(config.robots)]
-                              if float(config.loss) > 0 else [])
             self._engine.set_faults([float(f.time_s) for f in self.faults],
                                     [int(f.robot) for f in self.faults],
-                                    [f.kind == DEATH for f in self.faults], heartbeat_rngs)
+                                    [f.kind == DEATH for f in self.faults],
+                                    heartbeat_streams(config.robots, self.seed, float(config.loss)))
         cls = REGISTRY.get(config.strategy)
         first = cls(config.strategy_params)  # resolves the parameters (ParameterError)
         self.params = dict(first.params)

@@ -17,7 +17,7 @@ are delivered before the next robot's turn when the bus has no delay), then the 
 Deterministic per seed: world noise [seed], bus [seed, 1], policies [seed, 2, i].
 
 Liveness (runs with faults): as the fleet's agents, every robot hears its teammates' heartbeats
-(one per `heartbeat_period_s`, with the bus's loss and delay: `HeartbeatLinks`) and team
+(one per `heartbeat_period_s`, with the bus's loss and delay: `heartbeat_links`) and team
 messages, and takes a teammate silent for `teammate_timeout_s` for lost (`TeamRun`); checks
 fall on the control ticks. A stalled robot keeps its heartbeats.
 """
