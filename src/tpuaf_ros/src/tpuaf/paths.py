@@ -1,8 +1,8 @@
 """Where the installed package keeps its data, found through the package, never the source tree.
 
 - `builtin_maps_dir()`: the built-in maps, package data of `tpuaf` (`tpuaf/data/maps/`): in the
-  source tree and the devel space (whose loader points at it) and in an install space (copied
-  there by src/tpuaf_ros/CMakeLists.txt) alike.
+  source tree and the devel space (whose loader points at it) a link to the repository's
+  top-level `maps/`, in an install space a copy (src/tpuaf_ros/CMakeLists.txt).
 - `catkin_prefix()`: the catkin devel or install space holding this package (its `env.sh`
   runs ROS tools with the workspace's environment), or None when it is not in one.
 """

@@ -1,7 +1,7 @@
 """Built-in maps `grid` and `lab` (SPEC section 7), generated here and committed as package data.
 
 `python -m tpuaf.maps.builtin [OUT_DIR]` regenerates them (default: the package data,
-tpuaf/data/maps/grid and lab).
+tpuaf/data/maps/grid and lab: the top-level maps/ folder).
 
 grid: 5x5 lattice, spacing 5.7 m, 25.8 x 25.8 m, vertices at 1.425 + 5.7 k m (the coordinates
     of patrolling_sim's grid, numbered the same way: id = 5 * column + row from the top), 40
