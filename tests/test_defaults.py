@@ -175,7 +175,7 @@ def test_liveness_defaults_are_declared_once_and_read_everywhere():
     from tpuaf.robot.machine import RobotMachine
     from tpuaf.runtimes.agent import AgentRuntime
     from tpuaf.runtimes.config import PhysicsConfig, RunConfig
-    from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, HeartbeatLinks, TeammateLiveness
+    from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, TeammateLiveness, heartbeat_links
 
     assert (L.teammate_timeout_s, L.heartbeat_period_s, L.death_timeout_s) == (10.0, 1.0, 10.0)
     a, m = AgentParams(), MonitorParams()
@@ -185,7 +185,7 @@ def test_liveness_defaults_are_declared_once_and_read_everywhere():
     assert TeammateLiveness(2, 0).timeout_s == L.teammate_timeout_s
     assert HEARTBEAT_PERIOD_S == L.heartbeat_period_s
     for fn, name in ((RobotMachine, "teammate_timeout_s"), (AgentRuntime, "teammate_timeout_s"),
-                     (AgentRuntime, "heartbeat_period_s"), (HeartbeatLinks, "period_s"),
+                     (AgentRuntime, "heartbeat_period_s"), (heartbeat_links, "period_s"),
                      (FleetMonitor, "teammate_timeout_s")):
         value = inspect.signature(fn).parameters[name].default
         assert value in (L.teammate_timeout_s, L.heartbeat_period_s) and value == (
