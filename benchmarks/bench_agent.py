@@ -18,8 +18,8 @@ import numpy as np
 from tpuaf.maps import load_map
 from tpuaf.navigation import ControllerConfig, Scan, scan_points
 from tpuaf.policies import REGISTRY
+from tpuaf.robot.model import choose_robot
 from tpuaf.runtimes.agent import AgentRuntime
-from tpuaf.runtimes.config import choose_robot
 
 from tpuaf_stage.config import parse_world
 

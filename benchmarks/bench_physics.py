@@ -41,7 +41,7 @@ def one(source: str, robots: int, robot: str, duration: float, seed: int):
     wall, cpu = time.perf_counter(), time.process_time()
     summary = run.run()
     return (time.perf_counter() - wall, time.process_time() - cpu, summary,
-            run.robot_choice.preset)
+            run.robot.preset)
 
 
 def cpu_split(source: str, robots: int, duration: float) -> dict[str, float]:

@@ -32,8 +32,6 @@ from common import RESULTS, header, write
 PS = Path("/work/shared/maps/patrolling_sim")
 MAPS = ["1r5", "DIAG_labs", "ctcv", "cumberland", "example", "grid", "lab", "builtin:grid"]
 ROBOTS = ["auto", "burger"]
-CONTROL_PERIOD_S = 0.1  # [s] the physics runtime's default (runtimes/config.py)
-PHYSICS_STEP_S = 0.05  # [s]
 TARGET = 0.10  # model error on the median edge
 
 
@@ -49,9 +47,9 @@ def load(name: str):
 
 def robot_for(name: str, patrol_map):
     """(preset, cruise speed [m/s]) of robot `name` ('auto': the runtime's choice)."""
-    from tpuaf.runtimes.config import choose_robot
+    from tpuaf.robot.model import choose_robot
 
-    choice = choose_robot(name, patrol_map.settings)
+    choice = choose_robot(name, patrol_map.settings, env={})
     return choice.preset, float(choice.speed_mps)
 
 
@@ -72,6 +70,7 @@ def walk(patrol_map, preset: str, speed_mps: float, duration_s: float, seed: int
         retry_wait_for,
         scan_points_batch,
     )
+    from tpuaf.navigation.controller import CONTROL_PERIOD_S, PHYSICS_STEP_S
     from tpuaf.navigation.planner import shared_planner
     from tpuaf_stage.presets import ROBOT_PRESETS
 

@@ -19,6 +19,10 @@ PATROLLING_SIM_MAPS = SHARED / "maps" / "patrolling_sim"
 settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
+# A TurtleBot3 shell sets TURTLEBOT3_MODEL, which `--robot auto` reads: the suite runs (and its
+# subprocesses inherit) without it, so its figures do not depend on the developer's shell.
+os.environ.pop("TURTLEBOT3_MODEL", None)
+
 
 @pytest.fixture(scope="session")
 def shared_maps() -> Path:

@@ -332,6 +332,8 @@ def test_agent_controller_defaults_are_the_controllers():
     from tpuaf.navigation import ControllerConfig
 
     c, p = ControllerConfig(), AgentParams()
-    assert (p.max_angular_speed, p.safety_margin, p.plan_margin, p.stuck_timeout, p.backoff_time,
-            p.max_retries) == (c.max_angular_speed, c.safety_margin, c.plan_margin,
-                               c.stuck_timeout_s, c.backoff_s, c.max_retries)
+    assert (p.safety_margin, p.plan_margin, p.stuck_timeout, p.backoff_time,
+            p.max_retries) == (c.safety_margin, c.plan_margin, c.stuck_timeout_s, c.backoff_s,
+                               c.max_retries)
+    # Speed limits and radius default to 0: the robot model's (robot/model.py) decides them.
+    assert (p.max_linear_speed, p.max_angular_speed, p.robot_radius) == (0.0, 0.0, 0.0)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from tpuaf.cli.fleet import RECORD_GROUPS, record_regex
 from tpuaf.maps import load_map
-from tpuaf.runtimes.config import ConfigError, choose_robot
+from tpuaf.robot.model import RobotChoiceError, choose_robot
 from tpuaf.team.relay import RelayModel
 
 REPO = Path(__file__).resolve().parents[1]
@@ -49,7 +49,7 @@ def test_robot_is_never_made_faster_than_its_preset():
                                                                         1.0, "")
     lab = load_map("lab").settings
     assert choose_robot("auto", lab).preset == "burger"
-    with pytest.raises(ConfigError, match="unknown robot preset"):
+    with pytest.raises(RobotChoiceError, match="unknown robot preset"):
         choose_robot("tank", grid)
 
 

@@ -36,7 +36,7 @@ def test_cli_physics_run_on_grid_visits_every_vertex(tmp_path):
     assert summary["unvisited_vertices"] == 0 and summary["visits"] > 4 * 25
     assert summary["collisions"] == 0
     config = yaml.safe_load((out / "config.yaml").read_text())
-    assert config["runtime"] == "physics" and config["robot_model"]["max_linear_speed_mps"] == 1.0
+    assert config["runtime"] == "physics" and config["robot_model"]["speed_mps"] == 1.0
     rows = (out / "visits.csv").read_text().splitlines()
     assert len(rows) == summary["visits"] + 1
 
@@ -85,7 +85,7 @@ def test_death_and_stall_in_the_physics_world():
 def test_lab_with_burgers_at_a_tenth_of_a_metre_per_second():
     """Table 4's setting: the lab map, TurtleBot3 Burgers at 0.1 m/s."""
     summary, engine = physics(map="lab", robot="burger", robots=2, duration_s=200, seed=0)
-    assert engine.robot_choice.preset == "burger" and engine.robot_choice.speed_mps == 0.1
+    assert engine.robot.preset == "burger" and engine.robot.speed_mps == 0.1
     assert engine.world.robot_spec(0).radius_m == pytest.approx(0.105)
     assert summary["visits"] > 2
 
@@ -99,13 +99,10 @@ def test_bad_physics_configs_are_refused():
         PhysicsRun(PhysicsConfig(map="grid", robot="tank"))
 
 
-def test_cli_refuses_a_robot_preset_without_the_physics_runtime():
-    proc = subprocess.run([*TPUAF, "run", "--robot", "burger", "--duration", "10", "--quiet"],
-                          capture_output=True, text=True, timeout=120)
-    assert proc.returncode == 2 and "needs --runtime physics" in proc.stderr
+def test_cli_refuses_an_unknown_robot_preset_in_the_physics_runtime(tmp_path):
     proc = subprocess.run([*TPUAF, "run", "--runtime", "physics", "--robot", "tank",
-                           "--duration", "10", "--quiet"], capture_output=True, text=True,
-                          timeout=120)
+                           "--duration", "10", "--quiet", "--out", str(tmp_path / "run")],
+                          capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and "unknown robot preset 'tank'" in proc.stderr
     assert "Traceback" not in proc.stderr
 

@@ -19,8 +19,9 @@ from tpuaf.navigation import ControllerConfig, Event, GraphRoute, LocalControlle
 from tpuaf.navigation.planner import PathPlanner, PlannerConfig, with_planned_lengths
 from tpuaf.policies import REGISTRY
 from tpuaf.robot.machine import STAY_S
+from tpuaf.robot.model import choose_robot
 from tpuaf.runtimes.agent import AgentRuntime
-from tpuaf.runtimes.config import PhysicsConfig, RunConfig, choose_robot
+from tpuaf.runtimes.config import PhysicsConfig, RunConfig
 from tpuaf.runtimes.graph import GraphRun
 from tpuaf.runtimes.physics import PhysicsRun
 
@@ -156,7 +157,7 @@ def test_physics_robots_cross_the_wall_only_on_planned_paths(door_map):
         return engine.run(), engine
 
     planned, engine = run(True)
-    assert engine.robot_choice.radius_m == RADIUS
+    assert engine.robot.radius_m == RADIUS
     per_vertex = np.bincount([v for _, _, v in engine.recorder.visits], minlength=2)
     assert per_vertex.min() >= 5  # both sides of the wall, again and again
     assert planned["goal_failures"] == 0 and planned["collisions"] == 0

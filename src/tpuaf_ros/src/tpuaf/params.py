@@ -143,9 +143,10 @@ class AgentParams:
     navigation: str = "builtin"  # builtin (laser local controller) | move_base (actionlib client)
     move_base_action: str = "move_base"  # MoveBaseAction server name (relative to the namespace)
     move_base_timeout: float = 60.0  # [s] without progress toward a move_base goal: goal failed
-    max_linear_speed: float = 0.0  # [m/s]; 0 = the map's nominal speed
-    max_angular_speed: float = _C.max_angular_speed  # [rad/s]
-    robot_radius: float = 0.0  # [m]; 0 = the map's robot radius
+    robot: str = "auto"  # robot preset (tpuaf.robot.model); auto: TURTLEBOT3_MODEL, else the map's
+    max_linear_speed: float = 0.0  # [m/s]; 0 = the robot's cruise speed
+    max_angular_speed: float = 0.0  # [rad/s]; 0 = the robot's
+    robot_radius: float = 0.0  # [m]; 0 = the robot's
     safety_margin: float = _C.safety_margin  # [m]
     plan_margin: float = _C.plan_margin  # [m]
     stuck_timeout: float = _C.stuck_timeout_s  # [s] without progress before a recovery
@@ -169,7 +170,7 @@ class AgentParams:
     ranges: ClassVar[dict[str, tuple[str, float]]] = {
         "robot_index": (">=", 0), "robots": (">=", 1), "seed": (">=", 0),
         "move_base_timeout": (">", 0), "max_linear_speed": (">=", 0),
-        "max_angular_speed": (">", 0), "robot_radius": (">=", 0), "safety_margin": (">=", 0),
+        "max_angular_speed": (">=", 0), "robot_radius": (">=", 0), "safety_margin": (">=", 0),
         "plan_margin": (">=", 0), "stuck_timeout": (">", 0), "backoff_time": (">", 0),
         "max_retries": (">=", 0), "waypoint_tolerance": (">", 0), "scan_beams": (">=", 8),
         "heartbeat_period": (">", 0), "input_timeout": (">", 0), "teammate_timeout": (">", 0),

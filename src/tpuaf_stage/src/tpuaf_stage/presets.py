@@ -3,7 +3,8 @@
 Robot presets (key `robot.preset` of a world file):
 - burger: TurtleBot3 Burger-like (default). 0.105 m disc, 0.22 m/s, 2.84 rad/s; the
   accelerations are the TurtleBot3 navigation limits (2.5 m/s^2, 3.2 rad/s^2).
-- waffle_pi: TurtleBot3 Waffle Pi-like. 0.153 m disc, 0.26 m/s, 1.82 rad/s.
+- waffle, waffle_pi: TurtleBot3 Waffle and Waffle Pi-like (the same base). 0.153 m disc,
+  0.26 m/s, 1.82 rad/s. The names are those of TURTLEBOT3_MODEL.
 - patrolling_sim: the reference simulator's robot: 0.33 m disc (radius 0.165 m), 1 m/s;
   1.57 rad/s and unlimited accelerations are our choice (the reference gives no figure).
 
@@ -26,6 +27,8 @@ ROBOT_PRESETS: dict[str, dict] = {
                "max_linear_accel": 2.5, "max_angular_accel": 3.2, **_ROBOT_COMMON},
     "waffle_pi": {"radius": 0.153, "max_linear_speed": 0.26, "max_angular_speed": 1.82,
                   "max_linear_accel": 2.5, "max_angular_accel": 3.2, **_ROBOT_COMMON},
+    "waffle": {"radius": 0.153, "max_linear_speed": 0.26, "max_angular_speed": 1.82,
+               "max_linear_accel": 2.5, "max_angular_accel": 3.2, **_ROBOT_COMMON},
     "patrolling_sim": {"radius": 0.165, "max_linear_speed": 1.0, "max_angular_speed": 1.57,
                        "max_linear_accel": INF, "max_angular_accel": INF, **_ROBOT_COMMON},
 }

@@ -58,8 +58,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     faults.add_argument("--runtime", choices=["graph", "physics"], default="graph",
                         help="graph (event-driven, default) or physics (robots with dynamics)")
     faults.add_argument("--robot", default=None, metavar="PRESET",
-                        help="physics runtime: robot preset (burger, waffle_pi, patrolling_sim, "
-                             "auto) as in `tpuaf run --robot`")
+                        help="robot model in either runtime (burger, waffle, waffle_pi, "
+                             "patrolling_sim, auto) as in `tpuaf run --robot`")
 
 
 # A Dask scheduler address: scheme://host:port or host:port.

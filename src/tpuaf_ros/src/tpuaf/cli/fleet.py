@@ -210,11 +210,14 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     fleet_config.yaml; the roslaunch args."""
     import yaml
 
-    from tpuaf.runtimes.config import choose_robot
+    from tpuaf.robot.model import RobotChoiceError, choose_robot
 
     check_options(args)
     patrol_map, strategy, params = load_inputs(args)
-    robot = choose_robot(args.robot, patrol_map.settings)
+    try:
+        robot = choose_robot(args.robot, patrol_map.settings)
+    except RobotChoiceError as err:
+        raise CliError(str(err)) from None
     faults = fault_plan(args)
     from tpuaf.experiments.results import prepare_out_dir, record_written
     from tpuaf.files import atomic_write_text
@@ -257,13 +260,14 @@ def write_world(args: argparse.Namespace, out: Path, map_ref: str, robot) -> tup
     from tpuaf_stage.resolve import write_resolved
 
     from tpuaf.files import atomic_write_text
+    from tpuaf.robot.model import world_robot
     from tpuaf_stage.config import WorldError, parse_world
 
     world = {
         "patrol_map": map_ref,
         "seed": int(args.seed),
         # The preset as it is (radius and limits); only a slower map speed lowers the limit.
-        "robot": {"preset": robot.preset, "max_linear_speed": robot.speed_mps},
+        "robot": world_robot(robot),
         "laser": {"preset": "lds01"},  # 5 Hz; control runs on the 10 Hz poses
         "robots": int(args.robots),
     }
@@ -294,10 +298,8 @@ def fleet_config(args, out: Path, patrol_map, map_ref: str, strategy: str, param
         "simulator": {"world": world, "step_s": 0.01, "pose_rate_hz": 10.0,
                       "real_time_factor": args.rtf, "lockstep": bool(args.lockstep),
                       "lockstep_timeout_s": float(args.lockstep_timeout)},
-        "robot": {"preset": robot.preset, "radius_m": robot.radius_m,
-                  "max_linear_speed_mps": robot.speed_mps,
-                  "map_nominal_speed_mps": float(patrol_map.settings.nominal_speed),
-                  "note": robot.note},
+        "robot": {**robot.describe(),
+                  "map_nominal_speed_mps": float(patrol_map.settings.nominal_speed)},
         "faults": faults,
         "team_bus": {"delay_s": float(args.delay), "loss": float(args.loss),
                      "relay": uses_relay(args)},
@@ -327,7 +329,7 @@ def roslaunch_args(args, out: Path, config: dict, resolved: Path, strategy_file:
         f"config_file:={out / 'fleet_config.yaml'}",
         f"lockstep:={'true' if args.lockstep else 'false'}",
         f"lockstep_timeout:={args.lockstep_timeout}",
-        f"max_linear_speed:={robot['max_linear_speed_mps']}", f"robot_radius:={robot['radius_m']}",
+        f"robot:={robot['preset']}",
         f"stall:={stalls}", f"sim_summary:={out / 'simulator.json'}",
         f"record_regex:={config['record_regex'] or ''}",
         f"relay:={'true' if uses_relay(args) else 'false'}", f"delay:={args.delay}",

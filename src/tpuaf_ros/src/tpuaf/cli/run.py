@@ -165,18 +165,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def add_runtime_arguments(p: argparse.ArgumentParser) -> None:
     """--runtime, --robot and the fault options (docs/RUNTIMES.md)."""
+    from tpuaf.robot.model import TRAVELS
+
     p.add_argument("--runtime", choices=("graph", "physics"), default="graph",
                    help="graph: robots on graph edges at nominal speed (default); physics: the "
                         "C++ world with laser, differential drive, collisions and the agents' "
                         "navigator (as the ROS fleet, without ROS)")
-    p.add_argument("--robot", default="auto",
-                   help="physics runtime: robot preset (burger, waffle_pi, patrolling_sim) or "
-                        "auto (a preset that drives the map's nominal speed)")
-    p.add_argument("--travel", choices=("declared", "planned"), default="declared",
-                   help="edge lengths the strategies plan with and the graph runtime drives: "
-                        "declared (the map's, as published comparisons use; default) or planned "
-                        "(collision-free path lengths on the occupancy grid for the robot's "
-                        "footprint: what a robot achieves)")
+    p.add_argument("--robot", default=None,
+                   help="robot model, in every runtime: a preset (burger, waffle, waffle_pi, "
+                        "patrolling_sim) or auto (TURTLEBOT3_MODEL if set, else a preset that "
+                        "drives the map's nominal speed). Strategies, motion and metrics use its "
+                        "speed and travel times. Default: none in the graph runtime (the map's "
+                        "nominal speed and edge lengths, as published comparisons), auto in "
+                        "physics")
+    p.add_argument("--travel", choices=TRAVELS, default=None,
+                   help="edge travel the strategies plan with and the graph runtime drives: "
+                        "declared (the map's edge lengths), planned (collision-free path lengths "
+                        "for the robot's footprint) or timed (the robot's modelled travel time "
+                        "per edge: planned path, accelerations, turns, slow zones). Default: "
+                        "declared without --robot, timed with a robot (physics always has one)")
     p.add_argument("--fail", action="append", default=[], metavar="ROBOT@TIME",
                    help="robot ROBOT (index) dies at TIME [s] (repeatable)")
     p.add_argument("--fail-random", type=non_negative_int, default=0, metavar="K",
@@ -196,15 +203,12 @@ def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
         raise CliError(str(err)) from None
     kwargs = dict(config_kwargs, fail=fail, stall=stall,
                   fail_random=int(getattr(args, "fail_random", 0)),
-                  travel=getattr(args, "travel", "declared"))
-    if getattr(args, "runtime", "graph") != "physics" and getattr(args, "robot", "auto") != "auto":
-        raise CliError(f"--robot {args.robot}: a robot preset needs --runtime physics (the graph "
-                       "runtime moves at the map's nominal speed)")
+                  travel=getattr(args, "travel", None), robot=getattr(args, "robot", None))
     if getattr(args, "runtime", "graph") == "physics":
         from tpuaf.runtimes.config import PhysicsConfig
         from tpuaf.runtimes.physics import PhysicsRun
 
-        return PhysicsRun(PhysicsConfig(**kwargs, robot=args.robot), patrol_map)
+        return PhysicsRun(PhysicsConfig(**kwargs), patrol_map)
     from tpuaf.runtimes.config import RunConfig
     from tpuaf.runtimes.graph import make_run
 

@@ -57,6 +57,9 @@ class ControllerConfig:
                                  f", got {value!r}")
 
 
+# Physics runtime timing (docs/RUNTIMES.md), read by runtimes.config and the travel-time model.
+PHYSICS_STEP_S = 0.05  # [s] world step
+CONTROL_PERIOD_S = 0.1  # [s] agents' control period (the fleet's 10 Hz odometry)
 SLOW_TIME_S = 1.2  # [s] the slow-down zone is this many seconds at top speed (1.2 m at 1 m/s):
 # a slow robot (a Burger at 0.1 m/s in a 0.5 m aisle) need not crawl its whole way
 SLOW_FLOOR_M = 0.3  # [m] the slow-down zone is never shorter

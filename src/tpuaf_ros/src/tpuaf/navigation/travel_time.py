@@ -36,7 +36,13 @@ from typing import Any
 
 import numpy as np
 
-from tpuaf.navigation.controller import APPROACH_MPS, ControllerConfig, LocalController
+from tpuaf.navigation.controller import (
+    APPROACH_MPS,
+    CONTROL_PERIOD_S,
+    PHYSICS_STEP_S,
+    ControllerConfig,
+    LocalController,
+)
 
 
 def _corner_tolerance() -> float:
@@ -48,18 +54,6 @@ def _corner_tolerance() -> float:
     return float(inspect.signature(Navigator.__init__).parameters["corner_tolerance"].default)
 
 
-def _control_period() -> float:
-    from tpuaf.runtimes.config import CONTROL_PERIOD_S
-
-    return float(CONTROL_PERIOD_S)
-
-
-def _physics_step() -> float:
-    from tpuaf.runtimes.config import PHYSICS_STEP_S
-
-    return float(PHYSICS_STEP_S)
-
-
 @dataclass(frozen=True)
 class RobotKinematics:
     """A robot's motion limits and the controller that drives it (units in the comments)."""
@@ -69,8 +63,8 @@ class RobotKinematics:
     linear_accel: float = math.inf  # [m/s^2]
     angular_accel: float = math.inf  # [rad/s^2]
     radius_m: float = 0.105  # [m] footprint disc
-    control_period_s: float = field(default_factory=_control_period)  # [s] agents' tick
-    physics_step_s: float = field(default_factory=_physics_step)  # [s] world step
+    control_period_s: float = CONTROL_PERIOD_S  # [s] agents' tick
+    physics_step_s: float = PHYSICS_STEP_S  # [s] world step
     corner_tolerance_m: float = field(default_factory=_corner_tolerance)  # [m]
     # None: the controller as the physics runtime configures it (speeds and radius above)
     controller: ControllerConfig | None = field(default=None, compare=False)

@@ -15,6 +15,7 @@ import re
 import threading
 import time
 import warnings
+from dataclasses import replace
 
 import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, TwistStamped
@@ -34,9 +35,11 @@ from tpuaf.navigation import (
     scan_points,
 )
 from tpuaf.navigation.frames import FrameChain
-from tpuaf.navigation.planner import PathPlanner
+from tpuaf.navigation.planner import shared_planner
+from tpuaf.navigation.travel_time import timed_map
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
+from tpuaf.robot.model import RobotChoiceError, RobotModel, choose_robot
 from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, run_node, yaw_of
 from tpuaf.runtimes.agent import AgentRuntime
@@ -55,6 +58,18 @@ warnings.filterwarnings("ignore", message="The publisher should be created with 
 def _shape(reason: str) -> str:
     """A reason without its numbers (the throttle key of its warning)."""
     return re.sub(r"[-+0-9.e]+", "#", reason)
+
+
+def agent_robot(p: AgentParams, patrol_map) -> RobotModel:
+    """The robot model of ~robot (auto: TURTLEBOT3_MODEL, else the map's preset) with the
+    ~max_linear_speed, ~max_angular_speed and ~robot_radius overrides (0: the robot's)."""
+    try:
+        robot = choose_robot(p.robot, patrol_map.settings, option="~robot")
+    except RobotChoiceError as err:
+        raise NodeParamError(str(err)) from None
+    return replace(robot, speed_mps=p.max_linear_speed or robot.speed_mps,
+                   max_angular_speed=p.max_angular_speed or robot.max_angular_speed,
+                   radius_m=p.robot_radius or robot.radius_m)
 
 
 def check_params(p: AgentParams, sim: bool) -> None:
@@ -93,11 +108,11 @@ class AgentNode:
             self.epoch = 0.0 if sim else None
         self.conv = convert.Converter(patrol_map, prefix=prefix, epoch=self.epoch or 0.0)
         self.names = [f"{prefix}{i}" for i in range(p.robots)]
-        s = patrol_map.settings
+        robot = agent_robot(p, patrol_map)
         cfg = ControllerConfig(
-            max_linear_speed=p.max_linear_speed or s.nominal_speed,
-            max_angular_speed=p.max_angular_speed,
-            robot_radius=p.robot_radius or s.robot_radius,
+            max_linear_speed=robot.speed_mps,
+            max_angular_speed=robot.max_angular_speed,
+            robot_radius=robot.radius_m,
             safety_margin=p.safety_margin, plan_margin=p.plan_margin,
             stuck_timeout_s=p.stuck_timeout, backoff_s=p.backoff_time, max_retries=p.max_retries,
             retry_wait_s=retry_wait_for(p.robot_index),
@@ -139,9 +154,12 @@ class AgentNode:
         self.event.robot = name
         self.event.robot_index = p.robot_index
         # Built-in navigation plans on the map's occupancy grid, as the physics runtime does.
-        planner = (PathPlanner(patrol_map, cfg.robot_radius)
+        planner = (shared_planner(patrol_map, cfg.robot_radius)
                    if p.navigation == "builtin" and p.global_planner else None)
-        self.runtime = AgentRuntime(patrol_map, policy, p.robot_index, p.robots, p.seed,
+        # The strategy plans on the robot's speed and travel times (as in the physics runtime).
+        self.robot = robot
+        self.plan_map = timed_map(patrol_map, robot, shared_planner(patrol_map, robot.radius_m))
+        self.runtime = AgentRuntime(self.plan_map, policy, p.robot_index, p.robots, p.seed,
                                     self.publish_team, self.publish_event, cfg,
                                     p.heartbeat_period, p.waypoint_tolerance, planner,
                                     teammate_timeout_s=p.teammate_timeout)

@@ -29,7 +29,7 @@ import numpy as np
 from tpuaf.maps import load_map
 from tpuaf.measure.metrics import RunRecorder
 from tpuaf.robot.machine import RobotMachine
-from tpuaf.runtimes.config import RunConfig, travel_map
+from tpuaf.runtimes.config import RunConfig, run_robot, travel_map
 from tpuaf.runtimes.faults import DEATH, Fault
 from tpuaf.team.bus import TeamBus
 from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, heartbeat_links
@@ -42,8 +42,11 @@ class TeamRun:
     def __init__(self, config: RunConfig, patrol_map=None):
         config.validate()
         self.config = config
-        self.patrol_map = travel_map(config, patrol_map if patrol_map is not None
-                                     else load_map(config.map))
+        # The map as loaded (geometry: the world, the planner) and the plan's map (the robot's
+        # speed and travel times: strategies, routes, metrics).
+        self.source_map = patrol_map if patrol_map is not None else load_map(config.map)
+        self.robot = run_robot(config, self.source_map)
+        self.patrol_map = travel_map(config, self.source_map, self.robot)
         self.seed = int(config.seed)
         self.now = 0.0
         self.bus = TeamBus(config.robots, config.delay_s, config.loss,
@@ -56,13 +59,11 @@ class TeamRun:
         self.losses: list[tuple[float, int, int]] = []  # (t [s], observer, lost teammate)
         self._died_at: dict[int, float] = {}
 
-    def _record(self, speed_mps: float | None = None) -> RunRecorder:
-        """The run's recorder (speed [m/s] of the robots when it differs from the map's)."""
-        extra = {} if speed_mps is None else {"speed_mps": speed_mps}
+    def _record(self) -> RunRecorder:
+        """The run's recorder, on the plan's map (the robots' speed and travel times)."""
         self.recorder = RunRecorder(self.patrol_map, self.config.robots,
                                     sample_period_s=self.config.sample_period_s,
-                                    teammate_timeout_s=float(self.config.teammate_timeout_s),
-                                    **extra)
+                                    teammate_timeout_s=float(self.config.teammate_timeout_s))
         return self.recorder
 
     def _team(self, machines: list[RobotMachine]) -> None:

@@ -1,31 +1,55 @@
 """Run configuration shared by the graph and physics runtimes: `RunConfig` (and the physics
-runtime's `PhysicsConfig`), their validation, the robot preset of a map (`choose_robot`, also
-used by `tpuaf fleet`) and the `config.yaml` description of a run (`run_description`)."""
+runtime's `PhysicsConfig`), their validation, the plan's map of a run (`travel_map`: the robot's
+speed and travel times) and the `config.yaml` description of a run (`run_description`)."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 from tpuaf import __version__
 from tpuaf.errors import TpuafError
+from tpuaf.navigation.controller import CONTROL_PERIOD_S, PHYSICS_STEP_S
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import REGISTRY
+from tpuaf.robot.model import AUTO, TRAVELS, RobotChoiceError, RobotModel, choose_robot
 from tpuaf.runtimes.faults import Fault, FaultError, resolve_faults
 
-TRAVELS = ("declared", "planned")
+
+def run_robot(config: RunConfig, patrol_map) -> RobotModel | None:
+    """The run's robot model (chosen once: config.robot, or TURTLEBOT3_MODEL for 'auto'); None
+    for a graph run without a robot (the map's nominal figures)."""
+    name = getattr(config, "robot", None)
+    if name is None:
+        return None
+    try:
+        return choose_robot(name, patrol_map.settings)
+    except RobotChoiceError as err:
+        raise ConfigError(str(err)) from None
 
 
-def travel_map(config: RunConfig, patrol_map):
-    """The map a run travels on: `patrol_map`, or with planned edge lengths (config.travel) for
-    the robot the physics runtime would use (`choose_robot(config.robot or 'auto')`)."""
-    if config.travel != "planned":
-        return patrol_map
-    from tpuaf.navigation.planner import with_planned_lengths
+def travel_map(config: RunConfig, patrol_map, robot: RobotModel | None = None):
+    """The map the run's strategies, motion and metrics plan on: `patrol_map` with the robot's
+    cruise speed as its nominal speed and, by `config.travel`, its edge lengths: declared,
+    planned for the robot's footprint, or timed (speed x the modelled travel time, so that
+    length / speed is the robot's travel time)."""
+    travel = config.resolved_travel()
+    if travel == "declared":
+        if robot is None or robot.speed_mps == patrol_map.settings.nominal_speed:
+            return patrol_map
+        return replace(patrol_map, settings=replace(patrol_map.settings,
+                                                    nominal_speed=robot.speed_mps))
+    body = robot or choose_robot(AUTO, patrol_map.settings)
+    if travel == "planned":
+        from tpuaf.navigation.planner import with_planned_lengths
 
-    robot = choose_robot(getattr(config, "robot", "auto"), patrol_map.settings)
-    return with_planned_lengths(patrol_map, robot.radius_m)
+        planned = with_planned_lengths(patrol_map, body.radius_m)
+        return replace(planned, settings=replace(planned.settings, nominal_speed=body.speed_mps))
+    from tpuaf.navigation.planner import shared_planner
+    from tpuaf.navigation.travel_time import timed_map
+
+    return timed_map(patrol_map, body, shared_planner(patrol_map, body.radius_m))
 
 
 class ConfigError(TpuafError):
@@ -51,10 +75,13 @@ class RunConfig:
     # [s] a teammate silent this long is lost (the agent node's ~teammate_timeout): in runs with
     # faults, robots notice a death from the heartbeats and messages they stop hearing.
     teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s
-    # Edge travel of the graph runtime: "declared" (the map's edge lengths, as published
-    # comparisons use them) or "planned" (path lengths on the occupancy grid for the robot's
-    # footprint: what a robot can achieve; navigation/planner.py).
-    travel: str = "declared"
+    # Robot preset (tpuaf.robot.model; "auto": TURTLEBOT3_MODEL or the map's). None: the graph
+    # runtime's point robot at the map's nominal speed.
+    robot: str | None = None
+    travel: str | None = None  # TRAVELS; None: declared without a robot, timed with one
+
+    def resolved_travel(self) -> str:
+        return self.travel or ("timed" if self.robot is not None else "declared")
 
     def validate(self) -> None:
         names = REGISTRY.names()
@@ -75,7 +102,7 @@ class RunConfig:
             raise ConfigError(f"sample period must be > 0 s, got {self.sample_period_s}")
         if not (self.teammate_timeout_s > 0 and math.isfinite(self.teammate_timeout_s)):
             raise ConfigError(f"teammate timeout must be > 0 s, got {self.teammate_timeout_s}")
-        if self.travel not in TRAVELS:
+        if self.travel is not None and self.travel not in TRAVELS:
             raise ConfigError(f"travel must be one of {', '.join(TRAVELS)}, got {self.travel!r}")
         self.faults()
 
@@ -111,19 +138,18 @@ def run_description(run, starts, strategy_params, faults, engine: str | None = N
     }
 
 
-# Physics defaults (docs/RUNTIMES.md).
-PHYSICS_STEP_S = 0.05  # [s] world step
-CONTROL_PERIOD_S = 0.1  # [s] agents' control period (the fleet's 10 Hz odometry)
 
 
 @dataclass
 class PhysicsConfig(RunConfig):
-    robot: str = "auto"  # robot preset (tpuaf_stage.presets) or auto (as `tpuaf fleet --robot`)
+    robot: str | None = AUTO  # a physical run always has a body (None: auto)
     physics_step_s: float = PHYSICS_STEP_S
     control_period_s: float = CONTROL_PERIOD_S
     planner: bool = True  # navigator on planned paths (False: straight edges, as before)
 
     def validate(self) -> None:
+        if self.robot is None:
+            self.robot = AUTO
         super().validate()
         for name in ("physics_step_s", "control_period_s"):
             value = getattr(self, name)
@@ -133,34 +159,3 @@ class PhysicsConfig(RunConfig):
         if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
             raise ConfigError(f"control_period_s ({self.control_period_s:g}) must be a whole "
                               f"multiple of physics_step_s ({self.physics_step_s:g})")
-
-
-@dataclass
-class RobotChoice:
-    preset: str
-    radius_m: float
-    speed_mps: float  # what the agents are told and the simulator allows
-    note: str  # '' or why the speed differs from the map's nominal speed
-
-
-def choose_robot(name: str, settings) -> RobotChoice:
-    """The robot preset for a map: never faster than the preset allows."""
-    from tpuaf_stage.presets import ROBOT_PRESETS
-
-    nominal = float(settings.nominal_speed)
-    if name == "auto":  # a preset that drives the map's speed, of the closest radius
-        able = [k for k, v in ROBOT_PRESETS.items() if v["max_linear_speed"] >= nominal - 1e-9]
-        name = min(able or ["burger"], key=lambda k: abs(ROBOT_PRESETS[k]["radius"] -
-                                                           settings.robot_radius))
-    if name not in ROBOT_PRESETS:
-        raise ConfigError(f"--robot: unknown robot preset '{name}' (known: auto, "
-                       f"{', '.join(sorted(ROBOT_PRESETS))})")
-    preset = ROBOT_PRESETS[name]
-    limit = float(preset["max_linear_speed"])
-    note = ""
-    speed = nominal
-    if nominal > limit + 1e-9:
-        speed = limit
-        note = (f"the map's nominal speed {nominal:g} m/s is above the {name} limit {limit:g} m/s: "
-                f"robots drive at {limit:g} m/s (compare with a run at that speed)")
-    return RobotChoice(name, float(preset["radius"]), speed, note)

@@ -32,7 +32,7 @@ from tpuaf.policies import REGISTRY, RobotContextBase
 from tpuaf.policies.core import CoreStrategyPolicy
 from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, announced_vertex
 from tpuaf.runtimes.base import TeamRun, liveness_summary
-from tpuaf.runtimes.config import RunConfig, run_description, travel_map
+from tpuaf.runtimes.config import RunConfig, run_description, run_robot, travel_map
 from tpuaf.runtimes.faults import DEATH
 from tpuaf.team.bus import BusStats
 from tpuaf.team.liveness import heartbeat_streams
@@ -292,8 +292,9 @@ class GraphRun:
         config.validate()
         self.config = config
         self.faults = config.faults()  # resolved (--fail-random drawn)
-        self.patrol_map = travel_map(config, patrol_map if patrol_map is not None
-                                     else load_map(config.map))
+        self.source_map = patrol_map if patrol_map is not None else load_map(config.map)
+        self.robot = run_robot(config, self.source_map)  # None: the map's nominal figures
+        self.patrol_map = travel_map(config, self.source_map, self.robot)
         self.graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
         s = self.patrol_map.settings
         self.speed = float(s.nominal_speed)
@@ -381,7 +382,9 @@ class GraphRun:
             self, self.start_vertices, self.params, self.faults,
             engine="C++ event loop" + (", C++ strategy" if self.core_strategy
                                        else ", Python strategy called back"),
-            motion="straight segments between vertices, edge length / nominal speed each")
+            **({"robot_model": self.robot.describe()} if self.robot is not None else {}),
+            motion="straight segments between vertices, edge length / nominal speed each ("
+                   f"travel {self.config.resolved_travel()})")
 
     def summary(self) -> dict:
         summary = self.recorder.summary(self.now)

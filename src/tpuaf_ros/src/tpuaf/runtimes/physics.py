@@ -41,15 +41,17 @@ from tpuaf.navigation import (
 from tpuaf.navigation.planner import shared_planner
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import REGISTRY
+from tpuaf.robot.model import RobotModel, world_robot
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.base import TeamRun
-from tpuaf.runtimes.config import PhysicsConfig, RunConfig, choose_robot, run_description
+from tpuaf.runtimes.config import PhysicsConfig, RunConfig, run_description
 
 
-def controller_config(robot: int, speed_mps: float, radius_m: float) -> ControllerConfig:
-    """The local controller of robot `robot`, as the agent node configures it by default."""
-    return ControllerConfig(max_linear_speed=speed_mps, robot_radius=radius_m,
-                            retry_wait_s=retry_wait_for(robot))
+def controller_config(index: int, robot: RobotModel) -> ControllerConfig:
+    """The local controller of robot `index`, as the agent node configures it by default."""
+    return ControllerConfig(max_linear_speed=robot.speed_mps,
+                            max_angular_speed=robot.max_angular_speed,
+                            robot_radius=robot.radius_m, retry_wait_s=retry_wait_for(index))
 
 
 class PhysicsRun(TeamRun):
@@ -64,31 +66,31 @@ class PhysicsRun(TeamRun):
         if not isinstance(config, PhysicsConfig):
             config = PhysicsConfig(**asdict(config))
         super().__init__(config, patrol_map)
-        pm = self.patrol_map
+        pm = self.patrol_map  # the plan's (routes, strategies, metrics)
+        world_map = self.source_map  # the geometry (world, planner)
         n = config.robots
-        self.robot_choice = choose_robot(config.robot, pm.settings)
-        preset, robot_model = parse_robot(None, {"preset": self.robot_choice.preset,
-                                                 "max_linear_speed": self.robot_choice.speed_mps})
+        preset, robot_model = parse_robot(None, world_robot(self.robot))
         laser_preset, laser = parse_laser(None, {"preset": "lds01"})
         self.starts = starts = start_vertices(pm, n)
-        grid = pm.occupancy_grid()
+        grid = world_map.occupancy_grid()
         self.world_config = WorldConfig(
             source=None, occupied=np.asarray(grid.occupied, dtype=bool),
             resolution=float(grid.resolution), origin=(float(grid.origin[0]),
                                                        float(grid.origin[1])),
             robot=robot_model, laser=laser,
             poses=start_poses(pm, n, robot_model.radius, starts),
-            seed=self.seed, map_description=f"patrol map {pm.name}", robot_preset=preset,
+            seed=self.seed, map_description=f"patrol map {world_map.name}", robot_preset=preset,
             laser_preset=laser_preset)
         self.world = self.world_config.build()
-        self._record(self.robot_choice.speed_mps)
+        self._record()
         cls = REGISTRY.get(config.strategy)
         # One planner (costmap and edge paths) for the team: they share the footprint.
-        self.planner = shared_planner(pm, robot_model.radius) if config.planner else None
+        self.planner = (shared_planner(world_map, robot_model.radius) if config.planner
+                        else None)
         self.agents = [
             AgentRuntime(pm, cls(config.strategy_params), i, n, self.seed,
                          self._publisher(i), self.visit_listener(i),
-                         controller_config(i, self.robot_choice.speed_mps, robot_model.radius),
+                         controller_config(i, self.robot),
                          planner=self.planner, teammate_timeout_s=config.teammate_timeout_s)
             for i in range(n)
         ]
@@ -195,12 +197,9 @@ class PhysicsRun(TeamRun):
 
     def effective_config(self) -> dict:
         """Everything that determines this run, with defaults resolved (written to config.yaml)."""
-        rc = self.robot_choice
         return run_description(
             self, self.starts, self.agents[0].policy.params, self.faults,
-            world=self.world_config.summary(),
-            robot_model={"preset": rc.preset, "radius_m": rc.radius_m,
-                         "max_linear_speed_mps": rc.speed_mps, "note": rc.note},
+            world=self.world_config.summary(), robot_model=self.robot.describe(),
             controller=asdict(self.agents[0].navigator.controller.config),
             planner=(asdict(self.planner.config) if self.planner is not None else None),
             motion=(f"C++ world, {self.config.physics_step_s:g} s steps; agents' navigator "
