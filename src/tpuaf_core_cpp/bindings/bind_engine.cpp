@@ -197,6 +197,7 @@ void wrap_tpuaf_plus(py::module_& m) {
       .def(py::init<>())
       .def_readwrite("speed_mps", &TpuafPlusParams::speed_mps)
       .def_readwrite("gain", &TpuafPlusParams::gain)
+      .def_readwrite("pace_weight", &TpuafPlusParams::pace_weight)
       .def_readwrite("deadband_s", &TpuafPlusParams::deadband_s)
       .def_readwrite("dwell_revisit_s", &TpuafPlusParams::dwell_revisit_s)
       .def_readwrite("silence_timeout_s", &TpuafPlusParams::silence_timeout_s)

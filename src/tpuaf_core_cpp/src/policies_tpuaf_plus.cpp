@@ -91,6 +91,7 @@ void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
   r.mate_arc.assign(size, 0.0);
   r.has_mate_arc.assign(size, 0);
   r.history.assign(size, {});
+  r.pace.assign(size, params_.speed_mps);
   r.last_announce = -kInf;
   r.started = true;
   install_plan(host, robot, true);
@@ -236,7 +237,8 @@ double TpuafPlusStrategy::idle_room(Robot& r, int robot, double now) {
     double arc = 0;
     if (mate_arc(r, k, now, arc)) {
       if (r.has_heard[static_cast<std::size_t>(k)]) {  // a dwelling mate is at its vertex
-        arc += speed * std::max(0.0, r.heard[static_cast<std::size_t>(k)].departure - now);
+        arc += r.pace[static_cast<std::size_t>(k)] *
+               std::max(0.0, r.heard[static_cast<std::size_t>(k)].departure - now);
       }
       reach = std::min(reach, py_mod(arc - here, L));
     }
@@ -281,6 +283,21 @@ void TpuafPlusStrategy::remember(Robot& r, int robot, const Heard& entry) {
   if (past.size() > 4) past.pop_front();
 }
 
+void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s) const {
+  // One pace sample of robot k, at `vertex` at arrived_s [s]: the drive its newest announcement
+  // before then headed here on, length / (arrival - departure) [m/s].
+  const Heard* last = nullptr;
+  for (const Heard& h : r.history[static_cast<std::size_t>(k)]) {
+    if (h.sent <= arrived_s + kEps) last = &h;
+  }
+  if (last == nullptr || last->from == last->to || last->to != vertex) return;
+  const double drive_s = arrived_s - last->departure;
+  if (!(drive_s > kEps)) return;
+  double& pace = r.pace[static_cast<std::size_t>(k)];
+  pace = update_pace(pace, graph_->distance(last->from, vertex) / drive_s, params_.pace_weight,
+                     params_.speed_mps);
+}
+
 void TpuafPlusStrategy::on_message(StrategyHost& host, int robot, const TeamMessage& message) {
   Robot& r = state(robot);
   const int k = message.robot;
@@ -291,6 +308,7 @@ void TpuafPlusStrategy::on_message(StrategyHost& host, int robot, const TeamMess
   if (message.kind == TeamMessage::Kind::kVisit) {
     r.knowledge.hear_visit(k, message.vertex, sent, host.now());
     heard_from(r, k, sent);
+    learn_pace(r, k, message.vertex, sent);
     const int next = message.next_vertex >= 0 ? message.next_vertex : message.vertex;
     const Heard entry{message.vertex, next, sent, sent};
     remember(r, k, entry);
@@ -348,8 +366,8 @@ void TpuafPlusStrategy::update_team(StrategyHost& host, int robot) {
 bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
   // Mate k's estimated arc [m] on my walk now: on its start slot until it leaves (and after,
   // while its latest message is from before that: the one telling me it left may be delayed or
-  // lost), else extrapolated at v from its latest timed message; false when unknown or off my
-  // walk.
+  // lost), else extrapolated at its measured pace from its latest timed message; false when
+  // unknown or off my walk.
   const PlusRoute& route = route_of(r);
   const double L = route.length, speed = params_.speed_mps;
   const std::size_t kk = static_cast<std::size_t>(k);
@@ -368,7 +386,7 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
   if (!r.has_heard[kk]) return scheduled ? on_slot() : false;
   const Heard& info = r.heard[kk];
   const std::size_t n = route.walk.size();
-  const double moved = speed * (now - info.departure);
+  const double moved = r.pace[kk] * (now - info.departure);
   int chosen = -1;
   int hits = 0;
   double best = kInf;
@@ -404,45 +422,30 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
   return true;
 }
 
-bool TpuafPlusStrategy::gaps(Robot& r, int robot, double now, Gaps& out) {
-  // (gap ahead, gap behind, even gap L / m) [m] from my walk vertex to the nearest placed
-  // mates; false when no mate is placed.
+double TpuafPlusStrategy::spacing_wait(Robot& r, int robot, double now) {
+  // Dwell [s] at my walk vertex: 2 gain e / u when I am early by e [m] of the team's even
+  // phases (phase_error over the placed mates, u my measured pace [m/s]); late: none.
   const PlusRoute& route = route_of(r);
   const double L = route.length;
+  if (!(L > 0)) return 0.0;
   const double here = route.arc[static_cast<std::size_t>(r.idx)];
-  bool placed = false;
-  int mates = 0;
-  double ahead = 0, behind = 0;
+  std::vector<double> ahead;  // [m] placed mates' distances ahead along the walk
   for (int k : route.robots) {
     if (k == robot || !r.alive[static_cast<std::size_t>(k)]) continue;
-    ++mates;
     double arc = 0;
     if (!mate_arc(r, k, now, arc)) continue;
-    const double d = py_mod(arc - here, L);
-    double fwd = d, back = L - d;
-    if (d < kEps || L - d < kEps) {  // together: the lower index is ahead
-      fwd = k < robot ? 0.0 : L;
-      back = k < robot ? L : 0.0;
-    }
-    ahead = placed ? std::min(ahead, fwd) : fwd;
-    behind = placed ? std::min(behind, back) : back;
-    placed = true;
+    double d = py_mod(arc - here, L);
+    if (d < kEps || L - d < kEps) d = k < robot ? 0.0 : L;  // together: the lower index ahead
+    ahead.push_back(d);
   }
-  if (!placed) return false;
-  out = Gaps{ahead, behind, L / static_cast<double>(mates + 1)};
-  return true;
-}
-
-double TpuafPlusStrategy::spacing_wait(Robot& r, int robot, double now) {
-  // Dwell [s] at my walk vertex: gain * (gap behind - gap ahead) / (2 v).
-  Gaps g{};
-  if (!(route_of(r).length > 0) || !gaps(r, robot, now, g)) return 0.0;
-  const double speed = params_.speed_mps, deadband = params_.deadband_s;
-  double wait = params_.gain * (g.behind - g.ahead) / (2.0 * speed);
-  if (g.behind > g.ahead + kEps && g.behind > g.even + 2.0 * deadband * speed) {
-    wait = std::max(wait, deadband + 0.1);  // a long gap behind: dwell past the deadband
-  }
-  return std::min(std::max(wait, 0.0), g.even / speed);
+  if (ahead.empty()) return 0.0;
+  std::sort(ahead.begin(), ahead.end());
+  const double e = phase_error(ahead, L);
+  const double pace = r.pace[static_cast<std::size_t>(robot)], deadband = params_.deadband_s;
+  double wait = 2.0 * params_.gain * e / pace;
+  if (e > deadband * pace) wait = std::max(wait, deadband + 0.1);  // far early: past the deadband
+  const double even = L / static_cast<double>(ahead.size() + 1);
+  return std::min(std::max(wait, 0.0), even / pace);
 }
 
 // ------------------------------------------------------------------ decisions
@@ -479,7 +482,10 @@ int TpuafPlusStrategy::decide(StrategyHost& host, int robot) {
   const int here = host.current_vertex(robot);
   const bool waking = r.waking;
   r.waking = false;
-  if (!waking) r.knowledge.record_visit(here, now);
+  if (!waking) {
+    r.knowledge.record_visit(here, now);
+    learn_pace(r, robot, here, now);  // my own drive here
+  }
   update_team(host, robot);
   const PlusRoute& route = route_of(r);
   if (r.idx >= 0 && route.walk[static_cast<std::size_t>(r.idx)] != here) {  // off my walk

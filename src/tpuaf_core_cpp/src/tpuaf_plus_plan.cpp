@@ -1,6 +1,7 @@
 // TPUAF+'s plan arithmetic in C++ (tpuaf/policies/tpuaf_plus.py and tours.walk_idleness, the
 // same floating-point operations in the same order): the steady-state worst idleness of a
-// walk and the start schedule. Times in seconds, lengths in metres.
+// walk and the start schedule; the closed-loop spacing's pace and phase arithmetic. Times in
+// seconds, lengths in metres.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -83,6 +84,22 @@ double py_mod(double a, double b) {
     m = std::copysign(0.0, b);
   }
   return m;
+}
+
+double update_pace(double pace_mps, double sample_mps, double weight, double speed_mps) {
+  // within 1e-9 of v is v (an arrival time's rounding)
+  const double top = sample_mps >= speed_mps * (1 - 1e-9) ? speed_mps : sample_mps;
+  const double sample = std::min(std::max(top, 0.1 * speed_mps), speed_mps);
+  return pace_mps + weight * (sample - pace_mps);
+}
+
+double phase_error(const std::vector<double>& ahead_m, double length_m) {
+  const double m = static_cast<double>(ahead_m.size() + 1);
+  double sum = 0;  // sum over mates j = 1..m-1 of d_j - j L / m (j = 0 adds 0)
+  for (std::size_t j = 0; j < ahead_m.size(); ++j) {
+    sum += ahead_m[j] - static_cast<double>(j + 1) * length_m / m;
+  }
+  return -sum / m;
 }
 
 int nearest_entry(const PatrolGraph& graph, const PlusRoute& route, int vertex) {

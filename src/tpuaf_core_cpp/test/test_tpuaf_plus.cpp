@@ -1,6 +1,6 @@
-// TPUAF+'s spacing rule, its mates' placement and its transition entries, hand-checked on the
-// 40 m square 0-1-2-3-0 (10 m edges, 1 m/s). The plans are the ones tpuaf_plus.make_plan gives
-// for these starts (a cycle over the square, its start schedule).
+// TPUAF+'s spacing rule (phase error, measured pace), its mates' placement and its transition
+// entries, hand-checked on the 40 m square 0-1-2-3-0 (10 m edges, 1 m/s). The plans are the
+// ones tpuaf_plus.make_plan gives for these starts (a cycle over the square, its start schedule).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -30,6 +30,9 @@ class TpuafPlusProbe {
     auto& r = s.state(i);
     r.heard[static_cast<std::size_t>(k)] = h;
     r.has_heard[static_cast<std::size_t>(k)] = 1;
+  }
+  static double pace(TpuafPlusStrategy& s, int i, int k) {
+    return s.state(i).pace[static_cast<std::size_t>(k)];
   }
   static std::map<int, int> transition_entries(TpuafPlusStrategy& s, int i) {
     return s.transition_entries(s.state(i));
@@ -64,6 +67,28 @@ std::unique_ptr<TpuafPlusStrategy> strategy(std::vector<std::pair<int, double>> 
       [plan](const std::vector<int>&) { return std::shared_ptr<const PlusPlan>(plan); });
 }
 
+TEST(TpuafPlus, PaceIsARunningAverageClampedToThePlanSpeed) {
+  EXPECT_DOUBLE_EQ(update_pace(1.0, 0.6, 0.25, 1.0), 0.9);   // 1 + 0.25 (0.6 - 1)
+  EXPECT_DOUBLE_EQ(update_pace(0.9, 3.0, 0.25, 1.0), 0.925);  // a sample above v counts as v
+  EXPECT_DOUBLE_EQ(update_pace(0.5, 0.0, 1.0, 2.0), 0.2);     // below 0.1 v counts as 0.1 v
+  EXPECT_DOUBLE_EQ(update_pace(1.0, 1.0 - 1e-12, 0.25, 1.0), 1.0);  // rounding: v exactly
+}
+
+TEST(TpuafPlus, PhaseErrorIsAgainstTheTeamsMeanEvenSpacing) {
+  // L = 40 m, m = 2: a mate 10 m ahead -> e = (L / 2 - 10) / 2 = 5 m early
+  EXPECT_DOUBLE_EQ(phase_error({10.0}, 40.0), 5.0);
+  EXPECT_DOUBLE_EQ(phase_error({30.0}, 40.0), -5.0);  // the mate 10 m behind: I am late
+  EXPECT_DOUBLE_EQ(phase_error({20.0}, 40.0), 0.0);
+  // m = 4, targets 0, 10, 20, 30 m: mates at 10, 20, 30 -> on phase; a convoy 1, 2 m ahead
+  // and one at 22 m: e = -((1 - 10) + (2 - 20) + (22 - 30)) / 4 = 8.75 m early
+  EXPECT_DOUBLE_EQ(phase_error({10.0, 20.0, 30.0}, 40.0), 0.0);
+  EXPECT_DOUBLE_EQ(phase_error({1.0, 2.0, 22.0}, 40.0), 8.75);
+  // the errors of a team sum to zero: the robots at 1, 2 and 22 m (seen from each)
+  const double sum = phase_error({1.0, 2.0, 22.0}, 40.0) + phase_error({1.0, 21.0, 39.0}, 40.0) +
+                     phase_error({20.0, 38.0, 39.0}, 40.0) + phase_error({18.0, 19.0, 20.0}, 40.0);
+  EXPECT_NEAR(sum, 0.0, 1e-12);
+}
+
 TEST(TpuafPlus, SpacingRuleExact) {
   const PatrolGraph graph = square();
   auto s = strategy({{0, 0.0}, {2, 0.0}});  // starts (0, 2): already evenly spaced
@@ -71,16 +96,74 @@ TEST(TpuafPlus, SpacingRuleExact) {
   host.set_state(0.0, 0, 1.0);
   s->start(host, 0);
   TpuafPlusProbe::robot(*s, 0).idx = 0;  // on my walk at vertex 0
-  // the mate left the vertex 10 m ahead of me at t = 0: gap ahead 10, behind 30
+  // the mate left the vertex 10 m ahead of me at t = 0: I am early by e = (20 - 10) / 2 = 5 m
+  // and dwell 2 gain e / v (gain 0.35)
   s->on_message(host, 0, TeamMessage::intention(1, 1, 2, 10.0, 10.0, 0.0));
-  EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 0, 0.0), 0.5 * (30 - 10) / 2, 1e-9);  // gain 0.5
-  // seen 4 s later (the message keeps the sender's clock) it is 14 m ahead
-  EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 0, 4.0), 0.5 * (26 - 14) / 2, 1e-9);
+  EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 0, 0.0), 2 * 0.35 * 5.0, 1e-9);
+  // seen 4 s later (the message keeps the sender's clock) it is 14 m ahead: e = 3 m
+  EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 0, 4.0), 2 * 0.35 * 3.0, 1e-9);
   // a mate 10 m behind me: gap ahead 30 > behind 10, I never wait (the one ahead does)
   host.set_state(5.0, 0, 1.0);
   s->on_message(host, 0, TeamMessage::visit(1, 3, 5.0, 0));
   s->on_message(host, 0, TeamMessage::intention(1, 3, 0, 15.0, 10.0, 5.0));
   EXPECT_EQ(TpuafPlusProbe::spacing_wait(*s, 0, 5.0), 0.0);
+}
+
+TEST(TpuafPlus, MatesAreExtrapolatedAtTheirMeasuredPace) {
+  // The mate drove 1 -> 2 (10 m) in 20 s: pace sample 0.5 m/s, its average 1 + 0.25 (0.5 - 1)
+  // = 0.875 m/s. Placed from its next departure at that pace, not at v.
+  const PatrolGraph graph = square();
+  auto s = strategy({{0, 0.0}, {2, 0.0}});
+  PolicyHost host(graph, 2, 0);
+  host.set_state(0.0, 0, 1.0);
+  s->start(host, 0);
+  s->on_message(host, 0, TeamMessage::intention(1, 1, 2, 10.0, 10.0, 0.0));  // leaves 1 at 0 s
+  s->on_message(host, 0, TeamMessage::visit(1, 2, 20.0, 3));                // at 2 at 20 s
+  EXPECT_DOUBLE_EQ(TpuafPlusProbe::pace(*s, 0, 1), 0.875);
+  s->on_message(host, 0, TeamMessage::intention(1, 2, 3, 30.0, 10.0, 20.0));  // leaves 2 now
+  EXPECT_NEAR(TpuafPlusProbe::mate_arc(*s, 0, 1, 24.0), 20.0 + 0.875 * 4.0, 1e-9);
+  // a dwell is not driving: from its visit at 3 (32 s) after leaving 2 at 28 s, 10 m / 4 s
+  // counts as v; the running average rises toward v
+  s->on_message(host, 0, TeamMessage::intention(1, 2, 3, 38.0, 10.0, 28.0));
+  s->on_message(host, 0, TeamMessage::visit(1, 3, 32.0, 0));
+  EXPECT_DOUBLE_EQ(TpuafPlusProbe::pace(*s, 0, 1), 0.875 + 0.25 * (1.0 - 0.875));
+  // my own pace is measured from my own drives: I leave vertex 0 at 0 s, reach 1 at 12.5 s
+  EXPECT_DOUBLE_EQ(TpuafPlusProbe::pace(*s, 0, 0), 1.0);
+  auto mine = strategy({{0, 0.0}, {2, 0.0}});
+  host.set_state(0.0, 0, 1.0);
+  mine->start(host, 0);
+  EXPECT_EQ(mine->decide(host, 0), 1);
+  host.set_state(12.5, 1, 1.0);
+  mine->decide(host, 0);
+  EXPECT_DOUBLE_EQ(TpuafPlusProbe::pace(*mine, 0, 0), 1.0 + 0.25 * (0.8 - 1.0));
+}
+
+TEST(TpuafPlus, AnEarlyRobotDwellsALateOneDoesNot) {
+  // m = 3 on the 40 m square: mates 2 m and 4 m ahead (a convoy). The one at the back is early
+  // (e = -((2 - 40 / 3) + (4 - 80 / 3)) / 3 = 11.33 m) and dwells, capped at L / (m u); the
+  // convoy's leader, seen with its mates 36 and 38 m ahead, is late and never dwells.
+  const PatrolGraph graph = square();
+  auto s = strategy({{0, 0.0}, {0, 0.0}, {0, 0.0}});
+  PolicyHost host(graph, 3, 2);
+  host.set_state(0.0, 0, 1.0);
+  s->start(host, 2);
+  TpuafPlusProbe::robot(*s, 2).idx = 0;  // robot 2 at vertex 0 (arc 0)
+  TpuafPlusProbe::hear(*s, 2, 0, {0, 1, 6.0, 6.0});  // 4 m ahead at 10 s
+  TpuafPlusProbe::hear(*s, 2, 1, {0, 1, 8.0, 8.0});  // 2 m ahead at 10 s
+  const double e = -((2.0 - 40.0 / 3) + (4.0 - 80.0 / 3)) / 3;
+  EXPECT_NEAR(phase_error({2.0, 4.0}, 40.0), e, 1e-12);
+  EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 2, 10.0), std::min(2 * 0.35 * e, 40.0 / 3),
+              1e-9);
+  // robot 0, the convoy's leader, at vertex 1 (arc 10) at 14 s; its mates left vertex 0 at
+  // 6 s and 8 s: at 8 m and 6 m, i.e. 38 m and 36 m ahead of it. It is late: no dwell.
+  PolicyHost lead(graph, 3, 0);
+  lead.set_state(14.0, 1, 1.0);
+  s->start(lead, 0);
+  TpuafPlusProbe::robot(*s, 0).idx = 1;
+  TpuafPlusProbe::hear(*s, 0, 1, {0, 1, 6.0, 6.0});
+  TpuafPlusProbe::hear(*s, 0, 2, {0, 1, 8.0, 8.0});
+  EXPECT_LT(phase_error({36.0, 38.0}, 40.0), 0.0);
+  EXPECT_EQ(TpuafPlusProbe::spacing_wait(*s, 0, 14.0), 0.0);
 }
 
 TEST(TpuafPlus, AMateNotHeardSinceItLeftItsStartSlotIsOnItsSlot) {

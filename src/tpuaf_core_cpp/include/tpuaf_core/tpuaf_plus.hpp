@@ -34,7 +34,8 @@ struct PlusPlan {
 
 struct TpuafPlusParams {
   double speed_mps = 1.0;          // plan speed v (the map's nominal speed)
-  double gain = 0.5;               // fraction of (gap behind - gap ahead) / 2 dwelt
+  double gain = 0.35;              // an early robot dwells 2 gain e / u (phase error e [m])
+  double pace_weight = 0.25;       // weight of a new pace sample in a mate's running average
   double deadband_s = 0.5;         // no dwell below this
   double dwell_revisit_s = 5.0;    // a dwelling robot re-visits its vertex this often
   double silence_timeout_s = 60;   // a mate silent this long is presumed dead (resolved)
@@ -43,6 +44,16 @@ struct TpuafPlusParams {
 
 // Python's float a % b (np.mod): the result takes the sign of b.
 double py_mod(double a, double b);
+
+// A robot's measured pace [m/s] along its walk after one more sample: the running average
+// pace + weight (sample - pace), the sample clamped to [0.1 v, v] (v = speed_mps).
+double update_pace(double pace_mps, double sample_mps, double weight, double speed_mps);
+
+// Phase error [m] of a robot on a closed walk of length_m shared by m = ahead_m.size() + 1
+// robots: ahead_m are its mates' distances ahead along the walk [m], sorted, in [0, L]. With
+// the robots' targets evenly spread by L / m around the team's mean phase, e = -mean_j (d_j -
+// j L / m) (itself j = 0, d_0 = 0): e > 0 the robot is early (ahead of its phase), e < 0 late.
+double phase_error(const std::vector<double>& ahead_m, double length_m);
 
 // The walk index where a robot at `vertex` joins `route`: its nearest walk vertex (ties to the
 // lowest vertex index), first occurrence (tpuaf_plus._entry_index).
@@ -103,6 +114,7 @@ class TpuafPlusStrategy : public TeamStrategy {
     std::vector<double> mate_arc;     // last estimated arc [m] per mate
     std::vector<char> has_mate_arc;
     std::vector<std::deque<Heard>> history;  // the last 4 announcements per robot
+    std::vector<double> pace;         // [m/s] measured pace along the walk per robot (me too)
     double changed_at = 0;            // [s] when the team last changed
     bool holding = false;
     double hold_until = 0;            // planned departure while dwelling [s]
@@ -118,9 +130,6 @@ class TpuafPlusStrategy : public TeamStrategy {
     int idx = -1;  // my walk index (-1: driving to my walk)
     bool started = false;
   };
-  struct Gaps {
-    double ahead, behind, even;
-  };
   Robot& state(int robot);
   const PlusRoute& route_of(const Robot& r) const { return r.plan->routes[r.route]; }
   std::shared_ptr<const PlusPlan> plan_for(const std::vector<int>& team);
@@ -132,9 +141,9 @@ class TpuafPlusStrategy : public TeamStrategy {
   double respace_wait(Robot& r, int robot, double now);
   void heard_from(Robot& r, int k, double sent) const;
   static void remember(Robot& r, int robot, const Heard& entry);
+  void learn_pace(Robot& r, int k, int vertex, double arrived_s) const;
   void update_team(StrategyHost& host, int robot);
   bool mate_arc(Robot& r, int k, double now, double& arc);
-  bool gaps(Robot& r, int robot, double now, Gaps& out);
   double spacing_wait(Robot& r, int robot, double now);
   void announce(StrategyHost& host, int robot, int here, int next, double departure,
                 bool visit);

@@ -16,11 +16,14 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    slot phase and robot-to-slot matching are those under which every walk vertex is first
    visited soonest. Until it leaves, a mate counts as on its slot, and after that while its
    latest message is older (a delayed or lost departure message).
-3. Spacing. After that, on reaching each walk vertex a robot estimates where its walk mates
-   are (arc position from their latest timed message: departure vertex + departure time,
-   extrapolated at nominal speed; messages carry the sender's clock, so delay does not bias
-   them) and dwells `gain * (gap_behind - gap_ahead) / (2 v)` when the mate behind is farther
-   than the one ahead (a robot cannot speed up; the one ahead waits). Gaps converge to L / m.
+3. Spacing (closed loop). Each robot measures each mate's pace (its speed along the walk,
+   from consecutive timed messages: edge length / (arrival - departure), a running average
+   weighted `pace_weight`, clamped to 0.1-1x the plan speed v). On reaching each walk vertex it
+   places its walk mates (arc position from their latest timed message, extrapolated at their
+   measured pace; messages carry the sender's clock, so delay does not bias them) and computes
+   its phase error e [m] against the team's even spacing (phases L / m apart around the team's
+   mean phase). Early (e > 0): it dwells `2 gain e / u` (u its own pace); late: it never
+   dwells. A convoy dissolves within a lap; the gaps converge to L / m.
 4. Dwelling. A dwelling robot re-visits its vertex every `dwell_revisit_s` (goal = its own
    vertex: it is physically there) and re-announces its departure time (a heartbeat).
 5. Faults. A mate not heard from for `silence_timeout_s` is presumed dead; every survivor
@@ -51,6 +54,7 @@ from tpuaf.policies.core import CoreStrategyPolicy
 from tpuaf.policies.tpuaf import new_knowledge
 
 _EPS = 1e-6
+_CORE_DEFAULTS = tpuaf_core.TpuafPlusParams()  # the core declares the spacing defaults
 SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
 FRESH_MARGIN = 1.15  # after a loss, merge unless a fresh plan's worst is lower by more than this
 STAY_S = 1.0  # [s] the runtimes' dwell for a goal equal to the current vertex (runtimes.graph)
@@ -314,7 +318,8 @@ def silence_timeout(graph, speed: float, setting: float) -> float:
 
 @register
 class TpuafPlus(CoreStrategyPolicy):
-    """TPUAF+: shared tour plan, even spacing from timed messages, re-plan on silence."""
+    """TPUAF+: shared tour plan, closed-loop spacing from timed messages (measured paces,
+    phase errors), re-plan on silence."""
 
     name = "tpuaf_plus"
     description = (
@@ -336,15 +341,23 @@ class TpuafPlus(CoreStrategyPolicy):
             lambda v: v in ("auto", "merge", "replan"),
         ),
         "gain": Parameter(
-            0.5,
-            "fraction of the gap difference (behind - ahead) / 2 dwelt per vertex, in (0, 1]",
+            _CORE_DEFAULTS.gain,
+            "spacing gain in (0, 1]: a robot early by e [m] of its phase dwells 2 gain e / u "
+            "(u: its measured pace [m/s])",
+            lambda v: _positive(v) and v <= 1,
+        ),
+        "pace_weight": Parameter(
+            _CORE_DEFAULTS.pace_weight,
+            "weight in (0, 1] of a new sample in a mate's measured pace (running average)",
             lambda v: _positive(v) and v <= 1,
         ),
         "deadband_s": Parameter(
-            0.5, "no dwell below this [s] (keeps the spacing from chattering)", _non_negative
+            _CORE_DEFAULTS.deadband_s, "no dwell below this [s] (keeps the spacing from "
+            "chattering)", _non_negative
         ),
         "dwell_revisit_s": Parameter(
-            5.0, "a dwelling robot re-visits its vertex and re-announces every this [s]", _positive
+            _CORE_DEFAULTS.dwell_revisit_s,
+            "a dwelling robot re-visits its vertex and re-announces every this [s]", _positive,
         ),
         "silence_timeout_s": Parameter(
             0.0,
@@ -370,6 +383,7 @@ class TpuafPlus(CoreStrategyPolicy):
         out = tpuaf_core.TpuafPlusParams()
         out.speed_mps = speed
         out.gain = float(params["gain"])
+        out.pace_weight = float(params["pace_weight"])
         out.deadband_s = float(params["deadband_s"])
         out.dwell_revisit_s = float(params["dwell_revisit_s"])
         out.silence_timeout_s = silence_timeout(patrol_map.graph, speed,

@@ -1,0 +1,153 @@
+"""tpuaf_plus's closed-loop spacing (issue 32, part 4): quality before / after.
+
+1. Graph runtime: tpuaf_plus I_max against the best-known tours (patrol_bounds.csv) on every
+   shared map and grid at N = 2, 4, 8, 12 (3600 s, seed 1: tpuaf_plus draws no random number).
+2. Physics runtime: tpuaf_plus I_max over the graph runtime's (same map, N and robot, the graph
+   runtime on the robot's timed map) on a few cases (900 s, seed 1).
+
+Each side is measured by the code it runs under, so "before" runs from a checkout of the old
+code with its own interpreter:
+
+    /work/main/.venv/bin/python benchmarks/bench_spacing.py --label before   # old code
+    .venv/bin/python benchmarks/bench_spacing.py --label after                # this code
+    .venv/bin/python benchmarks/bench_spacing.py --report                     # spacing.md
+
+`--label L` writes benchmarks/results/spacing_L.json; `--report` joins before and after.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import RESULTS, header, write  # noqa: E402
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+MAPS = SHARED / "maps" / "patrolling_sim"
+BOUNDS = SHARED / "reference" / "patrol_bounds.csv"
+GRAPH_MAPS = ("grid", "cumberland", "example", "DIAG_labs", "1r5", "ctcv")
+GRAPH_N = (2, 4, 8, 12)
+# (map, N): the built-in grid and lab, and patrolling_sim's example
+PHYSICS_CASES = (("grid", 4), ("grid", 8), ("lab", 4), ("lab", 8), ("example", 4))
+
+
+def map_ref(name: str) -> str:
+    return name if name in ("grid", "lab") else str(MAPS / name)
+
+
+def best_known() -> dict:
+    out = {}
+    for row in csv.DictReader(BOUNDS.open()):
+        out[(row["map"], int(row["N"]))] = float(row["best_known_worst_idleness_s"])
+    return out
+
+
+def graph_case(case: tuple) -> tuple:
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import GraphRun
+
+    name, n = case
+    config = RunConfig(map=map_ref(name), strategy="tpuaf_plus", robots=n, duration_s=3600.0,
+                       seed=1)
+    return ("graph", name, n), GraphRun(config).run()["idleness_max_s"]
+
+
+def physics_case(case: tuple) -> tuple:
+    from tpuaf.runtimes.config import PhysicsConfig, RunConfig
+    from tpuaf.runtimes.graph import GraphRun
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    name, n = case
+    common = dict(map=map_ref(name), strategy="tpuaf_plus", robots=n, duration_s=900.0, seed=1)
+    graph = GraphRun(RunConfig(**common, robot="auto")).run()["idleness_max_s"]
+    physics = PhysicsRun(PhysicsConfig(**common)).run()["idleness_max_s"]
+    return ("physics", name, n), {"graph": graph, "physics": physics}
+
+
+def measure(label: str, workers: int) -> None:
+    jobs = [(graph_case, (m, n)) for m in GRAPH_MAPS for n in GRAPH_N]
+    jobs += [(physics_case, c) for c in PHYSICS_CASES]
+    out: dict = {}
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(workers) as pool:
+        futures = [pool.submit(fn, case) for fn, case in jobs]
+        for f in futures:
+            key, value = f.result()
+            out["/".join(map(str, key))] = value
+            print(key, value, file=sys.stderr, flush=True)
+    out["_wall_s"] = time.perf_counter() - t0
+    path = RESULTS / f"spacing_{label}.json"
+    path.write_text(json.dumps(out, indent=1, sort_keys=True) + "\n")
+    print(f"written to {path}")
+
+
+def report() -> None:
+    before = json.loads((RESULTS / "spacing_before.json").read_text())
+    after = json.loads((RESULTS / "spacing_after.json").read_text())
+    bounds = best_known()
+    lines = [header("tpuaf_plus closed-loop spacing (issue 32, part 4)")]
+    lines.append("Command: `benchmarks/bench_spacing.py` (docstring: before runs the old code). "
+                 f"Wall: before {before['_wall_s']:.0f} s, after {after['_wall_s']:.0f} s "
+                 "with 2 workers.\n")
+    lines.append("## Graph runtime: tpuaf_plus I_max / best-known tour (3600 s, seed 1)\n")
+    lines.append("| map | N | best-known [s] | before I_max [s] (ratio) | after I_max [s] (ratio) |")
+    lines.append("|---|---|---|---|---|")
+    ratios: dict = {"before": [], "after": []}
+    for m in GRAPH_MAPS:
+        for n in GRAPH_N:
+            key, bound = f"graph/{m}/{n}", bounds.get((m, n))
+            cells = []
+            for label, data in (("before", before), ("after", after)):
+                value = data[key]
+                if bound:
+                    ratios[label].append(value / bound)
+                    cells.append(f"{value:.1f} ({value / bound:.2f}x)")
+                else:
+                    cells.append(f"{value:.1f}")
+            lines.append(f"| {m} | {n} | {bound if bound is not None else '-'} | "
+                         + " | ".join(cells) + " |")
+    for label in ("before", "after"):
+        r = ratios[label]
+        lines.append(f"\n{label}: median ratio {statistics.median(r):.3f}, range "
+                     f"{min(r):.2f}-{max(r):.2f}x over {len(r)} cases with a bound > 0.")
+    lines.append("\n## Physics runtime: tpuaf_plus I_max, physics / graph runtime (900 s, seed 1)\n")
+    lines.append("Robot `auto` (the map's preset); the graph runtime on the robot's timed map.\n")
+    lines.append("| map | N | graph I_max [s] | before physics [s] (ratio) | "
+                 "after physics [s] (ratio) |")
+    lines.append("|---|---|---|---|---|")
+    phys: dict = {"before": [], "after": []}
+    for m, n in PHYSICS_CASES:
+        key = f"physics/{m}/{n}"
+        cells = []
+        for label, data in (("before", before), ("after", after)):
+            g, p = data[key]["graph"], data[key]["physics"]
+            phys[label].append(p / g)
+            cells.append(f"{p:.1f} ({p / g:.2f}x)")
+        lines.append(f"| {m} | {n} | {after[key]['graph']:.1f} | " + " | ".join(cells) + " |")
+    for label in ("before", "after"):
+        lines.append(f"\n{label}: median physics / graph {statistics.median(phys[label]):.2f}x.")
+    write("spacing.md", "\n".join(lines) + "\n")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--label", help="measure with this interpreter's code: spacing_LABEL.json")
+    ap.add_argument("--report", action="store_true", help="write spacing.md from both labels")
+    ap.add_argument("--workers", type=int, default=2)
+    a = ap.parse_args()
+    if a.label:
+        measure(a.label, a.workers)
+    if a.report:
+        report()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
