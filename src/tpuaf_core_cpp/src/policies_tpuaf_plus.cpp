@@ -234,13 +234,9 @@ double TpuafPlusStrategy::idle_room(Robot& r, int robot, double now) {
   double reach = even;
   for (int k : route.robots) {
     if (k == robot) continue;
-    double arc = 0;
-    if (mate_arc(r, k, now, arc)) {
-      if (r.has_heard[static_cast<std::size_t>(k)]) {  // a dwelling mate is at its vertex
-        arc += r.pace[static_cast<std::size_t>(k)] *
-               std::max(0.0, r.heard[static_cast<std::size_t>(k)].departure - now);
-      }
-      reach = std::min(reach, py_mod(arc - here, L));
+    double arc = 0, dwell = 0;
+    if (mate_arc(r, k, now, arc, &dwell)) {  // a dwelling mate is at its vertex
+      reach = std::min(reach, py_mod(arc + dwell - here, L));
     }
   }
   const Eigen::VectorXd& last = r.knowledge.last_visit();
@@ -363,11 +359,12 @@ void TpuafPlusStrategy::update_team(StrategyHost& host, int robot) {
 
 // ------------------------------------------------------------------ spacing
 
-bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
+bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc, double* dwell_m) {
   // Mate k's estimated arc [m] on my walk now: on its start slot until it leaves (and after,
   // while its latest message is from before that: the one telling me it left may be delayed or
   // lost), else extrapolated at its measured pace from its latest timed message; false when
-  // unknown or off my walk.
+  // unknown or off my walk. dwell_m: its pace x its dwell left [m] (its vertex is arc + that).
+  if (dwell_m != nullptr) *dwell_m = 0.0;
   const PlusRoute& route = route_of(r);
   const double L = route.length, speed = params_.speed_mps;
   const std::size_t kk = static_cast<std::size_t>(k);
@@ -417,35 +414,29 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc) {
   }
   if (chosen < 0) return false;
   arc = py_mod(route.arc[static_cast<std::size_t>(chosen)] + moved, L);
+  if (dwell_m != nullptr) *dwell_m = r.pace[kk] * std::max(0.0, info.departure - now);
   r.mate_arc[kk] = arc;
   r.has_mate_arc[kk] = 1;
   return true;
 }
 
 double TpuafPlusStrategy::spacing_wait(Robot& r, int robot, double now) {
-  // Dwell [s] at my walk vertex: 2 gain e / u when I am early by e [m] of the team's even
-  // phases (phase_error over the placed mates, u my measured pace [m/s]); late: none.
+  // Dwell [s] at my walk vertex: spacing_dwell over my placed walk mates, my measured pace.
   const PlusRoute& route = route_of(r);
   const double L = route.length;
   if (!(L > 0)) return 0.0;
   const double here = route.arc[static_cast<std::size_t>(r.idx)];
-  std::vector<double> ahead;  // [m] placed mates' distances ahead along the walk
+  std::vector<MatePlace> mates;
   for (int k : route.robots) {
-    if (k == robot || !r.alive[static_cast<std::size_t>(k)]) continue;
-    double arc = 0;
-    if (!mate_arc(r, k, now, arc)) continue;
-    double d = py_mod(arc - here, L);
+    const std::size_t kk = static_cast<std::size_t>(k);
+    double arc = 0, dwell = 0;
+    if (k == robot || !r.alive[kk] || !mate_arc(r, k, now, arc, &dwell)) continue;
+    double d = py_mod(arc + dwell - here, L);
     if (d < kEps || L - d < kEps) d = k < robot ? 0.0 : L;  // together: the lower index ahead
-    ahead.push_back(d);
+    mates.push_back(MatePlace{d, dwell, r.pace[kk]});
   }
-  if (ahead.empty()) return 0.0;
-  std::sort(ahead.begin(), ahead.end());
-  const double e = phase_error(ahead, L);
-  const double pace = r.pace[static_cast<std::size_t>(robot)], deadband = params_.deadband_s;
-  double wait = 2.0 * params_.gain * e / pace;
-  if (e > deadband * pace) wait = std::max(wait, deadband + 0.1);  // far early: past the deadband
-  const double even = L / static_cast<double>(ahead.size() + 1);
-  return std::min(std::max(wait, 0.0), even / pace);
+  return spacing_dwell(std::move(mates), L, r.pace[static_cast<std::size_t>(robot)], params_.gain,
+                       params_.deadband_s);
 }
 
 // ------------------------------------------------------------------ decisions

@@ -102,6 +102,21 @@ double phase_error(const std::vector<double>& ahead_m, double length_m) {
   return -sum / m;
 }
 
+double spacing_dwell(std::vector<MatePlace> mates, double length_m, double pace_mps, double gain,
+                     double deadband_s) {
+  if (mates.empty() || !(length_m > 0)) return 0.0;
+  std::stable_sort(mates.begin(), mates.end(),
+                   [](const MatePlace& a, const MatePlace& b) { return a.ahead_m < b.ahead_m; });
+  std::vector<double> phases;  // [m] ahead, in the mates' order along the walk
+  for (const MatePlace& p : mates) phases.push_back(p.ahead_m - p.dwell_m);
+  const double e = phase_error(phases, length_m);
+  double wait = 2.0 * gain * e / pace_mps;
+  if (e > deadband_s * pace_mps) wait = std::max(wait, deadband_s + 0.1);  // past the deadband
+  const double even_s = length_m / static_cast<double>(mates.size() + 1) / pace_mps;
+  const double reach_s = (length_m - phases.back()) / mates.back().pace_mps - deadband_s;
+  return std::max(0.0, std::min({wait, even_s, reach_s}));
+}
+
 int nearest_entry(const PatrolGraph& graph, const PlusRoute& route, int vertex) {
   int best = -1;
   double best_d = kInf;

@@ -89,6 +89,29 @@ TEST(TpuafPlus, PhaseErrorIsAgainstTheTeamsMeanEvenSpacing) {
   EXPECT_NEAR(sum, 0.0, 1e-12);
 }
 
+TEST(TpuafPlus, SpacingDwellKeepsTheOrderAndNeverBlocksTheMateBehind) {
+  // L = 40 m, u = 1 m/s, gain 0.35, deadband 0.5 s. A mate 20 m ahead: on phase, no dwell.
+  EXPECT_EQ(spacing_dwell({{20.0, 0.0, 1.0}}, 40.0, 1.0, 0.35, 0.5), 0.0);
+  // a mate 4 m ahead dwelling 12 s more at its vertex: its phase is 8 m behind me, I am early
+  // by e = (20 + 8) / 2 = 14 m and dwell 2 gain e = 9.8 s (I do not run into it)
+  EXPECT_NEAR(spacing_dwell({{4.0, 12.0, 1.0}}, 40.0, 1.0, 0.35, 0.5), 9.8, 1e-9);
+  // m = 3: mates 2 m ahead and 6 m behind me (34 m ahead): early by
+  // e = -((2 - 40 / 3) + (34 - 80 / 3)) / 3, I dwell 2 gain e (the mate behind needs 6 s)
+  const double e = -((2.0 - 40.0 / 3) + (34.0 - 80.0 / 3)) / 3;
+  EXPECT_NEAR(spacing_dwell({{34.0, 0.0, 1.0}, {2.0, 0.0, 1.0}}, 40.0, 1.0, 0.35, 0.5),
+              0.7 * e, 1e-9);
+  // m = 4: mates 1 m and 2 m ahead and 1 m behind: e = 4.5 m asks for 3.15 s, but the mate
+  // behind reaches my vertex in 1 s: I leave 0.5 s before it (at 0.5 m/s, in 2 s: 1.5 s)
+  EXPECT_NEAR(spacing_dwell({{1.0, 0.0, 1.0}, {2.0, 0.0, 1.0}, {39.0, 0.0, 1.0}}, 40.0, 1.0,
+                            0.35, 0.5),
+              0.5, 1e-9);
+  EXPECT_NEAR(spacing_dwell({{1.0, 0.0, 1.0}, {2.0, 0.0, 1.0}, {39.0, 0.0, 0.5}}, 40.0, 1.0,
+                            0.35, 0.5),
+              1.5, 1e-9);
+  // late: no dwell
+  EXPECT_EQ(spacing_dwell({{30.0, 0.0, 1.0}}, 40.0, 1.0, 0.35, 0.5), 0.0);
+}
+
 TEST(TpuafPlus, SpacingRuleExact) {
   const PatrolGraph graph = square();
   auto s = strategy({{0, 0.0}, {2, 0.0}});  // starts (0, 2): already evenly spaced

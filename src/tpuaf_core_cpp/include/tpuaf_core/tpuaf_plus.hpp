@@ -55,6 +55,20 @@ double update_pace(double pace_mps, double sample_mps, double weight, double spe
 // j L / m) (itself j = 0, d_0 = 0): e > 0 the robot is early (ahead of its phase), e < 0 late.
 double phase_error(const std::vector<double>& ahead_m, double length_m);
 
+// A mate on a shared walk as a robot places it.
+struct MatePlace {
+  double ahead_m = 0;   // [m] where it is, ahead along the walk, in [0, L] (dwelling: its vertex)
+  double dwell_m = 0;   // [m] its pace x its dwell left: its phase is ahead_m - dwell_m
+  double pace_mps = 1;  // its measured pace
+};
+
+// TPUAF+'s spacing dwell [s] at a walk vertex of a robot of pace pace_mps (u): over its mates
+// in their order along the walk, the phase_error e of their phases; early (e > 0) 2 gain e / u
+// (at least deadband_s + 0.1 s when e > deadband_s u), at most L / (m u), and never so long that
+// the mate behind reaches the robot's vertex (it would queue behind it) less deadband_s; late 0.
+double spacing_dwell(std::vector<MatePlace> mates, double length_m, double pace_mps, double gain,
+                     double deadband_s);
+
 // The walk index where a robot at `vertex` joins `route`: its nearest walk vertex (ties to the
 // lowest vertex index), first occurrence (tpuaf_plus._entry_index).
 int nearest_entry(const PatrolGraph& graph, const PlusRoute& route, int vertex);
@@ -143,7 +157,7 @@ class TpuafPlusStrategy : public TeamStrategy {
   static void remember(Robot& r, int robot, const Heard& entry);
   void learn_pace(Robot& r, int k, int vertex, double arrived_s) const;
   void update_team(StrategyHost& host, int robot);
-  bool mate_arc(Robot& r, int k, double now, double& arc);
+  bool mate_arc(Robot& r, int k, double now, double& arc, double* dwell_m = nullptr);
   double spacing_wait(Robot& r, int robot, double now);
   void announce(StrategyHost& host, int robot, int here, int next, double departure,
                 bool visit);
