@@ -29,6 +29,7 @@ from typing import Any, Protocol
 
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import Policy, RobotContextBase
+from tpuaf.robot.learning import LearnedTravel
 from tpuaf.team.liveness import TeammateLiveness
 from tpuaf.team.messages import IdlenessEstimate, Intention, Visit
 from tpuaf.topics import FAILED, GOAL, REACHED, START
@@ -102,6 +103,8 @@ class RobotMachine(RobotContextBase):
         self.decisions = 0
         # [s] a teammate silent this long is lost (the agent node's ~teammate_timeout)
         self.liveness = TeammateLiveness(self.n_robots, self.robot, teammate_timeout_s)
+        # The team's measured edge durations; the plan is re-timed on them (robot/learning.py).
+        self.learned = LearnedTravel(patrol_map)
 
     def at_vertex(self, vertex: int) -> bool:
         """Is the robot within the map's goal tolerance [m] of `vertex` (a visit's distance)?"""
@@ -125,6 +128,7 @@ class RobotMachine(RobotContextBase):
             v = announced_vertex(message)
             if v >= 0:
                 self.on_announce(v, self.driver.now)
+        self.learned.observe(message)
         self.driver.transmit(self.robot, message)
 
     def wake_at(self, time: float) -> None:
@@ -157,6 +161,10 @@ class RobotMachine(RobotContextBase):
             return
         self.wake_pending = False
         self.decisions += 1
+        retimed = self.learned.retimed_map(self.driver.now)
+        if retimed is not None:  # learned travel times: the policy plans on them from now on
+            self.patrol_map = retimed
+            self.policy.retime(self)
         goal = self.call_decide(self.policy)
         self.redirect = None
         if goal is None:
@@ -224,6 +232,7 @@ class RobotMachine(RobotContextBase):
     def on_message(self, message: Any) -> None:
         """A team message from another robot (never its own)."""
         if self.alive and self.started:
+            self.learned.observe(message)
             self.policy.on_message(message, self)
 
     def hear(self, robot: int, t: float) -> bool:
