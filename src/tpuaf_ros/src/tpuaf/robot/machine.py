@@ -96,8 +96,12 @@ class RobotMachine(RobotContextBase):
         self.started = False
         self.alive = True
         self.stalled = False
+        # Vel(i) of Eq. 6 in the plan's units: plan metres of the legs driven to a visit over
+        # their driving time [s] (the graph runtime's measure), so that the plan's lengths over
+        # it give travel times whatever the lengths model (declared, planned or timed).
         self.travelled_m = 0.0
         self.travel_time_s = 0.0
+        self._leg: tuple[int, float] | None = None  # (from vertex, departure [s]) of a drive
         self.visits = 0
         self.failures = 0
         self.decisions = 0
@@ -185,6 +189,7 @@ class RobotMachine(RobotContextBase):
             self.driver.dwell(self.robot, goal, STAY_S)
         else:
             self.dwelling = False
+            self._leg = (here, self.driver.now)
             self.driver.drive(self.robot, here, goal)
 
     def on_wake(self) -> None:
@@ -211,6 +216,10 @@ class RobotMachine(RobotContextBase):
         return False
 
     def _reach(self, vertex: int) -> None:
+        if self._leg is not None and self._leg[0] != vertex:
+            self.travelled_m += self.patrol_map.graph.distance(self._leg[0], vertex)
+            self.travel_time_s += self.driver.now - self._leg[1]
+        self._leg = None
         self.dwelling = False
         self.visits += 1
         self.emit(REACHED, vertex, vertex, self.driver.now)
@@ -222,6 +231,7 @@ class RobotMachine(RobotContextBase):
         if not self.alive:
             return
         self.failures += 1
+        self._leg = None
         self.emit(FAILED, vertex, self._current, self.driver.now)
         self.goal = None
         self.dwelling = False
