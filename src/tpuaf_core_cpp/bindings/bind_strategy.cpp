@@ -39,6 +39,8 @@ void tpuaf::bindings::bind_strategy(py::module_& m) {
       .def(py::init<const PatrolGraph&, int, int>(), py::arg("graph"), py::arg("robots"),
            py::arg("robot"), py::keep_alive<1, 2>())
       .def_property_readonly("robot", &PolicyHost::robot)
+      .def("set_graph", &PolicyHost::set_graph, py::arg("graph"), py::keep_alive<1, 2>(),
+           "Re-timed edges: strategies reading the host's graph at each call use `graph`.")
       .def("set_state", &PolicyHost::set_state, py::arg("now_s"), py::arg("current_vertex"),
            py::arg("average_speed_mps"))
       .def("take_messages", &PolicyHost::take_messages)

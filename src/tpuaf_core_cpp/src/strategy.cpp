@@ -42,6 +42,15 @@ PolicyHost::PolicyHost(const PatrolGraph& graph, int robots, int robot)
   }
 }
 
+void PolicyHost::set_graph(const PatrolGraph& graph) {
+  if (graph.num_vertices() != graph_->num_vertices()) {
+    throw std::invalid_argument("PolicyHost::set_graph: " + std::to_string(graph.num_vertices()) +
+                                " vertices, the strategy's graph has " +
+                                std::to_string(graph_->num_vertices()));
+  }
+  graph_ = &graph;
+}
+
 void PolicyHost::check_robot(int robot) const {
   if (robot != robot_) {
     throw std::logic_error("the strategy of robot " + std::to_string(robot_) + " asked for robot " +

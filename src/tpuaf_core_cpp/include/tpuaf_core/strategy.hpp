@@ -77,6 +77,9 @@ class PolicyHost final : public StrategyHost {
   void change_goal(int robot, int vertex) override;
 
   int robot() const { return robot_; }
+  // Re-timed edges (learned travel durations): strategies that read graph() at each call use
+  // `graph` from now on. Kept by reference, must outlive the host.
+  void set_graph(const PatrolGraph& graph);
   // The robot's state at the next call: run time [s], vertex, Vel(i) [m/s].
   void set_state(double now_s, int current_vertex, double average_speed_mps);
   // What the strategy did since the last take_*(): its messages, the wake-up time asked (NaN:

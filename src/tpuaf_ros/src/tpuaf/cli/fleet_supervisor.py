@@ -4,6 +4,12 @@ their stop by PID only: SIGINT to the process group we created (roslaunch stops 
 rosbag closes the bag), wait, then SIGTERM, then SIGKILL; the same on Ctrl-C. An agent killed
 for a fault (`kill_node`) is found by the PID the node itself reports through the master.
 
+No orphans: a watchdog process (`python -m tpuaf.cli.fleet_supervisor --watch`, its own session)
+holds the read end of a pipe only `tpuaf fleet` writes to. When `tpuaf fleet` ends in any way,
+`kill -9` included, the pipe closes and the watchdog stops every process group we started, in
+reverse order, with the same SIGINT, SIGTERM, SIGKILL escalation (so rosbag still closes its
+bag). After a normal stop it finds the groups gone and exits.
+
 No rospy here (the master and nodes are asked over XML-RPC): `tpuaf.cli.fleet_ros` follows the
 run. Standard library only at import time (the `tpuaf` parser imports tpuaf.cli.fleet).
 """
@@ -113,6 +119,62 @@ def wait_bag_closed(bag: Path, timeout_s: float = 30.0) -> bool:
     return False
 
 
+def stop_group(pgid: int, grace_s: float = 20.0) -> None:
+    """`stop` for a process group we did not start from this process (the watchdog's)."""
+    for sig, wait in ((signal.SIGINT, grace_s), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+        try:
+            os.killpg(pgid, sig)
+        except ProcessLookupError:
+            return
+        deadline = time.monotonic() + wait
+        while time.monotonic() < deadline:
+            try:
+                os.killpg(pgid, 0)
+            except ProcessLookupError:
+                return
+            time.sleep(0.1)
+
+
+class Watchdog:
+    """The process that stops our process groups if `tpuaf fleet` dies (module docstring)."""
+
+    def __init__(self) -> None:
+        import sys
+
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "tpuaf.cli.fleet_supervisor", "--watch"],
+            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            start_new_session=True, env=dict(os.environ, PYTHONPATH=_package_path()))
+
+    def guard(self, pgid: int) -> None:
+        """Stop group `pgid` if we die (groups are stopped in the reverse order of guard)."""
+        with contextlib.suppress(BrokenPipeError):
+            self.proc.stdin.write(f"{pgid}\n".encode())
+            self.proc.stdin.flush()
+
+    def close(self) -> None:
+        """Our own stop is done: the watchdog finds nothing left and exits."""
+        with contextlib.suppress(BrokenPipeError, OSError):
+            self.proc.stdin.close()
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            self.proc.wait(10.0)
+
+
+def _package_path() -> str:
+    """PYTHONPATH that imports this `tpuaf` package first (source, devel or install space)."""
+    here = Path(__file__).resolve().parents[2]
+    return os.pathsep.join(p for p in (str(here), os.environ.get("PYTHONPATH", "")) if p)
+
+
+def watch(stream) -> None:
+    """The watchdog's loop: read PGIDs until EOF (the parent is gone), then stop them."""
+    for sig in (signal.SIGINT, signal.SIGHUP, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)  # only the pipe's end stops the watchdog
+    groups = [int(line) for line in iter(stream.readline, b"") if line.strip().isdigit()]
+    for pgid in reversed(groups):
+        stop_group(pgid)
+
+
 def supervise(ros_env_sh: Path, cmd: list[str], home: Path, launch_log: Path,
               follow: Callable[[dict, subprocess.Popen], T]) -> tuple[T | None, bool]:
     """roscore on a free port, then `cmd` (roslaunch) through `ros_env_sh`, both logged;
@@ -122,9 +184,11 @@ def supervise(ros_env_sh: Path, cmd: list[str], home: Path, launch_log: Path,
     port = free_port()
     env = ros_env(port, home)
     procs: list[subprocess.Popen] = []
+    watchdog = Watchdog()
     try:
         core = start([str(ros_env_sh), "roscore", "-p", str(port)], env, home / "roscore.log")
         procs.append(core)
+        watchdog.guard(core.pid)
         deadline = time.monotonic() + MASTER_START_S
         while not master_up(port):
             if core.poll() is not None or time.monotonic() > deadline:
@@ -132,9 +196,18 @@ def supervise(ros_env_sh: Path, cmd: list[str], home: Path, launch_log: Path,
             time.sleep(0.1)
         launch = start([str(ros_env_sh), *cmd], env, launch_log)
         procs.append(launch)
+        watchdog.guard(launch.pid)
         return follow(env, launch), False
     except KeyboardInterrupt:
         return None, True
     finally:
         for proc in reversed(procs):
             stop(proc)
+        watchdog.close()
+
+
+if __name__ == "__main__":
+    import sys
+
+    if sys.argv[1:] == ["--watch"]:
+        watch(sys.stdin.buffer)

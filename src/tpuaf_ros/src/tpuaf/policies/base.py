@@ -161,6 +161,10 @@ class Policy(ABC):
     def on_goal_failed(self, vertex: int, ctx: RobotContext) -> None:  # noqa: B027
         """The navigator gave up on `vertex`; `decide` is called next."""
 
+    def retime(self, ctx: RobotContext) -> None:  # noqa: B027 - optional hook
+        """`ctx.patrol_map` now holds learned edge travel times (robot/learning.py); a
+        strategy that cached distances updates them here."""
+
     def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:  # noqa: B027
         """Teammate `robot` has gone silent (the runtime's liveness timeout): forget what it
         announced (its intentions). It counts as heard again at its next message."""

@@ -96,5 +96,10 @@ class CoreStrategyPolicy(Policy):
     def on_goal_failed(self, vertex: int, ctx: RobotContext) -> None:
         self._call(ctx, self.strategy.on_goal_failed, int(vertex))
 
+    def retime(self, ctx: RobotContext) -> None:
+        # Strategies that read the host's graph at each call (tpuaf, ...) use the new times;
+        # tpuaf_plus keeps the tours it planned at the start on the model's times.
+        self.host.set_graph(ctx.patrol_map.graph)
+
     def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:
         self._call(ctx, self.strategy.on_teammate_lost, int(robot))

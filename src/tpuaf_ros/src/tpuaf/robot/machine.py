@@ -29,6 +29,7 @@ from typing import Any, Protocol
 
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import Policy, RobotContextBase
+from tpuaf.robot.learning import LearnedTravel
 from tpuaf.team.liveness import TeammateLiveness
 from tpuaf.team.messages import IdlenessEstimate, Intention, Visit
 from tpuaf.topics import FAILED, GOAL, REACHED, START
@@ -95,13 +96,19 @@ class RobotMachine(RobotContextBase):
         self.started = False
         self.alive = True
         self.stalled = False
+        # Vel(i) of Eq. 6 in the plan's units: plan metres of the legs driven to a visit over
+        # their driving time [s] (the graph runtime's measure), so that the plan's lengths over
+        # it give travel times whatever the lengths model (declared, planned or timed).
         self.travelled_m = 0.0
         self.travel_time_s = 0.0
+        self._leg: tuple[int, float] | None = None  # (from vertex, departure [s]) of a drive
         self.visits = 0
         self.failures = 0
         self.decisions = 0
         # [s] a teammate silent this long is lost (the agent node's ~teammate_timeout)
         self.liveness = TeammateLiveness(self.n_robots, self.robot, teammate_timeout_s)
+        # The team's measured edge durations; the plan is re-timed on them (robot/learning.py).
+        self.learned = LearnedTravel(patrol_map)
 
     def at_vertex(self, vertex: int) -> bool:
         """Is the robot within the map's goal tolerance [m] of `vertex` (a visit's distance)?"""
@@ -125,6 +132,7 @@ class RobotMachine(RobotContextBase):
             v = announced_vertex(message)
             if v >= 0:
                 self.on_announce(v, self.driver.now)
+        self.learned.observe(message)
         self.driver.transmit(self.robot, message)
 
     def wake_at(self, time: float) -> None:
@@ -157,6 +165,10 @@ class RobotMachine(RobotContextBase):
             return
         self.wake_pending = False
         self.decisions += 1
+        retimed = self.learned.retimed_map(self.driver.now)
+        if retimed is not None:  # learned travel times: the policy plans on them from now on
+            self.patrol_map = retimed
+            self.policy.retime(self)
         goal = self.call_decide(self.policy)
         self.redirect = None
         if goal is None:
@@ -177,6 +189,7 @@ class RobotMachine(RobotContextBase):
             self.driver.dwell(self.robot, goal, STAY_S)
         else:
             self.dwelling = False
+            self._leg = (here, self.driver.now)
             self.driver.drive(self.robot, here, goal)
 
     def on_wake(self) -> None:
@@ -203,6 +216,10 @@ class RobotMachine(RobotContextBase):
         return False
 
     def _reach(self, vertex: int) -> None:
+        if self._leg is not None and self._leg[0] != vertex:
+            self.travelled_m += self.patrol_map.graph.distance(self._leg[0], vertex)
+            self.travel_time_s += self.driver.now - self._leg[1]
+        self._leg = None
         self.dwelling = False
         self.visits += 1
         self.emit(REACHED, vertex, vertex, self.driver.now)
@@ -214,6 +231,7 @@ class RobotMachine(RobotContextBase):
         if not self.alive:
             return
         self.failures += 1
+        self._leg = None
         self.emit(FAILED, vertex, self._current, self.driver.now)
         self.goal = None
         self.dwelling = False
@@ -224,6 +242,7 @@ class RobotMachine(RobotContextBase):
     def on_message(self, message: Any) -> None:
         """A team message from another robot (never its own)."""
         if self.alive and self.started:
+            self.learned.observe(message)
             self.policy.on_message(message, self)
 
     def hear(self, robot: int, t: float) -> bool:

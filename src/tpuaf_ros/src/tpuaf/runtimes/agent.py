@@ -70,7 +70,6 @@ class AgentRuntime:
         # stamped with the true time, not the epoch (which looked like clock skew)
         self._now = -math.inf
         self._pose: tuple[float, float, float] | None = None
-        self._pose_t: float | None = None
         self._stay_until: float | None = None
         self._stay_vertex = -1  # the vertex visited when the stay ends
         self._wakes: list[float] = []  # requested wake-up times [s] (a heap)
@@ -157,14 +156,7 @@ class AgentRuntime:
     # --- inputs ---
     def on_pose(self, t: float, x: float, y: float, th: float) -> None:
         """Localisation (map frame) at run time t [s]."""
-        m = self.machine
-        if self._pose is not None and m.goal is not None and not m.dwelling:
-            dt = t - self._pose_t
-            if dt > 0:
-                m.travelled_m += math.hypot(x - self._pose[0], y - self._pose[1])
-                m.travel_time_s += dt
         self._pose = (float(x), float(y), float(th))
-        self._pose_t = float(t)
 
     def on_message(self, message: Any) -> None:
         """A team message from another robot (the node filters out our own). A malformed one
