@@ -3,7 +3,11 @@
 1. Graph runtime: tpuaf_plus I_max against the best-known tours (patrol_bounds.csv) on every
    shared map and grid at N = 2, 4, 8, 12 (3600 s, seed 1: tpuaf_plus draws no random number).
 2. Physics runtime: tpuaf_plus I_max over the graph runtime's (same map, N and robot, the graph
-   runtime on the robot's timed map) on a few cases (900 s, seed 1).
+   runtime on the robot's timed map) on a few cases (900 s, seed 1), and the steady state: the
+   longest visit gap that starts after STEADY_S.
+3. Convoys (physics): N robots leave N adjacent vertices of a ring together (the plan's start
+   schedule dropped, as tests/test_spacing_physics.py): the longest visit gap starting in each
+   lap, in laps.
 
 Each side is measured by the code it runs under, so "before" runs from a checkout of the old
 code with its own interpreter:
@@ -36,6 +40,18 @@ GRAPH_MAPS = ("grid", "cumberland", "example", "DIAG_labs", "1r5", "ctcv")
 GRAPH_N = (2, 4, 8, 12)
 # (map, N): the built-in grid and lab, and patrolling_sim's example
 PHYSICS_CASES = (("grid", 4), ("grid", 8), ("lab", 4), ("lab", 8), ("example", 4))
+STEADY_S = 300.0  # [s] the physics steady state starts here
+CONVOYS = ((8, 2), (12, 4), (16, 6))  # (ring vertices, robots)
+CONVOY_LAPS = 5
+
+
+def gaps_from(visits, start_s: float, end_s: float) -> float:
+    """[s] the longest gap between two visits of a vertex that starts in [start_s, end_s)."""
+    times: dict = {}
+    for t, _, v in visits:
+        times.setdefault(v, []).append(t)
+    return max((b - a for ts in times.values() for a, b in zip(ts, ts[1:], strict=False)
+                if start_s <= a < end_s), default=0.0)
 
 
 def map_ref(name: str) -> str:
@@ -67,13 +83,45 @@ def physics_case(case: tuple) -> tuple:
     name, n = case
     common = dict(map=map_ref(name), strategy="tpuaf_plus", robots=n, duration_s=900.0, seed=1)
     graph = GraphRun(RunConfig(**common, robot="auto")).run()["idleness_max_s"]
-    physics = PhysicsRun(PhysicsConfig(**common)).run()["idleness_max_s"]
-    return ("physics", name, n), {"graph": graph, "physics": physics}
+    run = PhysicsRun(PhysicsConfig(**common))
+    physics = run.run()["idleness_max_s"]
+    steady = gaps_from(run.recorder.visits, STEADY_S, 900.0)
+    return ("physics", name, n), {"graph": graph, "physics": physics, "steady": steady}
+
+
+def convoy_case(case: tuple) -> tuple:
+    from dataclasses import replace
+
+    import numpy as np
+    import tpuaf.policies.tpuaf_plus as tpuaf_plus
+    from tpuaf.maps.model import MapSettings, PatrolMap
+    from tpuaf.runtimes.config import PhysicsConfig, run_robot, travel_map
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    n_vertices, n = case
+    make_plan = tpuaf_plus.make_plan
+    tpuaf_plus.make_plan = lambda *a, **k: replace(make_plan(*a, **k), schedule={})
+    a = 2 * np.pi * np.arange(n_vertices) / n_vertices
+    radius = 4.0 / (2 * np.sin(np.pi / n_vertices))  # 4 m edges
+    pm = PatrolMap("ring", list(range(n_vertices)), np.c_[np.cos(a), np.sin(a)] * radius,
+                   [(i, (i + 1) % n_vertices, float("nan")) for i in range(n_vertices)],
+                   np.ones(n_vertices), np.ones(n_vertices),
+                   MapSettings(initial_vertices={n: list(range(n))}))
+    config = PhysicsConfig(map="ring", strategy="tpuaf_plus", robots=n, seed=1)
+    travel = travel_map(config, pm, run_robot(config, pm))
+    lap = sum(c for _, _, c in travel.graph.edges) / travel.settings.nominal_speed
+    run = PhysicsRun(replace(config, duration_s=CONVOY_LAPS * lap), patrol_map=pm)
+    run.run()
+    tpuaf_plus.make_plan = make_plan
+    laps = [gaps_from(run.recorder.visits, k * lap, (k + 1) * lap) / lap
+            for k in range(CONVOY_LAPS - 1)]
+    return ("convoy", n_vertices, n), laps
 
 
 def measure(label: str, workers: int) -> None:
     jobs = [(graph_case, (m, n)) for m in GRAPH_MAPS for n in GRAPH_N]
     jobs += [(physics_case, c) for c in PHYSICS_CASES]
+    jobs += [(convoy_case, c) for c in CONVOYS]
     out: dict = {}
     t0 = time.perf_counter()
     with ProcessPoolExecutor(workers) as pool:
@@ -120,8 +168,8 @@ def report() -> None:
     lines.append("\n## Physics runtime: tpuaf_plus I_max, physics / graph runtime (900 s, seed 1)\n")
     lines.append("Robot `auto` (the map's preset); the graph runtime on the robot's timed map.\n")
     lines.append("| map | N | graph I_max [s] | before physics [s] (ratio) | "
-                 "after physics [s] (ratio) |")
-    lines.append("|---|---|---|---|---|")
+                 f"after physics [s] (ratio) | before / after: worst gap from {STEADY_S:.0f} s |")
+    lines.append("|---|---|---|---|---|---|")
     phys: dict = {"before": [], "after": []}
     for m, n in PHYSICS_CASES:
         key = f"physics/{m}/{n}"
@@ -130,9 +178,22 @@ def report() -> None:
             g, p = data[key]["graph"], data[key]["physics"]
             phys[label].append(p / g)
             cells.append(f"{p:.1f} ({p / g:.2f}x)")
-        lines.append(f"| {m} | {n} | {after[key]['graph']:.1f} | " + " | ".join(cells) + " |")
+        steady = " / ".join(f"{d[key]['steady']:.1f}" if "steady" in d[key] else "-"
+                            for d in (before, after))
+        lines.append(f"| {m} | {n} | {after[key]['graph']:.1f} | " + " | ".join(cells)
+                     + f" | {steady} |")
     for label in ("before", "after"):
         lines.append(f"\n{label}: median physics / graph {statistics.median(phys[label]):.2f}x.")
+    lines.append("\n## Convoys in physics: the longest visit gap starting in each lap [laps]\n")
+    lines.append("N robots leave N adjacent vertices of a ring of 4 m edges together (no start "
+                 "schedule). Even spacing: 1 / N lap.\n")
+    lines.append("| ring vertices | N | even | before, laps 1-4 | after, laps 1-4 |")
+    lines.append("|---|---|---|---|---|")
+    for v, n in CONVOYS:
+        key = f"convoy/{v}/{n}"
+        cells = [", ".join(f"{x:.2f}" for x in d[key]) if key in d else "-"
+                 for d in (before, after)]
+        lines.append(f"| {v} | {n} | {1 / n:.2f} | " + " | ".join(cells) + " |")
     write("spacing.md", "\n".join(lines) + "\n")
 
 
