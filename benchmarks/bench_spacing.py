@@ -131,6 +131,13 @@ def measure(label: str, workers: int) -> None:
             out["/".join(map(str, key))] = value
             print(key, value, file=sys.stderr, flush=True)
     out["_wall_s"] = time.perf_counter() - t0
+    import subprocess
+
+    import tpuaf
+
+    src = Path(tpuaf.__file__).resolve().parent
+    out["_commit"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=src,
+                                    capture_output=True, text=True).stdout.strip()
     path = RESULTS / f"spacing_{label}.json"
     path.write_text(json.dumps(out, indent=1, sort_keys=True) + "\n")
     print(f"written to {path}")
@@ -142,8 +149,9 @@ def report() -> None:
     bounds = best_known()
     lines = [header("tpuaf_plus closed-loop spacing (issue 32, part 4)")]
     lines.append("Command: `benchmarks/bench_spacing.py` (docstring: before runs the old code). "
-                 f"Wall: before {before['_wall_s']:.0f} s, after {after['_wall_s']:.0f} s "
-                 "with 2 workers.\n")
+                 f"Before: commit {before.get('_commit', '?')}, after: commit "
+                 f"{after.get('_commit', '?')}; wall {before['_wall_s']:.0f} s and "
+                 f"{after['_wall_s']:.0f} s, one worker each, side by side.\n")
     lines.append("## Graph runtime: tpuaf_plus I_max / best-known tour (3600 s, seed 1)\n")
     lines.append("| map | N | best-known [s] | before I_max [s] (ratio) | after I_max [s] (ratio) |")
     lines.append("|---|---|---|---|---|")
