@@ -3,6 +3,8 @@
 
 #include <vector>
 
+#include "tpuaf_core/visit_rule.hpp"
+
 namespace tpuaf {
 
 struct EngineConfig {
@@ -13,6 +15,7 @@ struct EngineConfig {
   double sample_period_s = 1.0;
   double nominal_speed_mps = 1.0;
   double stay_s = 1.0;          // dwell when the goal is the current vertex [s]
+  double visit_radius_m = kDefaultVisitRadiusM;  // VisitRule's radius [m]
   double retry_s = 1.0;         // a waiting strategy without a wake-up decides again after [s]
   double refractory_s = 10.0;   // interference episodes of a pair closer than this merge [s]
   double max_substep_s = 0.25;  // ground-truth field substep [s]
