@@ -392,8 +392,8 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
       .def_property_readonly("dwells", &GraphEngine::dwells,
                              "Goal arrivals that were no visit (VisitRule): dwells.")
       .def_property_readonly("dwell_time_s", &GraphEngine::dwell_time_s)
-      .def("visit_rule", &GraphEngine::visit_rule, py::arg("robot"),
-           py::return_value_policy::copy, "A copy of robot's VisitRule now.")
+      .def("visit_rule", &GraphEngine::visit_rule, py::arg("robot"), py::return_value_policy::copy,
+           "A copy of robot's VisitRule now.")
       .def_property_readonly(
           "visits_kept", [](const GraphEngine& e) { return e.recorder().visits().size(); },
           "Visits still held in memory (the others were forgotten: forget_visits_before).")

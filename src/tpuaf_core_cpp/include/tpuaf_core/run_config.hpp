@@ -15,7 +15,6 @@ struct EngineConfig {
   double sample_period_s = 1.0;
   double nominal_speed_mps = 1.0;
   double stay_s = 1.0;          // dwell when the goal is the current vertex [s]
-  double visit_radius_m = kDefaultVisitRadiusM;  // VisitRule's radius [m]
   double retry_s = 1.0;         // a waiting strategy without a wake-up decides again after [s]
   double refractory_s = 10.0;   // interference episodes of a pair closer than this merge [s]
   double max_substep_s = 0.25;  // ground-truth field substep [s]
@@ -24,6 +23,8 @@ struct EngineConfig {
   double sensing_peak = 1.0;
   double sensing_radius_m = 5.0;
   std::vector<int> start_vertices;
+  // [m] a visit: an arrival this close after driving there (VisitRule)
+  double visit_radius_m = kDefaultVisitRadiusM;
   // Runs with faults (GraphEngine::set_faults):
   double goal_tolerance_m = 0.0;     // a stalled robot dwells only within this of its goal
   double stall_give_up_s = 60.0;     // a stalled robot's navigator gives up a drive after [s]
