@@ -52,7 +52,7 @@ class PlainBag:
     speed: float = 2.0  # [m/s]
     rate: float = 10.0  # [Hz]
     poses: str = "tf"  # tf | odom | amcl | none
-    events: bool = False  # /fleet/agent_events too (START/REACHED + 1 Hz heartbeats)
+    events: bool = False  # /fleet/agent_events too (START/REACHED/GOAL + 1 Hz heartbeats)
     visit_events: bool = True  # with events: START/REACHED among them (else heartbeats only)
     t0: float = T0
     prefix: str = "tb3_"
@@ -134,10 +134,14 @@ class PlainBag:
                 items.append((t + 0.01, "/team/intentions", self._team_msg(
                     T, "Intention", t + 0.01, robot=name, robot_index=r, from_vertex=ids[v],
                     vertex=ids[nxt], expected_arrival=t + 5.0, travel_time=5.0)))
-            if self.events and self.visit_events:  # START (0), then REACHED (2)
+            if self.events and self.visit_events:  # START (0), then REACHED (2); GOAL (1)
                 items.append((t, "/fleet/agent_events", self._team_msg(
                     T, "AgentEvent", t, robot=name, robot_index=r, event=0 if k == 0 else 2,
                     vertex=ids[v], from_vertex=-1)))
+                if nxt >= 0:
+                    items.append((t, "/fleet/agent_events", self._team_msg(
+                        T, "AgentEvent", t, robot=name, robot_index=r, event=1,
+                        vertex=ids[nxt], from_vertex=ids[v])))
         if self.events:
             for t in np.arange(self.t0, end, 1.0):
                 if not self._silent(r, t):

@@ -324,51 +324,63 @@ def test_out_of_order_visits_give_the_same_summary():
     assert sorted(shuffled.interval_samples) == [10.0, 10.0, 12.0, 12.0]
 
 
-def test_fleet_monitor_counts_reached_events_not_poses():
-    """One definition of a visit: the monitor counts REACHED (and START as the first visit),
-    stamped by the agent; a robot standing on a vertex without REACHED makes no visit."""
+def test_fleet_monitor_applies_the_visit_rule_to_ground_truth():
+    """One definition of a visit: the monitor applies the agents' VisitRule to the ground-truth
+    poses against the goals of their GOAL events (START: the first visit); a robot standing on
+    its goal vertex makes no visit (its DWELL is counted apart); REACHED reports are not
+    needed. With visit_source="reports" (bags without events) the REACHED reports count."""
     from tpuaf.measure.monitor import FleetMonitor
-    from tpuaf.topics import GOAL, HEARTBEAT, REACHED, START
+    from tpuaf.topics import DWELL, GOAL, HEARTBEAT, REACHED, START
 
     pm = line_map()
+
+    def feed(mon):
+        mon.on_event(0, REACHED, 2, -1.0)  # before the run: no visit
+        mon.on_event(0, START, 0, -0.5)  # before the run start: the first visit, at the start
+        mon.on_event(1, START, 2, 0.0)
+        for k in range(0, 41):
+            t = float(k)
+            if k == 2:
+                mon.on_event(0, GOAL, 1, t, 0)  # drives to vertex 1 (x = 10 m) by t = 10 s
+                mon.on_event(1, GOAL, 2, t, 2)  # robot 1 stands on its vertex 2 all along
+            if k == 3:
+                mon.on_event(1, DWELL, 2, t)
+            if k == 12:
+                mon.on_event(0, REACHED, 1, 11.5)  # stamped by the agent
+            mon.on_event(0, HEARTBEAT, -1, t)
+            mon.on_event(1, HEARTBEAT, -1, t)
+            mon.on_pose(0, t, min(t, 10.0), 0.0)
+            mon.on_pose(1, t, 20.0 + 0.01 * (k % 2), 0.0)  # wobbles on vertex 2
+        return mon.summary()
+
     mon = FleetMonitor(pm, 2, 30.0, lag_s=1.0)
-    mon.on_event(0, REACHED, 2, -1.0)  # before the run: no visit
-    mon.on_event(0, START, 0, -0.5)  # before the run start: the first visit, at the start
-    mon.on_event(1, START, 2, 0.0)
-    for k in range(0, 41):
-        t = float(k)
-        if k == 10:
-            mon.on_event(0, GOAL, 1, t)  # a goal alone is no visit
-        if k == 12:
-            mon.on_event(0, REACHED, 1, 11.5)  # stamped by the agent
-        mon.on_event(0, HEARTBEAT, -1, t)
-        mon.on_event(1, HEARTBEAT, -1, t)
-        x0 = min(t, 10.0)  # robot 0 drives to vertex 1 (x = 10) by t = 10
-        mon.on_pose(0, t, x0, 0.0)
-        mon.on_pose(1, t, 20.0, 0.0)  # robot 1 stands on vertex 2 all along
-    s = mon.summary()
+    s = feed(mon)
     assert [(t, r, v) for t, r, v in mon.recorder.visits] == [(0.0, 0, 0), (0.0, 1, 2),
-                                                              (11.5, 0, 1)]
-    assert s["visits"] == 3 and s["deaths"] == 0
-    assert mon.live()["visits"] == 3
+                                                              (10.0, 0, 1)]
+    assert s["visits"] == 3 and s["deaths"] == 0 and mon.live()["visits"] == 3
+    assert s["dwells"] == 1 and s["dwell_time_s"] == 1.0 and s["visits_patrolling_sim"] == 4
+    mon = FleetMonitor(pm, 2, 30.0, lag_s=1.0, visit_source="reports")
+    feed(mon)
+    assert [(t, r, v) for t, r, v in mon.recorder.visits][2:] == [(11.5, 0, 1)]
 
 
 def test_fleet_monitor_dates_a_death_at_the_last_event_and_keeps_intentions():
     from tpuaf.measure.monitor import FleetMonitor
-    from tpuaf.topics import HEARTBEAT, REACHED, START
+    from tpuaf.topics import GOAL, HEARTBEAT, REACHED, START
 
     pm = line_map()
     mon = FleetMonitor(pm, 2, 60.0, lag_s=1.0, death_timeout_s=5.0)
     mon.on_event(0, START, 0, 0.0)
     mon.on_event(1, START, 2, 0.0)
     mon.on_announcement(1, 1, 0.0)  # robot 1 heads to vertex 1 ...
+    mon.on_event(0, GOAL, 1, 0.0, 0)  # robot 0 takes over vertex 1, there at 30 s
     for k in range(0, 61):
         t = float(k)
         mon.on_event(0, HEARTBEAT, -1, t)
         if t <= 20:
             mon.on_event(1, HEARTBEAT, -1, t)  # ... and falls silent after 20 s
         if k == 30:
-            mon.on_event(0, REACHED, 1, t)  # robot 0 takes over vertex 1
+            mon.on_event(0, REACHED, 1, t)
         mon.on_pose(0, t, min(t / 3.0, 10.0), 0.0)
         mon.on_pose(1, t, 20.0, 0.0)
     s = mon.summary()

@@ -24,6 +24,7 @@ from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.config import PhysicsConfig, RunConfig
 from tpuaf.runtimes.graph import GraphRun
 from tpuaf.runtimes.physics import PhysicsRun
+from tpuaf.topics import DWELL
 
 from .conftest import REPO, run_cli
 
@@ -309,9 +310,9 @@ def test_navigator_plans_from_the_pose_off_the_start_vertex():
 
 @pytest.mark.parametrize("planned", [False, True])
 def test_agent_never_stands_with_a_goal_and_no_route(tmp_path, planned):
-    """Two vertices 0.3 m apart, goal tolerance 0.4 m: every goal is reached on the spot. The
-    robot neither stands with a goal and no route (a lost event) nor counts a visit every tick
-    (it stays STAY_S at a goal it is already at, as at its own vertex)."""
+    """Two vertices 0.3 m apart, goal tolerance 0.4 m, a robot that never moves: it neither
+    stands with a goal and no route (a lost event) nor counts a visit (VisitRule: standing
+    never visits); the goal 0.3 m away, beyond the visit radius, is driven to (a route)."""
     folder = tmp_path / "close"
     folder.mkdir()
     (folder / "map.yaml").write_text("name: close\ncorridor_width: 1.0\nsettings:\n"
@@ -333,7 +334,9 @@ def test_agent_never_stands_with_a_goal_and_no_route(tmp_path, planned):
         assert (agent.navigator.route is not None or m.goal is None or m.dwelling
                 or agent.staying), k
         visits.append(m.visits)
-    assert 5 <= visits[-1] <= 10.0 / STAY_S + 2  # it keeps visiting, one visit per stay
+    assert visits[-1] == 0  # standing still: no visit
+    dwells = [e for e in events if e[0] == DWELL]
+    assert len(dwells) == m.dwells <= 10.0 / STAY_S + 2
     assert all(b >= a for a, b in itertools.pairwise(visits))
 
 

@@ -32,8 +32,9 @@ CORE = REPO / "src" / "tpuaf_core_cpp"
 FINGERPRINTED = sorted(
     [p for p in (PKG / "policies").glob("*.py")]
     + [PKG / "maps" / "tours.py", PKG / "team" / "messages.py", PKG / "runtimes" / "graph.py"]
-    + [CORE / "src" / f for f in ("engine.cpp", "recorder.cpp", "heartbeats.cpp",
-                                  "policies_tpuaf.cpp", "policies_tpuaf_plus.cpp")])
+    + [CORE / "src" / f for f in ("engine.cpp", "engine_faults.cpp", "recorder.cpp",
+                                  "heartbeats.cpp", "policies_tpuaf.cpp",
+                                  "policies_tpuaf_plus.cpp", "visit_rule.cpp")])
 
 MAPS = {"grid": "grid", "cumberland": str(CUMBERLAND)}
 DURATION_S, DELAY_S, LOSS, SEED = 600.0, 2.0, 0.2, 3
@@ -197,13 +198,15 @@ def scripted_policy_class():
 # Grid (5 x 5, 5.7 m edges): robot 0 starts at vertex 0 (a corner), robot 1 at 24 (the opposite
 # one). Robot 0's goal 12 (the centre, 4 edges away) is redirected to 20 when robot 1 reports
 # its visit of 23 (one edge away); at 20 it waits 2 s, then 12, then 18. Robot 1 visits 23,
-# dwells there and visits it again, then 18, waits, then 24.
-EXPECTED_REACHED = {0: [20, 12, 18], 1: [23, 23, 18, 24]}
+# dwells there (a DWELL, no visit: VisitRule), then visits 18, waits, then 24.
+EXPECTED_REACHED = {0: [20, 12, 18], 1: [23, 18, 24]}
+EXPECTED_DWELLS = 1  # robot 1's on 23, in every runtime
 
 
-def _check_scripted(policies, reached):
+def _check_scripted(policies, reached, dwells):
     for r, want in EXPECTED_REACHED.items():
         assert reached[r][: len(want)] == want, f"robot {r} reached {reached[r]}"
+    assert dwells == EXPECTED_DWELLS
     log0 = policies[0].log
     assert log0[:2] == [("decide", 0, 12), ("redirect", 20)]
     assert log0[2:5] == [("decide", 20, None), ("decide", 20, 12), ("decide", 12, 18)]
@@ -227,7 +230,7 @@ def _graph_logs(scripted):
     graph = GraphRun(RunConfig(map="grid", strategy=scripted.name, robots=2, duration_s=200))
     graph.run()
     reached = {r: [v for _, rr, v in graph.recorder.visits if rr == r][1:] for r in (0, 1)}
-    return _check_scripted([r.policy for r in graph.robots], reached)
+    return _check_scripted([r.policy for r in graph.robots], reached, graph.recorder.dwells)
 
 
 def _agent_logs(scripted):
@@ -235,16 +238,19 @@ def _agent_logs(scripted):
     an ideal unicycle with no laser (the node's transport replaced by lists)."""
     from tpuaf.robot.machine import RobotMachine
     from tpuaf.runtimes.agent import AgentRuntime
-    from tpuaf.topics import REACHED
+    from tpuaf.topics import DWELL, REACHED
 
     grid, starts = _start_vertices_grid()
     outbox: list = []
     reached = {0: [], 1: []}
+    dwells = []
     agents = []
     for i in range(2):
         def event(kind, vertex, _from, _t, i=i):
             if kind == REACHED:
                 reached[i].append(vertex)
+            elif kind == DWELL:
+                dwells.append((i, vertex))
         agents.append(AgentRuntime(grid, scripted(), i, 2, 0, outbox.append, event))
     poses = [[*map(float, grid.positions[s]), 0.0] for s in starts]
     dt = 0.1
@@ -261,7 +267,8 @@ def _agent_logs(scripted):
                     if b.robot != msg.robot:
                         b.on_message(msg)
     assert all(isinstance(a.machine, RobotMachine) for a in agents)
-    return _check_scripted([a.policy for a in agents], reached)
+    assert dwells == [(1, 23)]
+    return _check_scripted([a.policy for a in agents], reached, len(dwells))
 
 
 def _physics_logs(scripted):
@@ -274,7 +281,7 @@ def _physics_logs(scripted):
     physics.run()
     assert all(isinstance(a.machine, RobotMachine) for a in physics.agents)
     reached = {r: [v for _, rr, v in physics.recorder.visits if rr == r][1:] for r in (0, 1)}
-    return _check_scripted([a.policy for a in physics.agents], reached)
+    return _check_scripted([a.policy for a in physics.agents], reached, physics.recorder.dwells)
 
 
 @pytest.fixture()

@@ -121,6 +121,7 @@ void wrap_config(py::module_& m) {
       .def_readwrite("sample_period_s", &EngineConfig::sample_period_s)
       .def_readwrite("nominal_speed_mps", &EngineConfig::nominal_speed_mps)
       .def_readwrite("stay_s", &EngineConfig::stay_s)
+      .def_readwrite("visit_radius_m", &EngineConfig::visit_radius_m)
       .def_readwrite("retry_s", &EngineConfig::retry_s)
       .def_readwrite("refractory_s", &EngineConfig::refractory_s)
       .def_readwrite("max_substep_s", &EngineConfig::max_substep_s)
@@ -389,6 +390,11 @@ void wrap_recorder(py::class_<GraphEngine>& engine) {
           py::arg("first") = 0)
       .def_property_readonly("visit_count",
                              [](const GraphEngine& e) { return e.recorder().visit_count(); })
+      .def_property_readonly("dwells", &GraphEngine::dwells,
+                             "Goal arrivals that were no visit (VisitRule): dwells.")
+      .def_property_readonly("dwell_time_s", &GraphEngine::dwell_time_s)
+      .def("visit_rule", &GraphEngine::visit_rule, py::arg("robot"), py::return_value_policy::copy,
+           "A copy of robot's VisitRule now.")
       .def_property_readonly(
           "visits_kept", [](const GraphEngine& e) { return e.recorder().visits().size(); },
           "Visits still held in memory (the others were forgotten: forget_visits_before).")

@@ -12,6 +12,7 @@ void bind_engine(pybind11::module_& m);
 void bind_planner(pybind11::module_& m);
 void bind_tours(pybind11::module_& m);
 void bind_assignment(pybind11::module_& m);
+void bind_visit_rule(pybind11::module_& m);
 void bind_strategy(pybind11::module_& m);
 }  // namespace tpuaf::bindings
 

@@ -14,4 +14,5 @@ PYBIND11_MODULE(_core, m) {
   tpuaf::bindings::bind_planner(m);
   tpuaf::bindings::bind_tours(m);
   tpuaf::bindings::bind_assignment(m);
+  tpuaf::bindings::bind_visit_rule(m);
 }

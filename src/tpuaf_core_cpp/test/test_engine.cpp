@@ -93,10 +93,11 @@ TEST(Engine, DrivesEdgesAtNominalSpeedDwellsAndRetries) {
   engine.set_strategy(&s);
   engine.run();
   const auto& visits = engine.recorder().visits();
-  ASSERT_EQ(visits.size(), 3u);  // the start vertex, then 3 at 15 s, again at 16 s
+  ASSERT_EQ(visits.size(), 2u);  // the start vertex, then 3 at 15 s; the dwell is no visit
   EXPECT_EQ(visits[1].vertex, 3);
   EXPECT_DOUBLE_EQ(visits[1].time_s, 15.0);  // pass-through vertices 1, 2 are no visits
-  EXPECT_DOUBLE_EQ(visits[2].time_s, 16.0);  // STAY_S = 1 s
+  EXPECT_EQ(engine.dwells(), 1);
+  EXPECT_DOUBLE_EQ(engine.dwell_time_s(), 1.0);  // STAY_S = 1 s
   // Waiting without a wake-up: asked again every retry_s = 1 s.
   const auto& t = s.decide_times[0];
   ASSERT_GE(t.size(), 5u);
@@ -110,7 +111,7 @@ TEST(Engine, ForgottenVisitsKeepIndicesAndPerVertexTimes) {
   const PatrolGraph g = line_graph();
   GraphEngine engine(g, g.positions(), config(1, 40.0, {0}), field_of(g), numpy_3_1());
   Script s;
-  s.goals = {{3, 3, -1}};  // visits: 0 at 0 s, 3 at 15 s, 3 at 16 s
+  s.goals = {{3, 0, -1}};  // visits: 0 at 0 s, 3 at 15 s, 0 at 30 s
   engine.set_strategy(&s);
   engine.run();
   GroundTruthRecorder& rec = engine.recorder();
@@ -118,14 +119,14 @@ TEST(Engine, ForgottenVisitsKeepIndicesAndPerVertexTimes) {
   EXPECT_EQ(rec.visit_count(), 3u);
   EXPECT_EQ(rec.visits_forgotten(), 2u);
   ASSERT_EQ(rec.visits().size(), 1u);  // only the last one is still held
-  EXPECT_DOUBLE_EQ(rec.visits()[0].time_s, 16.0);
-  EXPECT_DOUBLE_EQ(rec.visit_idleness()[0], 1.0);  // 16 s - 15 s
+  EXPECT_DOUBLE_EQ(rec.visits()[0].time_s, 30.0);
+  EXPECT_DOUBLE_EQ(rec.visit_idleness()[0], 30.0);  // 30 s - 0 s
   rec.forget_visits_before(1);  // already forgotten: nothing changes
   EXPECT_EQ(rec.visits_forgotten(), 2u);
   rec.forget_visits_before(10);  // past the end: all of them
   EXPECT_TRUE(rec.visits().empty());
   EXPECT_EQ(rec.visit_count(), 3u);
-  EXPECT_EQ(rec.vertex_times()[3].size(), 2u);  // what the summary reads stays
+  EXPECT_EQ(rec.vertex_times()[0].size(), 2u);  // what the summary reads stays
 }
 
 TEST(Engine, BusDelaysAndLosesMessages) {

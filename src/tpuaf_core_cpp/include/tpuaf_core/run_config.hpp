@@ -3,6 +3,8 @@
 
 #include <vector>
 
+#include "tpuaf_core/visit_rule.hpp"
+
 namespace tpuaf {
 
 struct EngineConfig {
@@ -21,6 +23,8 @@ struct EngineConfig {
   double sensing_peak = 1.0;
   double sensing_radius_m = 5.0;
   std::vector<int> start_vertices;
+  // [m] a visit: an arrival this close after driving there (VisitRule)
+  double visit_radius_m = kDefaultVisitRadiusM;
   // Runs with faults (GraphEngine::set_faults):
   double goal_tolerance_m = 0.0;     // a stalled robot dwells only within this of its goal
   double stall_give_up_s = 60.0;     // a stalled robot's navigator gives up a drive after [s]

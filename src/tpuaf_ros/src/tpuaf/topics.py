@@ -34,9 +34,10 @@ AMCL_POSE = "amcl_pose"
 STALLED = "stalled"
 
 # AgentEvent.event values (= the constants of AgentEvent.msg).
-START, GOAL, REACHED, FAILED, HEARTBEAT = 0, 1, 2, 3, 4
+# REACHED: a visit (tpuaf_core.VisitRule); DWELL: a goal ended without one (docs/RUNTIMES.md).
+START, GOAL, REACHED, FAILED, HEARTBEAT, DWELL = 0, 1, 2, 3, 4, 5
 EVENT_NAMES = {START: "START", GOAL: "GOAL", REACHED: "REACHED", FAILED: "FAILED",
-               HEARTBEAT: "HEARTBEAT"}
+               HEARTBEAT: "HEARTBEAT", DWELL: "DWELL"}
 
 
 def team_topic(team_ns: str, message_class: type) -> str:

@@ -79,6 +79,7 @@ def make_lab() -> PatrolMap:
         sensing_radius=0.5,
         interference_distance=0.3,
         goal_tolerance=0.05,
+        visit_radius=0.05,  # [m] stops 0.6 m apart in 0.5 m aisles
         robot_radius=0.105,
         initial_vertices={1: [0], 2: [0, 14], 3: [0, 7, 14], 4: [0, 4, 10, 14]},
     )

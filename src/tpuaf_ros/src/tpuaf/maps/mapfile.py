@@ -93,13 +93,17 @@ VERTEX_KEYS = {"id", "x", "y", "importance", "initial_uncertainty"}
 def _parse_settings(path: Path, node: Any) -> MapSettings:
     _check_keys(path, node, SETTINGS_KEYS, "settings")
     s = MapSettings()
-    positive = {"nominal_speed", "sensing_radius", "goal_tolerance", "robot_radius"}
+    positive = {"nominal_speed", "sensing_radius", "goal_tolerance", "visit_radius",
+                "robot_radius"}
     for key in ("nominal_speed", "sensing_radius", "sensing_peak", "interference_distance",
-                "goal_tolerance", "robot_radius", "default_importance",
+                "goal_tolerance", "visit_radius", "robot_radius", "default_importance",
                 "default_initial_uncertainty"):
         if key in node:
             setattr(s, key, _num(path, node, key, node[key], minimum=0.0,
                                  positive=key in positive))
+    if "visit_radius" in node and s.visit_radius > s.goal_tolerance:
+        raise MapError(f"{_at(path, node)}: visit_radius {s.visit_radius:g} m exceeds "
+                       f"goal_tolerance {s.goal_tolerance:g} m")
     if "growth_coefficients" in node:
         coeffs = node["growth_coefficients"]
         if not isinstance(coeffs, list) or not coeffs:
@@ -308,6 +312,7 @@ def save_map_folder(patrol_map: PatrolMap, folder: str | Path, *, occupancy_file
         f"  sensing_peak: {_fmt(s.sensing_peak)}  # G, Eq. 1",
         f"  interference_distance: {_fmt(s.interference_distance)}  # d_if [m]",
         f"  goal_tolerance: {_fmt(s.goal_tolerance)}  # [m]",
+        f"  visit_radius: {_fmt(min(s.visit_radius, s.goal_tolerance))}  # [m] of a visit",
         f"  robot_radius: {_fmt(s.robot_radius)}  # [m]",
         f"  growth_coefficients: {_flow_list(list(s.growth_coefficients))}  # a_l of g(X), Eq. 2",
         f"  default_importance: {_fmt(s.default_importance)}  # C_j",

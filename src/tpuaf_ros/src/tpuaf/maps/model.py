@@ -22,7 +22,9 @@ class MapSettings:
     sensing_radius: float = 5.0  # r_i [m] of Eq. 1
     sensing_peak: float = 1.0  # G_i of Eq. 1
     interference_distance: float = 2.0  # d_if [m] (SPEC section 6)
-    goal_tolerance: float = 0.4  # [m]
+    goal_tolerance: float = 0.4  # [m] the navigator may end a leg this far from a vertex
+    # [m] a visit is an arrival this close (tpuaf_core.VisitRule; at most goal_tolerance)
+    visit_radius: float = tpuaf_core.DEFAULT_VISIT_RADIUS_M
     robot_radius: float = 0.105  # [m], TurtleBot3 Burger
     # g(X) = sum a_l X^l of Eq. 2, and the defaults for targets without a per-vertex value.
     growth_coefficients: list[float] = field(default_factory=lambda: [1.0, 0.6])
@@ -99,6 +101,16 @@ class PatrolMap:
 
     def uncertainty_model(self) -> tpuaf_core.UncertaintyModel:
         return tpuaf_core.UncertaintyModel(list(self.settings.growth_coefficients))
+
+    @property
+    def visit_radius_m(self) -> float:
+        """[m] the visit radius in force: the setting, at most the goal tolerance."""
+        s = self.settings
+        return min(float(s.visit_radius), float(s.goal_tolerance))
+
+    def visit_rule(self) -> tpuaf_core.VisitRule:
+        """A new VisitRule (the one definition of a visit) for one robot on this map."""
+        return tpuaf_core.VisitRule(np.asarray(self.positions, dtype=float), self.visit_radius_m)
 
     def nearest_vertex(self, x: float, y: float) -> int:
         d = np.hypot(self.positions[:, 0] - x, self.positions[:, 1] - y)

@@ -1,11 +1,13 @@
 """Bag analysis with `rosbags` (no ROS installation needed), of a `tpuaf fleet` bag or a plain
 `rosbag record` of a robot run.
 
-Visits are the agents' own reports (docs: "one definition of a visit"): START (the start
-vertex's first visit) and REACHED events on /fleet/agent_events when the bag has them, else the
-Visit team messages (/team/visits: a robot's first is its START). They
-are replayed, with the robots' positions, through the same `FleetMonitor` (and so the same
-RunRecorder) as the live monitor node. Positions come from the best source the bag holds for
+Visits (docs/RUNTIMES.md "Visits"): the agents' events on /fleet/agent_events, when the bag
+has them, are replayed with the robots' positions through the same `FleetMonitor` (and so the
+same VisitRule and RunRecorder) as the live monitor node: START is the start vertex's first
+visit, a visit a pose within the visit radius of the robot's goal (GOAL events) after it was
+farther than twice the radius; DWELL events count apart. Without poses, or without the events
+(the Visit team messages, /team/visits: a robot's first is its START), the agents' reports are
+the visits (REACHED). Positions come from the best source the bag holds for
 every robot: ground truth (/<robot>/base_pose_ground_truth), tf (map -> <robot>/base_footprint
 on /tf and /tf_static), /<robot>/amcl_pose, /<robot>/odom; without any, visits and idleness are
 computed and X and interference are not (the notes say so). Liveness: the agents' heartbeats.
@@ -58,7 +60,9 @@ from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.topics import (
     AMCL_POSE,
     DEFAULT_TEAM_NS,
+    DWELL,
     EVENTS_TOPIC,
+    GOAL,
     GROUND_TRUTH,
     HEARTBEAT,
     ODOM,
@@ -318,13 +322,16 @@ class _Reports:
         self.use_visits = not info.visit_events
         self.started = [False] * n
 
-    def __call__(self, conn: Any, msg: Any) -> tuple[int, int | None, int, float] | None:
+    def __call__(self, conn: Any, msg: Any) -> tuple[int, int | None, int, float, int] | None:
         r = int(msg.robot_index)
         t = stamp_of(msg)
         if not 0 <= r < self.n or not _in_span(self.info, t):
             return None
+        from_vertex = -1
         if conn.topic == EVENTS_TOPIC and not self.use_visits:
             kind, vertex = int(msg.event), self.map.lookup_index(int(msg.vertex))
+            from_vertex = self.map.lookup_index(int(msg.from_vertex))
+            from_vertex = -1 if from_vertex is None else from_vertex
         elif conn.topic == EVENTS_TOPIC:  # events without visits (heartbeats only)
             kind, vertex = HEARTBEAT, -1
         elif self.use_visits and self.team.get(conn.topic) == "Visit":
@@ -336,14 +343,15 @@ class _Reports:
             kind, vertex = (None if self.info.events else HEARTBEAT), -1
         if vertex is None:
             return None
-        return r, kind, vertex, t
+        return r, kind, vertex, t, from_vertex
 
 
 def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team, source,
             teammate_timeout_s):
     """Reports and poses, in bag order, through a FleetMonitor."""
     monitor = FleetMonitor(patrol_map, n, end - start, start_after=start,
-                           death_timeout_s=timeout, teammate_timeout_s=teammate_timeout_s)
+                           death_timeout_s=timeout, teammate_timeout_s=teammate_timeout_s,
+                           visit_source="poses" if info.visit_events else "reports")
     conns = _report_connections(reader, info, team)
     robot_of: dict[int, int] = {}
     raw_poses: dict[int, bool] = {}  # connection id -> is Odometry (read raw)
@@ -384,11 +392,11 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
             rep = report_of(conn, msg)
             if rep is None:
                 continue
-            r, kind, vertex, t = rep
+            r, kind, vertex, t, from_vertex = rep
             if is_visit(kind, vertex):
                 reports.append((t, kind == START))
             if kind is not None:
-                monitor.on_event(r, kind, vertex, t)
+                monitor.on_event(r, kind, vertex, t, from_vertex)
             if team.get(conn.topic) == "Intention":  # for the recovery metrics
                 target = patrol_map.lookup_index(int(msg.vertex))
                 if target is not None and target >= 0:
@@ -428,7 +436,7 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
         rep = report_of(conn, msg)
         if rep is None:
             continue
-        r, kind, vertex, t = rep
+        r, kind, vertex, t, from_vertex = rep
         if t > end:
             break
         if kind is None or (t < start and kind != START):
@@ -440,6 +448,10 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
         if is_visit(kind, vertex):  # as FleetMonitor: a robot's reports count even if silent
             recorder.record_visit(r, vertex, round(t - start, 9))
             reports.append((t, kind == START))
+        elif kind == GOAL and vertex >= 0:
+            recorder.record_goal(r, vertex, from_vertex, round(t - start, 9))
+        elif kind == DWELL and vertex >= 0:
+            recorder.record_dwell(r, vertex, round(t - start, 9))
     if liveness:
         deaths_until(end)
     recorder.finish(end - start)

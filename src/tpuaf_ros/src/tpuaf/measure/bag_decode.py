@@ -146,7 +146,7 @@ def raw_pose(raw: bytes, odometry: bool) -> tuple[float, float, float]:
 
 
 class RawEvent:
-    """A tpuaf_ros/AgentEvent (messages version 2) read from its bytes: the fields the
+    """A tpuaf_ros/AgentEvent (messages version 2 or 3) read from its bytes: the fields the
     analysis uses, `t` its header stamp [s]."""
 
     __slots__ = ("t", "robot", "robot_index", "event", "vertex", "from_vertex")
@@ -163,8 +163,10 @@ class RawEvent:
 
 
 _EVENT = struct.Struct("<iBqq")  # robot_index, event, vertex, from_vertex
-# The AgentEvent definition read raw (its md5 sum, version 2).
-_RAW_EVENT = ("tpuaf_ros/msg/AgentEvent", "3ce9ce20732c9c9397c66ce50f7f6d89")
+# The AgentEvent definitions read raw (md5 sums of version 2, and 3: the DWELL constant; the
+# same bytes).
+_RAW_EVENTS = {("tpuaf_ros/msg/AgentEvent", "3ce9ce20732c9c9397c66ce50f7f6d89"),
+               ("tpuaf_ros/msg/AgentEvent", "7a2f1a3c7ed3c48b38ec6c116f61048a")}
 
 
 def raw_readers(connections: list) -> dict:
@@ -172,7 +174,7 @@ def raw_readers(connections: list) -> dict:
     PoseWithCovarianceStamped pose), RawEvent; connections of other definitions are absent."""
     out: dict = {}
     for conn in connections:
-        if (conn.msgtype, conn.digest) == _RAW_EVENT:
+        if (conn.msgtype, conn.digest) in _RAW_EVENTS:
             out[conn.id] = RawEvent
         elif raw_pose_reader(conn) is not None:
             out[conn.id] = raw_pose_reader(conn)

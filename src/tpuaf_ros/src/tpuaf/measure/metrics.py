@@ -112,6 +112,9 @@ class RunRecorder:
         self.visit_idleness: list[float] = []  # per visit, as known at arrival; NaN = first
         self._vertex_times: list[list[float]] = [[] for _ in range(self.n_vertices)]
         self._visit_count = np.zeros(self.n_vertices, dtype=int)
+        self.dwells = 0  # goals ended without a visit (VisitRule)
+        self.dwell_time_s = 0.0  # [s] standing in them
+        self._goals: dict[int, tuple[float, int, int]] = {}  # robot: (t [s], goal, from)
 
         # Sampling view: visits applied lazily up to each sample time.
         self._pending: deque[tuple[float, int]] = deque()
@@ -193,6 +196,19 @@ class RunRecorder:
             pending.insert(k, (time, int(vertex)))
         if not self.ground_truth:
             self._emit_until(time, None)
+
+    def record_goal(self, robot: int, vertex: int, from_vertex: int, time: float) -> None:
+        """Robot `robot` chose goal `vertex` at `time` [s], standing at `from_vertex`."""
+        self._goals[int(robot)] = (float(time), int(vertex), int(from_vertex))
+
+    def record_dwell(self, robot: int, vertex: int, time: float) -> None:
+        """A goal of `robot` ended at `vertex` without a visit (a DWELL) at `time` [s]: counted
+        apart, no effect on idleness; the time since its goal counts as standing when that goal
+        was the vertex it stood on."""
+        self.dwells += 1
+        goal = self._goals.get(int(robot))
+        if goal is not None and goal[1] == goal[2] == int(vertex):
+            self.dwell_time_s += max(float(time) - goal[0], 0.0)
 
     # -- sampling -------------------------------------------------------------------------
 
@@ -719,6 +735,11 @@ def build_summary(rec: Any, end_time: float, *, interval_samples, ins_sum: float
                                       if duration > 0 else math.nan),
         "interference_distance_m": rec.d_if,
         "visits": n_visits,
+        # VisitRule (docs/RUNTIMES.md "Visits"): goals ended without a visit, counted apart;
+        # patrolling_sim's count: every goal arrival (start and dwells included)
+        "dwells": int(rec.dwells),
+        "dwell_time_s": float(rec.dwell_time_s),
+        "visits_patrolling_sim": n_visits + int(rec.dwells),
         "counted_visits": sum(max(c - 1, 0) for c in counts),
         "visits_per_vertex": {str(v): c for v, c in zip(ids, counts, strict=True)},
         "unvisited_vertices": int(sum(1 for c in counts if c == 0)),

@@ -11,10 +11,15 @@ same two streams, in arrival order, and so compute the same metrics:
 
 Definitions (SPEC section 6):
 - the run starts at the first complete pose group at or after `start_after` [s];
-- a visit is a REACHED event (the agent's arrival at its goal vertex within the goal tolerance:
-  the one definition of a visit of every runtime), at its stamp; a START event is the robot's
-  first visit of its start vertex (at the run start if stamped before it), as in the graph
-  runtime; ground truth gives only positions (uncertainty X, interference, robot presence);
+- a visit is the one rule of every runtime (tpuaf_core.VisitRule, docs/RUNTIMES.md "Visits")
+  applied to the ground-truth poses (`visit_source="poses"`, the default): a pose within the
+  map's visit radius of the robot's goal (its GOAL events) after the robot was farther than
+  twice the radius from it, stamped with the pose; standing on a vertex never visits it again.
+  A START event is the robot's first visit of its start vertex (at the run start if stamped
+  before it), as in the graph runtime. With `visit_source="reports"` (bags without the agents'
+  events: their Visit messages) the REACHED reports are the visits, at their stamps. DWELL
+  events (a goal ended without a visit) are counted apart (summary `dwells`, `dwell_time_s`);
+  patrolling_sim's count of every goal arrival is `visits_patrolling_sim`;
 - a robot whose agent sent no event (heartbeats every 1 s) for `death_timeout_s` (default: the
   teammate timeout, tpuaf.params.LIVENESS_DEFAULTS) is dead from the first pose group after
   that (it no longer senses nor interferes); the recorder dates the death at the last event
@@ -38,7 +43,7 @@ import numpy as np
 
 from tpuaf.measure.metrics import RunRecorder, complete_cycles
 from tpuaf.params import LIVENESS_DEFAULTS
-from tpuaf.topics import REACHED, START
+from tpuaf.topics import DWELL, GOAL, REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
 STAMP_EPS_S = 1e-3
@@ -50,7 +55,11 @@ class FleetMonitor:
     def __init__(self, patrol_map: Any, n_robots: int, duration_s: float, *,
                  start_after: float = 0.0, death_timeout_s: float | None = None,
                  sample_period_s: float = 1.0, lag_s: float = 2.0,
-                 teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s):
+                 teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s,
+                 visit_source: str = "poses"):
+        if visit_source not in ("poses", "reports"):
+            raise ValueError(f"visit_source must be 'poses' or 'reports', not {visit_source!r}")
+        self.visit_source = visit_source
         self.patrol_map = patrol_map
         self.n = int(n_robots)
         self.duration_s = float(duration_s)
@@ -63,6 +72,10 @@ class FleetMonitor:
         self.sample_period_s = float(sample_period_s)
         self.lag_s = float(lag_s)
         self.tolerance = float(patrol_map.settings.goal_tolerance)
+        self._rules = [patrol_map.visit_rule() for _ in range(self.n)]  # one per robot
+        # (stamp, kind, vertex, from) of START, GOAL and DWELL events not yet applied, per robot
+        self._goal_q: list[list[tuple[float, int, int, int]]] = [[] for _ in range(self.n)]
+        self._goal = [-1] * self.n  # each robot's goal (vertex index; -1: none)
         self._positions = np.asarray(patrol_map.positions, dtype=float)
         self.recorder: RunRecorder | None = None
         self.start_time: float | None = None
@@ -83,11 +96,19 @@ class FleetMonitor:
 
     # -- inputs -----------------------------------------------------------------------------
 
-    def on_event(self, robot: int, kind: int, vertex: int, t: float) -> None:
+    def on_event(self, robot: int, kind: int, vertex: int, t: float,
+                 from_vertex: int = -1) -> None:
         if not 0 <= robot < self.n:
             return
         self._heard_q[robot].append(float(t))
-        if kind in (REACHED, START) and 0 <= vertex < self.patrol_map.num_vertices:
+        if not 0 <= vertex < self.patrol_map.num_vertices:
+            return
+        if kind in (START, GOAL, DWELL):
+            q = self._goal_q[robot]
+            q.append((float(t), int(kind), int(vertex), int(from_vertex)))
+            if len(q) > 1 and q[-2][0] > q[-1][0]:
+                q.sort(key=lambda e: e[0])
+        if kind == START or (kind == REACHED and self.visit_source == "reports"):
             t = float(t)
             if kind == START and self.start_time is not None:
                 t = max(t, self.start_time)
@@ -138,6 +159,7 @@ class FleetMonitor:
     def _process(self, t: float, group: np.ndarray, count: int) -> None:
         seen = ~np.isnan(group[:, 0])
         self._last[seen] = group[seen]
+        self._apply_visit_rule(t, seen)
         for r in range(self.n):  # events heard up to t
             q = self._heard_q[r]
             while q and q[0] <= t:
@@ -165,6 +187,41 @@ class FleetMonitor:
         self.now = t
         if t >= end:
             self.end(end)
+
+    def _apply_visit_rule(self, t: float, seen: np.ndarray) -> None:
+        """The START, GOAL and DWELL events stamped up to t [s], then each robot's VisitRule on
+        its pose at t against every goal it held since the last pose group (a goal reached at t
+        is followed by the next GOAL stamped t)."""
+        for r in range(self.n):
+            q = self._goal_q[r]
+            goals = [self._goal[r]]
+            k = 0
+            while k < len(q) and q[k][0] <= t + STAMP_EPS_S:
+                stamp, kind, vertex, from_vertex = q[k]
+                k += 1
+                if kind == START:
+                    x, y = (self._last[r] if seen[r] or not math.isnan(self._last[r, 0])
+                            else self._positions[vertex])
+                    self._rules[r].start(vertex, float(x), float(y))
+                    self._goal[r] = -1
+                elif kind == GOAL:
+                    self._goal[r] = vertex
+                    goals.append(vertex)
+                    if self.recorder is not None:
+                        self.recorder.record_goal(r, vertex, from_vertex, self.run_time(stamp))
+                elif self.recorder is not None and stamp <= self.start_time + self.duration_s:
+                    self.recorder.record_dwell(r, vertex, self.run_time(stamp))  # DWELL
+            del q[:k]
+            if not seen[r] or self.visit_source != "poses":
+                continue
+            x, y = float(self._last[r, 0]), float(self._last[r, 1])
+            rule = self._rules[r]
+            rule.observe(x, y)
+            for g in dict.fromkeys(goals):
+                if g >= 0 and rule.arrive(g, x, y):
+                    self._visits.append((t, r, g, False))
+        if len(self._visits) > 1:
+            self._visits.sort()
 
     def _record_visits(self, t: float) -> None:
         """Visits stamped up to t [s] (within the run), in stamp order."""

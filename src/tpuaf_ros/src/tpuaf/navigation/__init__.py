@@ -3,7 +3,7 @@
 - `route`: the graph route (vertex waypoints) to a goal;
 - `scan`: laser scans and the one scan-to-points step;
 - `controller`: the reactive local controller and its configuration;
-- `navigator`: route + controller, or route + an external planner (move_base);
+- `navigator`: route + controller; `goal_navigator`: route + an external planner (move_base);
 - `frames`: a light tf chain (map -> odom -> base).
 """
 
@@ -20,7 +20,8 @@ from tpuaf.navigation.controller import (
     wrap_angle,
     wrap_angle_array,
 )
-from tpuaf.navigation.navigator import Event, GoalClient, GoalNavigator, Navigator
+from tpuaf.navigation.goal_navigator import GoalClient, GoalNavigator
+from tpuaf.navigation.navigator import Event, Navigator
 from tpuaf.navigation.route import GraphRoute
 from tpuaf.navigation.scan import (
     DEFAULT_SCAN_BEAMS,

@@ -1,5 +1,5 @@
-"""Navigators: follow a `GraphRoute` with the local controller, or with an external planner
-(move_base) through a goal client. Same interface, ROS-free."""
+"""Navigator: follows a `GraphRoute` with the local controller along planned paths, ROS-free
+(goal_navigator.py: the same interface over an external planner, move_base)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from enum import Enum
 
 import numpy as np
 
-from tpuaf.navigation.controller import STOP_FAILED, Command, LocalController, Status
+from tpuaf.navigation.controller import Command, LocalController, Status
 from tpuaf.navigation.give_way import GiveWay, find_refuge
 from tpuaf.navigation.route import GraphRoute, polyline_length
 
@@ -19,7 +19,7 @@ from tpuaf.navigation.route import GraphRoute, polyline_length
 class Event(Enum):
     NONE = 0
     WAYPOINT = 1  # passed a waypoint that is not the goal
-    ARRIVED = 2  # within goal tolerance of the goal vertex
+    ARRIVED = 2  # within goal tolerance of the goal vertex (or short of it: `near_goal_m`)
     FAILED = 3  # gave up on the goal
 
 
@@ -35,15 +35,22 @@ class Navigator:
     obstacle), so the robot takes another way when there is a reasonable one. A robot held
     still by another robot gives way (a refuge off the other's way) when there is no way round;
     a robot without a route makes room for one that comes up to it (`park_step`). Pass-through waypoints count as
-    reached within `waypoint_tolerance` [m], the goal within `goal_tolerance` [m] (SPEC: 0.4 m).
+    reached within `waypoint_tolerance` [m], the goal within `goal_tolerance` [m] (the agents:
+    the map's visit radius). A robot within `near_goal_m` [m] of its goal (the map's goal
+    tolerance; None: never) that another robot holds still there, or whose controller gave up
+    there, ends the route short (ARRIVED; `short_arrivals` counts them): the visit rule then
+    makes it a dwell, not a visit.
     `step` returns (Command, Event, vertex): the vertex is the waypoint or goal reached, or the
     goal that failed."""
 
     def __init__(self, controller: LocalController, goal_tolerance: float = 0.4,
                  waypoint_tolerance: float = 0.6, planner=None, corner_tolerance: float = 0.3,
-                 robot_index: int = 0):
+                 robot_index: int = 0, near_goal_m: float | None = None):
         self.controller = controller
         self.goal_tolerance = float(goal_tolerance)
+        self.near_goal_m = near_goal_m  # [m] a held robot ends its route short within this
+        self.short_arrivals = 0
+        self._short = False  # the route ends short at the next step
         self.waypoint_tolerance = float(waypoint_tolerance)
         self.corner_tolerance = float(corner_tolerance)
         self.planner = planner
@@ -76,6 +83,7 @@ class Navigator:
 
     def set_route(self, route: GraphRoute, t: float) -> None:
         self.route = route
+        self._short = False
         self._give_way = None
         self._near_since = None
         at_start = bool(route.waypoints) and route.waypoints[0] != route.start
@@ -208,6 +216,9 @@ class Navigator:
         if not keep.any():
             return
         ahead = unmapped[keep]
+        if self._near_goal(pose):  # another robot stands on our goal: end the route short
+            self._short = True
+            return
         self.yields += 1
         x, y = pose[0], pose[1]
         obstacles = _obstacle_discs(ahead)
@@ -407,10 +418,14 @@ class Navigator:
         cmd = ctl.step(t, pose, points)
         if cmd.status == Status.FAILED:
             goal = route.goal
+            if self._near_goal(pose):
+                return self._end_short(goal)
             self.cancel()
             return cmd, Event.FAILED, goal
         if self.planner is not None and cmd.status == Status.DRIVING:
             self._watch_blocked(t, pose, points, cmd)
+            if self._short:
+                return self._end_short(route.goal)
             if self._give_way is not None:
                 return self._step_give_way(t, pose, points), Event.NONE, -1
         for _ in range(2 * len(self._corners)):
@@ -438,6 +453,22 @@ class Navigator:
         # Steer toward the next waypoint right away (no standstill tick at a pass-through).
         cmd = ctl.step(t, pose, points)
         return cmd, Event.WAYPOINT, vertex
+
+
+    def _near_goal(self, pose: tuple[float, float, float]) -> bool:
+        """On the route's last leg, within `near_goal_m` of the goal vertex."""
+        route = self.route
+        if self.near_goal_m is None or route is None or not route.is_last:
+            return False
+        gx, gy = route.next_position()
+        return math.hypot(pose[0] - gx, pose[1] - gy) <= self.near_goal_m
+
+    def _end_short(self, goal: int) -> tuple[Command, Event, int]:
+        self.short_arrivals += 1
+        self.route.advance()
+        self.cancel()
+        self._short = False
+        return Command(0.0, 0.0, Status.REACHED), Event.ARRIVED, goal
 
 
 SIGHT_MARGIN_M = 0.02  # [m] beyond the robot's radius: a line of sight past a wall's end
@@ -493,97 +524,3 @@ def _obstacle_discs(map_points: np.ndarray | None):
 
 # ---------------------------------------------------------------------------------------------
 # Navigation by an external planner (move_base): same interface as Navigator
-
-
-class GoalClient:
-    """What `GoalNavigator` needs from a planner's action client (the rospy adapter is
-    tpuaf.ros.move_base.MoveBaseClient). `state()` is one of 'idle', 'active', 'succeeded',
-    'failed'."""
-
-    def send(self, x: float, y: float, yaw: float) -> None:  # pragma: no cover - interface
-        raise NotImplementedError
-
-    def cancel(self) -> None:  # pragma: no cover - interface
-        raise NotImplementedError
-
-    def state(self) -> str:  # pragma: no cover - interface
-        raise NotImplementedError
-
-
-class GoalNavigator:
-    """Follows a `GraphRoute` by sending each waypoint as a goal to an external planner
-    (move_base drives the robot; the agent publishes no cmd_vel). Events as `Navigator`:
-    a waypoint is passed within `waypoint_tolerance`, the goal reached within
-    `goal_tolerance` [m] of the pose (the one definition of a visit, whatever the planner's own
-    tolerance), and the goal fails when the planner aborts or the robot makes no progress of
-    `progress_m` for `stuck_timeout_s` [s]."""
-
-    def __init__(self, client: GoalClient, goal_tolerance: float = 0.4,
-                 waypoint_tolerance: float = 0.6, stuck_timeout_s: float = 60.0,
-                 progress_m: float = 0.15):
-        self.client = client
-        self.goal_tolerance = float(goal_tolerance)
-        self.waypoint_tolerance = float(waypoint_tolerance)
-        self.stuck_timeout_s = float(stuck_timeout_s)
-        self.progress_m = float(progress_m)
-        self.route: GraphRoute | None = None
-        self._target: tuple[float, float] | None = None
-        self._best = math.inf
-        self._best_t = 0.0
-        self.goals_sent = 0
-
-    def set_route(self, route: GraphRoute, t: float) -> None:
-        self.route = route
-        self._aim(t)
-
-    def cancel(self) -> None:
-        if self.route is not None:
-            self.client.cancel()
-        self.route = None
-        self._target = None
-
-    def pause(self) -> None:
-        """Stale inputs: stop the planner (the route is kept; `resume` sends the goal again)."""
-        if self.route is not None:
-            self.client.cancel()
-
-    def resume(self, t: float) -> None:
-        if self.route is not None and self._target is not None:
-            self._aim(t)
-
-    def _aim(self, t: float) -> None:
-        route = self.route
-        x, y = route.next_position()
-        k = route._k
-        prev = route.positions[route.waypoints[k - 1] if k > 0 else route.start]
-        yaw = math.atan2(y - prev[1], x - prev[0]) if (x, y) != tuple(prev) else 0.0
-        self._target = (x, y)
-        self._best, self._best_t = math.inf, float(t)
-        self.client.send(x, y, yaw)
-        self.goals_sent += 1
-
-    def step(self, t: float, pose: tuple[float, float, float],
-             points: np.ndarray | None = None) -> tuple[Command, Event, int]:
-        route = self.route
-        if route is None:
-            return Command(0.0, 0.0, Status.REACHED), Event.NONE, -1
-        idle = Command(0.0, 0.0, Status.DRIVING)
-        last = route.is_last
-        d = math.hypot(self._target[0] - pose[0], self._target[1] - pose[1])
-        state = self.client.state()
-        tol = self.goal_tolerance if last else self.waypoint_tolerance
-        if d <= tol or (state == "succeeded" and not last and d <= 2 * tol):
-            vertex = route.advance()
-            if last:
-                self.cancel()  # the visit counts here; move_base may still be fine-tuning
-                return Command(0.0, 0.0, Status.REACHED), Event.ARRIVED, vertex
-            self._aim(t)
-            return idle, Event.WAYPOINT, vertex
-        if d < self._best - self.progress_m or self._best == math.inf:
-            self._best, self._best_t = d, float(t)
-        stuck = t - self._best_t > self.stuck_timeout_s
-        if state == "failed" or stuck or (state == "succeeded" and last):
-            goal = route.goal
-            self.cancel()
-            return STOP_FAILED, Event.FAILED, goal
-        return idle, Event.NONE, -1

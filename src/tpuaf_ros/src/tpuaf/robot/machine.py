@@ -3,22 +3,24 @@
 `RobotMachine` is one robot's patrol protocol and the `RobotContext` its policy sees:
 
     start --decide--> DRIVING(goal) --vertex passed--> DRIVING (same route, or a redirect)
-                 |        |--goal vertex reached--> REACHED: visit, decide again
+                 |        |--goal vertex reached--> REACHED (a visit) or DWELL: decide again
                  |        |--navigator gave up----> FAILED: on_goal_failed, decide again
-                 |--goal == here, robot on it--> DWELLING(STAY_S) --end--> REACHED
+                 |--goal == here, robot on it--> DWELLING(STAY_S) --end--> DWELL: decide again
                  |--None--> WAITING --wake time--> decide
     any state --death--> DEAD (no motion, no decisions, no messages in or out)
 
 A runtime ("driver") owns the clock, the transport and the motion. It calls `start`, `decide`,
-`on_vertex` (a vertex of the route was reached), `on_goal_failed`, `on_wake`, `on_message`,
-`die` and `stall`, and feeds the robot's liveness (`TeammateLiveness`, team/liveness.py):
+`on_vertex` (a vertex of the route was reached), `observe` (every position of the robot),
+`on_goal_failed`, `on_wake`, `on_message`, `die` and `stall`, and feeds the robot's liveness (`TeammateLiveness`, team/liveness.py):
 `hear(robot, t)` for every team message and heartbeat delivered, `check_liveness(now)` when a
 check is due (the ROS agent node: 4 Hz; graph and physics: when a silence can end, from
 `heartbeat_links`), which calls the policy's `on_teammate_lost` for a teammate silent for the
 timeout; the machine calls back the driver (`RobotDriver`) to move, dwell, halt,
 send and schedule wake-ups, and reports what happened through `emit(kind, vertex, from_vertex,
-t)` with the AgentEvent kinds of tpuaf.topics: START, GOAL, REACHED (the one definition of a
-visit: arrival at the goal vertex within the goal tolerance), FAILED.
+t)` with the AgentEvent kinds of tpuaf.topics: START, GOAL, REACHED (a visit by the one rule of
+every runtime, `tpuaf_core.VisitRule`: an arrival at the goal vertex within the visit radius
+after the robot was farther than twice the radius from it), DWELL (a goal ended without a visit:
+the robot stood on the vertex, or stopped short of it), FAILED.
 """
 
 from __future__ import annotations
@@ -32,9 +34,9 @@ from tpuaf.policies import Policy, RobotContextBase
 from tpuaf.robot.learning import LearnedTravel
 from tpuaf.team.liveness import TeammateLiveness
 from tpuaf.team.messages import IdlenessEstimate, Intention, Visit
-from tpuaf.topics import FAILED, GOAL, REACHED, START
+from tpuaf.topics import DWELL, FAILED, GOAL, REACHED, START
 
-STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long, then visits it again
+STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long (a DWELL, no visit)
 DEFAULT_RETRY_S = 1.0  # [s] a policy that waits without asking for a wake-up is asked again after
 
 
@@ -82,6 +84,7 @@ class RobotMachine(RobotContextBase):
         self.policy = policy
         self.rng = rng
         self.emit = emit or (lambda kind, vertex, from_vertex, t: None)
+        self.visit_rule = patrol_map.visit_rule()  # the one definition of a visit
         # Called with (vertex, t) for every destination announced in a team message sent.
         self.on_announce: Callable[[int, float], None] | None = None
         self._start_vertex = -1
@@ -103,6 +106,9 @@ class RobotMachine(RobotContextBase):
         self.travel_time_s = 0.0
         self._leg: tuple[int, float] | None = None  # (from vertex, departure [s]) of a drive
         self.visits = 0
+        self.dwells = 0  # goals ended without a visit (DWELL)
+        self.dwell_time_s = 0.0  # [s] standing in dwells
+        self._dwell_since = 0.0  # [s] run time the current dwell began
         self.failures = 0
         self.decisions = 0
         # [s] a teammate silent this long is lost (the agent node's ~teammate_timeout)
@@ -111,10 +117,19 @@ class RobotMachine(RobotContextBase):
         self.learned = LearnedTravel(patrol_map)
 
     def at_vertex(self, vertex: int) -> bool:
-        """Is the robot within the map's goal tolerance [m] of `vertex` (a visit's distance)?"""
+        """Is the robot within the map's goal tolerance [m] of `vertex` (it dwells there rather
+        than drive)?"""
         x, y = self.position
         p = self.patrol_map.positions[vertex]
         return math.hypot(x - p[0], y - p[1]) <= float(self.patrol_map.settings.goal_tolerance)
+
+    def within(self, vertex: int) -> bool:
+        """Is the robot within the visit radius [m] of `vertex` (VisitRule)?"""
+        return self.visit_rule.within(int(vertex), *self.position)
+
+    def observe(self, x: float, y: float) -> None:
+        """A position [m] of the robot (the driver's every pose): re-arms the visit rule."""
+        self.visit_rule.observe(float(x), float(y))
 
     # --- RobotContext -----------------------------------------------------------------------
     @property
@@ -156,6 +171,7 @@ class RobotMachine(RobotContextBase):
         """START (the start vertex's first visit), then the policy's start hook; the driver
         calls `decide` next (after every robot of a team has started, where it can)."""
         self.started = True
+        self.visit_rule.start(self._start_vertex, *self.position)
         self.emit(START, self._start_vertex, -1, self.driver.now)
         self.policy.start(self)
 
@@ -186,6 +202,7 @@ class RobotMachine(RobotContextBase):
         self.emit(GOAL, goal, here, self.driver.now)
         if goal == here and self.at_vertex(goal):
             self.dwelling = True
+            self._dwell_since = self.driver.now
             self.driver.dwell(self.robot, goal, STAY_S)
         else:
             self.dwelling = False
@@ -216,13 +233,21 @@ class RobotMachine(RobotContextBase):
         return False
 
     def _reach(self, vertex: int) -> None:
+        """The goal ends at `vertex`: a visit (REACHED) if the VisitRule says so, else DWELL."""
+        now = self.driver.now
         if self._leg is not None and self._leg[0] != vertex:
             self.travelled_m += self.patrol_map.graph.distance(self._leg[0], vertex)
-            self.travel_time_s += self.driver.now - self._leg[1]
+            self.travel_time_s += now - self._leg[1]
         self._leg = None
+        if self.visit_rule.arrive(vertex, *self.position):
+            self.visits += 1
+            self.emit(REACHED, vertex, vertex, now)
+        else:
+            self.dwells += 1
+            if self.dwelling:
+                self.dwell_time_s += now - self._dwell_since
+            self.emit(DWELL, vertex, vertex, now)
         self.dwelling = False
-        self.visits += 1
-        self.emit(REACHED, vertex, vertex, self.driver.now)
         self.goal = None
         self.decide()
 

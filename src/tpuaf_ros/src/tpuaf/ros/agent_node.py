@@ -172,8 +172,9 @@ class AgentNode:
             from tpuaf.ros.move_base import MoveBaseClient
 
             self.runtime.navigator = GoalNavigator(
-                MoveBaseClient(p.move_base_action, p.map_frame), self.runtime.goal_tolerance,
-                p.waypoint_tolerance, stuck_timeout_s=p.move_base_timeout)
+                MoveBaseClient(p.move_base_action, p.map_frame), self.runtime.visit_radius,
+                p.waypoint_tolerance, stuck_timeout_s=p.move_base_timeout,
+                near_goal_m=self.runtime.goal_tolerance)
         if p.wait_for_start and sim:
             self.runtime.start_at = None
         self.points = None

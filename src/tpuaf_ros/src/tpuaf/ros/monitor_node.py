@@ -1,7 +1,8 @@
 """monitor: measures a ROS run with tpuaf.measure.metrics (thin adapter, see docs/FLEET.md).
 
-Visits are the agents' own reports (REACHED on /fleet/agent_events, tpuaf_ros/AgentEvent, whose
-heartbeats also tell the living from the dead). Positions (X, interference) per ~pose_source:
+Visits: the agents' rule (tpuaf_core.VisitRule) on the poses below, against the goals of their
+events (/fleet/agent_events, tpuaf_ros/AgentEvent, whose heartbeats also tell the living from
+the dead; DWELL events are counted apart). Positions (X, interference) per ~pose_source:
 ground_truth /<robot_prefix><i>/base_pose_ground_truth (simulation), tf (hardware: /tf and
 /tf_static, map -> <robot_prefix><i>/base_footprint from any localiser), odom /<..><i>/odom or
 amcl /<..><i>/amcl_pose; poses at their own stamps are grouped on 0.1 s ticks (tpuaf.measure.poses).
@@ -96,7 +97,9 @@ class MonitorNode:
         with self.lock:
             r = msg.robot_index
             v = self.patrol_map.lookup_index(msg.vertex)  # not on the map: a sign of life only
-            self.fm.on_event(r, msg.event, -1 if v is None else v, convert.stamp_s(msg))
+            f = self.patrol_map.lookup_index(msg.from_vertex)
+            self.fm.on_event(r, msg.event, -1 if v is None else v, convert.stamp_s(msg),
+                             -1 if f is None else f)
             if 0 <= r < len(self.ready):
                 self.ready[r] = True
             if (self.p.announce_start and not self.announced and all(self.ready)

@@ -10,8 +10,11 @@ as transport and the `Navigator` (route + local controller) as motion. Times are
 time (ROS time minus the run epoch).
 
 Events for the monitor (`publish_event(kind, vertex, from_vertex, t)`, vertices as indices):
-START at the start (the start vertex's first visit), GOAL on every new goal, REACHED (a visit),
-FAILED, HEARTBEAT every `heartbeat_period_s` while alive.
+START at the start (the start vertex's first visit), GOAL on every new goal, REACHED (a visit:
+tpuaf_core.VisitRule on the robot's poses), DWELL (a goal ended without a visit), FAILED,
+HEARTBEAT every `heartbeat_period_s` while alive. The navigator ends a route within the map's
+visit radius of the goal; a robot held near its goal by another robot (within the goal
+tolerance) ends it there, short: a DWELL, not a visit.
 """
 
 from __future__ import annotations
@@ -58,11 +61,15 @@ class AgentRuntime:
         self._publish_team = publish_team
         self._publish_event = publish_event
         self.heartbeat_period_s = float(heartbeat_period_s)
+        # [m] a leg ends within the visit radius of its goal; held by another robot, within the
+        # goal tolerance (short: no visit)
         self.goal_tolerance = float(patrol_map.settings.goal_tolerance)
+        self.visit_radius = patrol_map.visit_radius_m
         # planner: a navigation.PathPlanner (paths on the occupancy grid) or None (straight
         # edges, e.g. a map without walls in the tests).
-        self.navigator = Navigator(LocalController(controller), self.goal_tolerance,
-                                   waypoint_tolerance_m, planner, robot_index=robot)
+        self.navigator = Navigator(LocalController(controller), self.visit_radius,
+                                   waypoint_tolerance_m, planner, robot_index=robot,
+                                   near_goal_m=self.goal_tolerance)
         self._graph = patrol_map.graph
         self._positions = np.asarray(patrol_map.positions, dtype=float)
         # [s] run time of the last tick; negative before the start when the team's epoch lies
@@ -122,10 +129,10 @@ class AgentRuntime:
 
     def drive(self, robot: int, from_vertex: int, goal: int) -> None:
         self._stay_until = None
-        if goal != from_vertex and self.machine.at_vertex(goal):
-            # Already within the goal tolerance of another vertex (two vertices closer than
-            # it): stand there STAY_S, as on a goal equal to the current vertex, then visit it,
-            # instead of counting a visit every tick between the two.
+        if goal != from_vertex and self.machine.within(goal):
+            # Already within the visit radius of another vertex (two vertices closer than
+            # it): stand there STAY_S, as on a goal equal to the current vertex; the VisitRule
+            # then says whether it is a visit.
             self.navigator.cancel()
             self._stay_until = self._now + STAY_S
             self._stay_vertex = int(goal)
@@ -157,6 +164,7 @@ class AgentRuntime:
     def on_pose(self, t: float, x: float, y: float, th: float) -> None:
         """Localisation (map frame) at run time t [s]."""
         self._pose = (float(x), float(y), float(th))
+        self.machine.observe(x, y)
 
     def on_message(self, message: Any) -> None:
         """A team message from another robot (the node filters out our own). A malformed one

@@ -33,7 +33,7 @@ from tpuaf.runtimes.config import RunConfig, run_robot, travel_map
 from tpuaf.runtimes.faults import DEATH, Fault
 from tpuaf.team.bus import TeamBus
 from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, heartbeat_links
-from tpuaf.topics import REACHED, START
+from tpuaf.topics import DWELL, GOAL, REACHED, START
 
 
 class TeamRun:
@@ -84,12 +84,18 @@ class TeamRun:
     # --- recording ---
     def visit_listener(self, robot: int) -> Callable[[int, int, int, float], None]:
         """The `emit` of robot `robot`'s machine: its visits (START: the start vertex's first
-        visit, REACHED) go to the recorder."""
-        record_visit = self.recorder.record_visit
+        visit, REACHED), goals and dwells (DWELL: a goal ended without a visit) go to the
+        recorder."""
+        recorder = self.recorder
+        record_visit = recorder.record_visit
 
-        def emit(kind: int, vertex: int, _from_vertex: int, t: float) -> None:
+        def emit(kind: int, vertex: int, from_vertex: int, t: float) -> None:
             if kind == REACHED or kind == START:
                 record_visit(robot, vertex, t)
+            elif kind == GOAL:
+                recorder.record_goal(robot, vertex, from_vertex, t)
+            elif kind == DWELL:
+                recorder.record_dwell(robot, vertex, t)
 
         return emit
 

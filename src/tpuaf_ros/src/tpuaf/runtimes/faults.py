@@ -7,7 +7,7 @@
 - stall (`--stall ROBOT@TIME`): from TIME the robot stops moving for good but keeps deciding and
   talking: its navigator gives up on goals it cannot reach (after `stall_give_up_s` in the
   graph runtime, the navigator's own timeouts in the physics runtime), it re-decides, and it
-  still visits the vertex it stands on when it picks it (a dwell needs no motion).
+  dwells on the vertex it stands on when it picks it (no motion needed; a dwell, not a visit).
 """
 
 from __future__ import annotations

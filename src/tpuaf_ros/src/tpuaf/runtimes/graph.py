@@ -177,6 +177,15 @@ class GraphRecorder:
         return self._visits
 
     @property
+    def dwells(self) -> int:
+        """Goal arrivals that were no visit (VisitRule): dwells on the vertex stood on."""
+        return int(self._engine.dwells)
+
+    @property
+    def dwell_time_s(self) -> float:
+        return float(self._engine.dwell_time_s)
+
+    @property
     def visit_idleness(self) -> list[float]:
         if len(self._idleness) < self._engine.visit_count:
             self._idleness.extend(self._engine.visit_idleness(len(self._idleness)))
@@ -309,6 +318,7 @@ class GraphRun:
         ec.sample_period_s = float(config.sample_period_s)
         ec.nominal_speed_mps = self.speed
         ec.stay_s = STAY_S
+        ec.visit_radius_m = self.patrol_map.visit_radius_m
         ec.retry_s = DEFAULT_RETRY_S
         ec.refractory_s = _recorder_default("refractory_s")
         ec.max_substep_s = _recorder_default("max_substep_s")

@@ -213,4 +213,6 @@ class PhysicsRun(TeamRun):
         summary["recoveries"] = int(sum(a.recoveries for a in self.agents))
         summary["collisions"] = int(sum(self.world.contact_counts()))
         summary["goal_failures"] = int(sum(a.machine.failures for a in self.agents))
+        # goals ended short of the vertex, held there by another robot (DWELL, no visit)
+        summary["short_arrivals"] = int(sum(a.navigator.short_arrivals for a in self.agents))
         return summary

@@ -1,0 +1,74 @@
+// VisitRule: see visit_rule.hpp.
+#include "tpuaf_core/visit_rule.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace tpuaf {
+
+VisitRule::VisitRule(Points positions, double visit_radius_m)
+    : positions_(std::move(positions)),
+      radius_(visit_radius_m),
+      rearm_sq_(kRearmFactor * visit_radius_m * kRearmFactor * visit_radius_m),
+      armed_(static_cast<std::size_t>(positions_.rows()), 0) {
+  if (!(visit_radius_m > 0.0) || !std::isfinite(visit_radius_m)) {
+    throw std::invalid_argument("visit_radius must be a positive number of metres, not " +
+                                std::to_string(visit_radius_m));
+  }
+}
+
+void VisitRule::check(int vertex) const {
+  if (vertex < 0 || vertex >= num_vertices()) {
+    throw std::out_of_range("vertex index " + std::to_string(vertex) + " not in 0.." +
+                            std::to_string(num_vertices() - 1));
+  }
+}
+
+double VisitRule::distance(int vertex, double x, double y) const {
+  return std::hypot(x - positions_(vertex, 0), y - positions_(vertex, 1));
+}
+
+void VisitRule::reset() {
+  std::fill(armed_.begin(), armed_.end(), 0);
+  visits_ = 0;
+}
+
+void VisitRule::start(int vertex, double x, double y) {
+  check(vertex);
+  reset();
+  observe(x, y);
+  armed_[static_cast<std::size_t>(vertex)] = 0;
+  visits_ = 1;
+}
+
+void VisitRule::observe(double x, double y) {
+  for (Eigen::Index v = 0; v < positions_.rows(); ++v) {
+    const double dx = x - positions_(v, 0), dy = y - positions_(v, 1);
+    if (dx * dx + dy * dy > rearm_sq_) armed_[static_cast<std::size_t>(v)] = 1;
+  }
+}
+
+bool VisitRule::arrive(int vertex, double x, double y) {
+  check(vertex);
+  observe(x, y);
+  char& armed = armed_[static_cast<std::size_t>(vertex)];
+  if (!armed || distance(vertex, x, y) > radius_) return false;
+  armed = 0;
+  ++visits_;
+  return true;
+}
+
+bool VisitRule::within(int vertex, double x, double y) const {
+  check(vertex);
+  return distance(vertex, x, y) <= radius_;
+}
+
+bool VisitRule::armed(int vertex) const {
+  check(vertex);
+  return armed_[static_cast<std::size_t>(vertex)] != 0;
+}
+
+}  // namespace tpuaf
