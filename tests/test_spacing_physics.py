@@ -65,8 +65,8 @@ def test_a_two_robot_convoy_separates_within_one_lap_in_physics(convoy):
 def test_a_four_robot_convoy_dissolves_within_one_lap_in_physics(convoy):
     """12-vertex ring, 4 robots on 4 adjacent vertices. After one lap no vertex waits longer
     than 0.4 lap (even: 0.25; the convoy: 0.75). The rule before (each robot's two gaps,
-    mates extrapolated at nominal speed) still left 2.3 laps in the third lap: robots dwelt in
-    front of a mate and the convoy jammed."""
+    mates extrapolated at nominal speed) left 0.59 lap in the second lap: robots dwelt in front
+    of a mate, which queued behind them."""
     run, lap_s = physics_run(ring(12, (0, 1, 2, 3)), laps=5)
     times = collections.defaultdict(list)
     for t, _, vertex in run.recorder.visits:
