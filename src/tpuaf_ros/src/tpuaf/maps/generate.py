@@ -29,7 +29,8 @@ import numpy as np
 from tpuaf.errors import MapError
 from tpuaf.maps.occupancy import OccupancyGrid
 
-SAFETY_MARGIN_M = 0.1  # [m] added to the robot radius (>= the planner's 0.05 m margin)
+# [m] added to the robot radius: >= the planner's 0.05 m margin + its coarser planning cells
+SAFETY_MARGIN_M = 0.15
 MAX_RADIUS_CELLS = 40  # work cells per sensing radius, at most (visibility cost ~ this^2)
 SPUR_FACTOR = 2.0  # a skeleton branch shorter than this x its junction's clearance: no dead end
 DETOUR = 0.25  # an edge is dropped when a 2-edge path via a third target is at most 25 % longer
@@ -73,6 +74,8 @@ class WorkGrid:
     clearance_m: np.ndarray  # [m] best distance to an obstacle of the cell's map cells
     spot: np.ndarray  # (rows, cols, 2) [m] the map cell centre of best clearance
     region: np.ndarray  # free cells connected to the drivable space: what coverage counts
+    fine: np.ndarray  # the map's own cells where the robot drives (main part): edges' grid
+    fine_m: float  # [m] map cell size
 
     def cell_of(self, xy) -> tuple[int, int]:
         return (int((xy[1] - self.origin[1]) // self.cell_m),
@@ -113,25 +116,26 @@ def work_grid(occ: OccupancyGrid, opts: GraphOptions) -> WorkGrid:
     free = ~occ.occupied
     if not free.any():
         raise MapError(f"{occ.source or 'map'}: the image has no free cell")
-    edt = ndimage.distance_transform_edt(np.pad(free, 1)) [1:-1, 1:-1] * res  # [m]
+    edt = ndimage.distance_transform_edt(np.pad(free, 1))[1:-1, 1:-1] * res  # [m]
+    labels, count = ndimage.label(edt > clearance, structure=np.ones((3, 3)))
+    if count == 0:
+        raise MapError(f"{occ.source or 'map'}: no free space where a robot of radius "
+                       f"{opts.robot_radius_m:g} m (+ {opts.margin_m:g} m margin) fits")
+    fine = labels == int(np.argmax(np.bincount(labels.ravel())[1:])) + 1
+    del labels
     occupied = _pool(occ.occupied, f, True, "any")
-    best = _pool(edt, f, -1.0, "max")
-    arg = _pool(edt, f, -1.0, "argmax")
+    main = np.where(fine, edt, -1.0)  # [m] clearance of the main part's cells
+    best = _pool(main, f, -1.0, "max")
+    arg = _pool(main, f, -1.0, "argmax")
     rows, cols = np.indices(best.shape)
     spot = np.stack([occ.origin[0] + (cols * f + arg % f + 0.5) * res,
                      occ.origin[1] + (rows * f + arg // f + 0.5) * res], axis=-1)
     drivable = best > clearance
-    labels, count = ndimage.label(drivable, structure=np.ones((3, 3)))
-    if count == 0:
-        raise MapError(f"{occ.source or 'map'}: no free space where a robot of radius "
-                       f"{opts.robot_radius_m:g} m (+ {opts.margin_m:g} m margin) fits")
-    sizes = np.bincount(labels.ravel())[1:]
-    drivable = labels == int(np.argmax(sizes)) + 1
     free_labels, _ = ndimage.label(~occupied, structure=np.ones((3, 3)))
     reached = np.unique(free_labels[drivable & ~occupied])
     region = np.isin(free_labels, reached[reached > 0])
     return WorkGrid(f, f * res, (float(occ.origin[0]), float(occ.origin[1])), occupied,
-                    drivable, best, spot, region)
+                    drivable, best, spot, region, fine, res)
 
 
 # ------------------------------------------------------------------------------ skeleton
@@ -256,13 +260,16 @@ def _candidates(grid: WorkGrid, skeleton: np.ndarray, radius_m: float
 
 def _fixed_cells(grid: WorkGrid, fixed, opts: GraphOptions) -> list[tuple[int, int]]:
     out = []
-    h, w = grid.drivable.shape
+    h, w = grid.fine.shape
     for x, y in fixed:
-        r, c = grid.cell_of((x, y))
-        if not (0 <= r < h and 0 <= c < w and grid.drivable[r, c]):
+        r = int((y - grid.origin[1]) // grid.fine_m)
+        c = int((x - grid.origin[0]) // grid.fine_m)
+        if not (0 <= r < h and 0 <= c < w and grid.fine[r, c]):
             raise MapError(f"fixed target ({x:g}, {y:g}) m is not where a robot of radius "
                            f"{opts.robot_radius_m:g} m can drive (outside the map, too near a "
                            "wall, or cut off from the main free space)")
+        if (r, c) in out:
+            raise MapError(f"fixed target ({x:g}, {y:g}) m is on the map cell of an earlier one")
         out.append((r, c))
     return out
 
@@ -310,33 +317,52 @@ def choose_targets(grid: WorkGrid, skeleton: np.ndarray, opts: GraphOptions
         xy = spot[cells[k][0], cells[k][1]]
         if far_enough(xy):
             take(xy, "cover")
-    return targets, kinds, (covered & region)
+    keep = _redundant_dropped(grid, targets, kinds, radius)
+    return [targets[i] for i in keep], [kinds[i] for i in keep], (covered & region)
+
+
+def _redundant_dropped(grid: WorkGrid, targets: list, kinds: list[str], radius_m: float
+                       ) -> list[int]:
+    """Indices of the targets kept: a cover target (latest first) whose every seen cell some
+    other kept target also sees is dropped (the greedy's tail leaves such)."""
+    seen = [visible_cells(grid, t, radius_m) for t in targets]
+    seen = [s[grid.region.ravel()[s]] for s in seen]
+    count = np.zeros(grid.occupied.size, dtype=np.int32)
+    for s in seen:
+        count[s] += 1
+    keep = set(range(len(targets)))
+    for i in reversed(range(len(targets))):
+        if kinds[i] == "cover" and (count[seen[i]] >= 2).all():
+            count[seen[i]] -= 1
+            keep.discard(i)
+    return sorted(keep)
 
 
 # ------------------------------------------------------------------------------ edges
 
 
 def voronoi_edges(grid: WorkGrid, targets: list[np.ndarray]) -> list[tuple[int, int, float]]:
-    """Pairs of targets whose geodesic Voronoi cells (8-connected drivable cells) touch, with
-    the shortest geodesic length [m] across their common border."""
+    """Pairs of targets whose geodesic Voronoi cells (8-connected drivable map cells) touch,
+    with the shortest geodesic length [m] across their common border."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import dijkstra
 
-    h, w = grid.drivable.shape
-    index = np.full(grid.drivable.shape, -1, dtype=np.int64)
-    cells = np.argwhere(grid.drivable)
+    h, w = grid.fine.shape
+    index = np.full(grid.fine.shape, -1, dtype=np.int64)
+    cells = np.argwhere(grid.fine)
     index[cells[:, 0], cells[:, 1]] = np.arange(len(cells))
     pairs = []
     for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
         a = index[max(0, -dr):h - max(0, dr), max(0, -dc):w - max(0, dc)]
         b = index[max(0, dr):h + min(0, dr) or None, max(0, dc):w + min(0, dc) or None]
         ok = (a >= 0) & (b >= 0)
-        pairs.append((a[ok], b[ok], grid.cell_m * math.hypot(dr, dc)))
+        pairs.append((a[ok], b[ok], grid.fine_m * math.hypot(dr, dc)))
     src = np.concatenate([p[0] for p in pairs])
     dst = np.concatenate([p[1] for p in pairs])
     cost = np.concatenate([np.full(len(p[0]), p[2]) for p in pairs])
     graph = coo_matrix((cost, (src, dst)), shape=(len(cells), len(cells))).tocsr()
-    sources = [int(index[grid.cell_of(t)]) for t in targets]
+    sources = [int(index[int((t[1] - grid.origin[1]) // grid.fine_m),
+                         int((t[0] - grid.origin[0]) // grid.fine_m)]) for t in targets]
     dist, _, owner = dijkstra(graph, directed=False, indices=sources, min_only=True,
                               return_predecessors=True)
     label = np.full(len(cells), -1, dtype=np.int64)
