@@ -552,3 +552,74 @@ def test_a_missing_map_path_is_no_such_map_folder(capsys, argv, path):
     assert "unknown map" not in err
     with pytest.raises(MapError, match="^unknown map 'nope'"):
         load_map("nope")
+
+
+# ---------------------------------------------------------------- map files as ROS writes them
+
+
+@pytest.mark.parametrize("yaml_text", [
+    "image: tiny.pgm\nresolution: 5e-1\norigin: [0.0, -0e0, 0]\nnegate: 0\n"
+    "occupied_thresh: 6.5e-1\nfree_thresh: 1.96e-1\n",
+    "image: tiny.pgm\nresolution: \"0.5\"\norigin: [\"0.0\", '0', 0.0]\nnegate: \"0\"\n"
+    "occupied_thresh: \"0.65\"\nfree_thresh: '0.196'\n",
+], ids=["exponents", "quoted"])
+def test_map_yaml_numbers_in_every_form_ros_writes(tmp_path, yaml_text):
+    pm = load_map(ps_folder(tmp_path, yaml_text=yaml_text))
+    grid = pm.occupancy_grid()
+    assert grid.resolution == 0.5 and grid.origin == (0.0, 0.0)
+    assert not grid.occupied.any()
+
+
+@pytest.mark.parametrize("key, value, expected", [
+    ("resolution", "fine", "'resolution' must be a finite number (e.g. 0.05, 5e-2 or "
+                           "\"0.05\"), got 'fine'"),
+    ("resolution", "\"5e-2x\"", "got '5e-2x'"),
+    ("negate", "\"yes please\"", "'negate' must be 0 or 1 (or true / false), got 'yes please'"),
+])
+def test_a_bad_map_yaml_value_names_the_value_and_what_is_expected(tmp_path, key, value,
+                                                                   expected):
+    text = "".join(f"{key}: {value}\n" if line.startswith(f"{key}:") else line + "\n"
+                   for line in PS_YAML.splitlines())
+    msg = error_of(ps_folder(tmp_path, yaml_text=text))
+    assert expected in msg and "tiny.yaml" in msg, msg
+
+
+def test_our_map_yaml_reads_exponents_and_quoted_numbers(tmp_path):
+    folder = our_folder(tmp_path)
+    path = folder / "map.yaml"
+    text = path.read_text()
+    text = re.sub(r"sensing_radius: \S+", "sensing_radius: 5e-1", text)
+    text = re.sub(r"nominal_speed: \S+", 'nominal_speed: "0.1"', text)
+    path.write_text(text)
+    (folder / "graph.yaml").write_text((folder / "graph.yaml").read_text().replace(
+        "{id: 3, x: 2.1, y: 0.3}", "{id: 3, x: 2.1e0, y: \"0.3\"}"))
+    pm = load_map(folder)
+    assert pm.settings.sensing_radius == 0.5 and pm.settings.nominal_speed == 0.1
+    assert tuple(pm.positions[3]) == (2.1, 0.3)
+
+
+def test_coincident_vertices_are_refused(tmp_path, capsys):
+    """Two vertices on the same spot (here 3 and 8 of the lab, 1e-4 m apart) are an error of
+    load_map, `tpuaf maps` and `tpuaf run`, naming both."""
+    from tpuaf.cli import main
+
+    folder = our_folder(tmp_path)
+    path = folder / "graph.yaml"
+    path.write_text(path.read_text().replace("{id: 8, x: 2.1, y: 1.3}",
+                                             "{id: 8, x: 2.1, y: 0.3001}"))
+    msg = error_of(folder)
+    assert "vertices on the same spot" in msg and "3 and 8 at (2.1, 0.3)" in msg, msg
+    assert main(["maps", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "same spot" in err
+    assert main(["run", "--map", str(folder), "--duration", "5", "--quiet"]) == 2
+    assert "same spot" in capsys.readouterr().err
+
+
+def test_coincident_pairs_finds_near_and_exact_pairs_only():
+    from tpuaf.maps.geometry import coincident_pairs
+
+    pos = np.array([[0, 0], [1, 0], [0, 0], [1, 5e-4], [1, 1], [0.0005, 0.0009]], dtype=float)
+    assert coincident_pairs(pos) == [(0, 2), (1, 3)]
+    grid = np.array([[x, y] for x in range(30) for y in range(30)], dtype=float)
+    assert coincident_pairs(grid) == []

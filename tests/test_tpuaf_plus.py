@@ -45,8 +45,15 @@ def test_square_two_robots_schedule_and_spacing():
     # robots 10 m apart on a 40 m cycle: one leaves at once, the other waits 10 s (slots 20 m)
     departures = sorted(d for _, d in plan.schedule.values())
     assert departures == pytest.approx([0.0, 10.0])
-    _, summary = run(pm, 2, 400.0)
-    assert summary["idleness_max_s"] == pytest.approx(20.0, abs=1e-6)
+    engine, summary = run(pm, 2, 400.0)
+    # Robot 1 holds its start vertex 10 s: standing is no visit, so that vertex's first
+    # interval is 10 + 20 s; after the first lap every interval is the plan's 20 s.
+    assert summary["idleness_max_s"] == pytest.approx(30.0, abs=1e-6)
+    times: dict[int, list[float]] = {}
+    for t, _, v in engine.recorder.visits:
+        times.setdefault(v, []).append(t)
+    steady = [b - a for ts in times.values() for a, b in zip(ts, ts[1:]) if a >= 40.0]
+    assert max(steady) == pytest.approx(20.0, abs=1e-6)
 
 
 def test_path_two_robots_partition():

@@ -44,6 +44,7 @@ from tpuaf import __version__  # noqa: E402
 SUBCOMMANDS: list[tuple[str, str, str]] = [
     ("run", "run", "Run one batch experiment (no ROS) and print its metrics"),
     ("maps", "maps", "Show map statistics"),
+    ("graph", "graph", "Generate a patrol graph (map folder + picture) from a ROS occupancy map"),
     ("compare", "compare", "Sweep maps x strategies x N x seeds on Dask (resumable)"),
     ("report", "report", "Markdown report with figures and verdicts of a compare folder"),
     ("fleet", "fleet", "Run one headless ROS fleet experiment (simulator, agents, monitor, bag)"),

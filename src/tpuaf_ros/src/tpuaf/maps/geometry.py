@@ -1,7 +1,8 @@
 """Geometry checks of a loaded map: where its vertices lie, how long its edges are, its starts.
 
 Refused (MapError naming the map file): a coordinate farther than MAX_COORDINATE_M from the
-origin; a vertex outside the occupancy image or on an occupied (or unknown) cell, unless the
+origin; two vertices closer than COINCIDENT_M (on the same spot: `PatrolMap.graph` checks it,
+before the core sees the graph); a vertex outside the occupancy image or on an occupied (or unknown) cell, unless the
 caller allows it (`--allow-occupied-vertices`: then a warning); the same start vertex twice for
 one team size. Warned (PatrolMap.warnings): an edge shorter than the straight line between its
 vertices; a graph whose declared size or bounds exceed its image.
@@ -18,6 +19,7 @@ from tpuaf.errors import MapError
 MAX_COORDINATE_M = 1.0e5  # [m] 100 km: beyond, a coordinate is a unit or typing mistake
 SHORT_EDGE_TOLERANCE = 0.01  # relative: an edge this much shorter than the straight line warns
 MAX_LISTED = 5  # vertices / edges named in one message
+COINCIDENT_M = 1e-3  # [m] two vertices closer than this are on the same spot
 
 
 def _where(patrol_map) -> str:
@@ -40,6 +42,39 @@ def check_coordinates(patrol_map) -> None:
             f"({pos[i, 0]:g}, {pos[i, 1]:g}) m lies beyond {MAX_COORDINATE_M:g} m of the origin"
             + (f" ({far.size} vertices do)" if far.size > 1 else "")
         )
+
+
+def coincident_pairs(positions, tol_m: float = COINCIDENT_M) -> list[tuple[int, int]]:
+    """Index pairs (i < j) of vertices closer than `tol_m` [m] (sorted by x, neighbours in x
+    compared: no all-pairs matrix)."""
+    pos = np.asarray(positions, dtype=float)
+    if pos.ndim != 2 or pos.shape[1] != 2:
+        return []  # the core names a malformed position array
+    order = np.argsort(pos[:, 0], kind="stable")
+    p = pos[order]
+    pairs = []
+    for k in range(1, len(p)):
+        near = p[k:, 0] - p[:-k, 0] < tol_m
+        if not near.any():
+            break
+        close = near & (np.hypot(p[k:, 0] - p[:-k, 0], p[k:, 1] - p[:-k, 1]) < tol_m)
+        for a in np.flatnonzero(close):
+            i, j = int(order[a]), int(order[a + k])
+            pairs.append((min(i, j), max(i, j)))
+    return sorted(pairs)
+
+
+def check_coincident(patrol_map) -> None:
+    """Two vertices on the same spot (closer than COINCIDENT_M) are refused."""
+    pairs = coincident_pairs(patrol_map.positions)
+    if not pairs:
+        return
+    ids = patrol_map.vertex_ids
+    pos = np.asarray(patrol_map.positions, dtype=float)
+    listed = [f"{ids[i]} and {ids[j]} at ({pos[i, 0]:g}, {pos[i, 1]:g})" for i, j in pairs]
+    raise MapError(f"{_where(patrol_map)}: vertices on the same spot (closer than "
+                   f"{COINCIDENT_M:g} m): {_listing(listed[:MAX_LISTED], len(listed))}; "
+                   "merge them or move one")
 
 
 def grid_holds_every_vertex(patrol_map) -> bool:

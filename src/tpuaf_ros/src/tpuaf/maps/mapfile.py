@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 from collections.abc import Hashable
 from pathlib import Path
 from typing import Any
@@ -36,7 +35,7 @@ from tpuaf_core import yamlfile
 
 from tpuaf.errors import MapError
 from tpuaf.maps.model import MapSettings, PatrolMap
-from tpuaf.maps.occupancy import load_occupancy
+from tpuaf.maps.occupancy import as_number, load_occupancy
 
 
 def read_yaml(path: Path) -> Any:
@@ -57,18 +56,15 @@ def _at(path: Path, node: Any) -> str:
 MAX_COORDINATE_M = 1e6  # |x|, |y|, lengths and widths [m]: 1,000 km (beyond: float steps of mm)
 MIN_EDGE_M = 1e-3  # [m] a shorter edge takes no time to travel: the run never advances
 MAX_VERTEX_ID = 2**31 - 1  # ids travel as int32 in ROS parameters; -1 means "none" in messages
-# YAML 1.1 reads 1e6 (no dot) as a string; YAML 1.2 and every user as a number.
-_NUMBER_TEXT = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
 
 
 def _num(path: Path, node: Any, key: str, value: Any, *, minimum: float | None = None,
          positive: bool = False, maximum: float | None = MAX_COORDINATE_M,
          owner: str = "") -> float:
-    if isinstance(value, str) and _NUMBER_TEXT.fullmatch(value.strip()):
-        value = float(value)
+    value = as_number(value)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise MapError(f"{_at(path, node)}: '{key}' must be a finite number, got "
-                       f"{yamlfile.shorten(repr(value))}")
+        raise MapError(f"{_at(path, node)}: '{key}' must be a finite number (e.g. 0.05, 5e-2 or "
+                       f"\"0.05\"), got {yamlfile.shorten(repr(value))}")
     if maximum is not None and abs(value) > maximum:
         raise MapError(f"{_at(path, node)}: {owner}'{key}' = {value:g} lies beyond the "
                        f"+-{maximum:g} a map may span")
@@ -287,8 +283,9 @@ def _fmt(v: Any) -> str:
 
 
 def save_map_folder(patrol_map: PatrolMap, folder: str | Path, *, occupancy_file: bool = False,
-                    header: str = "") -> Path:
-    """Write `patrol_map` in our format (map.yaml + graph.yaml [+ occupancy.yaml/.pgm])."""
+                    header: str = "", occupancy_name: str = "occupancy.yaml") -> Path:
+    """Write `patrol_map` in our format (map.yaml + graph.yaml [+ the occupancy grid as
+    map_server YAML `occupancy_name` and its PGM])."""
     from tpuaf.maps.occupancy import write_occupancy
 
     folder = Path(folder)
@@ -300,7 +297,7 @@ def save_map_folder(patrol_map: PatrolMap, folder: str | Path, *, occupancy_file
         lines.append(f"description: {yaml.safe_dump(patrol_map.description, width=1000).splitlines()[0]}")
     lines.append("graph: graph.yaml")
     if occupancy_file:
-        lines.append("occupancy: occupancy.yaml")
+        lines.append(f"occupancy: {occupancy_name}")
     if patrol_map.corridor_width is not None:
         lines.append(f"corridor_width: {_fmt(float(patrol_map.corridor_width))}  # [m]")
     if patrol_map.bounds is not None:
@@ -346,5 +343,5 @@ def save_map_folder(patrol_map: PatrolMap, folder: str | Path, *, occupancy_file
             g.append(f"  - [{a}, {b}, {_fmt(float(length))}]")
     (folder / "graph.yaml").write_text("\n".join(g) + "\n")
     if occupancy_file:
-        write_occupancy(patrol_map.occupancy_grid(), folder / "occupancy.yaml")
+        write_occupancy(patrol_map.occupancy_grid(), folder / occupancy_name)
     return folder

@@ -70,6 +70,9 @@ class PatrolMap:
 
     @cached_property
     def graph(self) -> tpuaf_core.PatrolGraph:
+        from tpuaf.maps.geometry import check_coincident
+
+        check_coincident(self)  # two vertices on one spot: named here, not as a short edge
         try:
             return tpuaf_core.PatrolGraph(
                 np.asarray(self.positions, dtype=float), list(self.edges), list(self.vertex_ids)

@@ -177,12 +177,37 @@ _MAP_SERVER_KEYS = {"image", "resolution", "origin", "negate", "occupied_thresh"
                     "mode"}
 
 
+# A number as text: YAML 1.1 reads `5e-2` (no dot) as a string, and ROS map yamls quote
+# numbers ("0.075"); both are numbers to every ROS tool.
+NUMBER_TEXT = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
+
+
+def as_number(value: Any) -> Any:
+    """`value` as a float when it is a number's text (quoted or `5e-2`); else unchanged."""
+    if isinstance(value, str) and NUMBER_TEXT.fullmatch(value.strip()):
+        return float(value)
+    return value
+
+
 def _number(path: Path, key: str, value: Any) -> float:
+    value = as_number(value)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or \
             not math.isfinite(value):
-        raise MapError(f"{path}: '{key}' must be a finite number, got "
-                       f"{yamlfile.shorten(repr(value))}")
+        raise MapError(f"{path}: '{key}' must be a finite number (e.g. 0.05, 5e-2 or "
+                       f"\"0.05\"), got {yamlfile.shorten(repr(value))}")
     return float(value)
+
+
+def _flag(path: Path, key: str, value: Any) -> bool:
+    """map_server's 0/1 flag (`negate`): 0, 1, true, false, or their quoted text."""
+    value = as_number(value)
+    if isinstance(value, bool) or value in (0, 1):
+        return bool(value)
+    text = str(value).strip().lower() if isinstance(value, str) else None
+    if text in ("true", "false"):
+        return text == "true"
+    raise MapError(f"{path}: '{key}' must be 0 or 1 (or true / false), got "
+                   f"{yamlfile.shorten(repr(value))}")
 
 
 def load_occupancy(yaml_path: str | Path, image_fallbacks: tuple[Path, ...] = ()) -> OccupancyGrid:
@@ -214,7 +239,7 @@ def load_occupancy(yaml_path: str | Path, image_fallbacks: tuple[Path, ...] = ()
     ox, oy = (_number(path, "origin", v) for v in origin[:2])
     if len(origin) > 2 and _number(path, "origin", origin[2]) != 0.0:
         raise MapError(f"{path}: rotated map origins (yaw != 0) are not supported")
-    negate = bool(doc.get("negate", 0))
+    negate = _flag(path, "negate", doc.get("negate", 0))
     occ_t = _number(path, "occupied_thresh", doc.get("occupied_thresh", 0.65))
     free_t = _number(path, "free_thresh", doc.get("free_thresh", 0.196))
     if not 0.0 <= free_t <= occ_t <= 1.0:

@@ -328,3 +328,35 @@ def load_patrolling_sim(path: str | Path) -> PatrolMap:
     )
     pm.graph  # noqa: B018 - validates connectivity now, with the file named in the error
     return pm
+
+
+_COMPASS = ("E", "NE", "N", "NW", "W", "SW", "S", "SE")  # 45 degree sectors from east, y up
+
+
+def write_graph(patrol_map: PatrolMap, path: str | Path, grid) -> Path:
+    """Write `patrol_map` as a patrolling_sim `.graph` over occupancy grid `grid` (its size,
+    resolution and origin in the header): pixels = floor((x - origin) / resolution), edge
+    costs = length / resolution rounded (at least 1 px)."""
+    res = float(grid.resolution)
+    ox, oy = (float(v) for v in grid.origin)
+    pos = np.asarray(patrol_map.positions, dtype=float)
+    px = np.floor((pos - [ox, oy]) / res + 1e-6).astype(np.int64)
+    lengths = patrol_map.graph
+    adjacency: dict[int, list[int]] = {i: [] for i in range(len(pos))}
+    for u, v, _ in patrol_map.edges:
+        adjacency[u].append(v)
+        adjacency[v].append(u)
+    ids = patrol_map.vertex_ids
+    lines = [str(len(pos)), str(grid.width), str(grid.height), f"{res:g}", f"{ox:g}", f"{oy:g}",
+             ""]
+    for i in range(len(pos)):
+        lines += [str(ids[i]), str(px[i, 0]), str(px[i, 1]), str(len(adjacency[i]))]
+        for j in sorted(adjacency[i]):
+            dx, dy = pos[j] - pos[i]
+            sector = int(round(np.degrees(np.arctan2(dy, dx)) / 45.0)) % 8
+            cost = max(1, int(round(float(lengths.edge_length(i, j)) / res)))
+            lines += [str(ids[j]), _COMPASS[sector], str(cost)]
+        lines.append("")
+    path = Path(path)
+    path.write_text("\n".join(lines) + "\n")
+    return path
