@@ -401,6 +401,10 @@ class EdgeDurations:
     def samples(self, u: int, v: int) -> int:
         return len(self._samples.get(_key(u, v), ()))
 
+    def measured(self) -> dict[tuple[int, int], list[float]]:
+        """Every edge driven so far (u < v): its kept traversal times [s]."""
+        return {e: list(s) for e, s in self._samples.items()}
+
     def duration(self, u: int, v: int) -> float:
         """[s] of edge u-v: the measured median, or the model's figure (KeyError: unknown)."""
         samples = self._samples.get(_key(u, v), ())
