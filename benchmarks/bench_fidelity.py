@@ -11,8 +11,8 @@ visit radius; standing or dwelling on a vertex is no visit.
 Figures per case: I_max ratio (physics / graph), worst wait after the first visit ratio, driven
 visits ratio, the share of robot time standing still in physics (moved under 5 cm in a 1 s
 window) and the graph runtime's dwell share, the travel-time model's error on the patrol's
-own traversals (median over edges driven at least 3 times of |model - measured median| /
-measured median), and the share of edges whose planned path has a stretch one robot wide
+own traversals (departure to visit, as the robots learn them from the team messages; median
+over edges driven at least 3 times of |model - measured median| / measured median), and the share of edges whose planned path has a stretch one robot wide
 (two robots cannot pass: clearance < 2 r + safety margin). Each case that misses a target gets a
 cause from those figures (rules in `cause`).
 
@@ -70,17 +70,6 @@ def worst_wait_after_first_visit(visits, end_s: float, n_vertices: int) -> float
     return worst
 
 
-def traversals(visits, adjacent: set[tuple[int, int]]) -> dict[tuple[int, int], list[float]]:
-    """[s] per directed edge: the times between a robot's consecutive visits of its two ends."""
-    last: dict[int, tuple[float, int]] = {}
-    out: dict[tuple[int, int], list[float]] = {}
-    for t, robot, v in sorted(visits):
-        if robot in last and (last[robot][1], v) in adjacent:
-            out.setdefault((last[robot][1], v), []).append(t - last[robot][0])
-        last[robot] = (t, v)
-    return out
-
-
 def model_error(measured: dict, modelled: dict) -> tuple[float, int]:
     """(median over edges driven >= MIN_TRAVERSALS times of |model - median| / median, edges)."""
     errors = [abs(modelled[e] - statistics.median(ts)) / statistics.median(ts)
@@ -133,7 +122,6 @@ def figures(summary: dict, visits, duration: float, n_vertices: int) -> dict:
 
 def one(case: dict) -> dict:
     from tpuaf.navigation.planner import shared_planner
-    from tpuaf.navigation.travel_time import directed_durations
     from tpuaf.runtimes.config import PhysicsConfig, RunConfig
     from tpuaf.runtimes.graph import make_run
     from tpuaf.runtimes.physics import PhysicsRun
@@ -170,11 +158,10 @@ def one(case: dict) -> dict:
     out["physics"] = ph
     robot = run.robot
     planner = shared_planner(run.source_map, robot.radius_m)
-    adjacent = {(int(i), int(j)) for i, j, _ in run.patrol_map.edges}
-    adjacent |= {(j, i) for i, j in adjacent}
-    modelled = directed_durations(run.source_map, robot, planner)
-    out["model_error"], out["model_edges"] = model_error(
-        traversals(run.recorder.visits, adjacent), modelled)
+    # The team's own single-edge traversals (departure to visit, dwells left out), as every
+    # robot learns them from the team messages (robot/learning.py), against the model's times.
+    learned = run.agents[0].machine.learned.durations
+    out["model_error"], out["model_edges"] = model_error(learned.measured(), learned.model)
     margin = run.agents[0].navigator.controller.config.safety_margin
     out["one_lane_share"] = one_lane_share(planner, robot.radius_m, margin, run.patrol_map.edges)
     out["preset"], out["speed_mps"] = robot.preset, robot.speed_mps
@@ -276,8 +263,9 @@ def report(results: list[dict], args, wall: float) -> str:
         "TurtleBot3 Burger (0.22 m/s, or the map's speed if slower). Standing: the share of "
         f"robot time a robot moved under {STAND_MOVE_M * 100:g} cm in a {STAND_WINDOW_S:g} s "
         "window; dwell: the plan's share of robot time waiting on a vertex. Model error: "
-        f"median over edges driven at least {MIN_TRAVERSALS} times in the physics patrol of "
-        "|model - measured median| / measured median (teammates' give-way included). "
+        f"median over edges driven at least {MIN_TRAVERSALS} times in the physics patrol "
+        "(departure to visit, as the robots learn them) of |model - measured median| / "
+        "measured median (teammates' give-way included). "
         "One-lane edges: planned paths with a point where two robots cannot pass.\n\n")
     text += (
         f"## Verdict\n\nTargets: I_max ratio <= {IMAX_MAX}, worst wait ratio <= {WAIT_MAX} "

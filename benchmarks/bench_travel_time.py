@@ -91,7 +91,7 @@ def walk(patrol_map, preset: str, speed_mps: float, duration_s: float, seed: int
     cfg = ControllerConfig(max_linear_speed=speed_mps,
                            max_angular_speed=float(ROBOT_PRESETS[preset]["max_angular_speed"]),
                            robot_radius=model.radius, retry_wait_s=retry_wait_for(0))
-    nav = Navigator(LocalController(cfg), pm.settings.goal_tolerance, 0.6, planner)
+    nav = Navigator(LocalController(cfg), pm.visit_radius_m, 0.6, planner)  # as the agents
     positions = np.asarray(pm.positions, dtype=float)
     graph = pm.graph
     nbrs: dict[int, list[int]] = {i: [] for i in range(pm.num_vertices)}

@@ -13,8 +13,9 @@ Definitions (SPEC section 6):
 - the run starts at the first complete pose group at or after `start_after` [s];
 - a visit is the one rule of every runtime (tpuaf_core.VisitRule, docs/RUNTIMES.md "Visits")
   applied to the ground-truth poses (`visit_source="poses"`, the default): a pose within the
-  map's visit radius of the robot's goal (its GOAL events) after the robot was farther than
-  twice the radius from it, stamped with the pose; standing on a vertex never visits it again.
+  map's visit radius of the robot's goal (its GOAL events; a goal just ended stays one for
+  GOAL_GRACE_S, as the poses may trail the agent's localisation) after the robot was farther
+  than twice the radius from it, stamped with the pose; standing on a vertex never visits it again.
   A START event is the robot's first visit of its start vertex (at the run start if stamped
   before it), as in the graph runtime. With `visit_source="reports"` (bags without the agents'
   events: their Visit messages) the REACHED reports are the visits, at their stamps. DWELL
@@ -48,6 +49,9 @@ from tpuaf.topics import DWELL, GOAL, REACHED, START
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
 STAMP_EPS_S = 1e-3
 # summary.json `time_base`: every time_s of the results is run time since start_time_s.
+# [s] a goal the agent ended stays a visit candidate this long after its next GOAL: the
+# monitor's poses may trail the agent's localisation (tf stamps grouped on 0.1 s ticks, latency)
+GOAL_GRACE_S = 1.0
 TIME_BASE = "run time [s] since start_time_s (ROS time)"
 
 
@@ -76,6 +80,7 @@ class FleetMonitor:
         # (stamp, kind, vertex, from) of START, GOAL and DWELL events not yet applied, per robot
         self._goal_q: list[list[tuple[float, int, int, int]]] = [[] for _ in range(self.n)]
         self._goal = [-1] * self.n  # each robot's goal (vertex index; -1: none)
+        self._ended: list[dict[int, float]] = [{} for _ in range(self.n)]  # goal: grace end [s]
         self._positions = np.asarray(patrol_map.positions, dtype=float)
         self.recorder: RunRecorder | None = None
         self.start_time: float | None = None
@@ -191,10 +196,11 @@ class FleetMonitor:
     def _apply_visit_rule(self, t: float, seen: np.ndarray) -> None:
         """The START, GOAL and DWELL events stamped up to t [s], then each robot's VisitRule on
         its pose at t against every goal it held since the last pose group (a goal reached at t
-        is followed by the next GOAL stamped t)."""
+        is followed by the next GOAL stamped t) or ended within GOAL_GRACE_S."""
         for r in range(self.n):
             q = self._goal_q[r]
-            goals = [self._goal[r]]
+            ended = self._ended[r]
+            goals = [self._goal[r], *ended]
             k = 0
             while k < len(q) and q[k][0] <= t + STAMP_EPS_S:
                 stamp, kind, vertex, from_vertex = q[k]
@@ -205,6 +211,8 @@ class FleetMonitor:
                     self._rules[r].start(vertex, float(x), float(y))
                     self._goal[r] = -1
                 elif kind == GOAL:
+                    if self._goal[r] >= 0:
+                        ended[self._goal[r]] = stamp + GOAL_GRACE_S
                     self._goal[r] = vertex
                     goals.append(vertex)
                     if self.recorder is not None:
@@ -212,6 +220,8 @@ class FleetMonitor:
                 elif self.recorder is not None and stamp <= self.start_time + self.duration_s:
                     self.recorder.record_dwell(r, vertex, self.run_time(stamp))  # DWELL
             del q[:k]
+            for g in [g for g, until in ended.items() if until < t]:
+                del ended[g]
             if not seen[r] or self.visit_source != "poses":
                 continue
             x, y = float(self._last[r, 0]), float(self._last[r, 1])

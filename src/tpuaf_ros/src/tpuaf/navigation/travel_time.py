@@ -322,8 +322,8 @@ def directed_durations(patrol_map: Any, robot: Any, planner: Any,
     """[s] per directed edge (u, v) (vertex indices, both directions): the mean over the ways
     of arriving at u (see the module docstring) of the modelled traversal time to v."""
     kin = RobotKinematics.of(robot)
-    tol = float(patrol_map.settings.goal_tolerance if goal_tolerance_m is None
-                else goal_tolerance_m)
+    # A leg ends when the robot is within the visit radius (the navigator's goal tolerance).
+    tol = float(patrol_map.visit_radius_m if goal_tolerance_m is None else goal_tolerance_m)
     model = _Model(kin, tol, _Walls(patrol_map), _TurnTable(kin))
     paths = _paths(patrol_map, planner)
     into: dict[int, list[int]] = {}
@@ -400,6 +400,10 @@ class EdgeDurations:
 
     def samples(self, u: int, v: int) -> int:
         return len(self._samples.get(_key(u, v), ()))
+
+    def measured(self) -> dict[tuple[int, int], list[float]]:
+        """Every edge driven so far (u < v): its kept traversal times [s]."""
+        return {e: list(s) for e, s in self._samples.items()}
 
     def duration(self, u: int, v: int) -> float:
         """[s] of edge u-v: the measured median, or the model's figure (KeyError: unknown)."""
