@@ -10,10 +10,12 @@
    schedule dropped, as tests/test_spacing_physics.py): the longest visit gap starting in each
    lap, in laps.
 
-Each side is measured by the code it runs under, so "before" runs from a checkout of the old
-code with its own interpreter:
+Each side is measured by the code it imports, so "before" runs on a checkout of the old code
+(BASE: `git worktree add --detach BASE <commit>`, cmake configured as setup.sh does with
+CATKIN_DEVEL_PREFIX=BASE/devel, `cmake --build BASE/build --target _core`):
 
-    /work/main/.venv/bin/python benchmarks/bench_spacing.py --label before   # old code
+    PYTHONPATH=BASE/devel/lib/python3/dist-packages \
+        .venv/bin/python benchmarks/bench_spacing.py --label before           # old code
     .venv/bin/python benchmarks/bench_spacing.py --label after                # this code
     .venv/bin/python benchmarks/bench_spacing.py --report                     # spacing.md
 
