@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import statistics
 import sys
 import time
@@ -247,14 +246,12 @@ def per_map(results: list[dict]) -> str:
     return "\n".join(rows) + f"\n\nWorst map: {worst:.1%} (target {MODEL_MAX:.0%}).\n"
 
 
-def report(results: list[dict], args, wall: float) -> str:
+def report(results: list[dict], args, wall: float, head: str) -> str:
     body, c = table(results)
-    load = os.getloadavg()
     cmd = " ".join(sys.argv[1:])
-    text = header("Physical fidelity, like for like: physics against the graph runtime")
-    text += (
+    text = head + (
         f"{len(results)} cases, {args.duration:g} s each, seed {args.seed}; wall {wall:.0f} s "
-        f"with {args.workers} workers; load average at the end {load[0]:.1f}. Command: "
+        f"with {args.workers} workers. Command: "
         f"`.venv/bin/python benchmarks/bench_fidelity.py{' ' + cmd if cmd else ''}`.\n\n"
         "Ratios are physics / graph runtime, both on the same robot model: the graph runtime "
         "plans and drives each edge in the travel-time model's duration for that robot "
@@ -303,7 +300,17 @@ def main() -> int:
     ap.add_argument("--out", default="fidelity",
                     help="name of the results files in benchmarks/results (default fidelity)")
     ap.add_argument("--quick", action="store_true", help="print, do not write the results")
+    ap.add_argument("--from-json", metavar="NAME", default=None,
+                    help="rewrite NAME.md from the measured NAME.json (no runs)")
     args = ap.parse_args()
+    if args.from_json:
+        saved = json.loads((RESULTS / f"{args.from_json}.json").read_text())
+        args.duration, args.seed, args.workers = (saved["duration"], saved["seed"],
+                                                  saved["workers"])
+        sys.argv = [sys.argv[0], *saved["argv"]]
+        write(f"{args.from_json}.md", report(saved["results"], args, saved["wall_s"],
+                                             saved["header"]))
+        return 0
     if not args.out.replace("_", "").replace("-", "").isalnum():
         ap.error(f"--out must be a plain file name, got {args.out!r}")
     cases = []
@@ -339,12 +346,16 @@ def main() -> int:
                 f"visits {ratios(r)['visits']:.2f}x")
             print(f"[{k}/{len(cases)}] {r['map']} {r['robot']} {r['strategy']} "
                   f"N={r['robots']}: {line}", file=sys.stderr, flush=True)
-    text = report(results, args, time.perf_counter() - start)
+    wall = time.perf_counter() - start
+    head = header("Physical fidelity, like for like: physics against the graph runtime")
+    text = report(results, args, wall, head)
     if args.quick:
         print(text)
         return 0
     write(f"{args.out}.md", text)
-    (RESULTS / f"{args.out}.json").write_text(json.dumps(results, indent=1, default=str))
+    saved = {"argv": sys.argv[1:], "duration": args.duration, "seed": args.seed,
+             "workers": args.workers, "wall_s": wall, "header": head, "results": results}
+    (RESULTS / f"{args.out}.json").write_text(json.dumps(saved, indent=1, default=str))
     return 0
 
 

@@ -24,8 +24,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // which the robot is at a walk vertex when its slot passes. With u_k = (arc_k - d_k) mod L,
 // v t = d_k + u_k - s (+ L when s > u_k).
 void slot_departures(const PatrolGraph& graph, const PlusRoute& route, int start,
-                     const std::vector<double>& slots, double late_m, double* out_t,
-                     int* out_k) {
+                     const std::vector<double>& slots, double late_m, double* out_t, int* out_k) {
   const std::size_t n = route.walk.size();
   const double L = route.length;
   std::vector<double> d(n), u(n);
@@ -139,9 +138,9 @@ double walk_worst_idleness(const PatrolGraph& graph, const std::vector<int>& wal
     for (std::size_t i = 0; i < n; ++i) length += graph.edge_length(walk[i], walk[(i + 1) % n]);
   }
   if (length <= 0.0 || n_robots < 1) return 0.0;
-  const double spacing = length / n_robots;  // [m] between robots
+  const double spacing = length / n_robots;   // [m] between robots
   const double period = spacing / speed_mps;  // [s] the visit pattern repeats with this period
-  std::map<int, std::vector<double>> times;  // vertex -> pass times in one period [s]
+  std::map<int, std::vector<double>> times;   // vertex -> pass times in one period [s]
   double s = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     times[walk[i]].push_back(std::nearbyint(py_mod(s, spacing) / speed_mps * 1e9) / 1e9);
@@ -158,8 +157,7 @@ double walk_worst_idleness(const PatrolGraph& graph, const std::vector<int>& wal
   return worst;
 }
 
-std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph,
-                                                   const PlusRoute& route,
+std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, const PlusRoute& route,
                                                    const std::vector<int>& starts,
                                                    const std::vector<double>& late_m,
                                                    double speed_mps,
@@ -186,8 +184,8 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph,
     idle_m.resize(idle_s->size());
     for (std::size_t v = 0; v < idle_s->size(); ++v) idle_m[v] = (*idle_s)[v] * speed_mps;
   }
-  std::vector<double> slots(m), dep(m * m), cost(m * m), t_dep(m), entry_arc(m), reach(m),
-      first(n), virt(m), soonest;
+  std::vector<double> slots(m), dep(m * m), cost(m * m), t_dep(m), entry_arc(m), reach(m), first(n),
+      virt(m), soonest;
   std::vector<int> ent(m * m), k(m);
   bool have_best = false;
   double best0 = 0, best1 = 0;
@@ -212,8 +210,8 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph,
       const std::size_t col = static_cast<std::size_t>(match.cols[t]);
       k[t] = ent[row * m + col];
       entry_arc[t] = route.arc[static_cast<std::size_t>(k[t])];
-      reach[t] = graph.distance(starts[row], route.walk[static_cast<std::size_t>(k[t])]) +
-                 late_m[row];
+      reach[t] =
+          graph.distance(starts[row], route.walk[static_cast<std::size_t>(k[t])]) + late_m[row];
     }
     for (double alpha : kAlphas) {
       for (std::size_t t = 0; t < m; ++t) {
@@ -244,8 +242,8 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph,
           s = std::min(s, first[i]);
         }
         for (int v : route.walk) {
-          score0 = std::max(score0, soonest[static_cast<std::size_t>(v)] +
-                                        idle_m[static_cast<std::size_t>(v)]);
+          score0 = std::max(
+              score0, soonest[static_cast<std::size_t>(v)] + idle_m[static_cast<std::size_t>(v)]);
         }
       }
       const double score1 = numpy_sum(t_dep.data(), m);

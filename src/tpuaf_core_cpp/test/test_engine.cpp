@@ -121,7 +121,7 @@ TEST(Engine, ForgottenVisitsKeepIndicesAndPerVertexTimes) {
   ASSERT_EQ(rec.visits().size(), 1u);  // only the last one is still held
   EXPECT_DOUBLE_EQ(rec.visits()[0].time_s, 30.0);
   EXPECT_DOUBLE_EQ(rec.visit_idleness()[0], 30.0);  // 30 s - 0 s
-  rec.forget_visits_before(1);  // already forgotten: nothing changes
+  rec.forget_visits_before(1);                      // already forgotten: nothing changes
   EXPECT_EQ(rec.visits_forgotten(), 2u);
   rec.forget_visits_before(10);  // past the end: all of them
   EXPECT_TRUE(rec.visits().empty());
@@ -221,8 +221,8 @@ TpuafRun run_tpuaf(double loss, bool any_vertex, UtilityForm form) {
   engine.set_strategy(&strategy);
   engine.run();
   engine.finish();
-  return {engine.recorder().visits(), engine.recorder().timeseries(),
-          engine.bus_stats().delivered, strategy.shares_knowledge()};
+  return {engine.recorder().visits(), engine.recorder().timeseries(), engine.bus_stats().delivered,
+          strategy.shares_knowledge()};
 }
 
 TEST(Engine, TeamKnowledgeWithoutLossOrDelayGivesTheRunOfPerRobotCopies) {

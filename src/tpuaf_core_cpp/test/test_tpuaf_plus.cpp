@@ -68,9 +68,9 @@ std::unique_ptr<TpuafPlusStrategy> strategy(std::vector<std::pair<int, double>> 
 }
 
 TEST(TpuafPlus, PaceIsARunningAverageClampedToThePlanSpeed) {
-  EXPECT_DOUBLE_EQ(update_pace(1.0, 0.6, 0.25, 1.0), 0.9);   // 1 + 0.25 (0.6 - 1)
-  EXPECT_DOUBLE_EQ(update_pace(0.9, 3.0, 0.25, 1.0), 0.925);  // a sample above v counts as v
-  EXPECT_DOUBLE_EQ(update_pace(0.5, 0.0, 1.0, 2.0), 0.2);     // below 0.1 v counts as 0.1 v
+  EXPECT_DOUBLE_EQ(update_pace(1.0, 0.6, 0.25, 1.0), 0.9);          // 1 + 0.25 (0.6 - 1)
+  EXPECT_DOUBLE_EQ(update_pace(0.9, 3.0, 0.25, 1.0), 0.925);        // a sample above v counts as v
+  EXPECT_DOUBLE_EQ(update_pace(0.5, 0.0, 1.0, 2.0), 0.2);           // below 0.1 v counts as 0.1 v
   EXPECT_DOUBLE_EQ(update_pace(1.0, 1.0 - 1e-12, 0.25, 1.0), 1.0);  // rounding: v exactly
 }
 
@@ -98,16 +98,16 @@ TEST(TpuafPlus, SpacingDwellKeepsTheOrderAndNeverBlocksTheMateBehind) {
   // m = 3: mates 2 m ahead and 6 m behind me (34 m ahead): early by
   // e = -((2 - 40 / 3) + (34 - 80 / 3)) / 3, I dwell 2 gain e (the mate behind needs 6 s)
   const double e = -((2.0 - 40.0 / 3) + (34.0 - 80.0 / 3)) / 3;
-  EXPECT_NEAR(spacing_dwell({{34.0, 0.0, 1.0}, {2.0, 0.0, 1.0}}, 40.0, 1.0, 0.35, 0.5),
-              0.7 * e, 1e-9);
+  EXPECT_NEAR(spacing_dwell({{34.0, 0.0, 1.0}, {2.0, 0.0, 1.0}}, 40.0, 1.0, 0.35, 0.5), 0.7 * e,
+              1e-9);
   // m = 4: mates 1 m and 2 m ahead and 1 m behind: e = 4.5 m asks for 3.15 s, but the mate
   // behind reaches my vertex in 1 s: I leave 0.5 s before it (at 0.5 m/s, in 2 s: 1.5 s)
-  EXPECT_NEAR(spacing_dwell({{1.0, 0.0, 1.0}, {2.0, 0.0, 1.0}, {39.0, 0.0, 1.0}}, 40.0, 1.0,
-                            0.35, 0.5),
-              0.5, 1e-9);
-  EXPECT_NEAR(spacing_dwell({{1.0, 0.0, 1.0}, {2.0, 0.0, 1.0}, {39.0, 0.0, 0.5}}, 40.0, 1.0,
-                            0.35, 0.5),
-              1.5, 1e-9);
+  EXPECT_NEAR(
+      spacing_dwell({{1.0, 0.0, 1.0}, {2.0, 0.0, 1.0}, {39.0, 0.0, 1.0}}, 40.0, 1.0, 0.35, 0.5),
+      0.5, 1e-9);
+  EXPECT_NEAR(
+      spacing_dwell({{1.0, 0.0, 1.0}, {2.0, 0.0, 1.0}, {39.0, 0.0, 0.5}}, 40.0, 1.0, 0.35, 0.5),
+      1.5, 1e-9);
   // late: no dwell
   EXPECT_EQ(spacing_dwell({{30.0, 0.0, 1.0}}, 40.0, 1.0, 0.35, 0.5), 0.0);
 }
@@ -141,7 +141,7 @@ TEST(TpuafPlus, MatesAreExtrapolatedAtTheirMeasuredPace) {
   host.set_state(0.0, 0, 1.0);
   s->start(host, 0);
   s->on_message(host, 0, TeamMessage::intention(1, 1, 2, 10.0, 10.0, 0.0));  // leaves 1 at 0 s
-  s->on_message(host, 0, TeamMessage::visit(1, 2, 20.0, 3));                // at 2 at 20 s
+  s->on_message(host, 0, TeamMessage::visit(1, 2, 20.0, 3));                 // at 2 at 20 s
   EXPECT_DOUBLE_EQ(TpuafPlusProbe::pace(*s, 0, 1), 0.875);
   s->on_message(host, 0, TeamMessage::intention(1, 2, 3, 30.0, 10.0, 20.0));  // leaves 2 now
   EXPECT_NEAR(TpuafPlusProbe::mate_arc(*s, 0, 1, 24.0), 20.0 + 0.875 * 4.0, 1e-9);
@@ -170,13 +170,12 @@ TEST(TpuafPlus, AnEarlyRobotDwellsALateOneDoesNot) {
   PolicyHost host(graph, 3, 2);
   host.set_state(0.0, 0, 1.0);
   s->start(host, 2);
-  TpuafPlusProbe::robot(*s, 2).idx = 0;  // robot 2 at vertex 0 (arc 0)
+  TpuafPlusProbe::robot(*s, 2).idx = 0;              // robot 2 at vertex 0 (arc 0)
   TpuafPlusProbe::hear(*s, 2, 0, {0, 1, 6.0, 6.0});  // 4 m ahead at 10 s
   TpuafPlusProbe::hear(*s, 2, 1, {0, 1, 8.0, 8.0});  // 2 m ahead at 10 s
   const double e = -((2.0 - 40.0 / 3) + (4.0 - 80.0 / 3)) / 3;
   EXPECT_NEAR(phase_error({2.0, 4.0}, 40.0), e, 1e-12);
-  EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 2, 10.0), std::min(2 * 0.35 * e, 40.0 / 3),
-              1e-9);
+  EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 2, 10.0), std::min(2 * 0.35 * e, 40.0 / 3), 1e-9);
   // robot 0, the convoy's leader, at vertex 1 (arc 10) at 14 s; its mates left vertex 0 at
   // 6 s and 8 s: at 8 m and 6 m, i.e. 38 m and 36 m ahead of it. It is late: no dwell.
   PolicyHost lead(graph, 3, 0);

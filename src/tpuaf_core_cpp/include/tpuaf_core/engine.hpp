@@ -90,8 +90,7 @@ class GraphEngine final : public StrategyHost {
 
  private:
   // Event kinds, in the order ties resolve (tpuaf.runtimes.graph).
-  static constexpr int kArrive = 0, kWake = 1, kDeliver = 2, kFault = 3, kGiveUp = 4,
-                       kLiveness = 5;
+  static constexpr int kArrive = 0, kWake = 1, kDeliver = 2, kFault = 3, kGiveUp = 4, kLiveness = 5;
   struct Robot {
     int current = 0, start = 0, goal = -1, redirect = -1;
     std::vector<int> route;

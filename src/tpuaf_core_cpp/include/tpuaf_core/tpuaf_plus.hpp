@@ -33,13 +33,13 @@ struct PlusPlan {
 };
 
 struct TpuafPlusParams {
-  double speed_mps = 1.0;          // plan speed v (the map's nominal speed)
-  double gain = 0.35;              // an early robot dwells 2 gain e / u (phase error e [m])
-  double pace_weight = 0.25;       // weight of a new pace sample in a mate's running average
-  double deadband_s = 0.5;         // no dwell below this
-  double dwell_revisit_s = 5.0;    // a dwelling robot re-visits its vertex this often
-  double silence_timeout_s = 60;   // a mate silent this long is presumed dead (resolved)
-  double stay_s = 1.0;             // the runtimes' dwell for a goal equal to the vertex
+  double speed_mps = 1.0;         // plan speed v (the map's nominal speed)
+  double gain = 0.35;             // an early robot dwells 2 gain e / u (phase error e [m])
+  double pace_weight = 0.25;      // weight of a new pace sample in a mate's running average
+  double deadband_s = 0.5;        // no dwell below this
+  double dwell_revisit_s = 5.0;   // a dwelling robot re-visits its vertex this often
+  double silence_timeout_s = 60;  // a mate silent this long is presumed dead (resolved)
+  double stay_s = 1.0;            // the runtimes' dwell for a goal equal to the vertex
 };
 
 // Python's float a % b (np.mod): the result takes the sign of b.
@@ -86,8 +86,7 @@ double walk_worst_idleness(const PatrolGraph& graph, const std::vector<int>& wal
 // (then the least total wait), or with idle_s (per graph vertex, [s] at t = 0) the one whose
 // vertices wait least in all. starts: start vertex per robot; late_m: v times how long after
 // t = 0 each robot is at its start [m].
-std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph,
-                                                   const PlusRoute& route,
+std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, const PlusRoute& route,
                                                    const std::vector<int>& starts,
                                                    const std::vector<double>& late_m,
                                                    double speed_mps,
@@ -121,17 +120,17 @@ class TpuafPlusStrategy : public TeamStrategy {
     explicit Robot(const TpuafKnowledge& k) : knowledge(k) {}
     TpuafKnowledge knowledge;
     std::vector<char> alive;
-    std::vector<double> last_heard;   // [s] newest sent time heard per robot
-    std::vector<double> lost_at;      // [s] reported lost by the runtime (+inf: not)
-    std::vector<Heard> heard;         // latest timed message per mate
+    std::vector<double> last_heard;  // [s] newest sent time heard per robot
+    std::vector<double> lost_at;     // [s] reported lost by the runtime (+inf: not)
+    std::vector<Heard> heard;        // latest timed message per mate
     std::vector<char> has_heard;
-    std::vector<double> mate_arc;     // last estimated arc [m] per mate
+    std::vector<double> mate_arc;  // last estimated arc [m] per mate
     std::vector<char> has_mate_arc;
     std::vector<std::deque<Heard>> history;  // the last 4 announcements per robot
-    std::vector<double> pace;         // [m/s] measured pace along the walk per robot (me too)
-    double changed_at = 0;            // [s] when the team last changed
+    std::vector<double> pace;  // [m/s] measured pace along the walk per robot (me too)
+    double changed_at = 0;     // [s] when the team last changed
     bool holding = false;
-    double hold_until = 0;            // planned departure while dwelling [s]
+    double hold_until = 0;  // planned departure while dwelling [s]
     bool respacing = false;
     double respace_target = 0, respace_at = 0;  // [m], [s]
     bool waking = false;
@@ -159,8 +158,7 @@ class TpuafPlusStrategy : public TeamStrategy {
   void update_team(StrategyHost& host, int robot);
   bool mate_arc(Robot& r, int k, double now, double& arc, double* dwell_m = nullptr);
   double spacing_wait(Robot& r, int robot, double now);
-  void announce(StrategyHost& host, int robot, int here, int next, double departure,
-                bool visit);
+  void announce(StrategyHost& host, int robot, int here, int next, double departure, bool visit);
   int hold(StrategyHost& host, int robot, int here, bool waking);
   int step(StrategyHost& host, int robot, bool waking);
   int repair_hop(StrategyHost& host, int robot, int here, int target);
