@@ -46,6 +46,7 @@ BUILTIN_MAPS = ("builtin:grid", "builtin:lab")
 IMAX_MAX, WAIT_MAX, VISITS_MIN, MODEL_MAX = 1.2, 1.5, 0.9, 0.10
 STAND_WINDOW_S, STAND_MOVE_M = 1.0, 0.05  # standing: moved under 5 cm in a 1 s window
 MIN_TRAVERSALS = 3  # an edge's measured median needs this many traversals
+STEADY_FROM_S = 300.0  # [s] the steady state: intervals that begin after the first 300 s
 
 
 def map_ref(name: str) -> str:
@@ -111,8 +112,19 @@ class StandingMeter:
             self.anchor = (t, xy.copy())
 
 
+def steady_imax(visits, start_s: float = STEADY_FROM_S) -> float:
+    """[s] the longest interval between two visits of a vertex that begins after start_s."""
+    times: dict[int, list[float]] = {}
+    for t, _, v in visits:
+        times.setdefault(v, []).append(t)
+    gaps = [b - a for ts in map(sorted, times.values())
+            for a, b in zip(ts, ts[1:], strict=False) if a >= start_s]
+    return max(gaps, default=math.nan)
+
+
 def figures(summary: dict, visits, duration: float, n_vertices: int) -> dict:
     return {"visits": summary["visits"], "imax_s": summary["idleness_max_s"],
+            "imax_steady_s": steady_imax(visits),
             "wait_s": worst_wait_after_first_visit(visits, duration, n_vertices),
             "visits_patrolling_sim": summary.get("visits_patrolling_sim"),
             "dwell_s": summary.get("dwell_time_s", 0.0),
@@ -174,6 +186,7 @@ def ratio(a: float, b: float) -> float:
 def ratios(r: dict) -> dict:
     g, p = r["graph"], r["physics"]
     return {"imax": ratio(p["imax_s"], g["imax_s"]), "wait": ratio(p["wait_s"], g["wait_s"]),
+            "steady": ratio(p["imax_steady_s"], g["imax_steady_s"]),
             "visits": ratio(p["visits"], g["visits"])}
 
 
@@ -186,12 +199,15 @@ def cause(r: dict, q: dict) -> str:
                 f"{p['goal_failures']} failed goals)")
     if p["collisions"] or p["goal_failures"]:
         return f"jams ({p['collisions']} contacts, {p['goal_failures']} failed goals)"
+    if q["steady"] <= IMAX_MAX and q["visits"] >= VISITS_MIN:
+        return (f"start transient (I_max of intervals from {STEADY_FROM_S:g} s on: "
+                f"{q['steady']:.2f}x)")
     if math.isfinite(r["model_error"]) and r["model_error"] > MODEL_MAX:
         return f"travel times off the model by {r['model_error']:.0%}"
     if p["standing_share"] > 2 * r["graph"]["dwell_share"] + 0.1:
         return f"waiting ({p['standing_share']:.0%} of robot time standing)"
-    return (f"bunching ({p['interferences']} robot meetings within 2 m against "
-            f"{r['graph']['interferences']} in the plan)")
+    return (f"spacing drift (steady-state I_max {q['steady']:.2f}x; {p['interferences']} "
+            f"robot meetings within 2 m against {r['graph']['interferences']} in the plan)")
 
 
 def met(q: dict) -> dict:
@@ -201,15 +217,16 @@ def met(q: dict) -> dict:
 
 def table(results: list[dict]) -> tuple[str, dict]:
     rows = ["| map | robot | strategy | N | graph / physics visits | visits ratio | I_max ratio "
-            "| wait ratio | standing (physics) / dwell (graph) | model error | one-lane edges "
-            "| verdict |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| steady I_max ratio | wait ratio | standing (physics) / dwell (graph) | model error "
+            "| one-lane edges "
+            "| verdict |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     counts = {"cases": 0, "imax": 0, "wait": 0, "visits": 0, "all": 0, "passable": 0,
               "passable_met": 0}
     misses = []
     for r in results:
         head = f"| {r['map']} | {r['robot']} | {r['strategy']} | {r['robots']} "
         if "error" in r:
-            rows.append(head + f"| {r['error'][:70]} | - | - | - | - | - | - | not run |")
+            rows.append(head + f"| {r['error'][:70]} | - | - | - | - | - | - | - | not run |")
             continue
         q = ratios(r)
         ok = met(q)
@@ -226,7 +243,8 @@ def table(results: list[dict]) -> tuple[str, dict]:
         g, p = r["graph"], r["physics"]
         err = "-" if math.isnan(r["model_error"]) else f"{r['model_error']:.1%}"
         rows.append(head + f"| {g['visits']} / {p['visits']} | {q['visits']:.2f} | "
-                    f"{q['imax']:.2f} | {q['wait']:.2f} | {p['standing_share']:.0%} / "
+                    f"{q['imax']:.2f} | {q['steady']:.2f} | {q['wait']:.2f} | "
+                    f"{p['standing_share']:.0%} / "
                     f"{g['dwell_share']:.0%} | {err} | {r['one_lane_share']:.0%} | {verdict} |")
     return "\n".join(rows) + "\n", counts
 
