@@ -52,7 +52,8 @@ def test_square_two_robots_schedule_and_spacing():
     times: dict[int, list[float]] = {}
     for t, _, v in engine.recorder.visits:
         times.setdefault(v, []).append(t)
-    steady = [b - a for ts in times.values() for a, b in zip(ts, ts[1:]) if a >= 40.0]
+    steady = [b - a for ts in times.values() for a, b in zip(ts, ts[1:], strict=False)
+              if a >= 40.0]
     assert max(steady) == pytest.approx(20.0, abs=1e-6)
 
 
