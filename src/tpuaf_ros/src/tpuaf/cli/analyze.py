@@ -306,6 +306,16 @@ def run(args: argparse.Namespace) -> int:
     return _report(bag, result, out)
 
 
+def outage_lines(summary: dict) -> list[str]:
+    """One line per outage of a summary (robot, cause, interval in run time [s])."""
+    out = []
+    for o in summary.get("outages") or []:
+        end = ("never heard again (dead)" if o.get("end_s") is None
+               else f"heard again at {o['end_s']:.1f} s")
+        out.append(f"outage: robot {o['robot']} {o['cause']} from {o['start_s']:.1f} s, {end}")
+    return out
+
+
 def _report(bag: Path, result, out: Path) -> int:
     """Print the analysis; compare it with the monitor's summary.json beside the bag, if any
     (comparison.json): 1 when a metric differs beyond its tolerance, else 0."""
@@ -320,6 +330,8 @@ def _report(bag: Path, result, out: Path) -> int:
         print(f"  note: {note}")
     print(format_summary(summary))
     print(f"  deaths: {summary['deaths']} {summary['dead_robots']}")
+    for line in outage_lines(summary):
+        print(f"  {line}")
     print(f"  results: {out}")
     live = folder / "summary.json"
     if live.is_file():

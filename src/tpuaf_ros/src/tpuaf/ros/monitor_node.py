@@ -191,6 +191,9 @@ class MonitorNode:
         if self.done:
             return
         self.feed.add(i, t, x, y)
+        for line in self.fm.news:
+            rospy.logwarn(f"{NODE}: {line}")
+        self.fm.news.clear()
         if not self.fm.started:
             return
         if self.writer is None:
