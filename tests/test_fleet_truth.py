@@ -57,3 +57,72 @@ def test_a_restarted_robot_is_no_death(tmp_path):
     with ResultsWriter(tmp_path / "run", {"map": "line3"}, plots=False) as writer:
         writer.finish(s, mon.recorder)
     assert open(tmp_path / "run" / "info.csv").read().split(";")[13] == "TIMEOUT"
+
+
+def health_run(stuck_after_s: float = 20.0):
+    """2 robots: robot 0 drives on and reports recoveries, a failed goal and a give-way; robot 1
+    stands still from 30 s to 70 s. Returns the monitor, the run time robot 1's spell was first
+    reported and the live figures at 60 s."""
+    from tpuaf.topics import FAILED, GIVE_WAY, GOAL, STUCK
+
+    mon = FleetMonitor(line_map(), 2, 100.0, lag_s=1.0, stuck_after_s=stuck_after_s)
+    mon.on_event(0, START, 0, 0.0)
+    mon.on_event(1, START, 2, 0.0)
+    events = {1: (GOAL, 1), 5: (STUCK, 1), 6: (STUCK, 1), 8: (GOAL, 2), 9: (STUCK, 2),
+              12: (FAILED, 2), 15: (GIVE_WAY, 2)}
+    reported, live60 = None, None
+    for k in range(103):
+        t = float(k)
+        for r in range(2):
+            mon.on_event(r, HEARTBEAT, -1, t)
+        if k in events:
+            mon.on_event(0, events[k][0], events[k][1], t, 0)
+        mon.on_pose(0, t, 5.0 + 0.5 * (k % 20), 1.0)
+        x1 = 0.5 * min(k, 30) + 0.5 * max(k - 70, 0)
+        mon.on_pose(1, t, x1, 3.0)
+        if reported is None and any("robot 1 made no progress" in n for n in mon.news):
+            reported = t
+        mon.news.clear()
+        if k == 60:
+            live60 = mon.live()
+    return mon, reported, live60
+
+
+def test_robot_health_reaches_the_summary_and_the_live_metrics():
+    mon, reported, live60 = health_run()
+    # stood still from 30 s; reported within 5 s of 30 + 20 s
+    assert reported is not None and 50.0 <= reported <= 55.0
+    assert live60["no_progress"] == [False, True]
+    assert live60["recoveries"] == [3, 0] and live60["stuck_episodes"] == [2, 0]
+    assert live60["failed_goals"] == [1, 0] and live60["give_ways"] == [1, 0]
+    # its START at 0 s is its only visit; the monitor runs lag_s (1 s) behind the poses
+    assert live60["since_last_visit"][1] == 59.0
+    s = mon.summary()
+    assert (s["stuck_episodes"], s["recoveries"], s["failed_goals"], s["give_ways"]) == (2, 3, 1, 1)
+    h0, h1 = s["robot_health"]
+    assert (h0["stuck_episodes"], h0["recoveries"], h0["failed_goals"], h0["give_ways"]) == (
+        2, 3, 1, 1)
+    assert h1["no_progress"] == [{"start_s": 30.0, "end_s": 71.0}] and s["no_progress_spells"] == 1
+    assert h1["last_visit_s"] == 0.0 and h1["since_last_visit_s"] == 100.0
+    assert h0["no_progress"] == []
+    assert mon.live()["no_progress"] == [False, False]
+
+
+def test_live_health_fits_the_live_metrics_message():
+    import io
+
+    from tpuaf.measure.bag_decode import _RAW_EVENTS
+
+    from tpuaf_ros.msg import AgentEvent, LiveMetrics
+
+    mon, _, live60 = health_run()
+    for live in (live60, mon.live(), FleetMonitor(line_map(), 2, 10.0).live()):
+        msg = LiveMetrics()
+        for key, value in live.items():
+            setattr(msg, key, value)
+        buf = io.BytesIO()
+        msg.serialize(buf)
+        back = LiveMetrics().deserialize(buf.getvalue())
+        assert list(back.recoveries) == list(live["recoveries"])
+    # the bag reader reads this version's events from their bytes
+    assert ("tpuaf_ros/msg/AgentEvent", AgentEvent._md5sum) in _RAW_EVENTS

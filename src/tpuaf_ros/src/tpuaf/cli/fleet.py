@@ -484,9 +484,9 @@ def print_outcome(args, summary: dict, config: dict, rtf: float | None, wall: fl
         print(f"  simulated {summary['duration_s']:,.0f} s in {wall_run:.1f} s wall from the start "
               f"({rtf:.1f}x real time); {wall:.1f} s wall in all")
     print(f"  deaths: {summary.get('deaths', 0)} {summary.get('dead_robots', [])}")
-    from tpuaf.cli.analyze import outage_lines
+    from tpuaf.cli.analyze import health_lines, outage_lines
 
-    for line in outage_lines(summary):
+    for line in outage_lines(summary) + health_lines(summary):
         print(f"  {line}")
     if args.lockstep:
         print(f"  lock-step: {summary['unresponsive_events']} unresponsive agent event(s)")

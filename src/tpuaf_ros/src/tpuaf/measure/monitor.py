@@ -45,8 +45,10 @@ from typing import Any
 
 import numpy as np
 
+from tpuaf.measure.health import FleetHealth
 from tpuaf.measure.metrics import RunRecorder, complete_cycles
-from tpuaf.params import LIVENESS_DEFAULTS
+from tpuaf.params import HEALTH_DEFAULTS, LIVENESS_DEFAULTS
+from tpuaf.plain import plain
 from tpuaf.topics import DWELL, GOAL, REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
@@ -65,7 +67,8 @@ class FleetMonitor:
                  start_after: float = 0.0, death_timeout_s: float | None = None,
                  sample_period_s: float = 1.0, lag_s: float = 2.0,
                  teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s,
-                 visit_source: str = "poses"):
+                 visit_source: str = "poses",
+                 stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s):
         if visit_source not in ("poses", "reports"):
             raise ValueError(f"visit_source must be 'poses' or 'reports', not {visit_source!r}")
         self.visit_source = visit_source
@@ -104,6 +107,7 @@ class FleetMonitor:
         self._back = np.full(self.n, math.inf)  # first event after an outage began [s]
         # [detection time s, robot, end s (first event heard again) or None]
         self.outages: list[list] = []
+        self.health = FleetHealth(self.n, stuck_after_s)  # stuck, recoveries, ... per robot
         self.news: list[str] = []  # what an operator should hear (outages, ...); drained by nodes
         self._idl_seen, self._idl_sum, self._idl_n, self._idl_max = 0, 0.0, 0, 0.0
 
@@ -114,6 +118,7 @@ class FleetMonitor:
         if not 0 <= robot < self.n:
             return
         self._heard_q[robot].append(float(t))
+        self.health.on_event(robot, kind, float(t))
         if not 0 <= vertex < self.patrol_map.num_vertices:
             return
         if kind in (START, GOAL, DWELL):
@@ -194,6 +199,7 @@ class FleetMonitor:
         self._liveness(t)
         self._record_visits(t)
         self.recorder.record_positions(self.run_time(t), self._last.copy())
+        self.news += self.health.observe(t, self._last, self._alive)
         self.now = t
         if t >= end:
             self.end(end)
@@ -272,8 +278,9 @@ class FleetMonitor:
         while k < len(q) and q[k][0] <= t + STAMP_EPS_S:
             stamp, robot, vertex, _ = q[k]
             if self.start_time - STAMP_EPS_S <= stamp <= end:
-                self.recorder.record_visit(
-                    robot, vertex, self.run_time(min(max(stamp, self.start_time), end)))
+                stamp = min(max(stamp, self.start_time), end)
+                self.recorder.record_visit(robot, vertex, self.run_time(stamp))
+                self.health.on_visit(robot, stamp)
             k += 1
         del q[:k]
 
@@ -321,7 +328,8 @@ class FleetMonitor:
             return {"start_time": nan, "elapsed": 0.0, "visits": 0, "idleness_avg": nan,
                     "idleness_max": nan, "instantaneous_idleness": nan, "worst_idleness": nan,
                     "uncertainty_mean": nan, "interferences": 0, "complete_cycles": 0,
-                    "robots_alive": int(self._alive.sum())}
+                    "robots_alive": int(self._alive.sum()),
+                    **self.health.live(self.now, self.now)}
         new = rec.visit_idleness[self._idl_seen:]
         self._idl_seen += len(new)
         for x in new:
@@ -343,6 +351,7 @@ class FleetMonitor:
             "interferences": len(rec.interferences),
             "complete_cycles": complete_cycles(counts),
             "robots_alive": int(self._alive.sum()),
+            **self.health.live(self.start_time, max(self.now, self.start_time)),
         }
 
     def summary(self) -> dict:
@@ -350,7 +359,9 @@ class FleetMonitor:
         if self.recorder is None:
             raise RuntimeError("the run never started: no complete set of ground-truth poses")
         end = self.start_time + self.duration_s if self.finished else self.now
-        return with_epoch(self.recorder.summary(self.run_time(end)), self.start_time)
+        summary = self.recorder.summary(self.run_time(end))
+        summary.update(plain(self.health.summary(self.start_time, end)))
+        return with_epoch(summary, self.start_time)
 
 
 def with_epoch(summary: dict, epoch_s: float) -> dict:

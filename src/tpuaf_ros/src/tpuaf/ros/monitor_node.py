@@ -44,7 +44,7 @@ def run_config(p, patrol_map):
     config = {"runtime": "ros", "map": p.map, "map_name": patrol_map.name,
               "strategy": p.strategy, "robots": p.robots, "duration_s": p.duration,
               "seed": p.seed, "death_timeout_s": p.death_timeout,
-              "teammate_timeout_s": p.teammate_timeout,
+              "teammate_timeout_s": p.teammate_timeout, "stuck_after_s": p.stuck_after,
               "monitor_pose_source": POSE_SOURCES[p.pose_source]}
     if p.config_file:
         extra = yaml.safe_load(Path(p.config_file).read_text()) or {}
@@ -59,7 +59,8 @@ class MonitorNode:
         self.patrol_map = patrol_map
         self.fm = FleetMonitor(patrol_map, p.robots, p.duration, start_after=math.inf,
                                death_timeout_s=p.death_timeout,
-                               teammate_timeout_s=p.teammate_timeout)
+                               teammate_timeout_s=p.teammate_timeout,
+                               stuck_after_s=p.stuck_after)
         self.metrics_pub = rospy.Publisher(convert.METRICS_TOPIC, LiveMetrics, queue_size=10,
                                            latch=True)
         self.start_pub = rospy.Publisher(START_TOPIC, RunStart, queue_size=1, latch=True)
