@@ -78,6 +78,8 @@ def test_a_restarted_announcer_adopts_the_running_epoch(tmp_path):
     assert len(team_epochs) == 1, first
     assert epochs(restarted) == team_epochs, restarted[-3000:]
     assert "announced the run start" not in restarted, restarted[-3000:]
+    for log in (*logs.values(), restarted):  # Ctrl-C on a robot.launch: no traceback
+        assert "Traceback" not in log and "closed topic" not in log, log[-4000:]
     for i, log in logs.items():
         assert epochs(log) == team_epochs, (i, log[-3000:])
     # The bag: one start (re-latched copies), the whole run, the stop counted as a death.

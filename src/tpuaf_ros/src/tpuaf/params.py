@@ -216,11 +216,14 @@ class MonitorParams:
     #   the start the agents announce (hardware)
     team_ns: str = "/team"  # namespace of the team topics (intentions: recovery metrics)
     stuck_after: float = HEALTH_DEFAULTS.stuck_after_s  # [s] no progress this long: reported
+    # [s of wall time] after the run finished and its results are written, the node exits (the
+    # subscribers and the recorder get the last metrics first)
+    exit_delay: float = 2.0
 
     # Numeric limits checked by `parse` (not fields): name -> (">" or ">=", bound).
     ranges: ClassVar[dict[str, tuple[str, float]]] = {
         "robots": (">=", 1), "duration": (">", 0), "death_timeout": (">", 0),
-        "stuck_after": (">", 0),
+        "stuck_after": (">", 0), "exit_delay": (">=", 0),
         "teammate_timeout": (">", 0), "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0),
         "start_connect_timeout": (">=", 0),
     }

@@ -28,7 +28,7 @@ from tpuaf.measure.markers import MODES, Marker, PatrolView
 from tpuaf.measure.poses import POSE_SOURCES, feed_chains, robot_chains
 from tpuaf.params import NodeParamError, parse, req
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, run_node, yaw_of
+from tpuaf.ros.node import fatal, private_params, publish, run_node, yaw_of
 from tpuaf.team import messages
 from tpuaf.topics import AMCL_POSE, EVENTS_TOPIC, GOAL, GROUND_TRUTH, ODOM, REACHED, team_topic
 from tpuaf_ros.msg import AgentEvent, Intention, Visit
@@ -83,7 +83,7 @@ class MarkersNode:
                                  queue_size=2)
         if p.publish_map:
             self.map_pub = rospy.Publisher("~map", OccupancyGrid, queue_size=1, latch=True)
-            self.map_pub.publish(occupancy_msg(patrol_map.occupancy_grid(), p.map_frame))
+            publish(self.map_pub, occupancy_msg(patrol_map.occupancy_grid(), p.map_frame))
         self.timer = rospy.Timer(rospy.Duration(1.0 / p.rate), self.publish)
 
     def on_visit(self, msg):
@@ -127,7 +127,7 @@ class MarkersNode:
             markers = self.view.markers(now.to_sec())
         out = MarkerArray()
         out.markers = [to_ros(m, self.p.map_frame, now) for m in markers]
-        self.pub.publish(out)
+        publish(self.pub, out)
 
 
 def occupancy_msg(grid, frame: str) -> OccupancyGrid:

@@ -9,7 +9,8 @@ amcl /<..><i>/amcl_pose; poses at their own stamps are grouped on 0.1 s ticks (t
 Publishes /fleet/start (tpuaf_ros/RunStart, latched: the run's start, ROS time [s]) once every
 agent is ready (~announce_start false: follows the agents' announcement instead),
 /fleet/metrics (tpuaf_ros/LiveMetrics) at 1 Hz of run time and once more with finished = true
-after writing the results folder. Works on the wall clock (use_sim_time false) and on sim time.
+after writing the results folder; then it exits (~exit_delay later; at the run's end on the
+clock even if no pose comes to close it). Works on the wall clock (use_sim_time false) and on sim time.
 Private parameters: tpuaf.params.MonitorParams (strict).
 """
 
@@ -30,7 +31,7 @@ from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from tpuaf.params import MonitorParams, NodeParamError, parse_monitor
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, run_node
+from tpuaf.ros.node import fatal, private_params, publish, run_node
 from tpuaf.team import messages
 from tpuaf.team.epoch import INVALID, KEPT, RunEpoch
 from tpuaf.topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
@@ -122,7 +123,7 @@ class MonitorNode:
                 start = max(convert.stamp_s(msg), self.fm.now) + self.p.start_delay
                 self.fm.start_after = start
                 self.run_start.offer(start, rospy.get_name())
-                self.start_pub.publish(convert.run_start_message(start, rospy.get_name(),
+                publish(self.start_pub, convert.run_start_message(start, rospy.get_name(),
                                                                  self.names))
                 self.announced = True
                 rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
@@ -220,7 +221,7 @@ class MonitorNode:
         for key, value in self.fm.live().items():
             setattr(m, key, value)
         m.finished = finished
-        self.metrics_pub.publish(m)
+        publish(self.metrics_pub, m)
 
     def finish(self, interrupted=False):
         if self.done:
@@ -238,6 +239,28 @@ class MonitorNode:
                           f"{summary['visits']} visits, I_avg = {summary['idleness_avg_s']} s, "
                           f"deaths {summary['deaths']}"
                           + (f"; results in {self.p.out}" if self.p.out else ""))
+        if not interrupted:  # the run is over: exit (on hardware nothing else stops us)
+            rospy.loginfo(f"{NODE}: exiting in {self.p.exit_delay:g} s")
+            timer = threading.Timer(self.p.exit_delay, rospy.signal_shutdown,
+                                    args=("run finished",))
+            timer.daemon = True
+            timer.start()
+
+    def on_timer(self, _event=None):
+        """The run's end passed and no pose came to close it (every robot silent, tf gone):
+        finish on the clock (1 Hz)."""
+        fm = self.fm
+        if self.done or not fm.started:
+            return
+        if rospy.get_time() < fm.start_time + fm.duration_s + fm.lag_s + 2.0:
+            return
+        with self.lock:
+            self.feed.close()
+            if not fm.finished:
+                fm.end(fm.start_time + fm.duration_s)
+            if self.writer is None:
+                self.open_results()
+            self.finish()
 
 
 def main():
@@ -256,6 +279,7 @@ def main():
     except (NodeParamError, MapError, OSError, yaml.YAMLError) as err:
         return fatal(err)
     rospy.on_shutdown(lambda: node.finish(interrupted=True))
+    rospy.Timer(rospy.Duration(1.0), node.on_timer)
     rospy.spin()
     return 0
 
