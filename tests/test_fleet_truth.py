@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
 from tpuaf.experiments.results import ResultsWriter
 from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.topics import HEARTBEAT, START
 
 from tests.test_metrics import line_map
+
+TPUAF = Path(__file__).resolve().parents[1] / ".venv" / "bin" / "tpuaf"
 
 
 def restart_run(duration_s: float = 60.0) -> tuple[FleetMonitor, list[int]]:
@@ -126,3 +133,56 @@ def test_live_health_fits_the_live_metrics_message():
         assert list(back.recoveries) == list(live["recoveries"])
     # the bag reader reads this version's events from their bytes
     assert ("tpuaf_ros/msg/AgentEvent", AgentEvent._md5sum) in _RAW_EVENTS
+
+
+# --- complete means complete (item 5) ---------------------------------------------------------
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 500 kB tmpfs (root only; skipped with the reason otherwise), unmounted after."""
+    mnt = tmp_path / "small"
+    mnt.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=500k", "tmpfs", str(mnt)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a 500 kB tmpfs: {proc.stderr.strip() or proc.returncode}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+def test_a_full_disk_is_never_a_complete_run(small_disk):
+    from tpuaf.experiments.run_files import ResultsError, incomplete
+    from tpuaf.measure.metrics import RunRecorder
+
+    rec = RunRecorder(line_map(), 2, ground_truth=False)
+    for k in range(30000):  # ~1 MB of visits.csv
+        rec.record_visit(k % 2, k % 3, 0.01 * k)
+    out = small_disk / "run"
+    writer = ResultsWriter(out, {"map": "line3"}, plots=False)
+    writer.sync(rec)  # fills the disk: remembered, not raised
+    assert writer.write_error and "No space left" in writer.write_error
+    with pytest.raises(ResultsError, match="No space left"):
+        writer.finish(rec.summary(300.0), rec)
+    path = out / "summary.json"
+    if path.exists():
+        assert json.loads(path.read_text())["complete"] is False
+    assert "complete" in incomplete(out) or "no summary.json" in incomplete(out)
+    # the readers say so: tpuaf render on the folder names it incomplete
+    proc = subprocess.run([str(TPUAF), "render", str(out), "--summary"], capture_output=True,
+                          text=True, timeout=120)
+    assert "incomplete" in proc.stderr, proc.stderr
+
+
+def test_incomplete_names_the_reasons(tmp_path):
+    from tpuaf.experiments.run_files import incomplete
+
+    (tmp_path / "summary.json").write_text(json.dumps({"complete": True}))
+    assert incomplete(tmp_path) is None
+    (tmp_path / "summary.json").write_text(json.dumps(
+        {"complete": False, "incomplete_files": ["run.bag not closed"]}))
+    assert "run.bag not closed" in incomplete(tmp_path)
+    (tmp_path / "summary.json").unlink()
+    assert "no summary.json" in incomplete(tmp_path)

@@ -26,6 +26,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from tf2_msgs.msg import TFMessage
 
+from tpuaf.errors import TpuafError
 from tpuaf.maps import MapError, load_map
 from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
@@ -72,6 +73,7 @@ class MonitorNode:
         self.announced = False
         self.done = False
         self.writer = None
+        self.write_error = None  # the results folder could not be created (a full disk)
         self.config = run_config(p, patrol_map)
         self.ready = [False] * p.robots
         self.ready_wall = None
@@ -198,7 +200,7 @@ class MonitorNode:
         self.fm.news.clear()
         if not self.fm.started:
             return
-        if self.writer is None:
+        if self.writer is None and self.write_error is None:
             self.open_results()
         if self.fm.finished:
             self.finish()
@@ -213,7 +215,11 @@ class MonitorNode:
             from tpuaf.experiments.results import ResultsWriter
 
             self.config["start_time_s"] = self.fm.start_time
-            self.writer = ResultsWriter(self.p.out, self.config)
+            try:
+                self.writer = ResultsWriter(self.p.out, self.config)
+            except (OSError, TpuafError) as err:  # a full disk: measured on, written never
+                self.write_error = f"{self.p.out}: {getattr(err, 'strerror', None) or err}"
+                rospy.logerr(f"{NODE}: cannot write the results: {self.write_error}")
 
     def publish_metrics(self, finished=False):
         m = self.msg
@@ -232,8 +238,7 @@ class MonitorNode:
                 self.feed.close()  # up to the last poses (the monitor runs lag_s behind)
         if self.fm.started:
             summary = self.fm.summary()
-            if self.writer is not None:
-                self.writer.finish(summary, self.fm.recorder, interrupted=interrupted)
+            self.write_results(summary, interrupted)
             self.publish_metrics(finished=not interrupted)
             rospy.loginfo(f"{NODE}: run {'interrupted' if interrupted else 'finished'}: "
                           f"{summary['visits']} visits, I_avg = {summary['idleness_avg_s']} s, "
@@ -245,6 +250,20 @@ class MonitorNode:
                                     args=("run finished",))
             timer.daemon = True
             timer.start()
+
+    def write_results(self, summary, interrupted):
+        """The results folder's end files; a failure (a full disk) is one error line and a
+        summary.json saying "complete": false (or none, if even that does not fit)."""
+        from tpuaf.experiments.run_files import write_summary
+
+        try:
+            if self.writer is not None:
+                self.writer.finish(summary, self.fm.recorder, interrupted=interrupted)
+            elif self.write_error is not None:
+                write_summary(Path(self.p.out), {**summary, "complete": False,
+                                                 "write_error": self.write_error})
+        except (OSError, TpuafError) as err:
+            rospy.logerr(f"{NODE}: {' '.join(str(err).split())}")
 
     def on_timer(self, _event=None):
         """The run's end passed and no pose came to close it (every robot silent, tf gone):
