@@ -186,3 +186,26 @@ def test_incomplete_names_the_reasons(tmp_path):
     assert "run.bag not closed" in incomplete(tmp_path)
     (tmp_path / "summary.json").unlink()
     assert "no summary.json" in incomplete(tmp_path)
+
+
+def test_a_bag_is_closed_only_with_its_index(tmp_path):
+    from rosbags.rosbag1 import Writer
+    from tpuaf.cli.fleet_supervisor import bag_problem, run_file_problems
+
+    bag = tmp_path / "run.bag"
+    from rosbags.typesys import Stores, get_typestore
+
+    with Writer(bag) as w:
+        w.add_connection("/x", "std_msgs/msg/Int8", typestore=get_typestore(Stores.ROS1_NOETIC))
+    assert bag_problem(bag) is None
+    raw = bytearray(bag.read_bytes())
+    i = raw.index(b"index_pos=") + len(b"index_pos=")
+    raw[i:i + 8] = bytes(8)  # as rosbag leaves a bag it never closed
+    bag.write_bytes(bytes(raw))
+    assert "not closed" in bag_problem(bag)
+    bag.write_bytes(b"")
+    assert "empty" in bag_problem(bag)
+    (tmp_path / "simulator.json").write_text("")
+    problems = run_file_problems(tmp_path, bag, True)
+    assert "run.bag is empty" in problems and "visits.csv missing" in problems
+    assert any(p.startswith("simulator.json empty") for p in problems)

@@ -350,6 +350,11 @@ def _report(bag: Path, result, out: Path) -> int:
     print(f"  results: {out}")
     live = folder / "summary.json"
     if live.is_file():
+        from tpuaf.experiments.run_files import incomplete
+
+        why = incomplete(folder)
+        if why is not None:  # the live run's files: not all written and closed
+            print(f"  note: the run in {folder} is incomplete: {why}")
         rows = compare(json.loads(live.read_text()), summary)
         bad = [r for r in rows if not r[3]]
         print("  against the monitor's summary.json:")

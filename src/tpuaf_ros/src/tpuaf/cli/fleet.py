@@ -27,6 +27,7 @@ from pathlib import Path
 
 from tpuaf.cli.fleet_supervisor import (
     free_port,  # noqa: F401 (tests/ros/conftest.py uses it)
+    run_file_problems,
     supervise,
     wait_bag_closed,
 )
@@ -40,7 +41,7 @@ from tpuaf.cli.run import (
     probability,
     team_size,
 )
-from tpuaf.errors import CliError
+from tpuaf.errors import CliError, TpuafError
 from tpuaf.paths import catkin_prefix
 
 # numpy, yaml, tpuaf.files and tpuaf.runtimes are imported where used: this module's
@@ -400,26 +401,43 @@ def run(args: argparse.Namespace) -> int:
     followed, interrupted = supervise(ros_env_sh, cmd, home, out / "roslaunch.log", follow)
     finished, sim_elapsed, wall_run = followed if followed is not None else (False, 0.0, 0.0)
     wall = time.monotonic() - wall0
+    from tpuaf.experiments.run_files import write_summary
+
     bag = out / "run.bag"
     bag_ok = args.no_record or wait_bag_closed(bag)
+    problems = run_file_problems(out, None if args.no_record else bag, bag_ok)
     if not summary_path.is_file():
+        with contextlib.suppress(OSError, TpuafError):  # never a folder without a verdict
+            write_summary(out, {"complete": False, "incomplete_files": [
+                "the monitor wrote no summary.json", *problems]})
         raise CliError(f"the monitor wrote no summary (logs: {out / 'roslaunch.log'}, "
-                       f"{home / 'log'})")
+                       f"{home / 'log'})" + (f"; {', '.join(problems)}" if problems else ""))
     summary = json.loads(summary_path.read_text())
     rtf = add_fleet_facts(summary, read_simulator_summary(sim_summary), config, deaths_done,
                           mode, wall, wall_run if finished else 0.0)
-    write_json_atomic(summary_path, summary)
     state = "finished" if finished else ("interrupted" if interrupted else "stopped early")
+    try:
+        write_json_atomic(out / "fleet_timing.json",
+                          {"wall_total_s": wall, "wall_run_s": wall_run if finished else None,
+                           "real_time_factor": rtf, "finished": finished,
+                           "sim_elapsed_s": sim_elapsed})
+    except OSError as err:
+        problems.append(f"fleet_timing.json not written ({err.strerror or err})")
+    if problems:  # "complete" only when every file of the run was written and closed
+        summary["complete"] = False
+        summary["incomplete_files"] = problems
+    write_summary(out, summary)  # last; a full disk: one line (ResultsError), exit 2
     print(f"\n{title} ({state})")
     print_outcome(args, summary, config, rtf, wall, wall_run, out, bag, bag_ok)
-    write_json_atomic(out / "fleet_timing.json",
-                      {"wall_total_s": wall, "wall_run_s": wall_run if finished else None,
-                       "real_time_factor": rtf, "finished": finished,
-                       "sim_elapsed_s": sim_elapsed})
+    if problems:
+        print(f"tpuaf fleet: error: the run's files are incomplete: {'; '.join(problems)} "
+              "(summary.json says \"complete\": false)", file=sys.stderr)
     if interrupted:
         from tpuaf.cli import signals
 
         return signals.exit_code()
+    if problems:
+        return 2
     return 0 if finished and bag_ok else 1
 
 
