@@ -209,3 +209,17 @@ def test_a_bag_is_closed_only_with_its_index(tmp_path):
     problems = run_file_problems(tmp_path, bag, True)
     assert "run.bag is empty" in problems and "visits.csv missing" in problems
     assert any(p.startswith("simulator.json empty") for p in problems)
+
+
+def test_rviz_marks_a_robot_that_makes_no_progress():
+    from tpuaf.measure.markers import PatrolView
+
+    view = PatrolView(line_map(), 2)
+    for r in range(2):
+        view.on_pose(r, 0.0, 10.0 * r, 0.0)
+    view.on_health(1, True)
+    stuck = {m.id: m for m in view.markers(1.0) if m.ns == "stuck"}
+    assert stuck[1].text == "STUCK" and stuck[1].color[3] == 1.0
+    assert stuck[0].color[3] == 0.0  # sent, transparent: replaces an earlier STUCK
+    view.on_health(1, False)
+    assert [m for m in view.markers(2.0) if m.ns == "stuck"][1].color[3] == 0.0
