@@ -30,7 +30,11 @@ Definitions (SPEC section 6):
   the robots that really survived);
 - `on_announcement(robot, vertex, t)`: a destination a robot announced in a team message
   (tpuaf.robot.machine.announced_vertex), for the recovery metrics' intentions;
-- the run ends at start + duration_s: `finished` becomes True and later input is ignored.
+- the run ends at start + duration_s: `finished` becomes True and later input is ignored;
+- robot health (tpuaf.measure.health): STUCK, FAILED and GIVE_WAY events, visits and the
+  processed poses give per-robot counts, the time since the last visit and no-progress spells
+  (none for `stuck_after_s`), in `live()` and the summary (`robot_health`); `news` holds lines
+  for the operator (outages, spells), drained by the live node.
 
 Time base: inputs are ROS time (stamps); the recorder, and so every results file, works in run
 time, 0 at the run start (docs/RESULTS.md); the summary's `start_time_s` is the ROS time [s] of
