@@ -22,7 +22,6 @@ import contextlib
 import csv
 import fcntl
 import itertools
-import json
 import math
 import os
 import shutil
@@ -572,11 +571,13 @@ class ResultsWriter:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         if not self.finished:
-            if self._recorder is not None:
-                self.finish(None, self._recorder, interrupted=True)
-            else:
-                self.close()
-                summary = {"complete": False}
-                atomic_write_text(self.out_dir / "summary.json",
-                                  json.dumps(summary, indent=2) + "\n")
-                self.finished = True
+            # a failed write (ResultsError) leaves "complete": false or no summary; it does
+            # not hide the exception that ended the block
+            with contextlib.suppress(*((ResultsError,) if exc_type is not None else ())):
+                if self._recorder is not None:
+                    self.finish(None, self._recorder, interrupted=True)
+                else:
+                    with contextlib.suppress(OSError):
+                        self.close()
+                    self.finished = True
+                    write_summary(self.out_dir, {"complete": False})
