@@ -423,10 +423,7 @@ def run(args: argparse.Namespace) -> int:
                            "sim_elapsed_s": sim_elapsed})
     except OSError as err:
         problems.append(f"fleet_timing.json not written ({err.strerror or err})")
-    if problems:  # "complete" only when every file of the run was written and closed
-        summary["complete"] = False
-        summary["incomplete_files"] = problems
-    write_summary(out, summary)  # last; a full disk: one line (ResultsError), exit 2
+    write_fleet_summary(out, summary, problems)
     print(f"\n{title} ({state})")
     print_outcome(args, summary, config, rtf, wall, wall_run, out, bag, bag_ok)
     if problems:
@@ -439,6 +436,21 @@ def run(args: argparse.Namespace) -> int:
     if problems:
         return 2
     return 0 if finished and bag_ok else 1
+
+
+def write_fleet_summary(out: Path, summary: dict, problems: list[str]) -> None:
+    """summary.json, last: "complete" only when every file of the run was written and closed
+    (else false, with `incomplete_files`); a full disk: one line (CliError, exit 2)."""
+    from tpuaf.experiments.run_files import write_summary
+
+    if problems:
+        summary["complete"] = False
+        summary["incomplete_files"] = problems
+    try:
+        write_summary(out, summary)
+    except TpuafError as err:
+        raise CliError(f"{err}" + (f"; the run's files are incomplete: {'; '.join(problems)}"
+                                   if problems else "")) from None
 
 
 def read_simulator_summary(path: Path) -> dict:
