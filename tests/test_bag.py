@@ -57,6 +57,7 @@ class PlainBag:
     t0: float = T0
     prefix: str = "tb3_"
     silent_after: dict = field(default_factory=dict)  # robot -> [s] it stops talking and moving
+    silent_between: dict = field(default_factory=dict)  # robot -> ([s], [s]): a restart
     msg_version: int = 2  # 1: as recorded before the messages had a std_msgs/Header
     starts: tuple = (0.0,)  # run starts on /fleet/start [s after t0] (several: a restart)
     visits: list = field(default_factory=list)  # (t, robot, vertex index) written
@@ -110,7 +111,8 @@ class PlainBag:
         return T["std_msgs/msg/Header"](seq=0, stamp=cls._stamp(T, t), frame_id=frame)
 
     def _silent(self, r, t):
-        return t >= self.silent_after.get(r, math.inf)
+        t0, t1 = self.silent_between.get(r, (math.inf, math.inf))
+        return t >= self.silent_after.get(r, math.inf) or t0 <= t < t1
 
     def _team_msg(self, T, kind, t, **fields):
         """A tpuaf_ros message stamped t: a header (version 2) or a bare stamp (1)."""
@@ -124,7 +126,7 @@ class PlainBag:
         name, items = f"{self.prefix}{r}", []
         for k, (t, v) in enumerate(arrivals):
             if self._silent(r, t):
-                break
+                continue
             nxt = arrivals[k + 1][1] if k + 1 < len(arrivals) else -1
             items.append((t, "/team/visits", self._team_msg(
                 T, "Visit", t, robot=name, robot_index=r, vertex=ids[v],
@@ -155,7 +157,7 @@ class PlainBag:
         name, items = f"{self.prefix}{r}", []
         for t in np.arange(self.t0, end, 1.0 / self.rate):
             if self._silent(r, t):
-                break
+                continue
             x = float(np.interp(t, knots[:, 0], knots[:, 1]))
             y = float(np.interp(t, knots[:, 0], knots[:, 2]))
             if self.poses == "tf":
@@ -293,6 +295,18 @@ def test_heartbeats_detect_a_silent_robot(tmp_path):
     # its announced intentions (Intention messages) are in the recovery metrics
     (rec,) = result.summary["recovery"]
     assert rec["robot"] == 1 and rec["intentions"] == [14]
+
+
+def test_a_robot_silent_then_heard_again_is_an_outage_not_a_death(tmp_path):
+    # silent 14 s (> the 10 s timeout), then heard again, as a restarted agent
+    spec = plain_bag(tmp_path, poses="tf", events=True, silent_between={1: (T0 + 8.0, T0 + 22.0)})
+    result = analyze(tmp_path / "run.bag", GRID)
+    s = result.summary
+    assert any(r == 1 and t > T0 + 22.0 for t, r, _ in spec.visits)  # it visits again
+    assert s["deaths"] == 0 and s["dead_robots"] == [] and "recovery" not in s, s
+    (gap,) = s["outages"]
+    assert gap["robot"] == 1 and gap["end_s"] is not None and gap["cause"] == "silent"
+    assert 6.0 <= gap["start_s"] <= 8.0 and 22.0 <= gap["end_s"] <= 23.0, gap
 
 
 def cli(*args, cwd=REPO):

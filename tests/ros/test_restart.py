@@ -4,8 +4,8 @@ Three Burgers on grid, one `robot.launch` each, the simulator in wall-clock mode
 `rosbag record`. The agent that announced the run start is stopped (Ctrl-C on its launch) for
 longer than the death timeout, then started again. Every agent, the restarted one included,
 keeps one epoch (the restarted agent adopts it from its teammates' latched /fleet/start instead
-of announcing a new run), and `tpuaf analyze` of the bag covers the whole run and counts the
-death. About 75 s of wall time."""
+of announcing a new run), and `tpuaf analyze` of the bag and the live monitor cover the whole
+run and count the stop as an outage ended by the restart, not a death. About 75 s of wall time."""
 
 from __future__ import annotations
 
@@ -46,6 +46,11 @@ def test_a_restarted_announcer_adopts_the_running_epoch(tmp_path):
         ros.start(["rosbag", "record", "-O", str(ros.home / "run.bag"), "/tf", "/tf_static",
                    "/team/visits", "/team/intentions", "/fleet/agent_events", "/fleet/start"],
                   name="rosbag")
+        # the live monitor, as on hardware: follows the agents' start, positions from tf
+        monitor = ros.start(["rosrun", "tpuaf_ros", "monitor", "_map:=grid",
+                             f"_robots:={ROBOTS}", "_duration:=600", "_robot_prefix:=tb3_",
+                             "_pose_source:=tf", "_announce_start:=false",
+                             f"_out:={tmp_path / 'live'}"], name="monitor")
         robots = [start_robot(ros, "grid", ROBOTS, i) for i in range(ROBOTS)]
         wait_started(ros, ROBOTS)
         def who_announced():
@@ -55,6 +60,7 @@ def test_a_restarted_announcer_adopts_the_running_epoch(tmp_path):
         announcer = wait_for(who_announced, 30.0, "the agent that announced the start")
         first = {i: epochs(ros.output(f"tb3_{i}")) for i in range(ROBOTS)}
         time.sleep(10.0)
+        stopping_at = time.time()
         ros.stop(robots[announcer])  # Ctrl-C on its robot.launch
         stopped_at = time.time()
         time.sleep(12.0)  # > the analysis' 5 s death timeout
@@ -65,12 +71,15 @@ def test_a_restarted_announcer_adopts_the_running_epoch(tmp_path):
         time.sleep(15.0)
         logs = {i: ros.output(f"tb3_{i}") for i in range(ROBOTS)}
         restarted = ros.output("restarted")
+        ros.stop(monitor)  # first: the agents' own stops are no outage
         ros.stop_all()
         ended_at = time.time()
     team_epochs = set().union(*first.values())
     assert len(team_epochs) == 1, first
     assert epochs(restarted) == team_epochs, restarted[-3000:]
     assert "announced the run start" not in restarted, restarted[-3000:]
+    for log in (*logs.values(), restarted):  # Ctrl-C on a robot.launch: no traceback
+        assert "Traceback" not in log and "closed topic" not in log, log[-4000:]
     for i, log in logs.items():
         assert epochs(log) == team_epochs, (i, log[-3000:])
     # The bag: one start (re-latched copies), the whole run, the stop counted as a death.
@@ -87,4 +96,14 @@ def test_a_restarted_announcer_adopts_the_running_epoch(tmp_path):
     assert summary["start_time_s"] == pytest.approx(epoch, abs=1.0)
     # from the run start (not the restart) to the bag's end
     assert summary["duration_s"] > ended_at - epoch - 10.0, (summary["duration_s"], analysis)
-    assert summary["deaths"] >= 1 and announcer in summary["dead_robots"], summary
+    # the stop is an outage of the announcer, ended by its restart: no death (issue 33)
+    stop_s = (stopping_at - epoch - 2.0, stopped_at - epoch + 1.0)  # [s] run time
+    for what, s in (("analysis", summary),
+                    ("live monitor", json.loads((tmp_path / "live" / "summary.json").read_text()))):
+        assert s["deaths"] == 0 and s["dead_robots"] == [] and "recovery" not in s, (what, s)
+        gaps = [o for o in s["outages"] if o["robot"] == announcer]
+        assert len(gaps) == 1 and gaps[0]["end_s"] is not None, (what, s["outages"])
+        assert stop_s[0] < gaps[0]["start_s"] < stop_s[1], (what, gaps, stop_s)
+        assert gaps[0]["end_s"] > gaps[0]["start_s"] + 10.0, (what, gaps)
+    info = (tmp_path / "live" / "info.csv").read_text().split(";")
+    assert info[13] == "ABORT", info  # stopped by Ctrl-C before its end, nobody dead

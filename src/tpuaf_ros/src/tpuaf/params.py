@@ -124,6 +124,17 @@ LIVENESS_DEFAULTS = LivenessDefaults()
 _L = LIVENESS_DEFAULTS
 
 
+@dataclass(frozen=True)
+class HealthDefaults:
+    """Defaults of the fleet's robot health (tpuaf.measure.health), read by FleetMonitor, the
+    monitor node (MonitorParams) and `tpuaf analyze`."""
+
+    stuck_after_s: float = 60.0  # [s] a robot that neither moves nor visits this long: reported
+
+
+HEALTH_DEFAULTS = HealthDefaults()
+
+
 @dataclass
 class AgentParams:
     """Private parameters of patrol_agent (units in the comments)."""
@@ -204,10 +215,15 @@ class MonitorParams:
     announce_start: bool = True  # announce /fleet/start when all agents are ready; false: follow
     #   the start the agents announce (hardware)
     team_ns: str = "/team"  # namespace of the team topics (intentions: recovery metrics)
+    stuck_after: float = HEALTH_DEFAULTS.stuck_after_s  # [s] no progress this long: reported
+    # [s of wall time] after the run finished and its results are written, the node exits (the
+    # subscribers and the recorder get the last metrics first)
+    exit_delay: float = 2.0
 
     # Numeric limits checked by `parse` (not fields): name -> (">" or ">=", bound).
     ranges: ClassVar[dict[str, tuple[str, float]]] = {
         "robots": (">=", 1), "duration": (">", 0), "death_timeout": (">", 0),
+        "stuck_after": (">", 0), "exit_delay": (">=", 0),
         "teammate_timeout": (">", 0), "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0),
         "start_connect_timeout": (">=", 0),
     }

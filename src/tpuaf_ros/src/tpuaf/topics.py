@@ -35,9 +35,10 @@ STALLED = "stalled"
 
 # AgentEvent.event values (= the constants of AgentEvent.msg).
 # REACHED: a visit (tpuaf_core.VisitRule); DWELL: a goal ended without one (docs/RUNTIMES.md).
-START, GOAL, REACHED, FAILED, HEARTBEAT, DWELL = 0, 1, 2, 3, 4, 5
+# STUCK: a navigator recovery started; GIVE_WAY: a refuge driven to (robot health, issue 33).
+START, GOAL, REACHED, FAILED, HEARTBEAT, DWELL, STUCK, GIVE_WAY = 0, 1, 2, 3, 4, 5, 6, 7
 EVENT_NAMES = {START: "START", GOAL: "GOAL", REACHED: "REACHED", FAILED: "FAILED",
-               HEARTBEAT: "HEARTBEAT", DWELL: "DWELL"}
+               HEARTBEAT: "HEARTBEAT", DWELL: "DWELL", STUCK: "STUCK", GIVE_WAY: "GIVE_WAY"}
 
 
 def team_topic(team_ns: str, message_class: type) -> str:

@@ -306,6 +306,31 @@ def run(args: argparse.Namespace) -> int:
     return _report(bag, result, out)
 
 
+def outage_lines(summary: dict) -> list[str]:
+    """One line per outage of a summary (robot, cause, interval in run time [s])."""
+    out = []
+    for o in summary.get("outages") or []:
+        end = ("never heard again (dead)" if o.get("end_s") is None
+               else f"heard again at {o['end_s']:.1f} s")
+        out.append(f"outage: robot {o['robot']} {o['cause']} from {o['start_s']:.1f} s, {end}")
+    return out
+
+
+def health_lines(summary: dict) -> list[str]:
+    """One line per robot of a summary's robot health (counts, time since its last visit, no
+    progress spells in run time [s])."""
+    out = []
+    for h in summary.get("robot_health") or []:
+        spells = ", ".join(f"{s['start_s']:.0f}-" + ("end" if s["end_s"] is None
+                                                      else f"{s['end_s']:.0f}") + " s"
+                           for s in h["no_progress"])
+        out.append(f"robot {h['robot']}: {h['stuck_episodes']} stuck episode(s) "
+                   f"({h['recoveries']} recoveries), {h['failed_goals']} failed goal(s), "
+                   f"{h['give_ways']} give-way(s), {h['since_last_visit_s']:.0f} s since its "
+                   "last visit" + (f"; no progress {spells}" if spells else ""))
+    return out
+
+
 def _report(bag: Path, result, out: Path) -> int:
     """Print the analysis; compare it with the monitor's summary.json beside the bag, if any
     (comparison.json): 1 when a metric differs beyond its tolerance, else 0."""
@@ -320,9 +345,16 @@ def _report(bag: Path, result, out: Path) -> int:
         print(f"  note: {note}")
     print(format_summary(summary))
     print(f"  deaths: {summary['deaths']} {summary['dead_robots']}")
+    for line in outage_lines(summary) + health_lines(summary):
+        print(f"  {line}")
     print(f"  results: {out}")
     live = folder / "summary.json"
     if live.is_file():
+        from tpuaf.experiments.run_files import incomplete
+
+        why = incomplete(folder)
+        if why is not None:  # the live run's files: not all written and closed
+            print(f"  note: the run in {folder} is incomplete: {why}")
         rows = compare(json.loads(live.read_text()), summary)
         bad = [r for r in rows if not r[3]]
         print("  against the monitor's summary.json:")

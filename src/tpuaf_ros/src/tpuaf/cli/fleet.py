@@ -27,6 +27,7 @@ from pathlib import Path
 
 from tpuaf.cli.fleet_supervisor import (
     free_port,  # noqa: F401 (tests/ros/conftest.py uses it)
+    run_file_problems,
     supervise,
     wait_bag_closed,
 )
@@ -40,7 +41,7 @@ from tpuaf.cli.run import (
     probability,
     team_size,
 )
-from tpuaf.errors import CliError
+from tpuaf.errors import CliError, TpuafError
 from tpuaf.paths import catkin_prefix
 
 # numpy, yaml, tpuaf.files and tpuaf.runtimes are imported where used: this module's
@@ -400,27 +401,56 @@ def run(args: argparse.Namespace) -> int:
     followed, interrupted = supervise(ros_env_sh, cmd, home, out / "roslaunch.log", follow)
     finished, sim_elapsed, wall_run = followed if followed is not None else (False, 0.0, 0.0)
     wall = time.monotonic() - wall0
+    from tpuaf.experiments.run_files import write_summary
+
     bag = out / "run.bag"
     bag_ok = args.no_record or wait_bag_closed(bag)
+    problems = run_file_problems(out, None if args.no_record else bag, bag_ok)
     if not summary_path.is_file():
+        with contextlib.suppress(OSError, TpuafError):  # never a folder without a verdict
+            write_summary(out, {"complete": False, "incomplete_files": [
+                "the monitor wrote no summary.json", *problems]})
         raise CliError(f"the monitor wrote no summary (logs: {out / 'roslaunch.log'}, "
-                       f"{home / 'log'})")
+                       f"{home / 'log'})" + (f"; {', '.join(problems)}" if problems else ""))
     summary = json.loads(summary_path.read_text())
     rtf = add_fleet_facts(summary, read_simulator_summary(sim_summary), config, deaths_done,
                           mode, wall, wall_run if finished else 0.0)
-    write_json_atomic(summary_path, summary)
     state = "finished" if finished else ("interrupted" if interrupted else "stopped early")
+    try:
+        write_json_atomic(out / "fleet_timing.json",
+                          {"wall_total_s": wall, "wall_run_s": wall_run if finished else None,
+                           "real_time_factor": rtf, "finished": finished,
+                           "sim_elapsed_s": sim_elapsed})
+    except OSError as err:
+        problems.append(f"fleet_timing.json not written ({err.strerror or err})")
+    write_fleet_summary(out, summary, problems)
     print(f"\n{title} ({state})")
     print_outcome(args, summary, config, rtf, wall, wall_run, out, bag, bag_ok)
-    write_json_atomic(out / "fleet_timing.json",
-                      {"wall_total_s": wall, "wall_run_s": wall_run if finished else None,
-                       "real_time_factor": rtf, "finished": finished,
-                       "sim_elapsed_s": sim_elapsed})
+    if problems:
+        print(f"tpuaf fleet: error: the run's files are incomplete: {'; '.join(problems)} "
+              "(summary.json says \"complete\": false)", file=sys.stderr)
     if interrupted:
         from tpuaf.cli import signals
 
         return signals.exit_code()
+    if problems:
+        return 2
     return 0 if finished and bag_ok else 1
+
+
+def write_fleet_summary(out: Path, summary: dict, problems: list[str]) -> None:
+    """summary.json, last: "complete" only when every file of the run was written and closed
+    (else false, with `incomplete_files`); a full disk: one line (CliError, exit 2)."""
+    from tpuaf.experiments.run_files import write_summary
+
+    if problems:
+        summary["complete"] = False
+        summary["incomplete_files"] = problems
+    try:
+        write_summary(out, summary)
+    except TpuafError as err:
+        raise CliError(f"{err}" + (f"; the run's files are incomplete: {'; '.join(problems)}"
+                                   if problems else "")) from None
 
 
 def read_simulator_summary(path: Path) -> dict:
@@ -483,7 +513,11 @@ def print_outcome(args, summary: dict, config: dict, rtf: float | None, wall: fl
     if rtf:
         print(f"  simulated {summary['duration_s']:,.0f} s in {wall_run:.1f} s wall from the start "
               f"({rtf:.1f}x real time); {wall:.1f} s wall in all")
-    print(f"  deaths: {summary.get('deaths', 0)}")
+    print(f"  deaths: {summary.get('deaths', 0)} {summary.get('dead_robots', [])}")
+    from tpuaf.cli.analyze import health_lines, outage_lines
+
+    for line in outage_lines(summary) + health_lines(summary):
+        print(f"  {line}")
     if args.lockstep:
         print(f"  lock-step: {summary['unresponsive_events']} unresponsive agent event(s)")
     if config["robot"]["note"]:

@@ -17,9 +17,11 @@ run. Standard library only at import time (the `tpuaf` parser imports tpuaf.cli.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import signal
 import socket
+import struct
 import subprocess
 import time
 from collections.abc import Callable
@@ -117,6 +119,70 @@ def wait_bag_closed(bag: Path, timeout_s: float = 30.0) -> bool:
             return True
         time.sleep(0.2)
     return False
+
+
+BAG_MAGIC = b"#ROSBAG V2.0\n"
+# the files of a fleet run folder the monitor writes (ResultsWriter), each never empty
+MONITOR_FILES = ("config.yaml", "visits.csv", "timeseries.csv", "info.csv", "idleness.csv",
+                 "timeresults.csv")
+
+
+def bag_problem(bag: Path) -> str | None:
+    """Why `bag` is not a closed ROS bag (None when it is): missing, empty, not a bag, or its
+    header's index_pos still 0 (rosbag writes it when it closes the bag) or past the end."""
+    try:
+        with open(bag, "rb") as f:
+            head = f.read(4096)
+            size = os.fstat(f.fileno()).st_size
+    except OSError as err:
+        return f"{bag.name}: {err.strerror or err}"
+    if not head:
+        return f"{bag.name} is empty"
+    if not head.startswith(BAG_MAGIC):
+        return f"{bag.name} is not a ROS bag (v2.0)"
+    pos = len(BAG_MAGIC)
+    try:
+        (header_len,) = struct.unpack_from("<I", head, pos)
+        pos, end = pos + 4, pos + 4 + header_len
+        while pos < end:
+            (n,) = struct.unpack_from("<I", head, pos)
+            name, _, value = head[pos + 4:pos + 4 + n].partition(b"=")
+            pos += 4 + n
+            if name == b"index_pos":
+                (index_pos,) = struct.unpack("<Q", value)
+                if index_pos == 0 or index_pos > size:
+                    return f"{bag.name} was not closed (no index: rosbag did not finish it)"
+                return None
+    except struct.error:
+        pass
+    return f"{bag.name}: unreadable bag header"
+
+
+def run_file_problems(out: Path, bag: Path | None, bag_closed: bool) -> list[str]:
+    """What is missing, empty or unfinished among a fleet run's files (the bag when recorded,
+    simulator.json, the monitor's files), one short phrase each; [] when all are there."""
+    problems = []
+    if bag is not None:
+        if not bag_closed:
+            problems.append(f"{bag.name} not closed ({bag.name}.active remains)")
+        else:
+            why = bag_problem(bag)
+            if why:
+                problems.append(why)
+    sim = out / "simulator.json"
+    try:
+        json.loads(sim.read_text())
+    except FileNotFoundError:
+        problems.append("simulator.json missing")
+    except (OSError, ValueError):
+        problems.append("simulator.json empty, cut short or unreadable")
+    for name in MONITOR_FILES:
+        path = out / name
+        if not path.is_file():
+            problems.append(f"{name} missing")
+        elif path.stat().st_size == 0:
+            problems.append(f"{name} empty")
+    return problems
 
 
 def stop_group(pgid: int, grace_s: float = 20.0) -> None:

@@ -4,6 +4,7 @@ the map, vertices coloured by idleness or by X; and the folder's summary.png aga
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from tpuaf.cli.run import positive_float, positive_int
@@ -109,6 +110,7 @@ def check_request(folder: Path, args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from tpuaf.experiments.plots import render, summary_png
+    from tpuaf.experiments.run_files import incomplete
 
     folder = args.folder
     if not folder.is_dir():
@@ -119,6 +121,9 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None and args.out.suffix.lower() not in (".gif", ".mp4"):
         raise CliError(f"--out {args.out}: the animation is a .gif or an .mp4 file")
     check_folder_files(folder)
+    why = incomplete(folder)
+    if why is not None:  # drawn from what was written, but never taken for a whole run
+        print(f"tpuaf render: note: {folder} is incomplete: {why}", file=sys.stderr)
     check_request(folder, args)
     try:
         if args.summary:

@@ -22,7 +22,6 @@ import contextlib
 import csv
 import fcntl
 import itertools
-import json
 import math
 import os
 import shutil
@@ -37,7 +36,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from tpuaf.errors import TpuafError
+from tpuaf.experiments.run_files import ResultsError, write_summary
 from tpuaf.files import atomic_file, atomic_write_text, open_fresh
 from tpuaf.measure.metrics import TIMESERIES_COLUMNS
 from tpuaf.plain import plain
@@ -71,11 +70,6 @@ _HOUSEKEEPING = frozenset({LOCK_FILE})
 # hold the user's files and is never removed, whatever a manifest says.
 WHOLE_FOLDERS = frozenset({"ros_home"})
 _LOCKS: dict[str, int] = {}  # folder (resolved) -> descriptor of its flock'ed lock file
-
-
-class ResultsError(TpuafError):
-    """A results folder cannot be used (a file, unwritable, holding earlier results, or being
-    written by another process)."""
 
 
 def _manifest_names(out_dir: Path) -> list[str]:
@@ -338,6 +332,7 @@ class ResultsWriter:
         self._last_visit_s = -math.inf
         self._recorder: Any = None
         self.finished = False
+        self.write_error: str | None = None  # the first failed write (a full disk): incomplete
 
     # -- streaming --------------------------------------------------------------------------
 
@@ -368,8 +363,22 @@ class ResultsWriter:
     def sync(self, recorder: Any) -> None:
         """Write the visits and 1 Hz rows the recorder gained since the last sync. A recorder
         that can forget them (`forget_visits_before`, `forget_timeseries_before`: the C++
-        loop's) drops them once written: a long run's memory stays bounded."""
+        loop's) drops them once written: a long run's memory stays bounded. A failed write (a
+        full disk) is remembered, not raised: the run goes on, its summary says "complete":
+        false."""
         self._recorder = recorder
+        if self.write_error is not None:
+            return
+        try:
+            self._sync(recorder)
+        except OSError as err:
+            self._failed(err)
+
+    def _failed(self, err: OSError) -> None:
+        if self.write_error is None:
+            self.write_error = f"{err.strerror or err} ({err.filename or self.out_dir})"
+
+    def _sync(self, recorder: Any) -> None:
         ids = recorder.patrol_map.vertex_ids
         if hasattr(recorder, "visits_since"):
             new_visits, idl = recorder.visits_since(self._n_visits)
@@ -410,16 +419,21 @@ class ResultsWriter:
                 self.sync(recorder)
         summary = dict(plain(summary or {}))
         summary["real_duration_s"] = time.time() - self._wall_start
-        self._visits_f.close()
-        self._ts_f.close()
+        for f in (self._visits_f, self._ts_f):
+            try:
+                f.close()
+            except OSError as err:
+                self._failed(err)
         cut = False
-        if recorder is not None:
+        if recorder is not None and self.write_error is None:
             try:
                 cut = not self._write_patrolling_sim(summary, recorder, interrupted,
                                                      timeresults_period_s, stop)
             except _Stopped:
                 cut = True
-            if not cut and not stop() and self.plots:
+            except OSError as err:
+                self._failed(err)
+            if not cut and not stop() and self.plots and self.write_error is None:
                 if interrupted:  # a stopped run ends at once: the picture can come later
                     summary["summary_png"] = ("not drawn: the run was interrupted (`tpuaf "
                                               "render --summary` draws it)")
@@ -434,13 +448,18 @@ class ResultsWriter:
                     write_summary_png(self.out_dir, recorder.patrol_map, summary)
         if stop():
             cut = True
-        summary["complete"] = not interrupted and not cut
+        summary["complete"] = not interrupted and not cut and self.write_error is None
         if cut:
             summary["end_files"] = "cut short by a stop signal while they were written"
+        if self.write_error is not None:
+            summary["write_error"] = self.write_error
         summary["real_duration_s"] = time.time() - self._wall_start
         # last: a summary.json means every other file is complete
-        atomic_write_text(self.out_dir / "summary.json", json.dumps(summary, indent=2) + "\n")
         self.finished = True
+        write_summary(self.out_dir, summary)
+        if self.write_error is not None:
+            raise ResultsError(f"could not write every results file in {self.out_dir}: "
+                               f"{self.write_error}; summary.json says \"complete\": false")
 
     def _last_time(self, recorder: Any) -> float:
         times = [recorder.start_time, self._last_visit_s]
@@ -552,11 +571,13 @@ class ResultsWriter:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         if not self.finished:
-            if self._recorder is not None:
-                self.finish(None, self._recorder, interrupted=True)
-            else:
-                self.close()
-                summary = {"complete": False}
-                atomic_write_text(self.out_dir / "summary.json",
-                                  json.dumps(summary, indent=2) + "\n")
-                self.finished = True
+            # a failed write (ResultsError) leaves "complete": false or no summary; it does
+            # not hide the exception that ended the block
+            with contextlib.suppress(*((ResultsError,) if exc_type is not None else ())):
+                if self._recorder is not None:
+                    self.finish(None, self._recorder, interrupted=True)
+                else:
+                    with contextlib.suppress(OSError):
+                        self.close()
+                    self.finished = True
+                    write_summary(self.out_dir, {"complete": False})

@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from tpuaf.errors import TpuafError
+from tpuaf.experiments.run_files import incomplete
 from tpuaf.files import atomic_write
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.plain import plain
@@ -588,7 +589,8 @@ def _recovery_fields(summary: dict[str, Any]) -> dict[str, Any]:
 
 
 def collect(root: Path) -> list[dict[str, Any]]:
-    """One row per run folder: finished (summary.json) or failed (error.txt)."""
+    """One row per run folder: finished (summary.json), incomplete (its "complete": false) or
+    failed (error.txt)."""
     rows = []
     for folder in _run_folders(root):
         key = _key_of(folder)
@@ -597,8 +599,11 @@ def collect(root: Path) -> list[dict[str, Any]]:
         if summary_path.is_file():
             s = _load_json(summary_path)
             run = s.get("run", {})
+            # "complete": false (interrupted, a full disk): listed with the failed runs
+            why = incomplete(folder) if s.get("complete") is False else None
             row = {**base, "duration_s": run.get("duration_s", s.get("duration_s")),
-                   **_scenario_fields(key, run), "status": "ok", "error": ""}
+                   **_scenario_fields(key, run), "status": "incomplete" if why else "ok",
+                   "error": why or ""}
             row.update({c: s.get(c) for c in METRIC_COLUMNS})
             row.update(_recovery_fields(s))
             row.update({"wall_time_s": run.get("wall_time_s"), "finished_at": run.get("finished_at"),

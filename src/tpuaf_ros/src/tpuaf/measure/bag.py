@@ -54,7 +54,7 @@ from tpuaf.measure.bag_info import (
     inspect_reader,
     is_visit,
 )
-from tpuaf.measure.monitor import STAMP_EPS_S, FleetMonitor, with_epoch
+from tpuaf.measure.monitor import OUTAGE_SILENT, STAMP_EPS_S, FleetMonitor, with_epoch
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.topics import (
@@ -426,9 +426,9 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
 
     def deaths_until(t):
         for r in range(n):
-            if alive[r] and t - heard[r] > timeout:
+            if alive[r] and t - heard[r] > timeout:  # an outage from the last event heard
                 alive[r] = False
-                recorder.record_robot_death(r, round(heard[r] + timeout - start, 9))
+                recorder.record_robot_outage(r, round(heard[r] - start, 9), OUTAGE_SILENT)
 
     conns = _report_connections(reader, info, team)
     for conn, _t, msg in in_stamp_order(
@@ -444,6 +444,9 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
         t = max(t, start)
         if liveness:
             deaths_until(t)
+        if liveness and not alive[r]:  # heard again: the outage ends
+            alive[r] = True
+            recorder.record_robot_back(r, round(t - start, 9))
         heard[r] = max(heard[r], t)
         if is_visit(kind, vertex):  # as FleetMonitor: a robot's reports count even if silent
             recorder.record_visit(r, vertex, round(t - start, 9))

@@ -7,6 +7,7 @@ descriptions (`Marker`) that tpuaf.ros.markers_node turns into visualization_msg
 - `on_goal(robot, vertex)`: the robot's goal (AgentEvent GOAL);
 - `on_intention(robot, from_vertex, vertex, expected_arrival)`: its announced next target;
 - `on_pose(robot, t, x, y, yaw)`: its position [m, rad];
+- `on_health(robot, stuck)`: the monitor reports it making no progress (/fleet/metrics);
 then `markers(now)` describes every marker at run time now [s].
 
 Colours: vertices go green (0) -> yellow -> red (>= the scale: `idleness_scale_s`, or for
@@ -35,6 +36,7 @@ ROBOT_COLOURS: list[RGBA] = [  # distinct, none green/yellow/red (the vertex sca
     (0.10, 0.10, 0.10, 1.0),  # black
 ]
 EDGE_COLOUR: RGBA = (0.35, 0.35, 0.35, 0.8)
+STUCK_COLOUR: RGBA = (0.9, 0.0, 0.0, 1.0)  # the text under a robot that makes no progress
 MODES = ("idleness", "uncertainty")
 Z_GRAPH, Z_ROBOT = 0.02, 0.1  # [m] drawing heights
 
@@ -94,6 +96,7 @@ class PatrolView:
         self.robot_pose: list[tuple[float, float, float] | None] = [None] * self.n
         self.goal = [-1] * self.n
         self.intention: list[tuple[int, int] | None] = [None] * self.n  # (from, to)
+        self.stuck = [False] * self.n  # no progress (the monitor's LiveMetrics.no_progress)
         self.field = None
         self._field_t: float | None = None
         if mode == "uncertainty":
@@ -130,6 +133,10 @@ class PatrolView:
     def on_pose(self, robot: int, t: float, x: float, y: float, yaw: float = 0.0) -> None:
         if 0 <= robot < self.n and math.isfinite(x) and math.isfinite(y):
             self.robot_pose[robot] = (float(x), float(y), float(yaw))
+
+    def on_health(self, robot: int, stuck: bool) -> None:
+        if 0 <= robot < self.n:
+            self.stuck[robot] = bool(stuck)
 
     # -- output ---------------------------------------------------------------------------------
 
@@ -176,6 +183,10 @@ class PatrolView:
                                                      y + d * math.sin(yaw), 0.25)]))
             out.append(Marker("names", i, "text", color=colour, scale=(0.0, 0.0, 1.2 * w),
                               pose=(x, y + d, 0.7, 0.0), text=str(i)))
+            # always sent (transparent when moving): RViz keeps a marker until replaced
+            out.append(Marker("stuck", i, "text", color=STUCK_COLOUR if self.stuck[i] else
+                              (*STUCK_COLOUR[:3], 0.0), scale=(0.0, 0.0, 1.2 * w),
+                              pose=(x, y - d, 0.7, 0.0), text="STUCK" if self.stuck[i] else " "))
             g = self.goal[i]
             if g >= 0:
                 out.append(Marker("goals", i, "line_strip", color=colour,

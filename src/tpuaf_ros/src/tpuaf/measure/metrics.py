@@ -133,6 +133,9 @@ class RunRecorder:
         self._pos: np.ndarray | None = None
         self._alive = np.ones(self.n_robots, dtype=bool)
         self.deaths: list[tuple[float, int]] = []
+        # Outages (silences the monitor saw): [robot, start s, end s or None, cause]; one not
+        # ended by the run's end is a death (`final_deaths`)
+        self.outages: list[list] = []
         self.stalls: list[tuple[float, int]] = []
         # Destinations robots announced in their team messages: (time, robot, vertex).
         self.announcements: list[tuple[float, int, int]] = []
@@ -386,6 +389,33 @@ class RunRecorder:
             self._all_alive = False
             self.deaths.append((float(time), int(robot)))
 
+    def record_robot_outage(self, robot: int, time: float, cause: str) -> None:
+        """Robot `robot` went out of contact at `time` [s] (it no longer senses nor interferes);
+        a death unless `record_robot_back` ends the outage."""
+        if self._alive[robot]:
+            self._alive[robot] = False
+            self._all_alive = False
+            self.outages.append([int(robot), float(time), None, str(cause)])
+
+    def record_robot_back(self, robot: int, time: float) -> None:
+        """Robot `robot`, out of contact, was heard again at `time` [s]: alive again."""
+        for outage in reversed(self.outages):
+            if outage[0] == robot:
+                if outage[2] is None and not self._alive[robot]:
+                    outage[2] = float(time)
+                    self._alive[robot] = True
+                    self._all_alive = bool(self._alive.all())
+                return
+
+    def final_deaths(self) -> list[tuple[float, int]]:
+        """(time [s], robot) of the deaths: those recorded and the outages never ended."""
+        return sorted(self.deaths + [(o[1], o[0]) for o in self.outages if o[2] is None])
+
+    def outage_list(self) -> list[dict]:
+        """The outages as summary rows (end_s None: never heard again, a death)."""
+        return [{"robot": r, "start_s": t0, "end_s": t1, "cause": c}
+                for r, t0, t1, c in self.outages]
+
     def record_robot_stall(self, robot: int, time: float) -> None:
         """Robot `robot` stopped moving at `time` [s] (it still senses and talks)."""
         self.stalls.append((float(time), int(robot)))
@@ -419,7 +449,7 @@ class RunRecorder:
           intention_delays_s: after how long (None: never)."""
         return recovery_after_deaths(
             self.patrol_map, self.n_robots, self.speed_mps, self.start_time, self._vertex_times,
-            self.visits, self.deaths, self.announcements, end_time,
+            self.visits, self.final_deaths(), self.announcements, end_time,
             teammate_timeout_s=self.teammate_timeout_s)
 
     # -- results --------------------------------------------------------------------------
@@ -483,13 +513,14 @@ class RunRecorder:
         """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null)."""
         self.finish(end_time)
         x_final = float(np.mean(self.field.values)) if self.field is not None else math.nan
+        deaths = self.final_deaths()
         return build_summary(
             self, end_time, interval_samples=self.interval_samples, ins_sum=self._ins_sum,
             n_rows=len(self.timeseries), worst=self.worst_idleness(end_time),
             x_sum=self._x_sum, x_count=self._x_count, x_final=x_final,
             n_interferences=len(self.interferences), n_visits=len(self.visits),
-            deaths=self.deaths, stalls=self.stalls,
-            recovery=self.recovery(end_time) if self.deaths else None)
+            deaths=deaths, stalls=self.stalls, outages=self.outage_list(),
+            recovery=self.recovery(end_time) if deaths else None)
 
 
 class _VisitFigures:
@@ -707,7 +738,7 @@ def first_coverage(rec: Any, end_time: float) -> dict[str, float]:
 def build_summary(rec: Any, end_time: float, *, interval_samples, ins_sum: float, n_rows: int,
                   worst: float, x_sum: float, x_count: int, x_final: float,
                   n_interferences: int, n_visits: int, deaths=(), stalls=(),
-                  recovery: list | None = None) -> dict:
+                  recovery: list | None = None, outages: list | None = None) -> dict:
     """The summary of SPEC section 6 from a recorder's accumulated figures; one layout for the
     Python recorder and the C++ event loop's (`rec`: patrol_map, n_robots, n_vertices,
     start_time, d_if, visit_counts, sample_period_s). Times [s]; NaN -> null."""
@@ -747,6 +778,8 @@ def build_summary(rec: Any, end_time: float, *, interval_samples, ins_sum: float
         **first_coverage(rec, end_time),
         "deaths": len(deaths),
         "dead_robots": [r for _, r in deaths],
+        # silences of robots heard again (end_s) or never (end_s None: the deaths)
+        **({"outages": outages} if outages else {}),
         **({"stalled_robots": [r for _, r in stalls]} if stalls else {}),
         **({"recovery": recovery} if recovery is not None else {}),
         "sample_period_s": rec.sample_period_s,

@@ -22,12 +22,19 @@ Definitions (SPEC section 6):
   events (a goal ended without a visit) are counted apart (summary `dwells`, `dwell_time_s`);
   patrolling_sim's count of every goal arrival is `visits_patrolling_sim`;
 - a robot whose agent sent no event (heartbeats every 1 s) for `death_timeout_s` (default: the
-  teammate timeout, tpuaf.params.LIVENESS_DEFAULTS) is dead from the first pose group after
-  that (it no longer senses nor interferes); the recorder dates the death at the last event
-  heard (the recovery metrics count from there);
+  teammate timeout, tpuaf.params.LIVENESS_DEFAULTS) is out of contact from the first pose
+  group after that (it no longer senses nor interferes): an outage, dated by the recorder from
+  the last event heard. Heard again (a restarted agent), it is alive from that event: the
+  outage ends (summary `outages`: robot, start_s, end_s, cause). Only an outage never ended is
+  a death (summary `deaths`, `dead_robots`; the recovery metrics count from its start, over
+  the robots that really survived);
 - `on_announcement(robot, vertex, t)`: a destination a robot announced in a team message
   (tpuaf.robot.machine.announced_vertex), for the recovery metrics' intentions;
-- the run ends at start + duration_s: `finished` becomes True and later input is ignored.
+- the run ends at start + duration_s: `finished` becomes True and later input is ignored;
+- robot health (tpuaf.measure.health): STUCK, FAILED and GIVE_WAY events, visits and the
+  processed poses give per-robot counts, the time since the last visit and no-progress spells
+  (none for `stuck_after_s`), in `live()` and the summary (`robot_health`); `news` holds lines
+  for the operator (outages, spells), drained by the live node.
 
 Time base: inputs are ROS time (stamps); the recorder, and so every results file, works in run
 time, 0 at the run start (docs/RESULTS.md); the summary's `start_time_s` is the ROS time [s] of
@@ -42,8 +49,10 @@ from typing import Any
 
 import numpy as np
 
+from tpuaf.measure.health import FleetHealth
 from tpuaf.measure.metrics import RunRecorder, complete_cycles
-from tpuaf.params import LIVENESS_DEFAULTS
+from tpuaf.params import HEALTH_DEFAULTS, LIVENESS_DEFAULTS
+from tpuaf.plain import plain
 from tpuaf.topics import DWELL, GOAL, REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
@@ -53,6 +62,8 @@ STAMP_EPS_S = 1e-3
 # monitor's poses may trail the agent's localisation (tf stamps grouped on 0.1 s ticks, latency)
 GOAL_GRACE_S = 1.0
 TIME_BASE = "run time [s] since start_time_s (ROS time)"
+# the cause of an outage: no agent event (heartbeat) for death_timeout_s
+OUTAGE_SILENT = "silent"
 
 
 class FleetMonitor:
@@ -60,7 +71,8 @@ class FleetMonitor:
                  start_after: float = 0.0, death_timeout_s: float | None = None,
                  sample_period_s: float = 1.0, lag_s: float = 2.0,
                  teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s,
-                 visit_source: str = "poses"):
+                 visit_source: str = "poses",
+                 stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s):
         if visit_source not in ("poses", "reports"):
             raise ValueError(f"visit_source must be 'poses' or 'reports', not {visit_source!r}")
         self.visit_source = visit_source
@@ -96,7 +108,11 @@ class FleetMonitor:
         # (stamp, robot, vertex, is START) of visits not yet recorded, in stamp order
         self._visits: list[tuple[float, int, int, bool]] = []
         self._announcements: list[tuple[int, int, float]] = []  # until the recorder exists
-        self.deaths: list[tuple[float, int]] = []
+        self._back = np.full(self.n, math.inf)  # first event after an outage began [s]
+        # [detection time s, robot, end s (first event heard again) or None]
+        self.outages: list[list] = []
+        self.health = FleetHealth(self.n, stuck_after_s)  # stuck, recoveries, ... per robot
+        self.news: list[str] = []  # what an operator should hear (outages, ...); drained by nodes
         self._idl_seen, self._idl_sum, self._idl_n, self._idl_max = 0, 0.0, 0, 0.0
 
     # -- inputs -----------------------------------------------------------------------------
@@ -106,6 +122,7 @@ class FleetMonitor:
         if not 0 <= robot < self.n:
             return
         self._heard_q[robot].append(float(t))
+        self.health.on_event(robot, kind, float(t))
         if not 0 <= vertex < self.patrol_map.num_vertices:
             return
         if kind in (START, GOAL, DWELL):
@@ -168,7 +185,10 @@ class FleetMonitor:
         for r in range(self.n):  # events heard up to t
             q = self._heard_q[r]
             while q and q[0] <= t:
-                self._heard[r] = max(self._heard[r], q.popleft())
+                s = q.popleft()
+                if not self._alive[r] and s > self._heard[r] and s < self._back[r]:
+                    self._back[r] = s  # the first event after the silence
+                self._heard[r] = max(self._heard[r], s)
         if self.recorder is None:
             if t < self.start_after or count < self.n:
                 self.now = t
@@ -180,18 +200,39 @@ class FleetMonitor:
             self._record_visits(end)  # those stamped after the last group, up to the end
             self.end(end)
             return
-        # Deaths: silent agents (never heard: counted from the start).
-        silent = np.maximum(self._heard, self.start_time) < t - self.death_timeout_s
-        for r in np.flatnonzero(silent & self._alive).tolist():
-            self._alive[r] = False
-            self.recorder.record_robot_death(
-                r, self.run_time(max(float(self._heard[r]), self.start_time)))
-            self.deaths.append((t, r))
+        self._liveness(t)
         self._record_visits(t)
         self.recorder.record_positions(self.run_time(t), self._last.copy())
+        self.news += self.health.observe(t, self._last, self._alive)
         self.now = t
         if t >= end:
             self.end(end)
+
+    def _liveness(self, t: float) -> None:
+        """Outages: an agent silent for death_timeout_s (never heard: counted from the start) is
+        out from its last event; heard again, it is alive from that event. An outage not ended
+        by the run's end is a death."""
+        for r in np.flatnonzero(~self._alive & (self._back <= t)).tolist():
+            back = float(self._back[r])
+            self._alive[r] = True
+            self._back[r] = math.inf
+            self.recorder.record_robot_back(r, self.run_time(max(back, self.start_time)))
+            next(o for o in reversed(self.outages) if o[1] == r)[2] = back
+            self.news.append(f"robot {r} heard again at run time {self.run_time(back):.1f} s: "
+                             "alive")
+        silent = np.maximum(self._heard, self.start_time) < t - self.death_timeout_s
+        for r in np.flatnonzero(silent & self._alive).tolist():
+            self._alive[r] = False
+            began = max(float(self._heard[r]), self.start_time)
+            self.recorder.record_robot_outage(r, self.run_time(began), OUTAGE_SILENT)
+            self.outages.append([t, r, None])
+            self.news.append(f"robot {r} silent since run time {self.run_time(began):.1f} s "
+                             f"(no agent event for {self.death_timeout_s:g} s): out of contact")
+
+    @property
+    def deaths(self) -> list[tuple[float, int]]:
+        """(detection time [s], robot) of the robots out of contact now (never heard again)."""
+        return [(t, r) for t, r, end in self.outages if end is None]
 
     def _apply_visit_rule(self, t: float, seen: np.ndarray) -> None:
         """The START, GOAL and DWELL events stamped up to t [s], then each robot's VisitRule on
@@ -241,8 +282,9 @@ class FleetMonitor:
         while k < len(q) and q[k][0] <= t + STAMP_EPS_S:
             stamp, robot, vertex, _ = q[k]
             if self.start_time - STAMP_EPS_S <= stamp <= end:
-                self.recorder.record_visit(
-                    robot, vertex, self.run_time(min(max(stamp, self.start_time), end)))
+                stamp = min(max(stamp, self.start_time), end)
+                self.recorder.record_visit(robot, vertex, self.run_time(stamp))
+                self.health.on_visit(robot, stamp)
             k += 1
         del q[:k]
 
@@ -290,7 +332,8 @@ class FleetMonitor:
             return {"start_time": nan, "elapsed": 0.0, "visits": 0, "idleness_avg": nan,
                     "idleness_max": nan, "instantaneous_idleness": nan, "worst_idleness": nan,
                     "uncertainty_mean": nan, "interferences": 0, "complete_cycles": 0,
-                    "robots_alive": int(self._alive.sum())}
+                    "robots_alive": int(self._alive.sum()),
+                    **self.health.live(self.now, self.now)}
         new = rec.visit_idleness[self._idl_seen:]
         self._idl_seen += len(new)
         for x in new:
@@ -312,6 +355,7 @@ class FleetMonitor:
             "interferences": len(rec.interferences),
             "complete_cycles": complete_cycles(counts),
             "robots_alive": int(self._alive.sum()),
+            **self.health.live(self.start_time, max(self.now, self.start_time)),
         }
 
     def summary(self) -> dict:
@@ -319,7 +363,9 @@ class FleetMonitor:
         if self.recorder is None:
             raise RuntimeError("the run never started: no complete set of ground-truth poses")
         end = self.start_time + self.duration_s if self.finished else self.now
-        return with_epoch(self.recorder.summary(self.run_time(end)), self.start_time)
+        summary = self.recorder.summary(self.run_time(end))
+        summary.update(plain(self.health.summary(self.start_time, end)))
+        return with_epoch(summary, self.start_time)
 
 
 def with_epoch(summary: dict, epoch_s: float) -> dict:

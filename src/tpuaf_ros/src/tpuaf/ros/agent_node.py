@@ -41,7 +41,7 @@ from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
 from tpuaf.robot.model import RobotChoiceError, RobotModel, choose_robot
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, run_node, yaw_of
+from tpuaf.ros.node import fatal, private_params, publish, run_node, yaw_of
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.team.epoch import ADOPTED, INVALID, KEPT, RunEpoch
 from tpuaf.team.inbox import InboxConfig, TeamInbox
@@ -235,7 +235,7 @@ class AgentNode:
 
     # --- outputs ---
     def publish_team(self, message):
-        self.team_pub[type(message)].publish(self.conv.to_ros(message))
+        publish(self.team_pub[type(message)], self.conv.to_ros(message))
 
     def publish_event(self, kind, vertex, from_vertex, t):
         e = self.event
@@ -243,7 +243,7 @@ class AgentNode:
         e.event = kind
         e.vertex = self.conv.vid(vertex)
         e.from_vertex = self.conv.vid(from_vertex)
-        self.event_pub.publish(e)
+        publish(self.event_pub, e)
 
     def stop_robot(self, stamp=None):
         self.twist.linear.x = self.twist.angular.z = 0.0
@@ -252,7 +252,7 @@ class AgentNode:
                 return  # lock-step answers ticks only
             self.cmd.header.stamp = stamp
         if self.drives:
-            self.cmd_pub.publish(self.cmd)
+            publish(self.cmd_pub, self.cmd)
 
     def _send_initial_pose(self, pose):
         """Tell the localiser (amcl: `initialpose`) where the robot starts."""
@@ -265,7 +265,7 @@ class AgentNode:
         msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
         msg.pose.covariance[0] = msg.pose.covariance[7] = 0.25 ** 2
         msg.pose.covariance[35] = 0.2 ** 2
-        pub.publish(msg)
+        publish(pub, msg)
         self._initial_pose_pub = pub
 
     def warn(self, key, text, period=WARN_PERIOD_S):
@@ -313,7 +313,7 @@ class AgentNode:
 
     def _latch_start(self):
         """Latch the agreed run start on /fleet/start (with the lock held)."""
-        self.start_pub.publish(convert.run_start_message(
+        publish(self.start_pub, convert.run_start_message(
             self.run_start.epoch_s, self.run_start.announcer, self.names))
 
     def on_team(self, msg):
@@ -493,7 +493,7 @@ class AgentNode:
         self.twist.linear.x, self.twist.angular.z = v, w
         if self.lockstep:
             self.cmd.header.stamp = stamp
-        self.cmd_pub.publish(self.cmd)
+        publish(self.cmd_pub, self.cmd)
 
     # --- supervision (own thread, wall clock) ---
     def halt(self, stale):
@@ -546,7 +546,7 @@ class AgentNode:
                         e = self.event
                         e.header.stamp = rospy.Time.from_sec(max(t, 0.0))
                         e.event, e.vertex, e.from_vertex = topics.HEARTBEAT, -1, -1
-                        self.event_pub.publish(e)
+                        publish(self.event_pub, e)
                     if self.p.wait_for_start:
                         self.warn("start", f"waiting for the run start on {topics.START_TOPIC}",
                                   period=30.0)

@@ -28,10 +28,19 @@ from tpuaf.measure.markers import MODES, Marker, PatrolView
 from tpuaf.measure.poses import POSE_SOURCES, feed_chains, robot_chains
 from tpuaf.params import NodeParamError, parse, req
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, run_node, yaw_of
+from tpuaf.ros.node import fatal, private_params, publish, run_node, yaw_of
 from tpuaf.team import messages
-from tpuaf.topics import AMCL_POSE, EVENTS_TOPIC, GOAL, GROUND_TRUTH, ODOM, REACHED, team_topic
-from tpuaf_ros.msg import AgentEvent, Intention, Visit
+from tpuaf.topics import (
+    AMCL_POSE,
+    EVENTS_TOPIC,
+    GOAL,
+    GROUND_TRUTH,
+    METRICS_TOPIC,
+    ODOM,
+    REACHED,
+    team_topic,
+)
+from tpuaf_ros.msg import AgentEvent, Intention, LiveMetrics, Visit
 
 NODE = "patrol_markers"
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
@@ -71,6 +80,7 @@ class MarkersNode:
         rospy.Subscriber(team_topic(p.team_ns, messages.Intention), Intention,
                          self.on_intention, queue_size=100)
         rospy.Subscriber(EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=200)
+        rospy.Subscriber(METRICS_TOPIC, LiveMetrics, self.on_metrics, queue_size=10)
         if p.pose_source == "tf":
             self.chains = robot_chains(self.names, p.map_frame, p.base_frame)
             rospy.Subscriber("/tf", TFMessage, self.on_tf, queue_size=50)
@@ -83,7 +93,7 @@ class MarkersNode:
                                  queue_size=2)
         if p.publish_map:
             self.map_pub = rospy.Publisher("~map", OccupancyGrid, queue_size=1, latch=True)
-            self.map_pub.publish(occupancy_msg(patrol_map.occupancy_grid(), p.map_frame))
+            publish(self.map_pub, occupancy_msg(patrol_map.occupancy_grid(), p.map_frame))
         self.timer = rospy.Timer(rospy.Duration(1.0 / p.rate), self.publish)
 
     def on_visit(self, msg):
@@ -97,6 +107,11 @@ class MarkersNode:
         if a is not None and b is not None:
             with self.lock:
                 self.view.on_intention(msg.robot_index, a, b)
+
+    def on_metrics(self, msg):
+        with self.lock:
+            for r, stuck in enumerate(msg.no_progress):
+                self.view.on_health(r, stuck)
 
     def on_event(self, msg):
         v = self.map.lookup_index(msg.vertex)
@@ -127,7 +142,7 @@ class MarkersNode:
             markers = self.view.markers(now.to_sec())
         out = MarkerArray()
         out.markers = [to_ros(m, self.p.map_frame, now) for m in markers]
-        self.pub.publish(out)
+        publish(self.pub, out)
 
 
 def occupancy_msg(grid, frame: str) -> OccupancyGrid:

@@ -9,7 +9,8 @@ amcl /<..><i>/amcl_pose; poses at their own stamps are grouped on 0.1 s ticks (t
 Publishes /fleet/start (tpuaf_ros/RunStart, latched: the run's start, ROS time [s]) once every
 agent is ready (~announce_start false: follows the agents' announcement instead),
 /fleet/metrics (tpuaf_ros/LiveMetrics) at 1 Hz of run time and once more with finished = true
-after writing the results folder. Works on the wall clock (use_sim_time false) and on sim time.
+after writing the results folder; then it exits (~exit_delay later; at the run's end on the
+clock even if no pose comes to close it). Works on the wall clock (use_sim_time false) and on sim time.
 Private parameters: tpuaf.params.MonitorParams (strict).
 """
 
@@ -25,12 +26,13 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from tf2_msgs.msg import TFMessage
 
+from tpuaf.errors import TpuafError
 from tpuaf.maps import MapError, load_map
 from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from tpuaf.params import MonitorParams, NodeParamError, parse_monitor
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, run_node
+from tpuaf.ros.node import fatal, private_params, publish, run_node
 from tpuaf.team import messages
 from tpuaf.team.epoch import INVALID, KEPT, RunEpoch
 from tpuaf.topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
@@ -44,7 +46,7 @@ def run_config(p, patrol_map):
     config = {"runtime": "ros", "map": p.map, "map_name": patrol_map.name,
               "strategy": p.strategy, "robots": p.robots, "duration_s": p.duration,
               "seed": p.seed, "death_timeout_s": p.death_timeout,
-              "teammate_timeout_s": p.teammate_timeout,
+              "teammate_timeout_s": p.teammate_timeout, "stuck_after_s": p.stuck_after,
               "monitor_pose_source": POSE_SOURCES[p.pose_source]}
     if p.config_file:
         extra = yaml.safe_load(Path(p.config_file).read_text()) or {}
@@ -59,7 +61,8 @@ class MonitorNode:
         self.patrol_map = patrol_map
         self.fm = FleetMonitor(patrol_map, p.robots, p.duration, start_after=math.inf,
                                death_timeout_s=p.death_timeout,
-                               teammate_timeout_s=p.teammate_timeout)
+                               teammate_timeout_s=p.teammate_timeout,
+                               stuck_after_s=p.stuck_after)
         self.metrics_pub = rospy.Publisher(convert.METRICS_TOPIC, LiveMetrics, queue_size=10,
                                            latch=True)
         self.start_pub = rospy.Publisher(START_TOPIC, RunStart, queue_size=1, latch=True)
@@ -70,6 +73,7 @@ class MonitorNode:
         self.announced = False
         self.done = False
         self.writer = None
+        self.write_error = None  # the results folder could not be created (a full disk)
         self.config = run_config(p, patrol_map)
         self.ready = [False] * p.robots
         self.ready_wall = None
@@ -121,7 +125,7 @@ class MonitorNode:
                 start = max(convert.stamp_s(msg), self.fm.now) + self.p.start_delay
                 self.fm.start_after = start
                 self.run_start.offer(start, rospy.get_name())
-                self.start_pub.publish(convert.run_start_message(start, rospy.get_name(),
+                publish(self.start_pub, convert.run_start_message(start, rospy.get_name(),
                                                                  self.names))
                 self.announced = True
                 rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
@@ -191,9 +195,12 @@ class MonitorNode:
         if self.done:
             return
         self.feed.add(i, t, x, y)
+        for line in self.fm.news:
+            rospy.logwarn(f"{NODE}: {line}")
+        self.fm.news.clear()
         if not self.fm.started:
             return
-        if self.writer is None:
+        if self.writer is None and self.write_error is None:
             self.open_results()
         if self.fm.finished:
             self.finish()
@@ -208,7 +215,11 @@ class MonitorNode:
             from tpuaf.experiments.results import ResultsWriter
 
             self.config["start_time_s"] = self.fm.start_time
-            self.writer = ResultsWriter(self.p.out, self.config)
+            try:
+                self.writer = ResultsWriter(self.p.out, self.config)
+            except (OSError, TpuafError) as err:  # a full disk: measured on, written never
+                self.write_error = f"{self.p.out}: {getattr(err, 'strerror', None) or err}"
+                rospy.logerr(f"{NODE}: cannot write the results: {self.write_error}")
 
     def publish_metrics(self, finished=False):
         m = self.msg
@@ -216,7 +227,7 @@ class MonitorNode:
         for key, value in self.fm.live().items():
             setattr(m, key, value)
         m.finished = finished
-        self.metrics_pub.publish(m)
+        publish(self.metrics_pub, m)
 
     def finish(self, interrupted=False):
         if self.done:
@@ -227,13 +238,48 @@ class MonitorNode:
                 self.feed.close()  # up to the last poses (the monitor runs lag_s behind)
         if self.fm.started:
             summary = self.fm.summary()
-            if self.writer is not None:
-                self.writer.finish(summary, self.fm.recorder, interrupted=interrupted)
+            self.write_results(summary, interrupted)
             self.publish_metrics(finished=not interrupted)
             rospy.loginfo(f"{NODE}: run {'interrupted' if interrupted else 'finished'}: "
                           f"{summary['visits']} visits, I_avg = {summary['idleness_avg_s']} s, "
                           f"deaths {summary['deaths']}"
                           + (f"; results in {self.p.out}" if self.p.out else ""))
+        if not interrupted:  # the run is over: exit (on hardware nothing else stops us)
+            rospy.loginfo(f"{NODE}: exiting in {self.p.exit_delay:g} s")
+            timer = threading.Timer(self.p.exit_delay, rospy.signal_shutdown,
+                                    args=("run finished",))
+            timer.daemon = True
+            timer.start()
+
+    def write_results(self, summary, interrupted):
+        """The results folder's end files; a failure (a full disk) is one error line and a
+        summary.json saying "complete": false (or none, if even that does not fit)."""
+        from tpuaf.experiments.run_files import write_summary
+
+        try:
+            if self.writer is not None:
+                self.writer.finish(summary, self.fm.recorder, interrupted=interrupted)
+            elif self.write_error is not None:
+                write_summary(Path(self.p.out), {**summary, "complete": False,
+                                                 "write_error": self.write_error})
+        except (OSError, TpuafError) as err:
+            rospy.logerr(f"{NODE}: {' '.join(str(err).split())}")
+
+    def on_timer(self, _event=None):
+        """The run's end passed and no pose came to close it (every robot silent, tf gone):
+        finish on the clock (1 Hz)."""
+        fm = self.fm
+        if self.done or not fm.started:
+            return
+        if rospy.get_time() < fm.start_time + fm.duration_s + fm.lag_s + 2.0:
+            return
+        with self.lock:
+            self.feed.close()
+            if not fm.finished:
+                fm.end(fm.start_time + fm.duration_s)
+            if self.writer is None:
+                self.open_results()
+            self.finish()
 
 
 def main():
@@ -252,6 +298,7 @@ def main():
     except (NodeParamError, MapError, OSError, yaml.YAMLError) as err:
         return fatal(err)
     rospy.on_shutdown(lambda: node.finish(interrupted=True))
+    rospy.Timer(rospy.Duration(1.0), node.on_timer)
     rospy.spin()
     return 0
 

@@ -42,11 +42,27 @@ def fatal(err: BaseException | str) -> int:
     return 2
 
 
+def publish(pub, msg) -> None:
+    """pub.publish(msg); once the node shuts down (Ctrl-C while a callback or thread still
+    runs) a publish to the closed topic is dropped quietly, not a traceback."""
+    import rospy
+
+    try:
+        pub.publish(msg)
+    except rospy.ROSException:
+        if not (rospy.is_shutdown() or getattr(pub.impl, "closed", True)):
+            raise
+
+
 def run_node(name: str, summary: str, params_class: type, main: Callable[[], int]) -> int:
-    """`--help` / `-h` prints the node's parameters (no master needed); otherwise `main()`."""
+    """`--help` / `-h` prints the node's parameters (no master needed); otherwise `main()`.
+    Ctrl-C before rospy takes over (loading the map) exits quietly (130)."""
     argv = [a for a in sys.argv[1:] if not a.startswith("__") and ":=" not in a]
     if "--help" in argv or "-h" in argv:
         print(f"{name}: {summary}\n\nPrivate parameters (~name, type, default, meaning):")
         print(params_help(params_class))
         return 0
-    return int(main() or 0)
+    try:
+        return int(main() or 0)
+    except KeyboardInterrupt:
+        return 130

@@ -17,7 +17,7 @@ from rosgraph_msgs.msg import Clock
 
 from tpuaf.params import NodeParamError, parse, req
 from tpuaf.ros.convert import ros_types
-from tpuaf.ros.node import fatal, private_params, run_node
+from tpuaf.ros.node import fatal, private_params, publish, run_node
 from tpuaf.team.relay import RelayModel
 from tpuaf.topics import CLOCK_TOPIC, DEFAULT_TEAM_NS, TEAM_TOPICS
 
@@ -59,7 +59,7 @@ class RelayNode:
         owner, topic = where
         if msg.robot_index != owner:
             return  # a delivery to `owner` (ours), not its own broadcast
-        self.mirror_pub[topic].publish(msg)
+        publish(self.mirror_pub[topic], msg)
         with self.lock:
             self.model.submit(owner, (topic, msg), rospy.get_time())
             due = self.model.due(rospy.get_time()) if self.p.delay == 0 else []
@@ -72,7 +72,7 @@ class RelayNode:
 
     def deliver(self, due):
         for recipient, (topic, msg) in due:
-            self.deliver_pub[(recipient, topic)].publish(msg)
+            publish(self.deliver_pub[(recipient, topic)], msg)
 
 
 def main() -> int:

@@ -12,7 +12,8 @@ time (ROS time minus the run epoch).
 Events for the monitor (`publish_event(kind, vertex, from_vertex, t)`, vertices as indices):
 START at the start (the start vertex's first visit), GOAL on every new goal, REACHED (a visit:
 tpuaf_core.VisitRule on the robot's poses), DWELL (a goal ended without a visit), FAILED,
-HEARTBEAT every `heartbeat_period_s` while alive. The navigator ends a route within the map's
+HEARTBEAT every `heartbeat_period_s` while alive, STUCK (a navigator recovery), GIVE_WAY (a refuge
+driven to, to let another robot pass). The navigator ends a route within the map's
 visit radius of the goal; a robot held near its goal by another robot (within the goal
 tolerance) ends it there, short: a DWELL, not a visit.
 """
@@ -39,7 +40,7 @@ from tpuaf.policies import Policy
 from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, RobotMachine
 from tpuaf.team.liveness import HEARTBEAT_PERIOD_S
 from tpuaf.team.messages import well_formed
-from tpuaf.topics import HEARTBEAT
+from tpuaf.topics import GIVE_WAY, HEARTBEAT, STUCK
 
 __all__ = ["DEFAULT_RETRY_S", "STAY_S", "AgentRuntime"]
 
@@ -88,6 +89,7 @@ class AgentRuntime:
         self.on_stuck: Callable[[int, int, float], None] | None = None
         self.recoveries = 0
         self._retries_seen = 0
+        self._give_ways_seen = 0
         rng = np.random.default_rng([int(seed), 2, int(robot)])  # as in the graph runtime
         self.machine = RobotMachine(self, robot, n_robots, patrol_map, policy, rng,
                                     emit=self._event, teammate_timeout_s=teammate_timeout_s)
@@ -267,11 +269,18 @@ class AgentRuntime:
     def _watch_recovery(self) -> None:
         controller = getattr(self.navigator, "controller", None)
         retries = getattr(controller, "retries", 0)
+        goal = self.machine.goal
         if retries > self._retries_seen:
             self.recoveries += 1
-            if self.on_stuck is not None and self.machine.goal is not None:
-                self.on_stuck(int(self.machine.goal), int(retries), self._now)
+            if goal is not None:
+                self._event(STUCK, goal, self.machine.current_vertex)
+            if self.on_stuck is not None and goal is not None:
+                self.on_stuck(int(goal), int(retries), self._now)
         self._retries_seen = retries
+        give_ways = getattr(self.navigator, "give_ways", 0)
+        if give_ways > self._give_ways_seen and goal is not None:
+            self._event(GIVE_WAY, goal, self.machine.current_vertex)
+        self._give_ways_seen = give_ways
 
     def _event(self, kind: int, vertex: int, from_vertex: int, t: float | None = None) -> None:
         self._publish_event(kind, int(vertex), int(from_vertex), self._now if t is None else t)
