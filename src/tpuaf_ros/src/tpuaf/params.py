@@ -129,6 +129,7 @@ class AgentParams:
     """Private parameters of patrol_agent (units in the comments)."""
 
     map: str = req("", "patrol map name or path")
+    map_params: dict = opt({}, dict)  # overrides of the map's settings {key: value}, e.g. {sensing_radius: 2.0} (tpuaf.maps.params; {} = the map's)
     robot_index: int = req(-1, "this robot's index 0..robots-1")
     robots: int = req(-1, "team size N")
     strategy: str = "tpuaf"  # strategy name from the registry
@@ -183,6 +184,7 @@ class MonitorParams:
     """Private parameters of the monitor node (units in the comments)."""
 
     map: str = req("", "patrol map name or path")
+    map_params: dict = opt({}, dict)  # overrides of the map's settings {key: value}, e.g. {sensing_radius: 2.0} (tpuaf.maps.params; {} = the map's)
     robots: int = req(-1, "team size N")
     duration: float = 3600.0  # [s] run length after the start
     robot_prefix: str = "robot_"  # robot i's ground truth on /<robot_prefix><i>/base_pose_ground_truth
