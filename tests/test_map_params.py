@@ -55,7 +55,7 @@ def test_a_key_missing_from_the_map_file_is_the_default(tmp_path):
     text = "\n".join(line for line in text.splitlines() if "interference_distance" not in line)
     (tmp_path / "m" / "map.yaml").write_text(text + "\n")
     p = effective_params(load_map(str(tmp_path / "m")))
-    assert p["interference_distance"]["source"] == "default"
+    assert p["interference_distance"]["source"] == "built-in default"
     assert p["interference_distance"]["value"] == 2.0  # MapSettings'
     assert p["sensing_radius"]["source"] == MAP_FILE
 

@@ -124,6 +124,17 @@ LIVENESS_DEFAULTS = LivenessDefaults()
 _L = LIVENESS_DEFAULTS
 
 
+# Map settings a run may override (`--map-param KEY=VALUE`, node parameter / launch arg
+# map_params; tpuaf.maps.params): key -> (unit, meaning). Other settings come from the map.
+MAP_PARAMS: dict[str, tuple[str, str]] = {
+    "nominal_speed": ("m/s", "speed limit: robots drive and plan at most this fast"),
+    "sensing_radius": ("m", "r of Eq. 1: a robot senses targets this close"),
+    "sensing_peak": ("-", "G of Eq. 1: sensing at distance 0"),
+    "interference_distance": ("m", "d_if: two robots this close (centre to centre) interfere"),
+    "growth_coefficients": ("-", "uncertainty rates a_0, a_1, ... of g(X) = sum a_l X^l, Eq. 2"),
+}
+
+
 @dataclass
 class AgentParams:
     """Private parameters of patrol_agent (units in the comments)."""

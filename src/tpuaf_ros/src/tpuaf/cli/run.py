@@ -102,9 +102,9 @@ def add_teammate_timeout(p: argparse.ArgumentParser) -> None:
 def add_map_params(p: argparse.ArgumentParser) -> None:
     """--map-param KEY=VALUE (`tpuaf run`, `compare`, `fleet`, `maps`): overrides of the map's
     settings (tpuaf.maps.params, docs/MAPS.md)."""
-    from tpuaf.maps.params import USER_PARAMS
+    from tpuaf.params import MAP_PARAMS
 
-    keys = ", ".join(f"{k} [{u}]" for k, (u, _) in USER_PARAMS.items())
+    keys = ", ".join(f"{k} [{u}]" for k, (u, _) in MAP_PARAMS.items())
     p.add_argument("--map-param", action="append", default=[], metavar="KEY=VALUE",
                    help=f"override a map setting (repeatable; over the map file's and the "
                         f"imported defaults), e.g. --map-param sensing_radius=2.0 or "

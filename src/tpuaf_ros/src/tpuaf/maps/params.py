@@ -16,20 +16,13 @@ from typing import Any
 import numpy as np
 
 from tpuaf.errors import MapError
+from tpuaf.params import MAP_PARAMS as USER_PARAMS
 
-# key -> (unit, meaning). Only these can be overridden; other settings come from the map.
-USER_PARAMS: dict[str, tuple[str, str]] = {
-    "nominal_speed": ("m/s", "speed limit: robots drive and plan at most this fast"),
-    "sensing_radius": ("m", "r of Eq. 1: a robot senses targets this close"),
-    "sensing_peak": ("-", "G of Eq. 1: sensing at distance 0"),
-    "interference_distance": ("m", "d_if: two robots this close (centre to centre) interfere"),
-    "growth_coefficients": ("-", "uncertainty rates a_0, a_1, ... of g(X) = sum a_l X^l, Eq. 2"),
-}
 POSITIVE = {"nominal_speed", "sensing_radius"}  # > 0; the others >= 0
 MAX_VALUE = 1e6  # any value [m, m/s or -]: beyond it a typo, not a map
 
 # Where a value came from (PatrolMap.setting_sources); an override names its own origin.
-DEFAULT = "default"  # MapSettings' (tpuaf.maps.model)
+DEFAULT = "built-in default"  # MapSettings' (tpuaf.maps.model)
 MAP_FILE = "map file"
 IMPORTED = "imported default"
 CLI = "--map-param"
