@@ -189,3 +189,21 @@ def test_rviz_view_is_framed_on_the_map():
     assert lab["Scale"] > 8 * view["Scale"]  # a small room is zoomed in
     with pytest.raises(ValueError, match="TopDownOrtho"):
         framed_config("Panels: []\n", extent, "grid")
+
+
+def test_fleet_passes_the_overrides_to_the_launch_file(tmp_path):
+    """`tpuaf fleet --map-param` (CLI) becomes fleet.launch's map_params (launch): one value
+    for every node; fleet_config.yaml (merged into config.yaml) records them."""
+    out = tmp_path / "fleet"
+    proc = tpuaf("fleet", "--map", "lab", "--robots", "2", "--out", str(out), "--prepare-only",
+                 "--map-param", "sensing_radius=0.9", "--map-param",
+                 "growth_coefficients=1,0.3")
+    assert proc.returncode == 0, proc.stderr
+    arg = next(a for a in proc.stdout.split() if "map_params:=" in a)
+    given = yaml.safe_load(arg.strip("'").split(":=", 1)[1])
+    assert given == {"sensing_radius": 0.9, "growth_coefficients": [1.0, 0.3]}
+    config = yaml.safe_load((out / "fleet_config.yaml").read_text())
+    assert config["map_params"] == given
+    assert config["map_settings"]["sensing_radius"] == 0.9
+    assert config["map_setting_sources"]["sensing_radius"] == CLI
+    assert config["map_setting_sources"]["interference_distance"] == MAP_FILE

@@ -114,7 +114,6 @@ EDGE_MARGIN_PX = 4  # the graph's pixels stay this far inside the screenshot
 def test_rviz_frames_a_map_other_than_lab(tmp_path):
     from PIL import ImageGrab
     from tpuaf.maps import load_map
-    from tpuaf.measure.markers import EDGE_COLOUR
 
     map_ref = str(PS_MAP) if PS_MAP.is_dir() else "grid"
     pm = load_map(map_ref)
@@ -132,13 +131,15 @@ def test_rviz_frames_a_map_other_than_lab(tmp_path):
         stop_process(xvfb)
     shot.save(tmp_path / "rviz_framed.png")
     image = np.asarray(shot.convert("RGB"))
-    edge = (np.abs(image.astype(int) - [round(255 * c) for c in EDGE_COLOUR[:3]])
-            .max(axis=2) <= 25)
-    rows, cols = np.nonzero(edge)
-    assert len(rows) > 200, "no graph edges in view"
+    # the vertices: discs on the idleness colour scale, the only saturated colour in view (the
+    # map, the edges and the background are grey)
+    rgb = image.astype(int)
+    vertex = (rgb.max(axis=2) - rgb.min(axis=2)) > 100
+    rows, cols = np.nonzero(vertex)
+    assert len(rows) > 200, "no vertices in view"
     top, bottom, left, right = rows.min(), rows.max(), cols.min(), cols.max()
-    height, width = edge.shape
-    # the whole graph: no edge pixel at the window's border (a cut view runs off it)
+    height, width = vertex.shape
+    # the whole graph: no vertex at the window's border (a cut view runs off it)
     assert top >= EDGE_MARGIN_PX and left >= EDGE_MARGIN_PX, (top, left)
     assert bottom < height - EDGE_MARGIN_PX and right < width - EDGE_MARGIN_PX, (bottom, right)
     # framed, not a dot: the graph spans much of the view, with the map's aspect ratio
