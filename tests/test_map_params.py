@@ -7,6 +7,7 @@ reach the runs (config.yaml, metrics) and the sweep's tasks. The RViz view frame
 from __future__ import annotations
 
 import json
+import shlex
 import subprocess
 from pathlib import Path
 
@@ -199,8 +200,8 @@ def test_fleet_passes_the_overrides_to_the_launch_file(tmp_path):
                  "--map-param", "sensing_radius=0.9", "--map-param",
                  "growth_coefficients=1,0.3")
     assert proc.returncode == 0, proc.stderr
-    arg = next(a for a in proc.stdout.split() if "map_params:=" in a)
-    given = yaml.safe_load(arg.strip("'").split(":=", 1)[1])
+    arg = next(a for a in shlex.split(proc.stdout.splitlines()[-1]) if "map_params:=" in a)
+    given = yaml.safe_load(arg.split(":=", 1)[1])
     assert given == {"sensing_radius": 0.9, "growth_coefficients": [1.0, 0.3]}
     config = yaml.safe_load((out / "fleet_config.yaml").read_text())
     assert config["map_params"] == given
