@@ -26,7 +26,6 @@ DEFAULT = "built-in default"  # MapSettings' (tpuaf.maps.model)
 MAP_FILE = "map file"
 IMPORTED = "imported default"
 CLI = "--map-param"
-LAUNCH = "launch arg map_params"
 
 # Imported patrolling_sim maps (their files carry no settings): the reference simulator's robot
 # (tpuaf_stage.presets) with a TurtleBot3 laser (LDS-01).
