@@ -106,7 +106,10 @@ def test_rviz_shows_the_patrol_markers(tmp_path):
 
 
 PS_MAP = REPO.parent / "shared" / "maps" / "patrolling_sim" / "cumberland"
-EDGE_MARGIN_PX = 4  # the graph's pixels stay this far inside the screenshot
+EDGE_MARGIN_PX = 4  # the graph's pixels stay this far inside the 3-D view
+# The 3-D view in the 1100 x 720 window of rviz/tpuaf.rviz (left of it the Displays dock, above
+# it the menu and tool bar, below it the status bar: their icons are coloured too) [px].
+VIEW_LEFT_PX, VIEW_TOP_PX, VIEW_RIGHT_PX, VIEW_BOTTOM_PX = 364, 62, 1084, 690
 
 
 @pytest.mark.skipif(shutil.which("rviz") is None or shutil.which("Xvfb") is None,
@@ -133,13 +136,13 @@ def test_rviz_frames_a_map_other_than_lab(tmp_path):
     image = np.asarray(shot.convert("RGB"))
     # the vertices: discs on the idleness colour scale, the only saturated colour in view (the
     # map, the edges and the background are grey)
-    rgb = image.astype(int)
+    rgb = image[VIEW_TOP_PX:VIEW_BOTTOM_PX, VIEW_LEFT_PX:VIEW_RIGHT_PX].astype(int)
     vertex = (rgb.max(axis=2) - rgb.min(axis=2)) > 100
     rows, cols = np.nonzero(vertex)
     assert len(rows) > 200, "no vertices in view"
     top, bottom, left, right = rows.min(), rows.max(), cols.min(), cols.max()
     height, width = vertex.shape
-    # the whole graph: no vertex at the window's border (a cut view runs off it)
+    # the whole graph: no vertex at the view's border (a cut view runs off it)
     assert top >= EDGE_MARGIN_PX and left >= EDGE_MARGIN_PX, (top, left)
     assert bottom < height - EDGE_MARGIN_PX and right < width - EDGE_MARGIN_PX, (bottom, right)
     # framed, not a dot: the graph spans much of the view, with the map's aspect ratio
