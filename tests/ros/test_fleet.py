@@ -95,6 +95,27 @@ def test_other_strategies_complete_a_short_run(tmp_path, strategy):
     assert summary["complete"] is True and summary["visits"] > 10
 
 
+def test_map_params_reach_the_fleets_nodes(tmp_path):
+    """`tpuaf fleet --map-param` -> fleet.launch map_params -> every node's ~map_params: the
+    monitor measures with the overridden d_if and r, and config.yaml says where they came from;
+    `tpuaf analyze` on the bag uses them too."""
+    out = tmp_path / "params"
+    proc = run_fleet(out, strategy="gbs", robots=2, duration=60.0,
+                     extra=("--map-param", "interference_distance=0.75", "--map-param",
+                            "sensing_radius=2.5"))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["interference_distance_m"] == 0.75  # grid's own: 2 m
+    config = yaml.safe_load((out / "config.yaml").read_text())
+    assert config["map_params"] == {"interference_distance": 0.75, "sensing_radius": 2.5}
+    assert config["map_setting_sources"]["sensing_radius"] == "--map-param"
+    analysis = run_cli([*TPUAF, "analyze", str(out / "run.bag"), "--out", str(out / "a")],
+                       timeout=300, cwd=REPO)
+    assert analysis.returncode == 0, analysis.stdout + analysis.stderr
+    again = json.loads((out / "a" / "summary.json").read_text())
+    assert again["interference_distance_m"] == 0.75
+
+
 def _descendants(pid: int) -> list[int]:
     out = subprocess.run(["ps", "-eo", "pid=,ppid="], capture_output=True, text=True).stdout
     children: dict[int, list[int]] = {}

@@ -81,6 +81,9 @@ def test_nodes_answer_help_from_the_install_space(install_space, tmp_path):
     proc = in_install_space(install_space, "rosrun tpuaf_ros patrol_agent --help", tmp_path, 60)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "~robot_index" in proc.stdout and "~strategy" in proc.stdout
+    proc = in_install_space(install_space, "rosrun tpuaf_ros rviz_view --help", tmp_path, 60)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "--map" in proc.stdout and "--template" in proc.stdout  # rviz.launch's framing node
 
 
 def test_fleet_runs_from_the_install_space(install_space, tmp_path):

@@ -1,6 +1,8 @@
 """The launch files describe themselves: `roslaunch --ros-args` lists every arg with its doc (no
-master needed), units and choices are in the docs, and no launch file sets a global parameter it
-does not own (the fleet owns the simulated clock: /use_sim_time)."""
+master needed) and only the truly required ones as required, units and choices are in the docs,
+the launch arg map_params reaches every node that loads the map (`roslaunch --dump-params`), and
+no launch file sets a global parameter it does not own (the fleet owns the simulated clock:
+/use_sim_time)."""
 
 from __future__ import annotations
 
@@ -19,6 +21,9 @@ LAUNCH_DIR = REPO / "src/tpuaf_ros/launch"
 LAUNCH_FILES = ("fleet.launch", "robot.launch", "robots.launch", "rviz.launch")
 # Global parameters a launch file may set because it owns them.
 OWNED_GLOBALS = {"fleet.launch": {"/use_sim_time"}}
+# The args a launch file cannot run without; every other arg has a real default.
+REQUIRED = {"fleet.launch": {"out"}, "robot.launch": set(), "rviz.launch": set(),
+            "robots.launch": {"n", "robots", "map"}}  # robots.launch: included by fleet.launch
 # An arg whose name has one of these words has a unit, written "[unit]" in its doc.
 UNIT_WORDS = ("timeout", "delay", "duration", "speed", "radius", "scale", "offset")
 
@@ -56,6 +61,47 @@ def test_ros_args_lists_every_arg_with_its_doc_without_a_master(name, tmp_path):
     assert set(listed) == set(args), proc.stdout
     for arg, doc in listed.items():
         assert doc.strip() and doc == args[arg].get("doc"), (arg, doc)
+    required = proc.stdout.split("Optional Arguments:")[0]
+    assert set(re.findall(r"^  (\w+): ", required, re.M)) == REQUIRED[name], proc.stdout
+
+
+def dump_params(name: str, tmp_path: Path, *args: str) -> dict:
+    """The parameters launch file `name` sets with `args` (roslaunch --dump-params, no master)."""
+    import yaml
+
+    env = {**workspace_env(), "ROS_MASTER_URI": "http://127.0.0.1:9/",
+           "ROS_HOME": str(tmp_path), "ROS_IP": "127.0.0.1"}
+    proc = subprocess.run(["roslaunch", "--dump-params", "tpuaf_ros", name, *args], env=env,
+                          capture_output=True, text=True, timeout=120, start_new_session=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return yaml.safe_load(proc.stdout)
+
+
+MAP_PARAMS = "{sensing_radius: 2.0, growth_coefficients: [1.0, 0.3]}"
+
+
+@pytest.mark.parametrize("name, args, nodes", [
+    ("fleet.launch", ["out:=/tmp/unused", "robots:=2"],
+     ["/monitor", "/robot_0/patrol_agent", "/robot_1/patrol_agent"]),
+    ("robot.launch", ["index:=1", "robots:=2"], ["/robot_1/patrol_agent"]),
+    ("rviz.launch", [], ["/patrol_markers"]),
+])
+def test_launch_arg_map_params_reaches_every_node_that_loads_the_map(name, args, nodes,
+                                                                     tmp_path):
+    """The launch-level override of the map's settings (docs/MAPS.md: map < launch): each node
+    gets ~map_params, which it applies over the map's own (tests/test_map_params.py)."""
+    from tpuaf.maps import load_map
+
+    params = dump_params(name, tmp_path, *args, f"map_params:={MAP_PARAMS}")
+    for node in nodes:
+        given = {"sensing_radius": params[f"{node}/map_params/sensing_radius"],
+                 "growth_coefficients": params[f"{node}/map_params/growth_coefficients"]}
+        assert given == {"sensing_radius": 2.0, "growth_coefficients": [1.0, 0.3]}, node
+        pm = load_map("lab", params=given, params_origin="~map_params")
+        assert pm.settings.sensing_radius == 2.0 and pm.settings.sensing_radius != \
+            load_map("lab").settings.sensing_radius
+    plain = dump_params(name, tmp_path, *args)
+    assert not any("map_params" in key for key in plain)  # {}: the nodes' default, the map's
 
 
 @pytest.mark.parametrize("name", LAUNCH_FILES)
@@ -80,8 +126,9 @@ def test_every_arg_has_a_doc_with_its_unit_and_choices(name):
         if arg == "strategy":
             named = set(re.findall(r"\w+", doc))
             assert "tpuaf run --list" in doc or set(REGISTRY.names()) <= named, (name, doc)
-        if tag.get("default") == "":  # roslaunch lists these under "Required Arguments"
-            assert doc.startswith("optional") and "empty =" in doc, f"{name}: {arg}: {doc!r}"
+        # roslaunch lists an empty default under "Required Arguments": an optional arg has a
+        # real one (none, auto, {}) that its doc explains
+        assert tag.get("default") != "", f"{name}: {arg}: empty default"
 
 
 def global_params(path: Path) -> list[str]:

@@ -40,6 +40,10 @@ BAD_PARAMS = [
     ("monitor", ["_map:=grid", "_robots:=2", "_bogus:=1"], "unknown parameter(s) ~bogus"),
     ("monitor", ["_map:=grid", "_robots:=2", "_pose_source:=gps"], "~pose_source must be one of"),
     ("patrol_markers", ["_map:=grid", "_robots:=2", "_color_by:=red"], "~color_by must be one of"),
+    ("patrol_agent", ["_map:=grid", "_robot_index:=0", "_robots:=1",
+                      "_map_params:={speed: 1.0}"], "~map_params: unknown map parameter 'speed'"),
+    ("patrol_markers", ["_map:=grid", "_robots:=1", "_map_params:={sensing_radius: -1}"],
+     "~map_params: sensing_radius must be > 0"),
     ("team_relay", ["_robots:=2", "_loss:=2.0"], "~loss must be in [0, 1]"),
 ]
 

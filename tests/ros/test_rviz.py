@@ -1,5 +1,7 @@
 """RViz with the shipped config against a running fleet, under Xvfb: the screenshot is not blank
-and shows the markers' colours (robots, graph, vertex scale).
+and shows the markers' colours (robots, graph, vertex scale). On a map other than lab (a
+patrolling_sim map, else the built-in grid) the view is framed on the map: the whole graph is in
+view, not cut by the window's edges, and fills much of it.
 
 Fleet: own roscore, tpuaf_stage in wall-clock rehearsal mode, 2 Burgers on `lab` with one
 robot.launch each (tf localisation), then `roslaunch tpuaf_ros rviz.launch` (patrol_markers +
@@ -101,3 +103,50 @@ def test_rviz_shows_the_patrol_markers(tmp_path):
     greenish = int((scale & (g > r + 60)).sum())
     warm = int((scale & (r > g - 60)).sum())  # yellow, orange, red
     assert greenish > 50 and warm > 50, (greenish, warm)
+
+
+PS_MAP = REPO.parent / "shared" / "maps" / "patrolling_sim" / "cumberland"
+EDGE_MARGIN_PX = 4  # the graph's pixels stay this far inside the 3-D view
+# The 3-D view in the 1100 x 720 window of rviz/tpuaf.rviz (left of it the Displays dock, above
+# it the menu and tool bar, below it the status bar: their icons are coloured too) [px].
+VIEW_LEFT_PX, VIEW_TOP_PX, VIEW_RIGHT_PX, VIEW_BOTTOM_PX = 364, 62, 1084, 690
+
+
+@pytest.mark.skipif(shutil.which("rviz") is None or shutil.which("Xvfb") is None,
+                    reason="rviz or Xvfb not installed (launch_scripts/setup.sh installs them)")
+def test_rviz_frames_a_map_other_than_lab(tmp_path):
+    from PIL import ImageGrab
+    from tpuaf.maps import load_map
+
+    map_ref = str(PS_MAP) if PS_MAP.is_dir() else "grid"
+    pm = load_map(map_ref)
+    xvfb, display = start_xvfb()
+    try:
+        with ros_master(tmp_path / "ros") as ros:
+            ros.run_python("import rospy; rospy.set_param('/use_sim_time', False)", timeout=30)
+            rviz = ros.start(["roslaunch", "--wait", "tpuaf_ros", "rviz.launch",
+                              f"map:={map_ref}", "robots:=1", "pose_source:=ground_truth"],
+                             name="rviz", DISPLAY=display, LIBGL_ALWAYS_SOFTWARE="1")
+            time.sleep(min(WAIT_S, 20.0))
+            assert rviz.poll() is None, ros.output("rviz")[-3000:]
+            shot = ImageGrab.grab(xdisplay=display)
+    finally:
+        stop_process(xvfb)
+    shot.save(tmp_path / "rviz_framed.png")
+    image = np.asarray(shot.convert("RGB"))
+    # the vertices: discs on the idleness colour scale, the only saturated colour in view (the
+    # map, the edges and the background are grey)
+    rgb = image[VIEW_TOP_PX:VIEW_BOTTOM_PX, VIEW_LEFT_PX:VIEW_RIGHT_PX].astype(int)
+    vertex = (rgb.max(axis=2) - rgb.min(axis=2)) > 100
+    rows, cols = np.nonzero(vertex)
+    assert len(rows) > 200, "no vertices in view"
+    top, bottom, left, right = rows.min(), rows.max(), cols.min(), cols.max()
+    height, width = vertex.shape
+    # the whole graph: no vertex at the view's border (a cut view runs off it)
+    assert top >= EDGE_MARGIN_PX and left >= EDGE_MARGIN_PX, (top, left)
+    assert bottom < height - EDGE_MARGIN_PX and right < width - EDGE_MARGIN_PX, (bottom, right)
+    # framed, not a dot: the graph spans much of the view, with the map's aspect ratio
+    span = pm.positions.max(axis=0) - pm.positions.min(axis=0)
+    assert max(right - left, bottom - top) > 0.4 * min(width, height), (right - left, bottom - top)
+    aspect = (right - left) / max(bottom - top, 1)
+    assert aspect == pytest.approx(span[0] / span[1], rel=0.15), (aspect, span)

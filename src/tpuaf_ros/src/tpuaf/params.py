@@ -135,11 +135,23 @@ class HealthDefaults:
 HEALTH_DEFAULTS = HealthDefaults()
 
 
+# Map settings a run may override (`--map-param KEY=VALUE`, node parameter / launch arg
+# map_params; tpuaf.maps.params): key -> (unit, meaning). Other settings come from the map.
+MAP_PARAMS: dict[str, tuple[str, str]] = {
+    "nominal_speed": ("m/s", "speed limit: robots drive and plan at most this fast"),
+    "sensing_radius": ("m", "r of Eq. 1: a robot senses targets this close"),
+    "sensing_peak": ("-", "G of Eq. 1: sensing at distance 0"),
+    "interference_distance": ("m", "d_if: two robots this close (centre to centre) interfere"),
+    "growth_coefficients": ("-", "uncertainty rates a_0, a_1, ... of g(X) = sum a_l X^l, Eq. 2"),
+}
+
+
 @dataclass
 class AgentParams:
     """Private parameters of patrol_agent (units in the comments)."""
 
     map: str = req("", "patrol map name or path")
+    map_params: dict = opt({}, dict)  # overrides of the map's settings {key: value}, e.g. {sensing_radius: 2.0} (tpuaf.maps.params; {} = the map's)
     robot_index: int = req(-1, "this robot's index 0..robots-1")
     robots: int = req(-1, "team size N")
     strategy: str = "tpuaf"  # strategy name from the registry
@@ -194,6 +206,7 @@ class MonitorParams:
     """Private parameters of the monitor node (units in the comments)."""
 
     map: str = req("", "patrol map name or path")
+    map_params: dict = opt({}, dict)  # overrides of the map's settings {key: value}, e.g. {sensing_radius: 2.0} (tpuaf.maps.params; {} = the map's)
     robots: int = req(-1, "team size N")
     duration: float = 3600.0  # [s] run length after the start
     robot_prefix: str = "robot_"  # robot i's ground truth on /<robot_prefix><i>/base_pose_ground_truth

@@ -259,7 +259,9 @@ def run(args: argparse.Namespace) -> int:
     out = (args.out or folder / "analysis").expanduser()
     created = not out.exists()
     try:
-        patrol_map = load_map(map_ref)
+        # the run's overrides of the map's settings (d_if, r: the metrics), as config.yaml says
+        patrol_map = load_map(map_ref, params=config.get("map_params") or None,
+                              params_origin=f"{folder / 'config.yaml'}: map_params")
         if robots is not None:
             limits.check_team("recorder", robots, patrol_map.num_vertices, "--robots",
                               patrol_map.name)

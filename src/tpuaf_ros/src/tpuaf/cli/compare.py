@@ -11,7 +11,9 @@ from pathlib import Path
 
 from tpuaf.cli.run import (
     MAX_SEED,
+    add_map_params,
     add_teammate_timeout,
+    map_params,
     non_negative_float,
     positive_float,
     positive_int,
@@ -32,6 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--duration", type=positive_float, default=3600.0,
                    help="simulated seconds per run")
     add_teammate_timeout(p)
+    add_map_params(p)
     p.add_argument("--seeds", type=positive_int, default=5,
                    help="number of seeds per configuration (seeds first-seed .. first-seed + n - 1)")
     p.add_argument("--first-seed", type=seed_int, default=0, help="first seed")
@@ -100,7 +103,8 @@ def run(args: argparse.Namespace) -> int:
         limits.check_runs(per_seed * args.seeds, per_seed, args.seeds)
         spec = make_spec(args.maps, args.strategies, args.robots, args.seeds,
                          duration_s=args.duration, first_seed=args.first_seed,
-                         scenarios=scenarios, teammate_timeout_s=args.teammate_timeout)
+                         scenarios=scenarios, teammate_timeout_s=args.teammate_timeout,
+                         map_params=map_params(args))
     except SweepError as err:
         raise CliError(str(err)) from None
     from tpuaf.experiments.results import ResultsError, lock_folder

@@ -32,9 +32,11 @@ from tpuaf.cli.fleet_supervisor import (
     wait_bag_closed,
 )
 from tpuaf.cli.run import (
+    add_map_params,
     add_teammate_timeout,
     finite_float,
     format_summary,
+    map_params,
     non_negative_float,
     parse_params,
     positive_float,
@@ -129,6 +131,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--loss", type=probability, default=0.0,
                    help="team message loss probability per recipient, through a relay")
     add_teammate_timeout(p)
+    add_map_params(p)
     p.add_argument("--timeout", type=positive_float, default=None,
                    help="wall-clock limit [s] (default: duration + 300)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -242,10 +245,13 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
 def load_inputs(args: argparse.Namespace):
     """(the patrol map, the strategy's name, its parameters with the defaults), or CliError."""
     from tpuaf.maps import MapError, load_map
+    from tpuaf.maps.params import CLI
     from tpuaf.policies import REGISTRY, ParameterError
 
+    overrides = map_params(args)
     try:
-        patrol_map = load_map(args.map, allow_occupied_vertices=args.allow_occupied_vertices)
+        patrol_map = load_map(args.map, allow_occupied_vertices=args.allow_occupied_vertices,
+                              params=overrides, params_origin=CLI)
         cls = REGISTRY.get(args.strategy)
         params = cls(parse_params(args.param)).params
     except (MapError, ParameterError) as err:
@@ -283,13 +289,20 @@ def write_world(args: argparse.Namespace, out: Path, map_ref: str, robot) -> tup
 def fleet_config(args, out: Path, patrol_map, map_ref: str, strategy: str, params: dict,
                  world: dict, robot, faults: list[dict]) -> dict:
     """fleet_config.yaml: what the monitor merges into the results' config.yaml."""
+    from dataclasses import asdict
+
     from tpuaf.maps import start_vertices
+    from tpuaf.maps.params import effective_params
 
     starts = start_vertices(patrol_map, args.robots)
     return {
         "runtime": "ros",
         "map": map_ref,
         "map_name": patrol_map.name,
+        # `--map-param`: every node loads the map with them (launch arg map_params)
+        "map_params": map_params(args),
+        "map_settings": asdict(patrol_map.settings),
+        "map_setting_sources": {k: p["source"] for k, p in effective_params(patrol_map).items()},
         "strategy": strategy,
         "robots": int(args.robots),
         "duration_s": float(args.duration),
@@ -326,15 +339,16 @@ def roslaunch_args(args, out: Path, config: dict, resolved: Path, strategy_file:
         f"map:={config['map']}", f"strategy:={config['strategy']}", f"robots:={args.robots}",
         f"duration:={args.duration}", f"seed:={args.seed}",
         f"record:={'false' if args.no_record else 'true'}", f"out:={out}",
-        f"world:={resolved}", f"rtf:={args.rtf}", f"strategy_params:={strategy_file}",
+        f"world:={resolved}", f"rtf:={args.rtf}", f"strategy_params:={strategy_file or 'none'}",
         f"config_file:={out / 'fleet_config.yaml'}",
         f"lockstep:={'true' if args.lockstep else 'false'}",
         f"lockstep_timeout:={args.lockstep_timeout}",
         f"robot:={robot['preset']}",
-        f"stall:={stalls}", f"sim_summary:={out / 'simulator.json'}",
+        f"stall:={stalls or 'none'}", f"sim_summary:={out / 'simulator.json'}",
         f"record_regex:={config['record_regex'] or ''}",
         f"relay:={'true' if uses_relay(args) else 'false'}", f"delay:={args.delay}",
         f"loss:={args.loss}", f"teammate_timeout:={args.teammate_timeout}",
+        f"map_params:={json.dumps(config['map_params'], separators=(', ', ': '))}",
     ]
 
 

@@ -1,5 +1,7 @@
-"""`tpuaf maps [NAME_OR_PATH ...]`: statistics of maps (SPEC section 7), and every edge checked
-against the map's robot footprint (planned paths on the occupancy grid, navigation/planner.py)."""
+"""`tpuaf maps [NAME_OR_PATH ...]`: statistics of maps (SPEC section 7), the effective map
+parameters and where each came from (map file, imported default, --map-param), and every edge
+checked against the map's robot footprint (planned paths on the occupancy grid,
+navigation/planner.py)."""
 
 from __future__ import annotations
 
@@ -8,6 +10,7 @@ import json
 import math
 import sys
 
+from tpuaf.cli.run import add_map_params, map_params
 from tpuaf.errors import CliError
 
 
@@ -22,6 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--allow-occupied-vertices", action="store_true",
                         help="a vertex outside the image's free space is a warning, not an error")
+    add_map_params(p=parser)
 
 
 COLUMNS = [
@@ -143,15 +147,19 @@ def format_edge_check(name: str, check: dict, allow_occupied_vertices: bool = Fa
 
 def run(args: argparse.Namespace) -> int:
     from tpuaf.maps import MapError, builtin_map_names, load_map, map_summary
+    from tpuaf.maps.params import CLI, effective_params, format_params
 
     names = args.maps or builtin_map_names()
+    overrides = map_params(args)
     summaries = []
     for name in names:
         try:
-            pm = load_map(name, allow_occupied_vertices=args.allow_occupied_vertices)
+            pm = load_map(name, allow_occupied_vertices=args.allow_occupied_vertices,
+                          params=overrides, params_origin=CLI)
         except MapError as err:
             raise CliError(str(err)) from None
         summary = map_summary(pm)
+        summary["parameters"] = effective_params(pm)
         summary["edge_check"] = edge_check(pm)
         if pm.notes:
             summary["notes"] = list(pm.notes)
@@ -164,6 +172,8 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summaries, indent=2))
     else:
         print(format_table(summaries))
+        for s in summaries:
+            print(format_params(s["name"], s["parameters"]))
         for s in summaries:
             for note in s.get("notes", []):
                 print(f"note ({s['name']}): {note}")

@@ -99,6 +99,29 @@ def add_teammate_timeout(p: argparse.ArgumentParser) -> None:
                         f"monitor calls it dead then too (default {default:g})")
 
 
+def add_map_params(p: argparse.ArgumentParser) -> None:
+    """--map-param KEY=VALUE (`tpuaf run`, `compare`, `fleet`, `maps`): overrides of the map's
+    settings (tpuaf.maps.params, docs/MAPS.md)."""
+    from tpuaf.params import MAP_PARAMS
+
+    keys = ", ".join(f"{k} [{u}]" for k, (u, _) in MAP_PARAMS.items())
+    p.add_argument("--map-param", action="append", default=[], metavar="KEY=VALUE",
+                   help=f"override a map setting (repeatable; over the map file's and the "
+                        f"imported defaults), e.g. --map-param sensing_radius=2.0 or "
+                        f"--map-param growth_coefficients=1.0,0.6; keys: {keys}")
+
+
+def map_params(args: argparse.Namespace) -> dict:
+    """The checked `--map-param` overrides of `args` (CliError naming the bad one)."""
+    from tpuaf.maps import MapError
+    from tpuaf.maps.params import CLI, parse_map_params
+
+    try:
+        return parse_map_params(getattr(args, "map_param", []) or [], CLI)
+    except MapError as err:
+        raise CliError(str(err)) from None
+
+
 def parse_param_value(raw: str):
     """A `--param` value: a YAML scalar (number, boolean, string); words that YAML leaves as
     strings but Python reads as numbers ('nan', 'inf', '1e3') become floats, so that the
@@ -149,6 +172,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--delay", type=non_negative_float, default=0.0, help="team message delay [s]")
     p.add_argument("--loss", type=probability, default=0.0, help="message loss probability")
     add_teammate_timeout(p)
+    add_map_params(p)
     p.add_argument(
         "--param",
         action="append",
@@ -285,11 +309,14 @@ def run(args: argparse.Namespace) -> int:
         loss=args.loss,
         teammate_timeout_s=args.teammate_timeout,
         strategy_params=parse_params(args.param),
+        map_params=map_params(args),
     )
     from tpuaf.cli import limits
+    from tpuaf.maps.params import CLI
 
     try:
-        patrol_map = load_map(args.map, allow_occupied_vertices=args.allow_occupied_vertices)
+        patrol_map = load_map(args.map, allow_occupied_vertices=args.allow_occupied_vertices,
+                              params=config["map_params"], params_origin=CLI)
         limits.check_team(args.strategy, args.robots, patrol_map.num_vertices,
                           map_name=patrol_map.name)
         engine = make_engine(args, config, patrol_map)

@@ -306,7 +306,8 @@ def vertex_idleness_on_map(folder: Path, out: Path | None = None) -> Path:
     from tpuaf.maps import load_map
 
     folder = Path(folder)
-    pm = load_map(_config(folder)["map"])
+    config = _config(folder)
+    pm = load_map(config["map"], params=config.get("map_params") or None)
     mean = _mean_interval_idleness(folder, len(pm.positions))
     rows, cols = map_background(pm).occupied.shape
     fig = new_figure(figsize=(8, 8 * rows / max(cols, 1) + 0.5))
@@ -356,7 +357,8 @@ def _map_of(folder: Path, patrol_map=None):
 
     config = _config(folder) or {}
     source = config.get("map_source")
-    return load_map(source if source and source != "built-in" else config["map"])
+    return load_map(source if source and source != "built-in" else config["map"],
+                    params=config.get("map_params") or None)
 
 
 def summary_png(folder: Path, patrol_map=None, summary: dict | None = None,

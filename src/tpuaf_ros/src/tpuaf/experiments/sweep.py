@@ -285,6 +285,8 @@ class SweepSpec:
     scenarios: list[Scenario] = field(default_factory=lambda: [Scenario()])
     # [s] every run's RunConfig.teammate_timeout_s (`tpuaf compare --teammate-timeout`)
     teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s
+    # every map's setting overrides (`tpuaf compare --map-param`; tpuaf.maps.params)
+    map_params: dict[str, Any] = field(default_factory=dict)
 
     def keys(self) -> list[RunKey]:
         return [RunKey(m.label, s, n, seed, sc.name) for m in self.maps for s in self.strategies
@@ -317,14 +319,17 @@ class SweepSpec:
                 "delay_s": sc.delay_s, "deaths": len(failures),
                 "death_time_s": failures[0][1] if failures else None,
                 "failures": [list(f) for f in failures],
-                "teammate_timeout_s": float(self.teammate_timeout_s)}
+                "teammate_timeout_s": float(self.teammate_timeout_s),
+                "map_params": dict(self.map_params)}
 
 
 _LABEL_OK = re.compile(r"^[A-Za-z0-9_.+-]+$")
 
 
-def resolve_maps(names: Iterable[str]) -> list[MapSpec]:
-    """Load every map once (validating it) and give each a unique label (its name)."""
+def resolve_maps(names: Iterable[str], map_params: dict[str, Any] | None = None
+                 ) -> list[MapSpec]:
+    """Load every map once (validating it, with the `map_params` overrides) and give each a
+    unique label (its name)."""
     from tpuaf.maps import MapError, builtin_map_names, load_map
 
     specs: list[MapSpec] = []
@@ -336,7 +341,7 @@ def resolve_maps(names: Iterable[str]) -> list[MapSpec]:
                 f"unknown map '{text}': built-in maps are {', '.join(builtin_map_names())}; "
                 "otherwise give the path of a map folder or .graph file")
         try:
-            pm = load_map(text)
+            pm = load_map(text, params=map_params, params_origin="--map-param")
         except MapError as err:
             raise SweepError(f"map '{text}': {err}") from None
         source = text if builtin else str(Path(text).expanduser().resolve())
@@ -371,10 +376,11 @@ def resolve_strategies(names: Iterable[str]) -> list[str]:
 def make_spec(maps: Iterable[str], strategies: Iterable[str], robots: Iterable[int],
               seeds: int | Iterable[int], duration_s: float = 3600.0,
               first_seed: int = 0, scenarios: Iterable[Scenario] | None = None,
-              teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s) -> SweepSpec:
+              teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s,
+              map_params: dict[str, Any] | None = None) -> SweepSpec:
     """A validated sweep; `seeds` is a count (seeds first_seed .. first_seed + count - 1) or a list.
     `scenarios` (default: nominal only) come from `make_scenarios`; teammate_timeout_s [s]:
-    every run's (RunConfig.teammate_timeout_s)."""
+    every run's (RunConfig.teammate_timeout_s); map_params: every map's setting overrides."""
     robots = list(robots)
     for n in robots:
         if not (isinstance(n, int) and n >= 1):
@@ -404,9 +410,10 @@ def make_spec(maps: Iterable[str], strategies: Iterable[str], robots: Iterable[i
         if sc.deaths != "0" and not any(sc.applies(n) for n in robots):
             raise SweepError(f"scenario {sc.name}: no team size in {robots} keeps a survivor "
                              "with at least one death")
-    spec = SweepSpec(resolve_maps(maps), resolve_strategies(strategies),
+    spec = SweepSpec(resolve_maps(maps, map_params), resolve_strategies(strategies),
                      robots, sorted(set(seed_list)), float(duration_s), scenarios=scenarios,
-                     teammate_timeout_s=float(teammate_timeout_s))
+                     teammate_timeout_s=float(teammate_timeout_s),
+                     map_params=dict(map_params or {}))
     if not spec.keys():
         raise SweepError("the sweep has no runs")
     return spec
@@ -450,6 +457,8 @@ def run_config(task: dict[str, Any]):
         kwargs[FAIL_FIELD] = [f"{int(r)}@{float(t):g}" for r, t in failures]
     if task.get("robot"):
         kwargs["robot"] = task["robot"]
+    if task.get("map_params"):
+        kwargs["map_params"] = dict(task["map_params"])
     return Config(**kwargs)
 
 
@@ -475,7 +484,8 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
         from tpuaf.maps import load_map
 
         config = run_config(task)
-        engine = make_engine(config, load_map(task["map_source"]), task.get("runtime") or "graph")
+        pm = load_map(task["map_source"], params=task.get("map_params"), params_origin="map_params")
+        engine = make_engine(config, pm, task.get("runtime") or "graph")
         summary = engine.run()
         result["config"] = engine.effective_config()
         result["summary"] = summary
@@ -653,14 +663,16 @@ def write_tables(root: Path) -> tuple[Path, Path]:
     return results, samples_path
 
 
-def reference_rows(maps: list[MapSpec], robots: Iterable[int]) -> list[dict[str, Any]]:
-    """Reference tours (tours.py) per (map, N) at the map's nominal speed."""
+def reference_rows(maps: list[MapSpec], robots: Iterable[int],
+                   map_params: dict[str, Any] | None = None) -> list[dict[str, Any]]:
+    """Reference tours (tours.py) per (map, N) at the map's nominal speed (after the
+    `map_params` overrides)."""
     from tpuaf.maps import load_map
     from tpuaf.maps.tours import reference_tours
 
     rows = []
     for spec in maps:
-        pm = load_map(spec.source)
+        pm = load_map(spec.source, params=map_params, params_origin="--map-param")
         speed = float(pm.settings.nominal_speed)
         for n in sorted(set(robots)):
             r = reference_tours(pm, n, speed)
@@ -679,14 +691,15 @@ def reference_rows(maps: list[MapSpec], robots: Iterable[int]) -> list[dict[str,
     return rows
 
 
-def write_reference(root: Path, maps: list[MapSpec], robots: Iterable[int]) -> Path:
+def write_reference(root: Path, maps: list[MapSpec], robots: Iterable[int],
+                    map_params: dict[str, Any] | None = None) -> Path:
     """Merge the reference tours of these (map, N) into DIR/reference.csv."""
     path = Path(root) / "reference.csv"
     old = []
     if path.is_file():
         with open(path, newline="") as f:
             old = list(csv.DictReader(f))
-    new = reference_rows(maps, robots)
+    new = reference_rows(maps, robots, map_params)
     fresh = {(r["map"], int(r["robots"])) for r in new}
     keep = [r for r in old if (r["map"], int(r["robots"])) not in fresh]
     rows = sorted(keep + new, key=lambda r: (r["map"], int(r["robots"])))
@@ -799,7 +812,7 @@ def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
     total = len(spec.keys())
     outcome = SweepOutcome(total=total, skipped=total - len(todo), ran=0, failed=0,
                            wall_time_s=0.0)
-    write_reference(root, spec.maps, spec.robots)
+    write_reference(root, spec.maps, spec.robots, spec.map_params)
     start = time.perf_counter()
     if todo:
         # The longest runs first (more robots), so the end of the sweep is not one long tail.
@@ -898,7 +911,7 @@ def _finish(root: Path, spec: SweepSpec, outcome: SweepOutcome) -> None:
             history = []
     record = {"maps": [asdict(m) for m in spec.maps], "strategies": spec.strategies,
               "robots": spec.robots, "seeds": spec.seeds, "duration_s": spec.duration_s,
-              "teammate_timeout_s": spec.teammate_timeout_s,
+              "teammate_timeout_s": spec.teammate_timeout_s, "map_params": spec.map_params,
               "scenarios": [s.name for s in spec.scenarios],
               **{k: v for k, v in outcome.to_dict().items() if k != "computed"}}
     entry = {k: record[k] for k in ("strategies", "robots", "scenarios", "total", "ran",

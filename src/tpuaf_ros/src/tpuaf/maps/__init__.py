@@ -32,13 +32,16 @@ def builtin_map_names() -> list[str]:
     return sorted(GENERATORS)
 
 
-def load_map(name_or_path: str | Path, allow_occupied_vertices: bool = False) -> PatrolMap:
+def load_map(name_or_path: str | Path, allow_occupied_vertices: bool = False,
+             params: dict | None = None, params_origin: str = "map parameters") -> PatrolMap:
     """A built-in map by name (`grid`, `lab`), or a path: a folder of ours (with map.yaml), a
     patrolling_sim folder (with a .graph file) or a .graph file. Every map is checked
     (connected graph, valid lengths) and comes with an occupancy grid (from its image, or
     corridors generated from the graph when first asked for: `occupancy_grid()`), and its
     geometry is checked (tpuaf.maps.geometry: vertices on free cells, unless
-    `allow_occupied_vertices`; doubts in `warnings`)."""
+    `allow_occupied_vertices`; doubts in `warnings`). `params` ({key: value},
+    tpuaf.maps.params.USER_PARAMS) override the map's settings; errors name `params_origin`
+    (e.g. '--map-param')."""
     from tpuaf.maps.builtin import BUILTIN_MAPS_DIR, GENERATORS
     from tpuaf.maps.mapfile import load_map_folder
     from tpuaf.maps.patrolling_sim import load_patrolling_sim
@@ -71,7 +74,9 @@ def load_map(name_or_path: str | Path, allow_occupied_vertices: bool = False) ->
                 "or a .graph file"
             )
     from tpuaf.maps.geometry import check_coordinates, check_geometry
+    from tpuaf.maps.params import apply_map_params
 
+    apply_map_params(pm, params or {}, params_origin)
     pm.graph  # noqa: B018 - validate now
     check_coordinates(pm)  # before a grid is generated from them
     check_geometry(pm, allow_occupied_vertices)  # builds the grid only if a check needs it

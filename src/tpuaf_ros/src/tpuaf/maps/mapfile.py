@@ -36,6 +36,7 @@ from tpuaf_core import yamlfile
 from tpuaf.errors import MapError
 from tpuaf.maps.model import MapSettings, PatrolMap
 from tpuaf.maps.occupancy import as_number, load_occupancy
+from tpuaf.maps.params import MAP_FILE
 
 
 def read_yaml(path: Path) -> Any:
@@ -267,6 +268,7 @@ def _load_map_folder(folder: Path, fast: bool) -> PatrolMap:
         corridor_width=corridor,
         bounds=bounds,
         description=str(doc.get("description", "")),
+        setting_sources={k: MAP_FILE for k in doc.get("settings", {})},
     )
     pm.graph  # noqa: B018 - validates (connected, lengths) now, naming the map folder
     return pm

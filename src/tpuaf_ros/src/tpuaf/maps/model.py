@@ -61,6 +61,8 @@ class PatrolMap:
     description: str = ""
     notes: list[str] = field(default_factory=list)  # import remarks (e.g. parallel edges dropped)
     warnings: list[str] = field(default_factory=list)  # geometry doubts (tpuaf.maps.geometry)
+    # settings field -> where its value came from (tpuaf.maps.params; absent = MapSettings')
+    setting_sources: dict[str, str] = field(default_factory=dict)
 
     def occupancy_grid(self) -> Any:
         """The occupancy grid: the map's image, or corridors generated from the graph (cached)."""

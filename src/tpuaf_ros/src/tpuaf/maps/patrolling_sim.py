@@ -9,9 +9,10 @@ Edges are listed in both directions; an edge listed in one direction only is an 
 edges (the same pair listed more than once, or with different costs each way) are merged into
 one edge with the shortest cost; each merge is recorded in `PatrolMap.notes`.
 
-Settings of imported maps (the files carry none): 1 m/s, r = 5 m, d_if = 2 m, goal tolerance
-0.4 m, robot radius 0.165 m (the reference simulator's robot is a 0.33 m disc: the simulator's
-patrolling_sim preset), other values MapSettings defaults.
+Settings of imported maps (the files carry none): the reference simulator's robot (a 0.33 m
+disc at 1 m/s: the simulator's patrolling_sim preset), r = 5 m, d_if = 2 m (SPEC), goal
+tolerance 0.4 m (tpuaf.maps.params.imported_defaults); other values MapSettings defaults. Any
+of them can be overridden per run (`--map-param`, launch arg `map_params`).
 """
 
 from __future__ import annotations
@@ -26,13 +27,11 @@ from tpuaf_core.yamlfile import decode_utf8, read_regular_bytes, shorten
 from tpuaf.errors import MapError
 from tpuaf.maps.model import MapSettings, PatrolMap
 from tpuaf.maps.occupancy import load_occupancy
+from tpuaf.maps.params import imported_defaults
 
+# Fixed settings of imported maps; speed, r, d_if and the robot radius: imported_defaults.
 IMPORTED_SETTINGS = {
-    "nominal_speed": 1.0,
-    "sensing_radius": 5.0,
-    "interference_distance": 2.0,
-    "goal_tolerance": 0.4,
-    "robot_radius": 0.165,  # [m]: a 0.33 m diameter disc
+    "goal_tolerance": 0.4,  # [m]
 }
 
 
@@ -304,7 +303,8 @@ def load_patrolling_sim(path: str | Path) -> PatrolMap:
             warnings.append(f"{graph_file}: the graph is larger than its image: {text}")
         else:
             notes.append(text)
-    settings = MapSettings(**IMPORTED_SETTINGS)
+    defaults = imported_defaults(g["positions"])
+    settings = MapSettings(**IMPORTED_SETTINGS, **{k: v for k, (v, _) in defaults.items()})
     for candidate in (folder / "initial_poses.txt", folder.parent / "initial_poses.txt"):
         if candidate.is_file():
             settings.initial_poses, settings.initial_pose_variants = read_initial_poses(
@@ -325,6 +325,7 @@ def load_patrolling_sim(path: str | Path) -> PatrolMap:
         description=f"patrolling_sim map '{name}' imported from {folder}",
         notes=notes,
         warnings=warnings,
+        setting_sources={k: why for k, (_, why) in defaults.items()},
     )
     pm.graph  # noqa: B018 - validates connectivity now, with the file named in the error
     return pm

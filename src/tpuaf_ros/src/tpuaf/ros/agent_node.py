@@ -573,7 +573,7 @@ def main():
         p = parse(AgentParams, private_params(), rospy.get_name())
         sim = bool(rospy.get_param("/use_sim_time", False))
         check_params(p, sim)
-        patrol_map = load_map(p.map)
+        patrol_map = load_map(p.map, params=p.map_params, params_origin="~map_params")
         node = AgentNode(p, patrol_map, sim)
     except (NodeParamError, MapError, ParameterError, KeyError) as err:
         return fatal(err)

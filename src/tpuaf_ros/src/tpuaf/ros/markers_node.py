@@ -26,7 +26,7 @@ from tpuaf.errors import MapError
 from tpuaf.maps import load_map
 from tpuaf.measure.markers import MODES, Marker, PatrolView
 from tpuaf.measure.poses import POSE_SOURCES, feed_chains, robot_chains
-from tpuaf.params import NodeParamError, parse, req
+from tpuaf.params import NodeParamError, opt, parse, req
 from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, publish, run_node, yaw_of
 from tpuaf.team import messages
@@ -54,6 +54,7 @@ class MarkersParams:
     """Private parameters of patrol_markers (units in the comments)."""
 
     map: str = req("", "patrol map name or path")
+    map_params: dict = opt({}, dict)  # overrides of the map's settings {key: value}, e.g. {sensing_radius: 2.0} (tpuaf.maps.params; {} = the map's)
     robots: int = req(-1, "team size N")
     robot_prefix: str = "robot_"  # robot i is <robot_prefix><i> (namespace and tf prefix)
     team_ns: str = "/team"  # namespace of the team topics
@@ -195,7 +196,7 @@ def main():
             raise NodeParamError("~robots >= 1, ~rate > 0 and "
                                  f"~idleness_scale >= 0 needed, got {p.robots}, {p.rate:g}, "
                                  f"{p.idleness_scale:g}")
-        patrol_map = load_map(p.map)
+        patrol_map = load_map(p.map, params=p.map_params, params_origin="~map_params")
         MarkersNode(p, patrol_map)
     except (NodeParamError, MapError, OSError) as err:
         return fatal(err)

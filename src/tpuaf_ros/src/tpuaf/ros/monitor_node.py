@@ -293,7 +293,7 @@ def main():
             raise NodeParamError("~robots >= 1, ~duration > 0 and "
                                  f"~death_timeout > 0 needed, got {p.robots}, {p.duration:g}, "
                                  f"{p.death_timeout:g}")
-        patrol_map = load_map(p.map)
+        patrol_map = load_map(p.map, params=p.map_params, params_origin="~map_params")
         node = MonitorNode(p, patrol_map)
     except (NodeParamError, MapError, OSError, yaml.YAMLError) as err:
         return fatal(err)

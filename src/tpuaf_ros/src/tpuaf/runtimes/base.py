@@ -44,7 +44,8 @@ class TeamRun:
         self.config = config
         # The map as loaded (geometry: the world, the planner) and the plan's map (the robot's
         # speed and travel times: strategies, routes, metrics).
-        self.source_map = patrol_map if patrol_map is not None else load_map(config.map)
+        self.source_map = patrol_map if patrol_map is not None else load_map(
+            config.map, params=config.map_params, params_origin="map_params")
         self.robot = run_robot(config, self.source_map)
         self.patrol_map = travel_map(config, self.source_map, self.robot)
         self.seed = int(config.seed)

@@ -9,7 +9,8 @@ from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 from tpuaf import __version__
-from tpuaf.errors import TpuafError
+from tpuaf.errors import MapError, TpuafError
+from tpuaf.maps.params import check_map_params, effective_params
 from tpuaf.navigation.controller import CONTROL_PERIOD_S, PHYSICS_STEP_S
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import REGISTRY
@@ -79,6 +80,9 @@ class RunConfig:
     # runtime's point robot at the map's nominal speed.
     robot: str | None = None
     travel: str | None = None  # TRAVELS; None: declared without a robot, timed with one
+    # Overrides of the map's settings (tpuaf.maps.params.USER_PARAMS; `--map-param`), e.g.
+    # {"sensing_radius": 2.0} [m]; {} = the map's own.
+    map_params: dict[str, Any] = field(default_factory=dict)
 
     def resolved_travel(self) -> str:
         return self.travel or ("timed" if self.robot is not None else "declared")
@@ -102,6 +106,10 @@ class RunConfig:
             raise ConfigError(f"sample period must be > 0 s, got {self.sample_period_s}")
         if not (self.teammate_timeout_s > 0 and math.isfinite(self.teammate_timeout_s)):
             raise ConfigError(f"teammate timeout must be > 0 s, got {self.teammate_timeout_s}")
+        try:
+            self.map_params = check_map_params(self.map_params, "map_params")
+        except MapError as err:
+            raise ConfigError(str(err)) from None
         if self.travel is not None and self.travel not in TRAVELS:
             raise ConfigError(f"travel must be one of {', '.join(TRAVELS)}, got {self.travel!r}")
         self.faults()
@@ -132,6 +140,7 @@ def run_description(run, starts, strategy_params, faults, engine: str | None = N
         "map_name": pm.name,
         "map_source": str(pm.source) if pm.source else "built-in",
         "map_settings": asdict(pm.settings),
+        "map_setting_sources": {k: p["source"] for k, p in effective_params(pm).items()},
         "start_vertices": [int(pm.vertex_ids[v]) for v in starts],
         "faults": [f.to_dict() for f in faults],
         **extra,

@@ -301,7 +301,8 @@ class GraphRun:
         config.validate()
         self.config = config
         self.faults = config.faults()  # resolved (--fail-random drawn)
-        self.source_map = patrol_map if patrol_map is not None else load_map(config.map)
+        self.source_map = patrol_map if patrol_map is not None else load_map(
+            config.map, params=config.map_params, params_origin="map_params")
         self.robot = run_robot(config, self.source_map)  # None: the map's nominal figures
         self.patrol_map = travel_map(config, self.source_map, self.robot)
         self.graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
