@@ -13,7 +13,7 @@ namespace py = pybind11;
 void tpuaf::bindings::bind_graph(py::module_& m) {
   py::class_<PatrolGraph>(m, "PatrolGraph",
                           "Patrol graph: vertex positions [m], undirected edges with lengths [m], "
-                          "all-pairs shortest paths.")
+                          "shortest paths searched on demand (rows cached).")
       .def(py::init([](const Points& positions, const std::vector<py::tuple>& edges,
                        std::vector<std::int64_t> ids) {
              std::vector<Edge> parsed;
@@ -39,7 +39,8 @@ void tpuaf::bindings::bind_graph(py::module_& m) {
       .def_property_readonly("edges",
                              [](const PatrolGraph& g) {
                                std::vector<std::tuple<int, int, double>> out;
-                               for (const Edge& e : g.edges()) out.emplace_back(e.u, e.v, e.length_m);
+                               for (const Edge& e : g.edges())
+                                 out.emplace_back(e.u, e.v, e.length_m);
                                return out;
                              })
       .def("neighbours", &PatrolGraph::neighbours, py::arg("v"))
@@ -51,11 +52,33 @@ void tpuaf::bindings::bind_graph(py::module_& m) {
       .def_property_readonly("min_edge_length", &PatrolGraph::min_edge_length, "[m]")
       .def_property_readonly("max_edge_length", &PatrolGraph::max_edge_length, "[m]")
       .def("distance", &PatrolGraph::distance, py::arg("u"), py::arg("v"),
-           "Shortest-path length [m].")
+           "Shortest-path length [m] from u to v (u's search).",
+           py::call_guard<py::gil_scoped_release>())
+      .def(
+          "distances_from",
+          [](const PatrolGraph& g, int source) {
+            std::shared_ptr<const DistanceRow> row;
+            {
+              py::gil_scoped_release release;
+              row = g.row(source);
+            }
+            return Eigen::Map<const Eigen::VectorXd>(
+                       row->distance.data(), static_cast<Eigen::Index>(row->distance.size()))
+                .eval();
+          },
+          py::arg("source"),
+          "Shortest-path lengths [m] from `source` to every vertex (a copy of the cached row): "
+          "the same values as row `source` of `distances`, without the all-pairs matrix.")
       .def_property_readonly("distances", &PatrolGraph::distances,
-                             "All-pairs shortest-path lengths [m].")
+                             "All-pairs shortest-path lengths [m] (n x n, 8 n^2 bytes): built on "
+                             "first use and kept; distances_from(source) gives one row.")
+      .def_property_readonly("cached_rows", &PatrolGraph::cached_rows,
+                             "Rows of shortest paths the graph keeps now.")
+      .def_property_readonly("has_dense_matrices", &PatrolGraph::has_dense_matrices,
+                             "Whether an all-pairs matrix (distances, hop_matrix) was built.")
       .def("path", &PatrolGraph::path, py::arg("u"), py::arg("v"),
-           "Vertices of a shortest path, both ends included.")
+           "Vertices of a shortest path, both ends included.",
+           py::call_guard<py::gil_scoped_release>())
       .def("hops", &PatrolGraph::hops, py::arg("u"), py::arg("v"))
       .def_property_readonly("hop_matrix", &PatrolGraph::hop_matrix);
 

@@ -1,18 +1,31 @@
 #include "tpuaf_core/graph.hpp"
 
-#include "tpuaf_core/shortest_path.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <queue>
+#include <list>
+#include <mutex>
 #include <stdexcept>
+#include <unordered_map>
+
+#include "tpuaf_core/shortest_path.hpp"
 
 namespace tpuaf {
 
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 }
+
+struct PatrolGraph::PathCache {
+  std::mutex mutex;
+  DijkstraWorkspace work;    // labels of the searches stopped early
+  std::size_t capacity = 0;  // rows kept
+  std::list<int> order;      // sources, most recently used first
+  std::unordered_map<int, std::pair<std::shared_ptr<const DistanceRow>, std::list<int>::iterator>>
+      rows;
+  std::unique_ptr<Eigen::MatrixXd> distances;
+  std::unique_ptr<Eigen::MatrixXi> hops;
+};
 
 std::string PatrolGraph::vertex_name(int v) const {
   if (v >= 0 && v < static_cast<int>(ids_.size())) return std::to_string(ids_[v]);
@@ -59,8 +72,7 @@ PatrolGraph::PatrolGraph(const Points& positions, const std::vector<Edge>& edges
     }
     if (!(e.length_m > 0) || !std::isfinite(e.length_m)) {
       throw std::invalid_argument("edge " + vertex_name(e.u) + "-" + vertex_name(e.v) +
-                                  " has non-positive length " + std::to_string(e.length_m) +
-                                  " m");
+                                  " has non-positive length " + std::to_string(e.length_m) + " m");
     }
     // Parallel edges: keep the shortest.
     auto& adj = adjacency_[e.u];
@@ -89,58 +101,22 @@ PatrolGraph::PatrolGraph(const Points& positions, const std::vector<Edge>& edges
   }
   if (edges_.empty() && n > 1) throw std::invalid_argument("patrol graph has no edges");
 
-  // Shortest paths: Dijkstra from every vertex [m]; hop counts by breadth-first search. Each
-  // source fills one contiguous column of the transposed matrices (transposed once at the end).
-  Eigen::MatrixXd dist_t = Eigen::MatrixXd::Constant(n, n, kInf);
-  Eigen::MatrixXi next_t = Eigen::MatrixXi::Constant(n, n, -1);
-  Eigen::MatrixXi hops_t = Eigen::MatrixXi::Constant(n, n, -1);
-  ArcLists arcs(n);
+  arcs_.assign(n, {});
   for (int u = 0; u < n; ++u) {
     for (std::size_t k = 0; k < adjacency_[u].size(); ++k) {
-      arcs[u].push_back({adjacency_[u][k], adjacency_length_[u][k]});
+      arcs_[u].push_back({adjacency_[u][k], adjacency_length_[u][k]});
     }
   }
-  std::vector<int> chain, frontier;
-  for (int s = 0; s < n; ++s) {
-    const ShortestPathTree tree = dijkstra(arcs, {s});
-    const std::vector<int>& parent = tree.parent;
-    double* dist_s = dist_t.col(s).data();
-    int* next_s = next_t.col(s).data();
-    for (int t = 0; t < n; ++t) dist_s[t] = tree.distance[t];
-    for (int t = 0; t < n; ++t) {
-      if (t == s || next_s[t] >= 0) continue;
-      if (parent[t] < 0) {
-        throw std::invalid_argument("patrol graph is disconnected: vertex " + vertex_name(t) +
-                                    " cannot be reached from vertex " + vertex_name(s));
-      }
-      // The first hop after s: walk back from t to s or to a vertex whose first hop is known,
-      // then hand it down the walked chain (each vertex walked once per source).
-      chain.clear();
-      int step = t;
-      while (parent[step] != s && next_s[step] < 0) {
-        chain.push_back(step);
-        step = parent[step];
-      }
-      const int first = parent[step] == s ? step : next_s[step];
-      next_s[step] = first;
-      for (int v : chain) next_s[v] = first;
-    }
-    int* hops_s = hops_t.col(s).data();
-    frontier.assign(1, s);
-    hops_s[s] = 0;
-    for (std::size_t head = 0; head < frontier.size(); ++head) {
-      const int u = frontier[head];
-      for (int w : adjacency_[u]) {
-        if (hops_s[w] < 0) {
-          hops_s[w] = hops_s[u] + 1;
-          frontier.push_back(w);
-        }
-      }
+  cache_ = std::make_shared<PathCache>();
+  cache_->capacity = std::max<std::size_t>(
+      8, kRowCacheBytes / (static_cast<std::size_t>(n) * (sizeof(double) + sizeof(int))));
+  const std::shared_ptr<const DistanceRow> first = row(0);  // kept: farthest-point starts use it
+  for (int t = 0; t < n; ++t) {
+    if (t != 0 && first->parent[t] < 0) {
+      throw std::invalid_argument("patrol graph is disconnected: vertex " + vertex_name(t) +
+                                  " cannot be reached from vertex " + vertex_name(0));
     }
   }
-  dist_ = dist_t.transpose();
-  next_hop_ = next_t.transpose();
-  hops_ = hops_t.transpose();
   for (const Edge& e : edges_) total_edge_length_ += e.length_m;
   if (!edges_.empty()) {
     mean_edge_length_ = total_edge_length_ / static_cast<double>(edges_.size());
@@ -176,10 +152,101 @@ double PatrolGraph::edge_length(int u, int v) const {
   return adjacency_length_[u][static_cast<std::size_t>(it - adj.begin())];
 }
 
+std::shared_ptr<const DistanceRow> PatrolGraph::row(int source) const {
+  check_vertex(source);
+  PathCache& c = *cache_;
+  std::lock_guard<std::mutex> lock(c.mutex);
+  auto it = c.rows.find(source);
+  if (it != c.rows.end()) {
+    c.order.splice(c.order.begin(), c.order, it->second.second);
+    return it->second.first;
+  }
+  c.work.run(arcs_, {source});
+  const int n = num_vertices();
+  auto made = std::make_shared<DistanceRow>();
+  made->distance.resize(n);
+  made->parent.resize(n);
+  for (int t = 0; t < n; ++t) {
+    made->distance[t] = c.work.distance(t);
+    made->parent[t] = c.work.parent(t);
+  }
+  if (c.rows.size() >= c.capacity) {
+    c.rows.erase(c.order.back());
+    c.order.pop_back();
+  }
+  c.order.push_front(source);
+  c.rows.emplace(source, std::make_pair(made, c.order.begin()));
+  return made;
+}
+
 double PatrolGraph::distance(int u, int v) const {
   check_vertex(u);
   check_vertex(v);
-  return dist_(u, v);
+  PathCache& c = *cache_;
+  std::lock_guard<std::mutex> lock(c.mutex);
+  auto it = c.rows.find(u);
+  if (it != c.rows.end()) return it->second.first->distance[v];
+  c.work.run(arcs_, {u}, 0.0, {}, v);  // the same label as the whole row's (settled: final)
+  return c.work.distance(v);
+}
+
+int PatrolGraph::first_hop(int u, int v) const {
+  PathCache& c = *cache_;
+  std::lock_guard<std::mutex> lock(c.mutex);
+  auto it = c.rows.find(u);
+  if (it != c.rows.end()) {
+    const std::vector<int>& parent = it->second.first->parent;
+    int step = v;
+    while (parent[step] != u) step = parent[step];
+    return step;
+  }
+  c.work.run(arcs_, {u}, 0.0, {}, v);
+  int step = v;
+  while (c.work.parent(step) != u) step = c.work.parent(step);
+  return step;
+}
+
+const Eigen::MatrixXd& PatrolGraph::distances() const {
+  PathCache& c = *cache_;
+  std::lock_guard<std::mutex> lock(c.mutex);
+  if (!c.distances) {
+    const int n = num_vertices();
+    auto m = std::make_unique<Eigen::MatrixXd>(n, n);  // row s = search from s (column, then
+    for (int s = 0; s < n; ++s) {                      // transposed: contiguous writes)
+      c.work.run(arcs_, {s});
+      double* col = m->col(s).data();
+      for (int t = 0; t < n; ++t) col[t] = c.work.distance(t);
+    }
+    m->transposeInPlace();
+    c.distances = std::move(m);
+  }
+  return *c.distances;
+}
+
+const Eigen::MatrixXi& PatrolGraph::hop_matrix() const {
+  PathCache& c = *cache_;
+  std::lock_guard<std::mutex> lock(c.mutex);
+  if (!c.hops) {
+    const int n = num_vertices();
+    auto m = std::make_unique<Eigen::MatrixXi>(n, n);
+    for (int s = 0; s < n; ++s) {
+      const std::vector<int> level = hop_levels(s, -1);
+      std::copy(level.begin(), level.end(), m->col(s).data());
+    }
+    m->transposeInPlace();
+    c.hops = std::move(m);
+  }
+  return *c.hops;
+}
+
+std::size_t PatrolGraph::cached_rows() const {
+  std::lock_guard<std::mutex> lock(cache_->mutex);
+  return cache_->rows.size();
+}
+
+bool PatrolGraph::has_dense_matrices() const {
+  std::lock_guard<std::mutex> lock(cache_->mutex);
+  return cache_->distances != nullptr || cache_->hops != nullptr;
 }
 
 std::vector<int> PatrolGraph::path(int u, int v) const {
@@ -187,16 +254,33 @@ std::vector<int> PatrolGraph::path(int u, int v) const {
   check_vertex(v);
   std::vector<int> out{u};
   while (u != v) {
-    u = next_hop_(u, v);
+    u = first_hop(u, v);
     out.push_back(u);
   }
   return out;
 }
 
+std::vector<int> PatrolGraph::hop_levels(int u, int stop_at) const {
+  std::vector<int> level(static_cast<std::size_t>(num_vertices()), -1);
+  std::vector<int> frontier{u};
+  level[u] = 0;
+  for (std::size_t head = 0; head < frontier.size() && (stop_at < 0 || level[stop_at] < 0);
+       ++head) {
+    const int x = frontier[head];
+    for (int w : adjacency_[x]) {
+      if (level[w] < 0) {
+        level[w] = level[x] + 1;
+        frontier.push_back(w);
+      }
+    }
+  }
+  return level;
+}
+
 int PatrolGraph::hops(int u, int v) const {
   check_vertex(u);
   check_vertex(v);
-  return hops_(u, v);
+  return hop_levels(u, v)[v];
 }
 
 }  // namespace tpuaf

@@ -9,48 +9,73 @@
 
 namespace tpuaf {
 
-ShortestPathTree dijkstra(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
-                          const std::vector<char>& allowed, int stop_at) {
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}
+
+void DijkstraWorkspace::run(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
+                            const std::vector<char>& allowed, int stop_at) {
   const int n = static_cast<int>(arcs.size());
   if (!allowed.empty() && static_cast<int>(allowed.size()) != n) {
     throw std::invalid_argument("dijkstra: the allowed mask has " + std::to_string(allowed.size()) +
                                 " entries for " + std::to_string(n) + " vertices");
   }
-  ShortestPathTree tree{std::vector<double>(n, std::numeric_limits<double>::infinity()),
-                        std::vector<int>(n, -1), std::vector<int>(n, -1)};
-  std::vector<char> settled(n, 0);
+  if (static_cast<int>(distance_.size()) != n) {
+    distance_.assign(n, kInf);
+    parent_.assign(n, -1);
+    source_.assign(n, -1);
+    settled_.assign(n, 0);
+    labelled_.assign(n, 0);
+    touched_.clear();
+  }
+  for (int v : touched_) {  // forget the previous search
+    distance_[v] = kInf;
+    parent_[v] = source_[v] = -1;
+    settled_[v] = labelled_[v] = 0;
+  }
+  touched_.clear();
   using Item = std::tuple<double, int, int>;  // distance, source index, vertex
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
   for (int k = 0; k < static_cast<int>(sources.size()); ++k) {
     const int s = sources[k];
     if (s < 0 || s >= n)
       throw std::out_of_range("dijkstra: unknown source vertex " + std::to_string(s));
-    if (tree.distance[s] > 0.0) {
-      tree.distance[s] = 0.0;
+    if (distance_[s] > 0.0) {
+      mark(s);
+      distance_[s] = 0.0;
       queue.emplace(0.0, k, s);
     }
   }
   while (!queue.empty()) {
     const auto [d, k, u] = queue.top();
     queue.pop();
-    if (settled[u]) continue;
-    settled[u] = 1;
-    tree.source[u] = k;
+    if (settled_[u]) continue;
+    settled_[u] = 1;
+    source_[u] = k;
     if (u == stop_at) break;
     for (const Arc& arc : arcs[u]) {
       const int w = arc.to;
       if (w < 0 || w >= n)
         throw std::out_of_range("dijkstra: arc to unknown vertex " + std::to_string(w));
-      if (settled[w] || (!allowed.empty() && !allowed[w])) continue;
+      if (settled_[w] || (!allowed.empty() && !allowed[w])) continue;
       const double nd = d + arc.weight;
-      if (nd < tree.distance[w] + tolerance) {
-        tree.distance[w] = nd;
-        tree.parent[w] = u;
+      if (nd < distance_[w] + tolerance) {
+        mark(w);
+        distance_[w] = nd;
+        parent_[w] = u;
         queue.emplace(nd, k, w);
       }
     }
   }
-  return tree;
+}
+
+ShortestPathTree DijkstraWorkspace::tree() const { return {distance_, parent_, source_}; }
+
+ShortestPathTree dijkstra(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
+                          const std::vector<char>& allowed, int stop_at) {
+  DijkstraWorkspace work;
+  work.run(arcs, sources, tolerance, allowed, stop_at);
+  return work.tree();
 }
 
 }  // namespace tpuaf

@@ -248,9 +248,9 @@ std::vector<int> double_bridge(const std::vector<int>& order, Rng& rng) {
 
 // Shortest paths inside a vertex subset (local indices), for a part's metric and its walk.
 struct SubsetPaths {
-  std::vector<int> vertices;     // sorted global indices
-  std::vector<double> dist;      // k x k [m]
-  std::vector<int> parent;       // k x k: parent[a * k + b] = previous local vertex of b from a
+  std::vector<int> vertices;  // sorted global indices
+  std::vector<double> dist;   // k x k [m]
+  std::vector<int> parent;    // k x k: parent[a * k + b] = previous local vertex of b from a
 };
 
 SubsetPaths subset_paths(const PatrolGraph& graph, const std::vector<int>& input,
@@ -360,8 +360,8 @@ std::vector<int> tsp_order(const std::vector<double>& dist, int n, const TourSea
   int previous = -1;
   for (int i = 0; i < starts; ++i) {
     // start vertices spread evenly over 0..n-1
-    const int s = starts == 1 ? 0 : static_cast<int>((static_cast<long long>(n - 1) * i) /
-                                                     (starts - 1));
+    const int s =
+        starts == 1 ? 0 : static_cast<int>((static_cast<long long>(n - 1) * i) / (starts - 1));
     if (s == previous) continue;
     previous = s;
     ls.set_order(nearest_neighbour(dist, n, s));
@@ -447,7 +447,7 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
   const int n = graph.num_vertices();
   if (k < 1) throw std::invalid_argument("balanced_partition: k must be >= 1");
   k = std::min(k, n);
-  const Eigen::MatrixXd& dist = graph.distances();
+  // Rows of shortest paths on demand (graph.row): no all-pairs matrix.
   ArcLists arcs(n);
   for (int v = 0; v < n; ++v) {
     for (int w : graph.neighbours(v)) {
@@ -465,7 +465,13 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
   };
   // first seeds: the most central vertex, the most remote one, and vertex 0
   std::vector<double> sums(n, 0.0);
-  for (int v = 0; v < n; ++v) sums[v] = dist.row(v).sum();
+  for (int v = 0; v < n; ++v) {  // summed in index order, as Eigen sums a matrix row
+    const std::shared_ptr<const DistanceRow> row = graph.row(v);
+    const std::vector<double>& d = row->distance;
+    double sum = d[0];
+    for (int t = 1; t < n; ++t) sum += d[t];
+    sums[v] = sum;
+  }
   const int remote = static_cast<int>(std::max_element(sums.begin(), sums.end()) - sums.begin());
   const int central = static_cast<int>(std::min_element(sums.begin(), sums.end()) - sums.begin());
   std::vector<int> firsts{remote, central, 0};
@@ -478,12 +484,13 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
   for (std::size_t f = 0; f < firsts.size(); ++f) {
     std::vector<int> seeds{firsts[f]};
     std::vector<double> nearest(n);
-    for (int v = 0; v < n; ++v) nearest[v] = dist(firsts[f], v);
+    nearest = graph.row(firsts[f])->distance;
     while (static_cast<int>(seeds.size()) < k) {  // farthest-point seeding
       const int far =
           static_cast<int>(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
       seeds.push_back(far);
-      for (int v = 0; v < n; ++v) nearest[v] = std::min(nearest[v], dist(far, v));
+      const std::shared_ptr<const DistanceRow> from = graph.row(far);
+      for (int v = 0; v < n; ++v) nearest[v] = std::min(nearest[v], from->distance[v]);
     }
     std::vector<int> owner = dijkstra(arcs, seeds, kEps).source;
     std::vector<std::vector<int>> parts(k);

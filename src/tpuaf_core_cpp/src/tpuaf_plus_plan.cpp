@@ -28,8 +28,9 @@ void slot_departures(const PatrolGraph& graph, const PlusRoute& route, int start
   const std::size_t n = route.walk.size();
   const double L = route.length;
   std::vector<double> d(n), u(n);
+  const std::shared_ptr<const DistanceRow> from = graph.row(start);
   for (std::size_t i = 0; i < n; ++i) {
-    d[i] = graph.distance(start, route.walk[i]) + late_m;
+    d[i] = from->distance[static_cast<std::size_t>(route.walk[i])] + late_m;
     u[i] = py_mod(route.arc[i] - d[i], L);
   }
   std::vector<int> order(n);
@@ -119,8 +120,9 @@ double spacing_dwell(std::vector<MatePlace> mates, double length_m, double pace_
 int nearest_entry(const PatrolGraph& graph, const PlusRoute& route, int vertex) {
   int best = -1;
   double best_d = kInf;
+  const std::shared_ptr<const DistanceRow> from = graph.row(vertex);
   for (int w : route.walk) {
-    const double d = graph.distance(vertex, w);
+    const double d = from->distance[static_cast<std::size_t>(w)];
     if (best < 0 || d < best_d || (d == best_d && w < best)) {
       best = w;
       best_d = d;

@@ -33,23 +33,26 @@ UtilityResult tpuaf_utilities(const PatrolGraph& graph, const Eigen::VectorXd& i
   r.predicted.resize(m);
   const double mean_edge = graph.mean_edge_length();
   const int i = q.current_vertex;
+  // The any-vertex variant reads one row of shortest paths from i (a search, or the cache's).
+  const std::shared_ptr<const DistanceRow> from_i = q.use_path_length ? graph.row(i) : nullptr;
   for (std::size_t k = 0; k < m; ++k) {
     const int j = q.candidates[k];
     graph.check_vertex(j);
     // Eq. 7: d_ij = max(c_ij, c_avg); the any-vertex variant uses the shortest-path length.
-    const double c = q.use_path_length ? graph.distance(i, j) : graph.edge_length(i, j);
+    const double c = q.use_path_length ? from_i->distance[j] : graph.edge_length(i, j);
     const double d = std::max(c, mean_edge);
     const double dt = d / q.speed_mps;  // Eq. 6
     const double t_end = q.now_s + dt;  // Eq. 8
     // Eq. 9-10: an announced arrival of another robot before t_end counts as the last visit.
     const double announced = q.announced_arrival_s[j];
     const bool visited_before = std::isfinite(announced) && announced <= t_end;
-    const double t_sta = visited_before ? std::max(q.last_visit_s[j], announced) : q.last_visit_s[j];
+    const double t_sta =
+        visited_before ? std::max(q.last_visit_s[j], announced) : q.last_visit_s[j];
     const double idle = std::abs(t_end - t_sta);
     // Step 4: predicted uncertainty at arrival; an announced earlier visit clears it to 0.
-    const double x_hat = visited_before
-                             ? model.evolve(0.0, importance[j], t_end - std::max(announced, q.now_s))
-                             : model.evolve(q.estimate[j], importance[j], dt);
+    const double x_hat =
+        visited_before ? model.evolve(0.0, importance[j], t_end - std::max(announced, q.now_s))
+                       : model.evolve(q.estimate[j], importance[j], dt);
     double u;
     if (q.form == UtilityForm::kEq13) {
       u = x_hat * idle / dt;  // Eq. 13

@@ -2,10 +2,12 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "tpuaf_core/perception.hpp"
+#include "tpuaf_core/shortest_path.hpp"
 
 namespace tpuaf {
 
@@ -14,6 +16,16 @@ struct Edge {
   int v;
   double length_m;
 };
+
+// Shortest paths from one source: lengths [m] and the previous vertex (-1 at the source).
+struct DistanceRow {
+  std::vector<double> distance;
+  std::vector<int> parent;
+};
+
+// Rows kept per graph (least recently used dropped beyond this): every row of a graph up to
+// about 2,300 vertices, 530 rows of a 10,000-vertex one.
+constexpr std::size_t kRowCacheBytes = 64u << 20;  // [B]
 
 class PatrolGraph {
  public:
@@ -38,14 +50,27 @@ class PatrolGraph {
   double min_edge_length() const { return min_edge_length_; }
   double max_edge_length() const { return max_edge_length_; }
 
-  // Shortest-path length [m] along edges.
+  // Shortest paths are searched on demand (no all-pairs matrix unless asked for): a row is
+  // one Dijkstra search from its source (shortest_path.hpp), every value the same as a row of
+  // the all-pairs matrix would hold.
+  // Shortest-path length [m] along edges from u to v: u's cached row, else a search from u
+  // stopped once v is settled.
   double distance(int u, int v) const;
-  const Eigen::MatrixXd& distances() const { return dist_; }
-  // Vertex sequence of a shortest path, both ends included.
+  // Lengths [m] from `source` to every vertex, kept in the graph's row cache.
+  std::shared_ptr<const DistanceRow> row(int source) const;
+  // All-pairs lengths [m] (n x n doubles, 8 n^2 B): built by the first call and kept, for
+  // callers that need every pair (the baselines); others use row() or distance().
+  const Eigen::MatrixXd& distances() const;
+  // Vertex sequence of a shortest path, both ends included: each step the first hop of a
+  // shortest path from the vertex reached (u's search, then the next vertex's, ...).
   std::vector<int> path(int u, int v) const;
-  // Fewest edges between u and v.
+  // Fewest edges between u and v (breadth-first search from u).
   int hops(int u, int v) const;
-  const Eigen::MatrixXi& hop_matrix() const { return hops_; }
+  // All-pairs hop counts (n x n ints): built by the first call and kept.
+  const Eigen::MatrixXi& hop_matrix() const;
+  // What the graph holds now: rows in its cache, and whether the all-pairs matrices were built.
+  std::size_t cached_rows() const;
+  bool has_dense_matrices() const;
 
   std::string vertex_name(int v) const;
   void check_vertex(int v) const;
@@ -54,13 +79,16 @@ class PatrolGraph {
   Points positions_;
   std::vector<Edge> edges_;
   std::vector<std::int64_t> ids_;
+  struct PathCache;  // row cache, search labels, all-pairs matrices; shared by copies
+  int first_hop(int u, int v) const;
+  // Breadth-first levels from u (-1: not reached), stopped once stop_at (>= 0) has its level.
+  std::vector<int> hop_levels(int u, int stop_at) const;
+
   std::vector<std::vector<int>> adjacency_;
   std::vector<std::vector<double>> adjacency_length_;
-  Eigen::MatrixXd dist_;
-  Eigen::MatrixXi next_hop_;
-  Eigen::MatrixXi hops_;
-  double mean_edge_length_ = 0, total_edge_length_ = 0, min_edge_length_ = 0,
-         max_edge_length_ = 0;
+  ArcLists arcs_;
+  std::shared_ptr<PathCache> cache_;
+  double mean_edge_length_ = 0, total_edge_length_ = 0, min_edge_length_ = 0, max_edge_length_ = 0;
 };
 
 }  // namespace tpuaf

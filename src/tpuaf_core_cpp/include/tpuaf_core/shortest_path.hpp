@@ -1,6 +1,7 @@
 // The one shortest-path search of the project: Dijkstra over non-negative arc weights, from one
-// or several sources, optionally restricted to a vertex subset. Used by PatrolGraph (all pairs),
-// the reference tours (paths inside a part, nearest-seed partitions) and HPCC's weighted paths.
+// or several sources, optionally restricted to a vertex subset. Used by PatrolGraph (single-source
+// rows and paths on demand), the reference tours (paths inside a part, nearest-seed partitions)
+// and HPCC's weighted paths.
 #pragma once
 
 #include <vector>
@@ -19,11 +20,40 @@ struct ShortestPathTree {
   std::vector<int> source;       // index into `sources` of the tree that settled it; -1 if none
 };
 
-// Vertices are settled in the order (distance, source index, vertex), so ties are decided the
-// same way on every machine. A vertex not yet settled is relabelled when a path to it is shorter
-// than its label plus `tolerance` (0: strictly shorter; < 0: shorter by more than -tolerance;
-// > 0: also nearly equal paths compete, the settling order then picks). `allowed` (empty: all)
-// masks the vertices the search may enter; the search stops once `stop_at` (>= 0) is settled.
+// Labels of repeated searches on one graph, kept between them: a search resets only the
+// vertices the previous one reached, so a search stopped early (`stop_at`) costs O(the ball it
+// explores), not O(vertices). Not thread-safe: one workspace per thread.
+class DijkstraWorkspace {
+ public:
+  // Vertices are settled in the order (distance, source index, vertex), so ties are decided the
+  // same way on every machine. A vertex not yet settled is relabelled when a path to it is
+  // shorter than its label plus `tolerance` (0: strictly shorter; < 0: shorter by more than
+  // -tolerance; > 0: also nearly equal paths compete, the settling order then picks). `allowed`
+  // (empty: all) masks the vertices the search may enter; it stops once `stop_at` (>= 0) is
+  // settled. A settled vertex's labels are final: those of a search without `stop_at`.
+  void run(const ArcLists& arcs, const std::vector<int>& sources, double tolerance = 0.0,
+           const std::vector<char>& allowed = {}, int stop_at = -1);
+  double distance(int v) const { return distance_[v]; }  // +inf: not reached
+  int parent(int v) const { return parent_[v]; }
+  int source(int v) const { return source_[v]; }
+  bool settled(int v) const { return settled_[v] != 0; }
+  // The last search's labels of every vertex (O(vertices)).
+  ShortestPathTree tree() const;
+
+ private:
+  void mark(int v) {
+    if (!labelled_[v]) {
+      labelled_[v] = 1;
+      touched_.push_back(v);
+    }
+  }
+  std::vector<double> distance_;
+  std::vector<int> parent_, source_;
+  std::vector<char> settled_, labelled_;
+  std::vector<int> touched_;  // vertices the last search labelled
+};
+
+// One search into a fresh tree (DijkstraWorkspace::run, same arguments).
 ShortestPathTree dijkstra(const ArcLists& arcs, const std::vector<int>& sources,
                           double tolerance = 0.0, const std::vector<char>& allowed = {},
                           int stop_at = -1);

@@ -46,6 +46,9 @@ class VisitRule {
   double radius_;
   double rearm_sq_;  // [m^2] squared re-arm distance
   std::vector<char> armed_;
+  // The disarmed vertices, each once: only these can change in observe(), so it costs
+  // O(disarmed), not O(vertices), on a big map.
+  std::vector<int> disarmed_;
   long long visits_ = 0;
 };
 

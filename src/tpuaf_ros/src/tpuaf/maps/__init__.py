@@ -108,13 +108,13 @@ def start_vertices(patrol_map: PatrolMap, n_robots: int) -> list[int]:
                 d[taken] = np.inf
             taken.append(int(np.argmin(d)))
         return taken
-    dist = np.asarray(patrol_map.graph.distances, dtype=float)
+    graph = patrol_map.graph  # one row of shortest paths per start: no all-pairs matrix
     chosen = [0]
-    nearest = dist[0].copy()
+    nearest = np.asarray(graph.distances_from(0), dtype=float)
     while len(chosen) < min(n_robots, n):
         nxt = int(np.argmax(nearest))
         chosen.append(nxt)
-        nearest = np.minimum(nearest, dist[nxt])
+        nearest = np.minimum(nearest, graph.distances_from(nxt))
     return [chosen[k % n] for k in range(n_robots)]
 
 

@@ -338,8 +338,10 @@ def first_coverage_bound(patrol_map: Any, starts: list[int], speed: float) -> fl
     starts = sorted({int(s) for s in starts})
     if not starts or n <= 1:
         return 0.0
-    dist = np.asarray(graph.distances, dtype=float)
-    farthest = float(dist[starts].min(axis=0).max())
+    nearest = np.asarray(graph.distances_from(starts[0]), dtype=float)  # rows, not all pairs
+    for s in starts[1:]:
+        nearest = np.minimum(nearest, graph.distances_from(s))
+    farthest = float(nearest.max())
     root = list(range(n))
 
     def find(v: int) -> int:
