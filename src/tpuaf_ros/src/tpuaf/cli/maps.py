@@ -67,6 +67,69 @@ LONG_RATIO = 1.5  # planned / declared length above this: a warning
 SHOWN = 10  # blocked or long edges listed one by one per map; the rest are counted
 
 
+WINDOW_CELLS = 4_000_000  # grid cells (a 100 m square at 5 cm): beyond, edges in windows
+TILE_M = 40.0  # [m] side of the squares grouping a big grid's edges by their midpoints
+
+
+class _Window:
+    """A map seen through part of its occupancy grid, with some of its edges: what PathPlanner
+    reads of a map."""
+
+    def __init__(self, patrol_map, grid, edges: list):
+        self.positions, self.graph, self.edges = patrol_map.positions, patrol_map.graph, edges
+        self._grid = grid
+
+    def occupancy_grid(self):
+        return self._grid
+
+
+def _windows(patrol_map, radius: float):
+    """(grid window, edges) of a big grid: edges grouped by the TILE_M square of their midpoint,
+    each group planned on the grid cropped to its endpoints plus a margin holding every path up
+    to LONG_RATIO x the edge's length (an ellipse round the edge) and the costmap's reach
+    beyond it, so the check's verdicts are those of the whole grid."""
+    import numpy as np
+
+    from tpuaf.maps.occupancy import OccupancyGrid
+    from tpuaf.navigation.planner import PlannerConfig
+
+    grid = patrol_map.occupancy_grid()
+    c = PlannerConfig()
+    res, (ox, oy) = float(grid.resolution), grid.origin
+    step = max(1, math.floor(0.5 * (radius + c.safety_margin_m) / res + 1e-9))  # planning cell
+    pos = np.asarray(patrol_map.positions, dtype=float)
+    groups: dict[tuple[int, int], list] = {}
+    for u, v, length in patrol_map.graph.edges:
+        mid = 0.5 * (pos[u] + pos[v])
+        groups.setdefault((int(mid[0] // TILE_M), int(mid[1] // TILE_M)), []).append((u, v, length))
+    for key in sorted(groups):
+        edges = groups[key]
+        ends = pos[[i for u, v, _ in edges for i in (u, v)]]
+        margin = 0.5 * LONG_RATIO * max(float(e[2]) for e in edges) + radius + \
+            c.safety_margin_m + c.inflation_m
+        (x0, y0), (x1, y1) = ends.min(axis=0) - margin, ends.max(axis=0) + margin
+        c0 = max(0, math.floor((x0 - ox) / res) // step * step)
+        r0 = max(0, math.floor((y0 - oy) / res) // step * step)
+        c1, r1 = min(grid.width, math.ceil((x1 - ox) / res)), min(grid.height, math.ceil((y1 - oy) / res))
+        window = OccupancyGrid(np.ascontiguousarray(grid.occupied[r0:r1, c0:c1]), res,
+                               (ox + c0 * res, oy + r0 * res))
+        yield window, edges
+
+
+def planned_edges(patrol_map, radius: float) -> list:
+    """EdgeCheck of every edge (navigation/planner.py), sorted by vertex indices: on the whole
+    grid, or, on a grid of more than WINDOW_CELLS cells, window by window (`_windows`: the
+    costmap of one window at a time, not of the whole grid)."""
+    from tpuaf.navigation.planner import PathPlanner
+
+    if patrol_map.occupancy_grid().occupied.size <= WINDOW_CELLS:
+        return PathPlanner(patrol_map, radius).check_edges()
+    checks = []
+    for window, edges in _windows(patrol_map, radius):
+        checks += PathPlanner(_Window(patrol_map, window, edges), radius).check_edges()
+    return sorted(checks, key=lambda c: (c.u, c.v))
+
+
 def edge_check(patrol_map) -> dict:
     """Every edge of the map planned for a robot of the map's `settings.robot_radius` [m]:
     counts, the edges without a collision-free path ("blocked", with the ids of their vertices
@@ -75,14 +138,12 @@ def edge_check(patrol_map) -> dict:
     any)."""
     import numpy as np
 
-    from tpuaf.navigation.planner import PathPlanner
-
     radius = float(patrol_map.settings.robot_radius)
     ids = patrol_map.vertex_ids
     grid = patrol_map.occupancy_grid()
     occupied = {i for i, (x, y) in enumerate(patrol_map.positions) if not grid.is_free(x, y)}
     blocked, long, ratios = [], [], []
-    for c in PathPlanner(patrol_map, radius).check_edges():
+    for c in planned_edges(patrol_map, radius):
         edge = {"edge": f"{ids[c.u]}-{ids[c.v]}", "declared_m": c.declared_m}
         if not math.isfinite(c.planned_m):
             blocked.append({**edge, "occupied_vertices": [ids[i] for i in (c.u, c.v)

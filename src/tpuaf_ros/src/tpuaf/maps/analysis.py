@@ -7,22 +7,47 @@ import numpy as np
 from tpuaf.maps.model import PatrolMap
 
 
-def weight_matrix(patrol_map: PatrolMap) -> np.ndarray:
-    """Symmetric weights W_ij = edge length [m] (0 where there is no edge)."""
+DENSE_FIEDLER_MAX = 1000  # vertices: up to this many, the dense eigensolver (exact, < 0.2 s)
+SHIFT = -1e-6  # shift-invert target of the sparse solver, just below L's eigenvalue 0
+
+
+def weight_matrix(patrol_map: PatrolMap, sparse: bool = False):
+    """Symmetric weights W_ij = edge length [m] (0 where there is no edge): a dense array, or
+    with `sparse` a scipy CSR matrix (no n x n array)."""
     g = patrol_map.graph
     n = g.num_vertices
+    edges = g.edges
+    if sparse:
+        from scipy.sparse import coo_matrix
+
+        u = np.array([e[0] for e in edges], dtype=np.int64)
+        v = np.array([e[1] for e in edges], dtype=np.int64)
+        length = np.array([e[2] for e in edges], dtype=float)
+        return coo_matrix((np.r_[length, length], (np.r_[u, v], np.r_[v, u])), shape=(n, n)).tocsr()
     w = np.zeros((n, n))
-    for u, v, length in g.edges:
+    for u, v, length in edges:
         w[u, v] = w[v, u] = length
     return w
 
 
-def fiedler_value(patrol_map: PatrolMap) -> float:
+def fiedler_value(patrol_map: PatrolMap, dense_max: int = DENSE_FIEDLER_MAX) -> float:
     """Algebraic connectivity: 2nd smallest eigenvalue of the symmetric normalised Laplacian
-    L = I - D^-1/2 W D^-1/2 with W_ij = edge length [m] (the paper's Table 1 values)."""
-    w = weight_matrix(patrol_map)
-    if w.shape[0] < 2:
+    L = I - D^-1/2 W D^-1/2 with W_ij = edge length [m] (the paper's Table 1 values). Up to
+    `dense_max` vertices all eigenvalues of the dense L; beyond, the two nearest SHIFT of the
+    sparse L (scipy's eigsh, shift-invert: a sparse factorisation, O(edges) memory)."""
+    n = patrol_map.graph.num_vertices
+    if n < 2:
         return 0.0
+    if n > dense_max:
+        from scipy.sparse import diags, identity
+        from scipy.sparse.linalg import eigsh
+
+        w = weight_matrix(patrol_map, sparse=True)
+        inv_sqrt = diags(1.0 / np.sqrt(np.asarray(w.sum(axis=1)).ravel()))
+        lap = (identity(n, format="csc") - inv_sqrt @ w @ inv_sqrt).tocsc()
+        values = eigsh(lap, k=2, sigma=SHIFT, which="LM", return_eigenvectors=False)
+        return float(np.sort(values)[1])
+    w = weight_matrix(patrol_map)
     d = w.sum(axis=1)
     inv_sqrt = 1.0 / np.sqrt(d)
     lap = np.eye(len(d)) - inv_sqrt[:, None] * w * inv_sqrt[None, :]
