@@ -28,6 +28,28 @@ TEST(Graph, ShortestPathsAvoidTheLongDiagonal) {
   EXPECT_EQ(path.back(), 2);
 }
 
+TEST(Graph, AWorkspaceSearchStoppedEarlyThenReusedGivesAFreshSearchsLabels) {
+  PatrolGraph g = square();
+  ArcLists arcs(4);
+  for (const Edge& e : g.edges()) {
+    arcs[e.u].push_back({e.v, e.length_m});
+    arcs[e.v].push_back({e.u, e.length_m});
+  }
+  DijkstraWorkspace work;
+  work.run(arcs, {0}, 0.0, {}, 1);  // stopped once vertex 1 is settled
+  EXPECT_TRUE(work.settled(1));
+  EXPECT_FALSE(work.settled(2));
+  work.run(arcs, {3});  // the previous labels are forgotten
+  const ShortestPathTree fresh = dijkstra(arcs, {3});
+  for (int v = 0; v < 4; ++v) {
+    EXPECT_EQ(work.distance(v), fresh.distance[v]);
+    EXPECT_EQ(work.parent(v), fresh.parent[v]);
+  }
+  EXPECT_FALSE(g.has_dense_matrices());
+  EXPECT_EQ(g.row(2)->distance[0], g.distances()(2, 0));
+  EXPECT_TRUE(g.has_dense_matrices());
+}
+
 TEST(Graph, EdgeStatistics) {
   PatrolGraph g = square();
   EXPECT_EQ(g.num_edges(), 5);

@@ -6,7 +6,6 @@ import numpy as np
 
 from tpuaf.maps.model import PatrolMap
 
-
 DENSE_FIEDLER_MAX = 1000  # vertices: up to this many, the dense eigensolver (exact, < 0.2 s)
 SHIFT = -1e-6  # shift-invert target of the sparse solver, just below L's eigenvalue 0
 
