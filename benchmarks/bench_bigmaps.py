@@ -95,7 +95,9 @@ def tpuaf_command() -> list[str]:
 
 
 def measure(cmd: list[str]) -> dict:
-    """Wall time [s], peak RSS [MB] and exit code of one run of `cmd` (its own process)."""
+    """Wall time [s], CPU time (user + system) [s], peak RSS [MB] and exit code of one run of
+    `cmd` (its own process). CPU time is the figure other loads of a shared machine disturb
+    least."""
     start = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     _, status, usage = os.wait4(proc.pid, 0)
@@ -104,11 +106,13 @@ def measure(cmd: list[str]) -> dict:
     proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode != 0:
         print(f"  exit {proc.returncode}: {shlex.join(cmd)}\n{err[-2000:]}", file=sys.stderr)
-    return {"wall_s": wall, "peak_mb": usage.ru_maxrss / 1024.0, "exit": proc.returncode}
+    return {"wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime,
+            "peak_mb": usage.ru_maxrss / 1024.0, "exit": proc.returncode}
 
 
 def median_of(runs: list[dict]) -> dict:
     return {"wall_s": float(np.median([r["wall_s"] for r in runs])),
+            "cpu_s": float(np.median([r["cpu_s"] for r in runs])),
             "peak_mb": float(np.median([r["peak_mb"] for r in runs])),
             "exit": max(r["exit"] for r in runs), "repeats": len(runs)}
 
@@ -134,19 +138,22 @@ def bench(args: argparse.Namespace) -> list[dict]:
             for what, cmd in commands(folder, args).items():
                 row[what] = median_of([measure(cmd) for _ in range(repeats)])
                 print(f"{n:>6} vertices  {what:<4}  {row[what]['wall_s']:7.2f} s  "
+                      f"(CPU {row[what]['cpu_s']:6.2f} s)  "
                       f"{row[what]['peak_mb']:7.0f} MB  (exit {row[what]['exit']})", flush=True)
             rows.append(row)
     return rows
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| vertices | `maps` [s] | `maps` peak RSS [MB] | `run` [s] | `run` peak RSS [MB] "
-             "| repeats |", "|---:|---:|---:|---:|---:|---:|"]
+    lines = ["| vertices | `maps` wall [s] | `maps` CPU [s] | `maps` peak RSS [MB] | `run` wall [s] "
+             "| `run` CPU [s] | `run` peak RSS [MB] | repeats |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         m, u = r["maps"], r["run"]
         flag = "" if m["exit"] == 0 and u["exit"] == 0 else f" (exit {m['exit']}/{u['exit']})"
-        lines.append(f"| {r['vertices']:,} | {m['wall_s']:.2f} | {m['peak_mb']:.0f} | "
-                     f"{u['wall_s']:.2f} | {u['peak_mb']:.0f} | {m['repeats']}{flag} |")
+        lines.append(f"| {r['vertices']:,} | {m['wall_s']:.2f} | {m['cpu_s']:.2f} | "
+                     f"{m['peak_mb']:.0f} | {u['wall_s']:.2f} | {u['cpu_s']:.2f} | "
+                     f"{u['peak_mb']:.0f} | {m['repeats']}{flag} |")
     return "\n".join(lines)
 
 
@@ -168,7 +175,8 @@ def main() -> None:
     text += (f"Command: `.venv/bin/python {command.strip()}`\n\n"
              f"Per map: `{shlex.join(cmds['maps'][-2:])}` and "
              f"`{shlex.join(cmds['run'][-9:])}` (the graph runtime), each its own process; "
-             f"wall time and peak RSS (ru_maxrss), medians of {args.repeats} runs up to "
+             f"wall time, CPU time (user + system: what other loads of the shared machine "
+             f"disturb least) and peak RSS (ru_maxrss), medians of {args.repeats} runs up to "
              f"{CHEAP_SIZE:,} vertices, one run above. Maps: jittered lattices, rooms "
              f"{SPACING_M:g} m apart, {KEPT:.0%} of the lattice's edges kept "
              f"(`write_building`). Target (issue 34): at 10,000 vertices each under "
