@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -52,7 +53,6 @@ def stop_tree(proc, grace_s: float = 60.0) -> None:
     import contextlib
     import os
     import signal
-    import subprocess
 
     if proc.poll() is not None:
         return
@@ -68,7 +68,6 @@ def stop_tree(proc, grace_s: float = 60.0) -> None:
 def run_cli(cmd: list[str], timeout: float, **kwargs):
     """subprocess.run(cmd, capture_output=True, text=True) that, on a timeout or any failure
     (e.g. Ctrl-C of the test), stops the child and what it started (stop_tree)."""
-    import subprocess
 
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True, preexec_fn=default_sigint, **kwargs)
@@ -78,3 +77,18 @@ def run_cli(cmd: list[str], timeout: float, **kwargs):
         stop_tree(proc)
         raise
     return subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 500 kB tmpfs (root only; skipped with the reason otherwise), unmounted after."""
+    mnt = tmp_path / "small"
+    mnt.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=500k", "tmpfs", str(mnt)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a 500 kB tmpfs: {proc.stderr.strip() or proc.returncode}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)

@@ -138,21 +138,6 @@ def test_live_health_fits_the_live_metrics_message():
 # --- complete means complete (item 5) ---------------------------------------------------------
 
 
-@pytest.fixture
-def small_disk(tmp_path):
-    """A 500 kB tmpfs (root only; skipped with the reason otherwise), unmounted after."""
-    mnt = tmp_path / "small"
-    mnt.mkdir()
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=500k", "tmpfs", str(mnt)],
-                          capture_output=True, text=True)
-    if proc.returncode != 0:
-        pytest.skip(f"cannot mount a 500 kB tmpfs: {proc.stderr.strip() or proc.returncode}")
-    try:
-        yield mnt
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)], check=False)
-
-
 def test_a_full_disk_is_never_a_complete_run(small_disk):
     from tpuaf.experiments.run_files import ResultsError, incomplete
     from tpuaf.measure.metrics import RunRecorder

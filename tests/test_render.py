@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 from PIL import Image
 from tpuaf.cli import main
-from tpuaf.experiments.plots import Trajectories, _read_csv, frame_times
+from tpuaf.experiments.animation import Trajectories, frame_times
+from tpuaf.experiments.plots import _read_csv
 from tpuaf.maps import load_map
 
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -20,25 +20,15 @@ TPUAF = str(REPO / ".venv" / "bin" / "tpuaf")
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
-def test_a_full_disk_is_not_a_complete_fleet_run(tmp_path):
-    mnt = tmp_path / "small"
-    mnt.mkdir()
-    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=500k", "tmpfs", str(mnt)],
-                          capture_output=True, text=True)
-    if proc.returncode != 0:
-        pytest.skip(f"cannot mount a 500 kB tmpfs: {proc.stderr.strip() or proc.returncode}")
-    try:
-        out = mnt / "run"
-        env = {k: v for k, v in os.environ.items() if not k.startswith("ROS_")}
-        run = run_cli([TPUAF, "fleet", "--map", "grid", "--robots", "2", "--duration", "60",
-                       "--rtf", "10", "--quiet", "--out", str(out)], timeout=600, env=env,
-                      cwd=REPO)
-        summary_path = out / "summary.json"
-        summary = json.loads(summary_path.read_text()) if summary_path.is_file() else None
-        render = (subprocess.run([TPUAF, "render", str(out)], capture_output=True, text=True,
-                                 timeout=300) if summary is not None else None)
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)], check=False)
+def test_a_full_disk_is_not_a_complete_fleet_run(small_disk):
+    out = small_disk / "run"
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ROS_")}
+    run = run_cli([TPUAF, "fleet", "--map", "grid", "--robots", "2", "--duration", "60",
+                   "--rtf", "10", "--quiet", "--out", str(out)], timeout=600, env=env, cwd=REPO)
+    summary_path = out / "summary.json"
+    summary = json.loads(summary_path.read_text()) if summary_path.is_file() else None
+    render = (subprocess.run([TPUAF, "render", str(out)], capture_output=True, text=True,
+                             timeout=300) if summary is not None else None)
     assert run.returncode == 2, run.stdout + run.stderr
     assert "Traceback" not in run.stderr, run.stderr
     last = run.stderr.strip().splitlines()[-1]

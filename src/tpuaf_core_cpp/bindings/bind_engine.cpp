@@ -255,6 +255,8 @@ void wrap_strategies(py::module_& m) {
 }
 
 // GraphEngine: construction, strategy, the run, the robots and the bus (the recorder: below).
+// Over 80 lines on purpose: one .def per bound member, in the order of the C++ header; split,
+// one class's binding would be scattered.
 py::class_<GraphEngine> wrap_engine(py::module_& m) {
   py::class_<GraphEngine> engine(
       m, "GraphEngine", "Event loop of the graph runtime (tpuaf.runtimes.native drives it).");
@@ -365,6 +367,8 @@ std::size_t kept_visit_index(const GroundTruthRecorder& rec, std::size_t first) 
 }
 
 // GraphEngine's recorder: visits, 1 Hz rows, interferences, visit intervals and sums.
+// Over 80 lines on purpose: one .def per bound member, in the order of the C++ header; split,
+// one class's binding would be scattered.
 void wrap_recorder(py::class_<GraphEngine>& engine) {
   engine
       .def(

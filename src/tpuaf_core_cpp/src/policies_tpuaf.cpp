@@ -81,53 +81,31 @@ void TpuafStrategy::track_shadow(int robot, const TeamMessage& visit) {
   }
 }
 
-int TpuafStrategy::decide(StrategyHost& host, int robot) {
-  TpuafKnowledge& k = knowledge_of(robot);
-  const double now = host.now();
-  const int here = host.current_vertex(robot);
-  k.record_visit(here, now);  // shared: the teammates' hearing of it, too
-  // Never count my own old intention (a shared knowledge keeps it for the teammates and
-  // leaves it out of my utilities).
-  if (!shared_) k.forget_intention(robot);
-  const int exclude = shared_ ? robot : -1;
-  const PatrolGraph& graph = host.graph();
-  candidates_.clear();
-  if (any_vertex_) {
-    for (int v = 0; v < graph.num_vertices(); ++v) {
-      if (v != here) candidates_.push_back(v);
-    }
-  } else {
-    candidates_ = graph.neighbours(here);
-  }
-  if (candidates_.empty()) {  // a one-vertex graph: stay
-    host.send(robot, TeamMessage::visit(robot, here, now, here));
-    return here;
-  }
-  Colocation& col = colocated_[static_cast<std::size_t>(robot)];
-  if (colocation_ && col.latency_s > 0) {  // no late messages: nothing to resolve
-    // Teammates that reached this vertex within the latency of now, whose next decision is
-    // not heard yet (their intention for it held), and my shadows; the lower-indexed ones
-    // decide first.
-    const double window = col.latency_s + 1e-6;
-    std::vector<int> mates;
-    for (const Intention& i : k.intentions()) {
-      if (i.robot != robot && i.vertex == here && now - window <= i.expected_arrival_s &&
-          i.expected_arrival_s <= now + 1e-6) {
-        mates.push_back(i.robot);
-      }
-    }
-    for (std::size_t m = 0; m < col.shadows.size(); ++m) {
-      if (col.shadows[m] && static_cast<int>(m) != robot) mates.push_back(static_cast<int>(m));
-    }
-    std::sort(mates.begin(), mates.end());
-    mates.erase(std::unique(mates.begin(), mates.end()), mates.end());
-    for (int mate : mates) {
-      if (mate < robot) presume_choice(host, robot, mate);
+// Teammates that reached `here` within the latency of now, whose next decision is not heard
+// yet (their intention for it held), and my shadows: the lower-indexed ones decide first.
+void TpuafStrategy::resolve_colocation(StrategyHost& host, int robot, const TpuafKnowledge& k,
+                                       int here, double now) {
+  const Colocation& col = colocated_[static_cast<std::size_t>(robot)];
+  const double window = col.latency_s + 1e-6;
+  std::vector<int> mates;
+  for (const Intention& i : k.intentions()) {
+    if (i.robot != robot && i.vertex == here && now - window <= i.expected_arrival_s &&
+        i.expected_arrival_s <= now + 1e-6) {
+      mates.push_back(i.robot);
     }
   }
-  const UtilityResult result = k.utilities(graph, now, here, candidates_, host.average_speed(robot),
-                                           form_, any_vertex_, exclude);
-  const Eigen::VectorXd& utility = result.utility;
+  for (std::size_t m = 0; m < col.shadows.size(); ++m) {
+    if (col.shadows[m] && static_cast<int>(m) != robot) mates.push_back(static_cast<int>(m));
+  }
+  std::sort(mates.begin(), mates.end());
+  mates.erase(std::unique(mates.begin(), mates.end()), mates.end());
+  for (int mate : mates) {
+    if (mate < robot) presume_choice(host, robot, mate);
+  }
+}
+
+// Index of the best utility; a seeded tie-break (rng.choice of the best) among equals.
+int TpuafStrategy::choose(int robot, const Eigen::VectorXd& utility) {
   double top = utility[0];
   for (Eigen::Index j = 1; j < utility.size(); ++j) {
     if (utility[j] > top || std::isnan(utility[j])) top = utility[j];
@@ -157,6 +135,36 @@ int TpuafStrategy::decide(StrategyHost& host, int robot) {
       }
     }
   }
+  return chosen;
+}
+
+int TpuafStrategy::decide(StrategyHost& host, int robot) {
+  TpuafKnowledge& k = knowledge_of(robot);
+  const double now = host.now();
+  const int here = host.current_vertex(robot);
+  k.record_visit(here, now);  // shared: the teammates' hearing of it, too
+  // Never count my own old intention (a shared knowledge keeps it for the teammates and
+  // leaves it out of my utilities).
+  if (!shared_) k.forget_intention(robot);
+  const int exclude = shared_ ? robot : -1;
+  const PatrolGraph& graph = host.graph();
+  candidates_.clear();
+  if (any_vertex_) {
+    for (int v = 0; v < graph.num_vertices(); ++v) {
+      if (v != here) candidates_.push_back(v);
+    }
+  } else {
+    candidates_ = graph.neighbours(here);
+  }
+  if (candidates_.empty()) {  // a one-vertex graph: stay
+    host.send(robot, TeamMessage::visit(robot, here, now, here));
+    return here;
+  }
+  Colocation& col = colocated_[static_cast<std::size_t>(robot)];
+  if (colocation_ && col.latency_s > 0) resolve_colocation(host, robot, k, here, now);
+  const UtilityResult result = k.utilities(graph, now, here, candidates_, host.average_speed(robot),
+                                           form_, any_vertex_, exclude);
+  const int chosen = choose(robot, result.utility);
   const int target = candidates_[static_cast<std::size_t>(chosen)];
   // Own visits and shadows only matter once a message arrived late, which needs a delay.
   if (colocation_ && host.messages_may_be_late()) {

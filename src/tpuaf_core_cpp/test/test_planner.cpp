@@ -101,7 +101,7 @@ TEST(Costmap, LethalBandAndExponentialCost) {
   EXPECT_NEAR(cm.cost(p.x(), p.y()), std::exp(-5.0 * 0.35), 1e-6);
   p = at(40, 53);  // 0.6 m: the inflation radius
   EXPECT_EQ(cm.cost(p.x(), p.y()), 0.0);
-  EXPECT_TRUE(cm.is_lethal(-0.1, 1.0));  // outside the map
+  EXPECT_TRUE(cm.is_lethal(-0.1, 1.0));                // outside the map
   EXPECT_EQ(cm.distance_to_obstacle(0.01, 2.0), 0.0);  // next to the map edge
 }
 
@@ -265,7 +265,7 @@ TEST(Planner, SnapNeverJumpsThroughAWall) {
   // thin wall is within the snap radius but behind it.
   GridMask grid = empty_grid();
   grid.block(0, 25, 80, 10).setConstant(true);  // x in [1.25, 1.75)
-  grid.col(40).setConstant(true);                // x in [2.0, 2.05)
+  grid.col(40).setConstant(true);               // x in [2.0, 2.05)
   GridPlanner planner(costmap(grid));
   EXPECT_EQ(planner.plan({1.9, 2.01}, {3.0, 2.0}).status, PlanStatus::start_blocked);
   grid.col(40).setConstant(false);  // without the thin wall it snaps to its right
@@ -310,8 +310,7 @@ TEST(Planner, TemporaryDiscCausesADetour) {
       EXPECT_GE((p - Eigen::Vector2d(disc.x_m, disc.y_m)).norm(), 0.3 + 0.2 - 1e-9);
     }
   }
-  EXPECT_THROW(planner.plan({1.0, 2.0}, {3.0, 2.0}, {Disc{2.0, 2.0, 0.0}}),
-               std::invalid_argument);
+  EXPECT_THROW(planner.plan({1.0, 2.0}, {3.0, 2.0}, {Disc{2.0, 2.0, 0.0}}), std::invalid_argument);
   EXPECT_TRUE(planner.plan({1.0, 2.0}, {3.0, 2.0}).points.size() == 2u);  // restored
 }
 
@@ -412,14 +411,56 @@ TEST(Planner, RejectsInvalidArguments) {
   GridPlanner planner(costmap(empty_grid()));
   EXPECT_THROW(planner.plan({NAN, 1.0}, {2.0, 2.0}), std::invalid_argument);
   EXPECT_THROW(planner.plan({1.0, 1.0}, {INFINITY, 2.0}), std::invalid_argument);
-  EXPECT_THROW(planner.plan({1.0, 1.0}, {2.0, 2.0}, {Disc{1.5, 1.5, -1.0}}),
-               std::invalid_argument);
+  EXPECT_THROW(planner.plan({1.0, 1.0}, {2.0, 2.0}, {Disc{1.5, 1.5, -1.0}}), std::invalid_argument);
   PlannerOptions bad;
   bad.snap_radius_m = -0.1;
   EXPECT_THROW(planner.set_options(bad), std::invalid_argument);
   EXPECT_THROW(GridPlanner(nullptr), std::invalid_argument);
   // Outside the map is occupied: blocked, not an exception.
   EXPECT_EQ(planner.plan({-5.0, 1.0}, {2.0, 2.0}).status, PlanStatus::start_blocked);
+}
+
+// The seams: a planner built from another search or smoother uses it.
+TEST(PlannerSeams, DijkstraFindsPathsAsCheapAsAStarWithMoreExpansions) {
+  const GridMask grid = cluttered(100, 140, 4);
+  const auto cm = costmap(grid);
+  PlannerOptions raw;
+  raw.smooth = false;  // compare the searches' cell paths
+  GridPlanner astar(cm, raw), dijkstra(cm, raw, std::make_unique<AStarSearch>(false));
+  const Eigen::Vector2d s(0.3, 0.3), g(6.7, 4.7);
+  const Plan a = astar.plan(s, g), d = dijkstra.plan(s, g);
+  ASSERT_TRUE(a.ok());
+  ASSERT_TRUE(d.ok());
+  EXPECT_NEAR(a.cost_m, d.cost_m, 1e-6);  // both optimal on the same step costs
+  EXPECT_GT(d.expanded, a.expanded);      // the heuristic prunes
+}
+
+class CountingSmoother final : public PathSmoother {
+ public:
+  explicit CountingSmoother(int* calls) : calls_(calls) {}
+  void smooth(const PlanningGrid&, std::vector<Eigen::Vector2d>& pts,
+              std::size_t first) const override {
+    ++*calls_;
+    pts.erase(pts.begin() + static_cast<std::ptrdiff_t>(first) + 1, pts.end() - 1);  // a chord
+  }
+
+ private:
+  int* calls_;
+};
+
+TEST(PlannerSeams, ACustomSmootherIsCalledUnlessSmoothingIsOff) {
+  const auto cm = costmap(empty_grid());
+  int calls = 0;
+  GridPlanner planner(cm, {}, nullptr, std::make_unique<CountingSmoother>(&calls));
+  const Plan p = planner.plan({0.5, 0.5}, {3.5, 2.5});
+  ASSERT_TRUE(p.ok());
+  EXPECT_EQ(calls, 1);
+  EXPECT_EQ(p.points.size(), 2u);  // the chord it left
+  PlannerOptions off;
+  off.smooth = false;
+  planner.set_options(off);
+  EXPECT_GT(planner.plan({0.5, 0.5}, {3.5, 2.5}).points.size(), 2u);
+  EXPECT_EQ(calls, 1);
 }
 
 }  // namespace

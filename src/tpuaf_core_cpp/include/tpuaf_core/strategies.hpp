@@ -45,6 +45,9 @@ class TpuafStrategy : public TeamStrategy {
     std::vector<char> shadows;                                              // per teammate
   };
   void presume_choice(StrategyHost& host, int robot, int mate);
+  void resolve_colocation(StrategyHost& host, int robot, const TpuafKnowledge& k, int here,
+                          double now);
+  int choose(int robot, const Eigen::VectorXd& utility);
   void track_shadow(int robot, const TeamMessage& visit);
   TpuafKnowledge prototype_;
   UtilityForm form_;

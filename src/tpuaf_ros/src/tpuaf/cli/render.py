@@ -109,7 +109,8 @@ def check_request(folder: Path, args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from tpuaf.experiments.plots import render, summary_png
+    from tpuaf.experiments.animation import render
+    from tpuaf.experiments.plots import summary_png
     from tpuaf.experiments.run_files import incomplete
 
     folder = args.folder

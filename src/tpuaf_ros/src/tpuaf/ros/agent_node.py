@@ -93,6 +93,17 @@ def check_params(p: AgentParams, sim: bool) -> None:
 
 class AgentNode:
     def __init__(self, p: AgentParams, patrol_map, sim: bool):
+        self._identity(p, patrol_map, sim)
+        self._publishers(p)
+        self._runtime(p, patrol_map, sim)
+        self._subscribers(p)
+        self.control_on_scan = p.localization == "amcl"
+        self._t0_wall = time.monotonic()
+        self._thread = threading.Thread(target=self.supervise, daemon=True)
+        self._thread.start()
+
+    def _identity(self, p: AgentParams, patrol_map, sim: bool) -> None:
+        """Names, the run's epoch, the team inbox and the input watchdog."""
         self.p = p
         self.sim = sim
         self.lock = threading.Lock()
@@ -108,16 +119,6 @@ class AgentNode:
             self.epoch = 0.0 if sim else None
         self.conv = convert.Converter(patrol_map, prefix=prefix, epoch=self.epoch or 0.0)
         self.names = [f"{prefix}{i}" for i in range(p.robots)]
-        robot = agent_robot(p, patrol_map)
-        cfg = ControllerConfig(
-            max_linear_speed=robot.speed_mps,
-            max_angular_speed=robot.max_angular_speed,
-            robot_radius=robot.radius_m,
-            safety_margin=p.safety_margin, plan_margin=p.plan_margin,
-            stuck_timeout_s=p.stuck_timeout, backoff_s=p.backoff_time, max_retries=p.max_retries,
-            retry_wait_s=retry_wait_for(p.robot_index),
-        )
-        policy = REGISTRY.create(p.strategy, p.strategy_params)
         self.inbox = TeamInbox(p.robots, patrol_map.num_vertices, p.robot_index, InboxConfig(
             skew_warn_s=p.skew_warn, max_skew_s=p.max_skew, correct_skew=not sim))
         pose_input = "tf " + p.map_frame if p.localization == "tf" else p.localization
@@ -128,7 +129,9 @@ class AgentNode:
         self.halted = True  # until pose, scan and clock are fresh
         self._warned = {}  # key -> wall time of the last warning
 
-        # Publishers.
+
+    def _publishers(self, p: AgentParams) -> None:
+        """Velocity (or stamped velocity in lock-step), events, the run start, team messages."""
         self.lockstep = p.lockstep
         self.drives = p.navigation == "builtin"
         self.cmd_pub = None  # move_base drives: no velocity publisher at all
@@ -151,8 +154,22 @@ class AgentNode:
             self.team_pub[cls] = rospy.Publisher(topics.team_topic(p.team_ns, cls), ros_cls,
                                                  queue_size=None)
         self.event = AgentEvent()
-        self.event.robot = name
+        self.event.robot = self.name
         self.event.robot_index = p.robot_index
+
+    def _runtime(self, p: AgentParams, patrol_map, sim: bool) -> None:
+        """The robot's model, controller, strategy and AgentRuntime; navigation and the pose
+        origin."""
+        robot = agent_robot(p, patrol_map)
+        cfg = ControllerConfig(
+            max_linear_speed=robot.speed_mps,
+            max_angular_speed=robot.max_angular_speed,
+            robot_radius=robot.radius_m,
+            safety_margin=p.safety_margin, plan_margin=p.plan_margin,
+            stuck_timeout_s=p.stuck_timeout, backoff_s=p.backoff_time, max_retries=p.max_retries,
+            retry_wait_s=retry_wait_for(p.robot_index),
+        )
+        policy = REGISTRY.create(p.strategy, p.strategy_params)
         # Built-in navigation plans on the map's occupancy grid, as the physics runtime does.
         planner = (shared_planner(patrol_map, cfg.robot_radius)
                    if p.navigation == "builtin" and p.global_planner else None)
@@ -191,7 +208,10 @@ class AgentNode:
         elif p.initial_pose and p.localization in ("tf", "amcl"):
             self._send_initial_pose(p.initial_pose)
 
-        # Subscribers.
+
+    def _subscribers(self, p: AgentParams) -> None:
+        """Team messages, events, the run start, the scan, /tf_static and the pose source."""
+        ns = rospy.get_namespace().strip("/")
         for cls, ros_cls in self.conv.types.items():
             rospy.Subscriber(topics.team_topic(p.team_ns, cls), ros_cls, self.on_team,
                              queue_size=200)
@@ -218,10 +238,6 @@ class AgentNode:
         else:  # amcl publishes on change only: control runs on the scans then.
             rospy.Subscriber(topics.AMCL_POSE, PoseWithCovarianceStamped, self.on_amcl,
                              queue_size=1)
-        self.control_on_scan = p.localization == "amcl"
-        self._t0_wall = time.monotonic()
-        self._thread = threading.Thread(target=self.supervise, daemon=True)
-        self._thread.start()
 
     # --- time ---
     def ros_now(self) -> float:
