@@ -39,6 +39,48 @@ void PatrolGraph::check_vertex(int v) const {
   }
 }
 
+void PatrolGraph::add_edge(const Edge& raw) {
+  const int n = num_vertices();
+  if (raw.u < 0 || raw.u >= n || raw.v < 0 || raw.v >= n) {
+    throw std::out_of_range("edge (" + std::to_string(raw.u) + ", " + std::to_string(raw.v) +
+                            ") names an unknown vertex (graph has " + std::to_string(n) +
+                            " vertices)");
+  }
+  if (raw.u == raw.v) throw std::invalid_argument("self-loop at vertex " + vertex_name(raw.u));
+  Edge e = raw;
+  if (std::isnan(e.length_m)) {
+    e.length_m = (positions_.row(e.u) - positions_.row(e.v)).norm();
+  }
+  if (!(e.length_m > 0) || !std::isfinite(e.length_m)) {
+    throw std::invalid_argument("edge " + vertex_name(e.u) + "-" + vertex_name(e.v) +
+                                " has non-positive length " + std::to_string(e.length_m) + " m");
+  }
+  // Parallel edges: keep the shortest.
+  auto& adj = adjacency_[e.u];
+  auto it = std::find(adj.begin(), adj.end(), e.v);
+  if (it != adj.end()) {
+    const std::size_t k = static_cast<std::size_t>(it - adj.begin());
+    if (e.length_m < adjacency_length_[e.u][k]) {
+      adjacency_length_[e.u][k] = e.length_m;
+      auto& back = adjacency_[e.v];
+      const std::size_t kb =
+          static_cast<std::size_t>(std::find(back.begin(), back.end(), e.u) - back.begin());
+      adjacency_length_[e.v][kb] = e.length_m;
+      for (Edge& kept : edges_) {
+        if ((kept.u == e.u && kept.v == e.v) || (kept.u == e.v && kept.v == e.u)) {
+          kept.length_m = e.length_m;
+        }
+      }
+    }
+    return;
+  }
+  adjacency_[e.u].push_back(e.v);
+  adjacency_length_[e.u].push_back(e.length_m);
+  adjacency_[e.v].push_back(e.u);
+  adjacency_length_[e.v].push_back(e.length_m);
+  edges_.push_back(e);
+}
+
 PatrolGraph::PatrolGraph(const Points& positions, const std::vector<Edge>& edges,
                          std::vector<std::int64_t> ids)
     : positions_(positions), ids_(std::move(ids)) {
@@ -59,46 +101,7 @@ PatrolGraph::PatrolGraph(const Points& positions, const std::vector<Edge>& edges
   }
   adjacency_.assign(n, {});
   adjacency_length_.assign(n, {});
-  for (const Edge& raw : edges) {
-    if (raw.u < 0 || raw.u >= n || raw.v < 0 || raw.v >= n) {
-      throw std::out_of_range("edge (" + std::to_string(raw.u) + ", " + std::to_string(raw.v) +
-                              ") names an unknown vertex (graph has " + std::to_string(n) +
-                              " vertices)");
-    }
-    if (raw.u == raw.v) throw std::invalid_argument("self-loop at vertex " + vertex_name(raw.u));
-    Edge e = raw;
-    if (std::isnan(e.length_m)) {
-      e.length_m = (positions_.row(e.u) - positions_.row(e.v)).norm();
-    }
-    if (!(e.length_m > 0) || !std::isfinite(e.length_m)) {
-      throw std::invalid_argument("edge " + vertex_name(e.u) + "-" + vertex_name(e.v) +
-                                  " has non-positive length " + std::to_string(e.length_m) + " m");
-    }
-    // Parallel edges: keep the shortest.
-    auto& adj = adjacency_[e.u];
-    auto it = std::find(adj.begin(), adj.end(), e.v);
-    if (it != adj.end()) {
-      const std::size_t k = static_cast<std::size_t>(it - adj.begin());
-      if (e.length_m < adjacency_length_[e.u][k]) {
-        adjacency_length_[e.u][k] = e.length_m;
-        auto& back = adjacency_[e.v];
-        const std::size_t kb =
-            static_cast<std::size_t>(std::find(back.begin(), back.end(), e.u) - back.begin());
-        adjacency_length_[e.v][kb] = e.length_m;
-        for (Edge& kept : edges_) {
-          if ((kept.u == e.u && kept.v == e.v) || (kept.u == e.v && kept.v == e.u)) {
-            kept.length_m = e.length_m;
-          }
-        }
-      }
-      continue;
-    }
-    adjacency_[e.u].push_back(e.v);
-    adjacency_length_[e.u].push_back(e.length_m);
-    adjacency_[e.v].push_back(e.u);
-    adjacency_length_[e.v].push_back(e.length_m);
-    edges_.push_back(e);
-  }
+  for (const Edge& raw : edges) add_edge(raw);
   if (edges_.empty() && n > 1) throw std::invalid_argument("patrol graph has no edges");
 
   arcs_.assign(n, {});

@@ -81,6 +81,9 @@ class PatrolGraph {
   std::vector<std::int64_t> ids_;
   struct PathCache;  // row cache, search labels, all-pairs matrices; shared by copies
   int first_hop(int u, int v) const;
+  // Checks an edge (known ends, no self-loop, length > 0; NaN = Euclidean) and adds it; a
+  // parallel edge keeps the shorter length.
+  void add_edge(const Edge& raw);
   // Breadth-first levels from u (-1: not reached), stopped once stop_at (>= 0) has its level.
   std::vector<int> hop_levels(int u, int stop_at) const;
 
