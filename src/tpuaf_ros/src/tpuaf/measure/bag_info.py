@@ -27,6 +27,7 @@ from tpuaf.measure.bag_decode import (
 )
 from tpuaf.measure.poses import POSE_SOURCES, feed_chains, robot_chains
 from tpuaf.team import messages as team_messages
+from tpuaf.team.epoch import RunEpoch
 from tpuaf.topics import (
     AMCL_POSE,
     EVENTS_TOPIC,
@@ -75,6 +76,10 @@ class BagInfo:
     fleet_start_s: float | None = None  # the run's start: the earliest in the span [s]
     fleet_starts: list[tuple[float, str]] = field(default_factory=list)  # every distinct
     # start on /fleet/start, (epoch [s], announcer), in time order
+    ignored_starts: int = 0  # later starts not adopted (tpuaf.team.epoch: one start per run)
+    # [s] without a start on /fleet/start: the first START event (else the first agent event or
+    # team message) stamped in the bag, the analysis' documented fallback start
+    first_report_s: float | None = None
     fleet_duration_s: float | None = None  # /fleet/metrics duration [s]
     monitor_finished: bool = False
     monitor_final: dict | None = None
@@ -154,9 +159,11 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
             info.team_topics[conn.topic] = _team_kind(conn.topic)
             small.append(conn)
     offsets: list[float] = []
+    starts: list[float] = []  # in record order
+    first_start, first_any = math.inf, math.inf
     for conn, t_rec, msg in read_messages(path, reader, store, small, raw_readers(small)):
         if conn.topic == START_TOPIC:
-            _add_start(info, msg)
+            starts.append(_add_start(info, msg))
         elif conn.topic == METRICS_TOPIC:
             info.fleet_duration_s = float(msg.duration)
             if msg.finished:
@@ -169,9 +176,14 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
                 info.robots = max(info.robots, r + 1)
                 if msg.robot:
                     info.names.setdefault(r, str(msg.robot).strip("/"))
+            t = stamp_of(msg)
+            if math.isfinite(t):
+                first_any = min(first_any, t)
             if conn.topic == EVENTS_TOPIC:
                 info.events += 1
                 info.visit_events += is_visit(int(msg.event), int(msg.vertex))
+                if int(msg.event) == START and math.isfinite(t):
+                    first_start = min(first_start, t)
             elif info.team_topics[conn.topic] == "Visit":
                 info.visit_messages += 1
             if len(offsets) < 2001:
@@ -184,9 +196,14 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
             info.clock_offset_s = offset
             info.start_s -= offset
             info.end_s -= offset
-    inside = [s for s, _ in info.fleet_starts
-              if info.start_s - STAMP_MARGIN_S <= s < info.end_s]
-    info.fleet_start_s = min(inside) if inside else None
+    epoch = RunEpoch()  # the agents' rule, in record order: one start per run
+    for s in starts:
+        if s is not None and info.start_s - STAMP_MARGIN_S <= s < info.end_s:
+            epoch.offer(s)
+    info.fleet_start_s = epoch.epoch_s
+    info.ignored_starts = max(0, len(info.fleet_starts) - 1)
+    first = first_start if math.isfinite(first_start) else first_any
+    info.first_report_s = first if math.isfinite(first) else None
     names = {r: info.names.get(r, f"{_prefix(info)}{r}") for r in range(info.robots)}
     info.prefix = _prefix(info)
     if tf_conns and names:
@@ -207,10 +224,11 @@ def _add_start(info: BagInfo, msg: Any) -> None:
     else:
         start, announcer = stamp_of(msg), str(msg.announcer)
     if not math.isfinite(start):
-        return
+        return None
     if all(abs(start - s) > SAME_START_S for s, _ in info.fleet_starts):
         info.fleet_starts.append((start, announcer))
         info.fleet_starts.sort()
+    return start
 
 
 def _prefix(info: BagInfo) -> str:

@@ -43,6 +43,7 @@ run time 0 and `time_base` says so.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections import deque
 from typing import Any
@@ -51,6 +52,7 @@ import numpy as np
 
 from tpuaf.measure.health import FleetHealth
 from tpuaf.measure.metrics import RunRecorder, complete_cycles
+from tpuaf.measure.traffic import TrafficGuard
 from tpuaf.params import HEALTH_DEFAULTS, LIVENESS_DEFAULTS
 from tpuaf.plain import plain
 from tpuaf.topics import DWELL, GOAL, REACHED, START
@@ -72,7 +74,8 @@ class FleetMonitor:
                  sample_period_s: float = 1.0, lag_s: float = 2.0,
                  teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s,
                  visit_source: str = "poses",
-                 stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s):
+                 stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s,
+                 robot_names: list[str] | None = None):
         if visit_source not in ("poses", "reports"):
             raise ValueError(f"visit_source must be 'poses' or 'reports', not {visit_source!r}")
         self.visit_source = visit_source
@@ -112,16 +115,36 @@ class FleetMonitor:
         # [detection time s, robot, end s (first event heard again) or None]
         self.outages: list[list] = []
         self.health = FleetHealth(self.n, stuck_after_s)  # stuck, recoveries, ... per robot
+        # what is accepted of the agents' events (the agents' rules), refusals counted
+        self.traffic = TrafficGuard(self.n, patrol_map.num_vertices, robot_names)
+        self._clock = -math.inf  # [s] the newest pose stamp: the monitor's clock
+        # [m] a reported visit farther than this from the robot's pose is implausible
+        self.plausible_m = 2.0 * self.tolerance
         self.news: list[str] = []  # what an operator should hear (outages, ...); drained by nodes
         self._idl_seen, self._idl_sum, self._idl_n, self._idl_max = 0, 0.0, 0, 0.0
 
     # -- inputs -----------------------------------------------------------------------------
 
     def on_event(self, robot: int, kind: int, vertex: int, t: float,
-                 from_vertex: int = -1) -> None:
-        if not 0 <= robot < self.n:
-            return
-        self._heard_q[robot].append(float(t))
+                 from_vertex: int = -1, sender: str | None = None) -> bool:
+        """An agent event; False when refused (tpuaf.measure.traffic: counted, no effect).
+        `sender`: the publishing node (caller id), when known."""
+        if self.traffic.check(robot, kind, vertex, from_vertex, t, self._clock, sender):
+            return False
+        self._accept_event(robot, kind, vertex, float(t), from_vertex)
+        return True
+
+    def reject(self, robot: int, reason: str) -> None:
+        """A refusal decided outside (a second run start): counted with the others."""
+        self.traffic.count(robot, reason)
+
+    def _accept_event(self, robot: int, kind: int, vertex: int, t: float,
+                      from_vertex: int) -> None:
+        q = self._heard_q[robot]
+        if q and q[-1] > t:  # out of order (a late message): kept sorted, none blocks another
+            q.insert(bisect.bisect_right(q, t), float(t))
+        else:
+            q.append(float(t))
         self.health.on_event(robot, kind, float(t))
         if not 0 <= vertex < self.patrol_map.num_vertices:
             return
@@ -150,6 +173,8 @@ class FleetMonitor:
         if self.finished or not 0 <= robot < self.n:
             return
         t = float(t)
+        if t > self._clock:
+            self._clock = t
         if t <= self.now:
             return  # older than what was processed: too late
         group = self._groups.get(t)
@@ -280,13 +305,25 @@ class FleetMonitor:
         k = 0
         end = self.start_time + self.duration_s
         while k < len(q) and q[k][0] <= t + STAMP_EPS_S:
-            stamp, robot, vertex, _ = q[k]
+            stamp, robot, vertex, first = q[k]
+            k += 1
+            if not first and self.visit_source == "reports" and not self._plausible(robot,
+                                                                                     vertex):
+                self.traffic.count(robot, "implausible")
+                continue
             if self.start_time - STAMP_EPS_S <= stamp <= end:
                 stamp = min(max(stamp, self.start_time), end)
                 self.recorder.record_visit(robot, vertex, self.run_time(stamp))
                 self.health.on_visit(robot, stamp)
-            k += 1
         del q[:k]
+
+    def _plausible(self, robot: int, vertex: int) -> bool:
+        """A reported visit: the robot's last pose (when known) within plausible_m of it."""
+        x, y = self._last[robot]
+        if math.isnan(x):
+            return True
+        vx, vy = self._positions[vertex]
+        return math.hypot(x - vx, y - vy) <= self.plausible_m
 
     def _start(self, t: float) -> None:
         self.start_time = t
@@ -332,7 +369,7 @@ class FleetMonitor:
             return {"start_time": nan, "elapsed": 0.0, "visits": 0, "idleness_avg": nan,
                     "idleness_max": nan, "instantaneous_idleness": nan, "worst_idleness": nan,
                     "uncertainty_mean": nan, "interferences": 0, "complete_cycles": 0,
-                    "robots_alive": int(self._alive.sum()),
+                    "robots_alive": int(self._alive.sum()), **self._traffic_live(),
                     **self.health.live(self.now, self.now)}
         new = rec.visit_idleness[self._idl_seen:]
         self._idl_seen += len(new)
@@ -354,9 +391,15 @@ class FleetMonitor:
             "uncertainty_mean": row.get("uncertainty_mean", nan),
             "interferences": len(rec.interferences),
             "complete_cycles": complete_cycles(counts),
-            "robots_alive": int(self._alive.sum()),
+            "robots_alive": int(self._alive.sum()), **self._traffic_live(),
             **self.health.live(self.start_time, max(self.now, self.start_time)),
         }
+
+    def _traffic_live(self) -> dict:
+        """The LiveMetrics fields of the refused traffic (tpuaf.measure.traffic)."""
+        reasons = self.traffic.by_reason()
+        return {"rejected": self.traffic.total, "suspect_traffic": self.traffic.suspect,
+                "rejected_reasons": list(reasons), "rejected_counts": list(reasons.values())}
 
     def summary(self) -> dict:
         """RunRecorder.summary at the run's end (or at the last processed time)."""
@@ -365,6 +408,7 @@ class FleetMonitor:
         end = self.start_time + self.duration_s if self.finished else self.now
         summary = self.recorder.summary(self.run_time(end))
         summary.update(plain(self.health.summary(self.start_time, end)))
+        summary.update(self.traffic.summary())
         return with_epoch(summary, self.start_time)
 
 
