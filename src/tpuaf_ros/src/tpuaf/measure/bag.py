@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from tpuaf.measure.bag_decode import (
+    REORDER_WINDOW_S,
     BagError,
     guarded,
     in_stamp_order,
@@ -76,6 +77,8 @@ from tpuaf.topics import (
     START,
     START_TOPIC,
 )
+
+REORDER_MARGIN_S = 5.0  # [s] beyond the latest message measured by inspect
 
 __all__ = ["Analysis", "BagError", "BagInfo", "analyze", "inspect", "is_visit"]
 
@@ -153,12 +156,14 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
 
     store = typestore(reader)
     if source is None:
-        recorder, reports, guard = _replay_reports(path, reader, store, info, patrol_map, n,
-                                                   start, end, timeout, team, liveness)
+        recorder, reports, guard, end = _replay_reports(path, reader, store, info, patrol_map,
+                                                        n, start, end, timeout, team, liveness)
         monitor = None
     else:
+        # the announced start is run time 0 itself, as in the live monitor
+        exact = start_offset_s is None and start in (info.fleet_start_s, info.first_report_s)
         monitor, reports = _replay(path, reader, store, info, patrol_map, n, start, end,
-                                   timeout, team, source, mate_timeout)
+                                   timeout, team, source, mate_timeout, exact)
         recorder = monitor.recorder
     if info.out_of_span:
         notes.append(f"{info.out_of_span} message(s) stamped outside the bag's span ignored")
@@ -363,6 +368,11 @@ class _Reports:
         return r, kind, vertex, t, from_vertex
 
 
+def reorder_window(info: BagInfo) -> float:
+    """[s] the replay's reorder window: rosbag's usual lag, or the latest message seen."""
+    return max(REORDER_WINDOW_S, info.max_lateness_s + REORDER_MARGIN_S)
+
+
 def sender_of(conn: Any) -> str | None:
     """The node that published on a connection (its caller id), when the bag says."""
     return getattr(getattr(conn, "ext", None), "callerid", None) or None
@@ -373,12 +383,12 @@ def robot_names(info: BagInfo, n: int) -> list[str]:
 
 
 def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team, source,
-            teammate_timeout_s):
+            teammate_timeout_s, exact_start=False):
     """Reports and poses, in bag order, through a FleetMonitor."""
     monitor = FleetMonitor(patrol_map, n, end - start, start_after=start,
                            death_timeout_s=timeout, teammate_timeout_s=teammate_timeout_s,
                            visit_source="poses" if info.visit_events else "reports",
-                           robot_names=robot_names(info, n))
+                           robot_names=robot_names(info, n), exact_start=exact_start)
     for _ in range(info.ignored_starts):
         monitor.reject(-1, "start")
     conns = _report_connections(reader, info, team)
@@ -402,7 +412,9 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     report_of = _Reports(info, patrol_map, n, team)
 
     raw_poses.update(raw_readers([c for c in conns if c.topic == EVENTS_TOPIC]))
-    for conn, _t_rec, msg in in_stamp_order(read_messages(path, reader, store, conns, raw_poses)):
+    window = reorder_window(info)
+    for conn, _t_rec, msg in in_stamp_order(read_messages(path, reader, store, conns, raw_poses),
+                                            window):
         if conn.topic in TF_TOPICS:
             for r in feed_chains(chains, msg.transforms):
                 pose = chain_pose(chains[r])
@@ -464,14 +476,16 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
                 recorder.record_robot_outage(r, round(heard[r] - start, 9), OUTAGE_SILENT)
 
     conns = _report_connections(reader, info, team)
+    last = start  # [s] the last report's stamp
     for conn, _t, msg in in_stamp_order(
-            read_messages(path, reader, store, conns, raw_readers(conns))):
+            read_messages(path, reader, store, conns, raw_readers(conns)), reorder_window(info)):
         rep = report_of(conn, msg)
         if rep is None:
             continue
         r, kind, vertex, t, from_vertex = rep
         if t > end:
             break
+        last = max(last, t)
         if kind is None or (t < start and kind != START):
             continue  # no sign of life; before the run (a START is the first visit at the start)
         if guard.check(r, kind, vertex, from_vertex, t, t, sender_of(conn)):
@@ -490,7 +504,9 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
             recorder.record_goal(r, vertex, from_vertex, round(t - start, 9))
         elif kind == DWELL and vertex >= 0:
             recorder.record_dwell(r, vertex, round(t - start, 9))
+    else:  # the bag ends within the span: up to its last report (record times may trail)
+        end = min(end, last)
     if liveness:
         deaths_until(end)
     recorder.finish(end - start)
-    return recorder, reports, guard
+    return recorder, reports, guard, end

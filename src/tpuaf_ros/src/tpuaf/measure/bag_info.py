@@ -84,6 +84,9 @@ class BagInfo:
     monitor_finished: bool = False
     monitor_final: dict | None = None
     clock_offset_s: float = 0.0  # record time - stamp [s], when the recorder's clock differs
+    # [s] how much later than usual (the median record time - stamp) an agent event or team
+    # message was recorded, at most: the replay's reorder window covers it
+    max_lateness_s: float = 0.0
     events: int = 0  # AgentEvent messages
     visit_events: int = 0  # START (with a vertex) and REACHED events: the visits reported
     visit_messages: int = 0  # Visit team messages
@@ -160,7 +163,7 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
             small.append(conn)
     offsets: list[float] = []
     starts: list[float] = []  # in record order
-    first_start, first_any = math.inf, math.inf
+    first_start, first_any, latest = math.inf, math.inf, -math.inf
     for conn, t_rec, msg in read_messages(path, reader, store, small, raw_readers(small)):
         if conn.topic == START_TOPIC:
             starts.append(_add_start(info, msg))
@@ -187,11 +190,17 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
             elif info.team_topics[conn.topic] == "Visit":
                 info.visit_messages += 1
             if len(offsets) < 2001:
-                offsets.append(t_rec - stamp_of(msg))
+                offsets.append(t_rec - t)
+            if math.isfinite(t):
+                latest = max(latest, t_rec - t)
     if info.pose_topics:
         info.robots = max(info.robots, max(max(d) for d in info.pose_topics.values()) + 1)
     if offsets:
-        offset = statistics.median(offsets)
+        # the recorder's lag of the promptly recorded messages (a lower decile: some robot's
+        # messages may all come late)
+        offset = (statistics.quantiles(offsets, n=10)[0] if len(offsets) >= 10
+                  else min(offsets))
+        info.max_lateness_s = max(0.0, latest - offset)
         if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
             info.clock_offset_s = offset
             info.start_s -= offset

@@ -10,7 +10,10 @@ same two streams, in arrival order, and so compute the same metrics:
 - `on_event(robot, kind, vertex, t)`: AgentEvent (tpuaf.topics constants, vertex index).
 
 Definitions (SPEC section 6):
-- the run starts at the first complete pose group at or after `start_after` [s];
+- the run starts at the first complete pose group at or after `start_after` [s]; with
+  `exact_start` (an announced start: /fleet/start) at `start_after` itself, once a pose group
+  at or after it is processed and every robot's position is known (a pose dropped by a loaded
+  subscriber cannot delay it: the live node and the bag's analysis start alike);
 - a visit is the one rule of every runtime (tpuaf_core.VisitRule, docs/RUNTIMES.md "Visits")
   applied to the ground-truth poses (`visit_source="poses"`, the default): a pose within the
   map's visit radius of the robot's goal (its GOAL events; a goal just ended stays one for
@@ -75,7 +78,7 @@ class FleetMonitor:
                  teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s,
                  visit_source: str = "poses",
                  stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s,
-                 robot_names: list[str] | None = None):
+                 robot_names: list[str] | None = None, exact_start: bool = False):
         if visit_source not in ("poses", "reports"):
             raise ValueError(f"visit_source must be 'poses' or 'reports', not {visit_source!r}")
         self.visit_source = visit_source
@@ -83,6 +86,7 @@ class FleetMonitor:
         self.n = int(n_robots)
         self.duration_s = float(duration_s)
         self.start_after = float(start_after)
+        self.exact_start = bool(exact_start)  # run time 0 is start_after itself
         # [s] the agents' teammate timeout (the recovery metrics' floor at detection)
         self.teammate_timeout_s = float(teammate_timeout_s)
         # [s] silence that makes an agent dead; None: the teammate timeout (one liveness rule)
@@ -215,10 +219,11 @@ class FleetMonitor:
                     self._back[r] = s  # the first event after the silence
                 self._heard[r] = max(self._heard[r], s)
         if self.recorder is None:
-            if t < self.start_after or count < self.n:
+            known = not np.isnan(self._last[:, 0]).any()
+            if t < self.start_after or not (known if self.exact_start else count == self.n):
                 self.now = t
                 return
-            self._start(t)
+            self._start(self.start_after if self.exact_start else t, t)
             return
         end = self.start_time + self.duration_s
         if t > end:
@@ -325,15 +330,16 @@ class FleetMonitor:
         vx, vy = self._positions[vertex]
         return math.hypot(x - vx, y - vy) <= self.plausible_m
 
-    def _start(self, t: float) -> None:
-        self.start_time = t
+    def _start(self, start: float, t: float) -> None:
+        """The run starts at `start` [s], processed with the pose group at t >= start."""
+        self.start_time = start
         self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s,
                                     teammate_timeout_s=self.teammate_timeout_s)
         # START events before the run start: first visits at the start; REACHED before it
         # belong to no run.
-        self._visits = sorted((max(s, t) if first else s, r, v, first)
+        self._visits = sorted((max(s, start) if first else s, r, v, first)
                               for s, r, v, first in self._visits
-                              if first or s >= t - STAMP_EPS_S)
+                              if first or s >= start - STAMP_EPS_S)
         self._record_visits(t)
         self.recorder.record_positions(0.0, self._last.copy())
         for robot, vertex, stamp in self._announcements:
