@@ -60,8 +60,8 @@ from tpuaf.measure.bag_info import (
     is_visit,
 )
 from tpuaf.measure.monitor import OUTAGE_SILENT, STAMP_EPS_S, FleetMonitor, with_epoch
-from tpuaf.measure.traffic import TrafficGuard
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
+from tpuaf.measure.traffic import TrafficGuard
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.team.epoch import CROSS_WINDOW_S
 from tpuaf.topics import (
