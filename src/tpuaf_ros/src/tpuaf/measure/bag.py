@@ -343,11 +343,15 @@ class _Reports:
         self.info, self.map, self.n, self.team = info, patrol_map, n, team
         self.use_visits = not info.visit_events
         self.started = [False] * n
+        self.off_clock: list[int] = []  # robots of the messages stamped outside the bag
 
     def __call__(self, conn: Any, msg: Any) -> tuple[int, int | None, int, float, int] | None:
         r = int(msg.robot_index)
         t = stamp_of(msg)
-        if not 0 <= r < self.n or not _in_span(self.info, t):
+        if not 0 <= r < self.n:
+            return None
+        if not _in_span(self.info, t):
+            self.off_clock.append(r)  # refused as off the clock (counted by the replay)
             return None
         from_vertex = -1
         if conn.topic == EVENTS_TOPIC and not self.use_visits:
@@ -371,6 +375,11 @@ class _Reports:
 def reorder_window(info: BagInfo) -> float:
     """[s] the replay's reorder window: rosbag's usual lag, or the latest message seen."""
     return max(REORDER_WINDOW_S, info.max_lateness_s + REORDER_MARGIN_S)
+
+
+def stamp_span(info: BagInfo) -> tuple[float, float]:
+    """[s] the stamps a replayed message may have (the bag's span with its margin)."""
+    return info.start_s - STAMP_MARGIN_S, info.end_s + STAMP_MARGIN_S
 
 
 def sender_of(conn: Any) -> str | None:
@@ -412,9 +421,8 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     report_of = _Reports(info, patrol_map, n, team)
 
     raw_poses.update(raw_readers([c for c in conns if c.topic == EVENTS_TOPIC]))
-    window = reorder_window(info)
     for conn, _t_rec, msg in in_stamp_order(read_messages(path, reader, store, conns, raw_poses),
-                                            window):
+                                            reorder_window(info), stamp_span(info)):
         if conn.topic in TF_TOPICS:
             for r in feed_chains(chains, msg.transforms):
                 pose = chain_pose(chains[r])
@@ -446,6 +454,8 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
         if monitor.finished:
             break
     feed.close()  # up to the bag's last poses
+    for r in report_of.off_clock:
+        monitor.reject(r, "clock")
     if not monitor.started:
         raise BagError(f"{path}: no complete set of robot positions ({source}) between "
                        f"t = {start - info.start_s:.2f} s and the bag's end")
@@ -478,7 +488,8 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
     conns = _report_connections(reader, info, team)
     last = start  # [s] the last report's stamp
     for conn, _t, msg in in_stamp_order(
-            read_messages(path, reader, store, conns, raw_readers(conns)), reorder_window(info)):
+            read_messages(path, reader, store, conns, raw_readers(conns)), reorder_window(info),
+            stamp_span(info)):
         rep = report_of(conn, msg)
         if rep is None:
             continue
@@ -506,6 +517,8 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
             recorder.record_dwell(r, vertex, round(t - start, 9))
     else:  # the bag ends within the span: up to its last report (record times may trail)
         end = min(end, last)
+    for r in report_of.off_clock:
+        guard.count(r, "clock")
     if liveness:
         deaths_until(end)
     recorder.finish(end - start)

@@ -59,6 +59,9 @@ VISITS_BASENAME = TEAM_TOPICS[team_messages.Visit.__name__]
 STAMP_MARGIN_S = 5.0
 # [s] a record-time/stamp offset larger than this is a recorder on another clock.
 CLOCK_OFFSET_S = 5.0
+# [s] a connection whose messages lag the bag's clock more than this is on another clock: its
+# lag does not widen the replay's reorder window
+MAX_LATENESS_S = 600.0
 
 
 @dataclass
@@ -161,9 +164,11 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
         elif _team_kind(conn.topic) and conn.msgtype.startswith("tpuaf_ros/"):
             info.team_topics[conn.topic] = _team_kind(conn.topic)
             small.append(conn)
-    offsets: list[float] = []
+    # (connection, robot) -> record time - stamp [s] of its first 200 messages, and the largest
+    offsets: dict[tuple[int, int], list[float]] = {}
+    latest: dict[tuple[int, int], float] = {}
     starts: list[float] = []  # in record order
-    first_start, first_any, latest = math.inf, math.inf, -math.inf
+    first_start, first_any = math.inf, math.inf
     for conn, t_rec, msg in read_messages(path, reader, store, small, raw_readers(small)):
         if conn.topic == START_TOPIC:
             starts.append(_add_start(info, msg))
@@ -189,18 +194,18 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
                     first_start = min(first_start, t)
             elif info.team_topics[conn.topic] == "Visit":
                 info.visit_messages += 1
-            if len(offsets) < 2001:
-                offsets.append(t_rec - t)
             if math.isfinite(t):
-                latest = max(latest, t_rec - t)
+                key = (conn.id, r)
+                lag = offsets.setdefault(key, [])
+                if len(lag) < 200:
+                    lag.append(t_rec - t)
+                latest[key] = max(latest.get(key, -math.inf), t_rec - t)
     if info.pose_topics:
         info.robots = max(info.robots, max(max(d) for d in info.pose_topics.values()) + 1)
     if offsets:
-        # the recorder's lag of the promptly recorded messages (a lower decile: some robot's
-        # messages may all come late)
-        offset = (statistics.quantiles(offsets, n=10)[0] if len(offsets) >= 10
-                  else min(offsets))
-        info.max_lateness_s = max(0.0, latest - offset)
+        offset = clock_offset(offsets)
+        info.max_lateness_s = max([0.0, *(x - offset for x in latest.values()
+                                         if x - offset <= MAX_LATENESS_S)])
         if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
             info.clock_offset_s = offset
             info.start_s -= offset
@@ -224,6 +229,15 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
             if len(info.tf_robots) == len(chains):
                 break
     return info
+
+
+def clock_offset(offsets: dict[tuple[int, int], list[float]]) -> float:
+    """[s] record time - stamp of the bag's clock: the median of each connection's messages of
+    one robot, then the one most others agree with (within CLOCK_OFFSET_S; ties: the smallest,
+    as a late robot's all lag). A node stamping on another clock (a rogue, a node started
+    before use_sim_time was set) cannot move it unless it holds most of them."""
+    medians = sorted(statistics.median(v) for v in offsets.values() if v)
+    return max(medians, key=lambda c: (sum(abs(c - d) <= CLOCK_OFFSET_S for d in medians), -c))
 
 
 def _add_start(info: BagInfo, msg: Any) -> None:
