@@ -165,3 +165,44 @@ def test_the_agents_inbox_rate_limits_a_sender():
     # robot 2 has its own budget; robot 1's refills with time
     assert inbox.accept(m.Visit(2, 1, 5.0), 5.0)[0] is not None
     assert inbox.accept(m.Visit(1, 1, 6.0), 6.0)[0] is not None
+
+
+def test_events_trailing_the_poses_are_waited_for_with_hold(clean, monkeypatch):
+    """Issue 33 item 7: in a fast lock-step run the monitor's event callbacks trail its poses;
+    with hold_s (the live node's) a pose group waits for every robot's heartbeat at or after it,
+    so the figures equal those of the bag's replay in stamp order."""
+    import tests.test_monitor_traffic as me
+
+    calls = []
+
+    class Tap(FleetMonitor):
+        def on_event(self, *args):
+            calls.append((args[3], "on_event", args))
+            return True
+
+        def on_pose(self, *args):
+            calls.append((args[1], "on_pose", args))
+
+        @property
+        def finished(self):
+            return True
+
+        @finished.setter
+        def finished(self, value):
+            pass
+
+    monkeypatch.setattr(me, "FleetMonitor", Tap)
+    fleet_run()
+    monkeypatch.undo()
+    delay = 8.0  # [s] every event arrives 8 s of the clock after the poses stamped with it
+    arrivals = sorted(((t + delay if kind == "on_event" else t), k, kind, args)
+                      for k, (t, kind, args) in enumerate(calls))
+    for hold, same in ((0.0, False), (10.0, True)):
+        mon = FleetMonitor(line_map(), 3, 80.0, lag_s=1.0, death_timeout_s=5.0,
+                           robot_names=NAMES, hold_s=hold)
+        for _, _, kind, args in arrivals:
+            getattr(mon, kind)(*args)
+        mon.drain()  # the stream ended (MonitorFeed.close)
+        s = mon.summary()
+        right = s["visits"] == clean["visits"] and not s.get("outages")
+        assert right is same, (hold, s["visits"], s.get("outages"))

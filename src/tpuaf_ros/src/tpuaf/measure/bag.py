@@ -421,8 +421,8 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     report_of = _Reports(info, patrol_map, n, team)
 
     raw_poses.update(raw_readers([c for c in conns if c.topic == EVENTS_TOPIC]))
-    for conn, _t_rec, msg in in_stamp_order(read_messages(path, reader, store, conns, raw_poses),
-                                            reorder_window(info), stamp_span(info)):
+    for conn, t_rec, msg in in_stamp_order(read_messages(path, reader, store, conns, raw_poses),
+                                           reorder_window(info), stamp_span(info)):
         if conn.topic in TF_TOPICS:
             for r in feed_chains(chains, msg.transforms):
                 pose = chain_pose(chains[r])
@@ -443,7 +443,8 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
                 continue
             r, kind, vertex, t, from_vertex = rep
             if kind is not None:
-                if not monitor.on_event(r, kind, vertex, t, from_vertex, sender_of(conn)):
+                if not monitor.on_event(r, kind, vertex, t, from_vertex, sender_of(conn),
+                                        t_rec - info.clock_offset_s):
                     continue  # refused (tpuaf.measure.traffic): counted in the summary
                 if is_visit(kind, vertex):
                     reports.append((t, kind == START))
@@ -499,7 +500,8 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
         last = max(last, t)
         if kind is None or (t < start and kind != START):
             continue  # no sign of life; before the run (a START is the first visit at the start)
-        if guard.check(r, kind, vertex, from_vertex, t, t, sender_of(conn)):
+        if guard.check(r, kind, vertex, from_vertex, t, _t - info.clock_offset_s,
+                       sender_of(conn)):
             continue  # refused, counted
         t = max(t, start)
         if liveness:

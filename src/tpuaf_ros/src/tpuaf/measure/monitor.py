@@ -58,7 +58,7 @@ from tpuaf.measure.metrics import RunRecorder, complete_cycles
 from tpuaf.measure.traffic import TrafficGuard
 from tpuaf.params import HEALTH_DEFAULTS, LIVENESS_DEFAULTS
 from tpuaf.plain import plain
-from tpuaf.topics import DWELL, GOAL, REACHED, START
+from tpuaf.topics import DWELL, GOAL, HEARTBEAT, REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
 STAMP_EPS_S = 1e-3
@@ -78,7 +78,8 @@ class FleetMonitor:
                  teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s,
                  visit_source: str = "poses",
                  stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s,
-                 robot_names: list[str] | None = None, exact_start: bool = False):
+                 robot_names: list[str] | None = None, exact_start: bool = False,
+                 hold_s: float = 0.0):
         if visit_source not in ("poses", "reports"):
             raise ValueError(f"visit_source must be 'poses' or 'reports', not {visit_source!r}")
         self.visit_source = visit_source
@@ -87,6 +88,11 @@ class FleetMonitor:
         self.duration_s = float(duration_s)
         self.start_after = float(start_after)
         self.exact_start = bool(exact_start)  # run time 0 is start_after itself
+        # [s] live: a pose group waits (up to this long) until every robot in contact sent a
+        # heartbeat stamped at or after it: its earlier events have arrived (one connection
+        # each, in order), however far the callbacks trail a fast lock-step clock
+        self.hold_s = float(hold_s)
+        self._beat = np.full(self.n, -math.inf)  # each robot's newest heartbeat stamp [s]
         # [s] the agents' teammate timeout (the recovery metrics' floor at detection)
         self.teammate_timeout_s = float(teammate_timeout_s)
         # [s] silence that makes an agent dead; None: the teammate timeout (one liveness rule)
@@ -130,12 +136,17 @@ class FleetMonitor:
     # -- inputs -----------------------------------------------------------------------------
 
     def on_event(self, robot: int, kind: int, vertex: int, t: float,
-                 from_vertex: int = -1, sender: str | None = None) -> bool:
+                 from_vertex: int = -1, sender: str | None = None,
+                 received: float | None = None) -> bool:
         """An agent event; False when refused (tpuaf.measure.traffic: counted, no effect).
-        `sender`: the publishing node (caller id), when known."""
-        if self.traffic.check(robot, kind, vertex, from_vertex, t, self._clock, sender):
+        `sender`: the publishing node (caller id), when known; `received` [s]: when it was
+        received (the live node's clock, a bag's record time), else the newest pose's stamp."""
+        clock = self._clock if received is None else float(received)
+        if self.traffic.check(robot, kind, vertex, from_vertex, t, clock, sender):
             return False
         self._accept_event(robot, kind, vertex, float(t), from_vertex)
+        if kind == HEARTBEAT and t > self._beat[robot]:
+            self._beat[robot] = float(t)
         return True
 
     def reject(self, robot: int, reason: str) -> None:
@@ -193,11 +204,20 @@ class FleetMonitor:
 
     # -- processing -------------------------------------------------------------------------
 
-    def _flush(self, newest: float) -> None:
+    def drain(self) -> None:
+        """Process every pose group up to the newest but lag_s, holding none (the stream ended)."""
+        if self._groups:
+            self._flush(max(self._groups), force=True)
+
+    def _flush(self, newest: float, force: bool = False) -> None:
         """Process, in time order, the pose groups older than newest - lag_s: agent events
         stamped up to a group's time have arrived by then, in the live node and in a bag alike,
         so the result does not depend on the order in which the two streams interleave."""
         limit = newest - self.lag_s
+        if self.hold_s > 0 and not force:
+            beats = self._beat[self._alive]
+            mark = float(beats.min()) if beats.size else math.inf
+            limit = min(limit, max(mark, newest - self.hold_s))
         if limit < self._oldest_group:
             return  # nothing old enough (most poses)
         for t in sorted(t for t in self._groups if t <= limit):

@@ -9,7 +9,8 @@ master can publish as any robot. `TrafficGuard.check` refuses an agent event
 - `sender`: published by another node than the robot's (the publisher's caller id, from the
   connection header, live and in a bag): a node in a robot's namespace (/robot_1/...) speaks
   for that robot only; outside every namespace the first node heard for a robot is its sender;
-- `clock`: stamped farther than `max_skew_s` from the monitor's clock (its newest pose);
+- `clock`: stamped more than `max_skew_s` after its receipt (the live node's clock, a bag's
+  record time; else the newest pose), or more than MAX_PAST_S before it;
 - `duplicate`: the same event (kind, vertices, stamp) of the same robot again (a bag written
   twice, a replayed message);
 - `rate`: beyond `rate_per_s` after a burst of `burst` from one sender;
@@ -31,6 +32,9 @@ from tpuaf.topics import DWELL, GOAL, REACHED, START
 
 REASONS = ("unknown_robot", "vertex", "sender", "clock", "duplicate", "rate", "implausible", "start")
 NEEDS_VERTEX = (START, GOAL, REACHED, DWELL)
+# [s] how far behind its receipt an event may be stamped: the monitor's callbacks and rosbag's
+# recorder trail a fast lock-step clock by tens of seconds (ahead: the agents' max_skew_s)
+MAX_PAST_S = 300.0
 DUPLICATE_MEMORY = 64  # events remembered per robot for the duplicate check
 # summary `suspect_traffic`: more refusals than this share of the accepted events (or than
 # SUSPECT_MIN when few were accepted): the figures may be affected
@@ -67,7 +71,8 @@ class TrafficGuard:
             return self.count(robot, "vertex")
         if sender and not self._sender_ok(robot, sender):
             return self.count(robot, "sender")
-        if math.isfinite(clock) and clock_problem(t, clock, self.config.max_skew_s):
+        if math.isfinite(clock) and clock_problem(t, clock, self.config.max_skew_s,
+                                                  MAX_PAST_S):
             return self.count(robot, "clock")
         if not math.isfinite(t):
             return self.count(robot, "clock")

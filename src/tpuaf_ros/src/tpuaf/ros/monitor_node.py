@@ -73,7 +73,7 @@ class MonitorNode:
                                death_timeout_s=p.death_timeout,
                                teammate_timeout_s=p.teammate_timeout,
                                stuck_after_s=p.stuck_after, robot_names=self.names,
-                               exact_start=True)
+                               exact_start=True, hold_s=p.death_timeout)
         self.metrics_pub = rospy.Publisher(convert.METRICS_TOPIC, LiveMetrics, queue_size=10,
                                            latch=True)
         self.start_pub = rospy.Publisher(START_TOPIC, RunStart, queue_size=1, latch=True)
@@ -88,7 +88,7 @@ class MonitorNode:
         self.config = run_config(p, patrol_map)
         self.ready = [False] * p.robots
         self.ready_wall = None
-        rospy.Subscriber(convert.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=500)
+        rospy.Subscriber(convert.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=5000)
         # announced destinations: how many of a dead robot's intentions were honoured
         rospy.Subscriber(team_topic(p.team_ns, messages.Intention), Intention,
                          self.on_intention, queue_size=500)
@@ -114,7 +114,7 @@ class MonitorNode:
             f = self.patrol_map.lookup_index(msg.from_vertex)
             if not self.fm.on_event(r, msg.event, -1 if v is None else v,
                                     convert.stamp_s(msg), -1 if f is None else f,
-                                    sender_of(msg)):
+                                    sender_of(msg), rospy.get_time()):
                 return  # refused (tpuaf.measure.traffic): counted, reported
             if 0 <= r < len(self.ready):
                 self.ready[r] = True

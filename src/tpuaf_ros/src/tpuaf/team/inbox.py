@@ -40,14 +40,18 @@ class InboxConfig:
     burst: int = 40  # ... (after a burst of this many messages) its messages are refused
 
 
-def clock_problem(t: float, now: float, max_skew_s: float) -> str | None:
+def clock_problem(t: float, now: float, max_skew_s: float,
+                  max_past_s: float | None = None) -> str | None:
     """Why a message time `t` [s] cannot be true at our time `now` [s] (None: it can): farther
-    than `max_skew_s` from our clock. The one clock check of the agents (TeamInbox) and the
-    monitor (tpuaf.measure.traffic)."""
+    than `max_skew_s` from our clock (`max_past_s` in the past, when given: a receiver that may
+    trail the clock). The one clock check of the agents (TeamInbox) and the monitor
+    (tpuaf.measure.traffic)."""
     if not math.isfinite(t):
         return f"time {t!r} is not finite"
-    if abs(t - now) > max_skew_s:
-        return f"time {t:.3f} s is {t - now:+.1f} s from our clock (beyond {max_skew_s:g} s)"
+    past = max_skew_s if max_past_s is None else max_past_s
+    if t - now > max_skew_s or now - t > past:
+        return (f"time {t:.3f} s is {t - now:+.1f} s from our clock (beyond "
+                f"{max_skew_s:g} s ahead or {past:g} s behind)")
     return None
 
 
