@@ -132,9 +132,12 @@ class MonitorNode:
                     rospy.logwarn(f"{NODE}: not every agent is connected to {START_TOPIC} after "
                                   f"{waited:.0f} s; announcing the start anyway (a late agent "
                                   "starts when the latched start reaches it)")
-                # Never in the past of the poses already seen: a late event would otherwise
-                # announce a start the live monitor has passed (a bag replay starts there).
-                start = max(convert.stamp_s(msg), self.fm.now) + self.p.start_delay
+                # Never in the past of the clock nor of the poses already seen: the event that
+                # made every agent ready may be stamped seconds of a fast lock-step clock ago;
+                # a start already past reached the agents late, and each began the run when it
+                # heard it (10-16 s after it, differently in every run: issue 33 item 7).
+                start = max(convert.stamp_s(msg), self.fm.now,
+                            rospy.get_time()) + self.p.start_delay
                 self.fm.start_after = start
                 self.run_start.offer(start, rospy.get_name())
                 publish(self.start_pub, convert.run_start_message(start, rospy.get_name(),
