@@ -13,7 +13,7 @@ master can publish as any robot. `TrafficGuard.check` refuses an agent event
   record time; else the newest pose), or more than MAX_PAST_S before it;
 - `duplicate`: the same event (kind, vertices, stamp) of the same robot again (a bag written
   twice, a replayed message);
-- `rate`: beyond `rate_per_s` after a burst of `burst` from one sender;
+- `rate`: beyond `rate_per_s` of the sender's stamps after a burst of `burst`;
 
 and counts every refusal per robot and reason, with the monitor's own: `implausible` (a
 reported visit while the robot's pose is farther than twice the visit radius from the vertex)
@@ -82,8 +82,9 @@ class TrafficGuard:
         order, seen = self._recent[robot]
         if key in seen:
             return self.count(robot, "duplicate")
-        # the rate on the monitor's clock (none before its first pose: a stamp could poison it)
-        if math.isfinite(clock) and not self.rate.allow((robot, sender), clock):
+        # the rate on the sender's stamps, once checked against a clock (one far ahead would
+        # stall the refill): receipts come in bursts when callbacks trail a fast lock-step clock
+        if math.isfinite(clock) and not self.rate.allow((robot, sender), float(t)):
             return self.count(robot, "rate")
         order.append(key)
         seen.add(key)

@@ -57,7 +57,7 @@ def clock_problem(t: float, now: float, max_skew_s: float,
 
 class RateLimit:
     """Token bucket per sender: `burst` messages at once, then `rate_per_s` [msg/s] of the
-    receiver's clock; `allow(sender, now)` is False for a message beyond it."""
+    clock given (the sender's stamps); `allow(sender, now)` is False for a message beyond it."""
 
     def __init__(self, rate_per_s: float, burst: int):
         self.rate_per_s = float(rate_per_s)
@@ -142,7 +142,8 @@ class TeamInbox:
     def accept(self, msg: Any, now: float) -> tuple[Any | None, str | None]:
         """(message on our clock, None) or (None, the reason it is refused)."""
         why = self.problem(msg, now)
-        if why is None and not self.rate.allow(msg.robot, now):
+        # the rate on the sender's stamps (within max_skew_s of ours): receipts come in bursts
+        if why is None and not self.rate.allow(msg.robot, msg.time):
             why = (f"robot {msg.robot} sends beyond {self.config.rate_per_s:g} messages/s "
                    f"(after a burst of {self.config.burst})")
         if why is not None:
