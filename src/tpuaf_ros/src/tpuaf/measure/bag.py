@@ -79,8 +79,8 @@ from tpuaf.topics import (
 )
 
 REORDER_MARGIN_S = 5.0  # [s] beyond the latest message measured by inspect
-# a robot with fewer poses than this share of the most (the simulator stamps all alike): the
-# recorder dropped messages under load, and the analysis says so
+# a robot with fewer ground-truth poses than this share of the most (the simulator publishes
+# all alike): the recorder dropped messages under load, and the analysis says so
 LOST_POSES = 0.98
 
 __all__ = ["Analysis", "BagError", "BagInfo", "analyze", "inspect", "is_visit"]
@@ -245,7 +245,7 @@ def _pose_source(path: Path, info: BagInfo, n: int, pose_source: str | None,
         notes.append(f"positions (X, interference) from {POSE_SOURCES[source]}")
         counts = {r: info.topics.get(t, 0) for r, t in info.pose_topics.get(source, {}).items()
                   if r < n}
-        if (source in ("ground_truth", "odom") and counts
+        if (source == "ground_truth" and counts
                 and min(counts.values()) < LOST_POSES * max(counts.values())):
             notes.append("the recorder lost poses (per robot: " + ", ".join(
                 f"{r}: {k}" for r, k in sorted(counts.items())) + "; all are published "
