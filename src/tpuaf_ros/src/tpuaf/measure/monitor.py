@@ -39,6 +39,10 @@ Definitions (SPEC section 6):
   (none for `stuck_after_s`), in `live()` and the summary (`robot_health`); `news` holds lines
   for the operator (outages, spells), drained by the live node.
 
+- what it is told is checked first (tpuaf.measure.traffic.TrafficGuard: sender, clock,
+  duplicates, rate, unknown robots and vertices; reported visits far from the robot's pose):
+  a refused event has no effect and is counted (summary `rejected`, `suspect_traffic`).
+
 Time base: inputs are ROS time (stamps); the recorder, and so every results file, works in run
 time, 0 at the run start (docs/RESULTS.md); the summary's `start_time_s` is the ROS time [s] of
 run time 0 and `time_base` says so.

@@ -11,6 +11,9 @@ agent is ready (~announce_start false: follows the agents' announcement instead)
 /fleet/metrics (tpuaf_ros/LiveMetrics) at 1 Hz of run time and once more with finished = true
 after writing the results folder; then it exits (~exit_delay later; at the run's end on the
 clock even if no pose comes to close it). Works on the wall clock (use_sim_time false) and on sim time.
+Agent events are checked (tpuaf.measure.traffic: the publisher's caller id, the clock, duplicates,
+rate); a run start on /fleet/start after the first is refused; refusals are counted in
+/fleet/metrics and summary.json (docs/FLEET.md "Hostile traffic").
 Private parameters: tpuaf.params.MonitorParams (strict).
 """
 
