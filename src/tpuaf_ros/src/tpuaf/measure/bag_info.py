@@ -202,20 +202,7 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
                 latest[key] = max(latest.get(key, -math.inf), t_rec - t)
     if info.pose_topics:
         info.robots = max(info.robots, max(max(d) for d in info.pose_topics.values()) + 1)
-    if offsets:
-        offset = clock_offset(offsets)
-        info.max_lateness_s = max([0.0, *(x - offset for x in latest.values()
-                                         if x - offset <= MAX_LATENESS_S)])
-        if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
-            info.clock_offset_s = offset
-            info.start_s -= offset
-            info.end_s -= offset
-    epoch = RunEpoch()  # the agents' rule, in record order: one start per run
-    for s in starts:
-        if s is not None and info.start_s - STAMP_MARGIN_S <= s < info.end_s:
-            epoch.offer(s)
-    info.fleet_start_s = epoch.epoch_s
-    info.ignored_starts = max(0, len(info.fleet_starts) - 1)
+    _clock_and_start(info, offsets, latest, starts)
     first = first_start if math.isfinite(first_start) else first_any
     info.first_report_s = first if math.isfinite(first) else None
     names = {r: info.names.get(r, f"{_prefix(info)}{r}") for r in range(info.robots)}
@@ -229,6 +216,25 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
             if len(info.tf_robots) == len(chains):
                 break
     return info
+
+
+def _clock_and_start(info: BagInfo, offsets: dict, latest: dict, starts: list) -> None:
+    """The bag's clock offset and reorder lateness (from the report messages' record time -
+    stamp per (connection, robot)), then the run's one start (the agents' rule, record order)."""
+    if offsets:
+        offset = clock_offset(offsets)
+        info.max_lateness_s = max([0.0, *(x - offset for x in latest.values()
+                                         if x - offset <= MAX_LATENESS_S)])
+        if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
+            info.clock_offset_s = offset
+            info.start_s -= offset
+            info.end_s -= offset
+    epoch = RunEpoch()
+    for s in starts:
+        if s is not None and info.start_s - STAMP_MARGIN_S <= s < info.end_s:
+            epoch.offer(s)
+    info.fleet_start_s = epoch.epoch_s
+    info.ignored_starts = max(0, len(info.fleet_starts) - 1)
 
 
 def clock_offset(offsets: dict[tuple[int, int], list[float]]) -> float:
