@@ -93,10 +93,12 @@ class FleetMonitor:
         self.start_after = float(start_after)
         self.exact_start = bool(exact_start)  # run time 0 is start_after itself
         # [s] live: a pose group waits (up to this long) until every robot in contact sent a
-        # heartbeat stamped at or after it: its earlier events have arrived (one connection
-        # each, in order), however far the callbacks trail a fast lock-step clock
+        # heartbeat and a pose stamped at or after it: its earlier events and poses have
+        # arrived (one connection each, in order), however far the callbacks trail a fast
+        # lock-step clock
         self.hold_s = float(hold_s)
         self._beat = np.full(self.n, -math.inf)  # each robot's newest heartbeat stamp [s]
+        self._seen = np.full(self.n, -math.inf)  # each robot's newest pose stamp [s]
         # [s] the agents' teammate timeout (the recovery metrics' floor at detection)
         self.teammate_timeout_s = float(teammate_timeout_s)
         # [s] silence that makes an agent dead; None: the teammate timeout (one liveness rule)
@@ -194,6 +196,8 @@ class FleetMonitor:
         t = float(t)
         if t > self._clock:
             self._clock = t
+        if t > self._seen[robot]:
+            self._seen[robot] = t
         if t <= self.now:
             return  # older than what was processed: too late
         group = self._groups.get(t)
@@ -219,7 +223,8 @@ class FleetMonitor:
         so the result does not depend on the order in which the two streams interleave."""
         limit = newest - self.lag_s
         if self.hold_s > 0 and not force:
-            beats = self._beat[self._alive]
+            # every robot in contact heard (heartbeat) and seen (pose) at or after the group
+            beats = np.minimum(self._beat, self._seen)[self._alive]
             mark = float(beats.min()) if beats.size else math.inf
             limit = min(limit, max(mark, newest - self.hold_s))
         if limit < self._oldest_group:
