@@ -61,6 +61,10 @@ class PlainBag:
     msg_version: int = 2  # 1: as recorded before the messages had a std_msgs/Header
     starts: tuple = (0.0,)  # run starts on /fleet/start [s after t0] (several: a restart)
     visits: list = field(default_factory=list)  # (t, robot, vertex index) written
+    lead_s: float = 0.0  # [s] poses and heartbeats recorded this long before the run
+    duplicate: bool = False  # every message written twice (a bag merged with itself)
+    # robot -> [s]: its team messages and events recorded this late (out of bag-time order)
+    record_delay: dict = field(default_factory=dict)
 
     def trajectory(self, r: int):
         """Piecewise-linear (t, x, y) knots of robot r and its arrivals (t, vertex)."""
@@ -90,6 +94,8 @@ class PlainBag:
             if self.poses != "none":
                 items += self._pose_items(T, r, knots, end)
         items += self._start_items(T)
+        if self.duplicate:
+            items += list(items)
         items.sort(key=lambda item: item[0])
         path = Path(path)
         with Writer(path) as writer:
@@ -145,17 +151,18 @@ class PlainBag:
                         T, "AgentEvent", t, robot=name, robot_index=r, event=1,
                         vertex=ids[nxt], from_vertex=ids[v])))
         if self.events:
-            for t in np.arange(self.t0, end, 1.0):
+            for t in np.arange(self.t0 - self.lead_s, end, 1.0):
                 if not self._silent(r, t):
                     items.append((t, "/fleet/agent_events", self._team_msg(
                         T, "AgentEvent", t, robot=name, robot_index=r, event=4, vertex=-1,
                         from_vertex=-1)))
-        return items
+        late = self.record_delay.get(r, 0.0)
+        return [(t + late, topic, msg) for t, topic, msg in items]
 
     def _pose_items(self, T, r, knots, end):
         """Robot r's poses at `rate` Hz (amcl: 2 Hz) on tf, odom or amcl_pose."""
         name, items = f"{self.prefix}{r}", []
-        for t in np.arange(self.t0, end, 1.0 / self.rate):
+        for t in np.arange(self.t0 - self.lead_s, end, 1.0 / self.rate):
             if self._silent(r, t):
                 continue
             x = float(np.interp(t, knots[:, 0], knots[:, 1]))

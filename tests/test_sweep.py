@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 from tpuaf.cli import main
 from tpuaf.experiments.report import load, verdicts, write_report
+from tpuaf.experiments.results import lock_folder, unlock_folder
 from tpuaf.experiments.sweep import RESULT_COLUMNS, RunKey, make_spec, run_sweep
 
 TINY = ["--maps", "grid", "--strategies", "gbs", "TPUAF", "--robots", "1", "2",
@@ -131,12 +132,27 @@ def test_interrupted_sweep_keeps_finished_runs_and_resumes(tmp_path):
     rows = read_results(root)  # the table was rebuilt on the way out
     assert list(rows) == [(seen[0].map, seen[0].strategy, seen[0].robots, seen[0].seed)]
     first_mtime = (seen[0].folder(root) / "summary.json").stat().st_mtime_ns
+    # the report says the sweep is incomplete and its verdicts provisional (issue 33 item 8)
+    text = write_report(root, out=tmp_path / "report1").read_text()
+    assert ("**Sweep incomplete: 1 of 4 planned runs finished, 0 failed, 3 missing; the sweep "
+            "was interrupted") in text
+    assert "## Verdicts (claims of SPEC section 8) - PROVISIONAL" in text
+    assert "(provisional)" in text
+    lock_folder(root)  # a sweep writing there now: running
+    try:
+        text = write_report(root, out=tmp_path / "report2").read_text()
+    finally:
+        unlock_folder(root)
+    assert f"the sweep is still running (pid {os.getpid()})" in text
 
     outcome = run_sweep(spec, root, workers=1, progress=False)
     assert (outcome.skipped, outcome.ran, outcome.failed) == (1, 3, 0)
     assert seen[0] not in outcome.computed
     assert (seen[0].folder(root) / "summary.json").stat().st_mtime_ns == first_mtime
     assert len(read_results(root)) == 4
+    text = write_report(root, out=tmp_path / "report3").read_text()
+    assert "Sweep complete: 4 of 4 planned runs finished, 0 failed, 0 missing." in text
+    assert "PROVISIONAL" not in text and "(provisional)" not in text
 
 
 @pytest.mark.slow

@@ -29,6 +29,7 @@ TOLERANCES = {
     "visits": (2, 0.01),
     "interferences": (1, 0.05),
     "deaths": (0, 0.0),
+    "start_time_s": (1e-3, 0.0),  # [s] the run's start: the announced one in both
 }
 POSE_CHOICES = ("auto", "ground_truth", "tf", "amcl", "odom")
 
@@ -318,6 +319,23 @@ def outage_lines(summary: dict) -> list[str]:
     return out
 
 
+def traffic_lines(summary: dict) -> list[str]:
+    """The refused agent traffic of a summary (tpuaf.measure.traffic), by reason and robot."""
+    refused = summary.get("rejected") or {}
+    if not refused.get("total"):
+        return []
+    robots = "; ".join(
+        ("no robot" if row["robot"] < 0 else f"robot {row['robot']}") + ": "
+        + ", ".join(f"{k} {v}" for k, v in row.items() if k != "robot")
+        for row in refused.get("by_robot") or [])
+    out = [f"refused {refused['total']} agent message(s) of {refused['total'] + refused.get('accepted', 0)} "
+           f"({robots})"]
+    if summary.get("suspect_traffic"):
+        out.append("SUSPECT TRAFFIC: many messages refused, the figures may be affected "
+                   "(summary.json suspect_traffic; docs/FLEET.md \"Hostile traffic\")")
+    return out
+
+
 def health_lines(summary: dict) -> list[str]:
     """One line per robot of a summary's robot health (counts, time since its last visit, no
     progress spells in run time [s])."""
@@ -347,7 +365,7 @@ def _report(bag: Path, result, out: Path) -> int:
         print(f"  note: {note}")
     print(format_summary(summary))
     print(f"  deaths: {summary['deaths']} {summary['dead_robots']}")
-    for line in outage_lines(summary) + health_lines(summary):
+    for line in outage_lines(summary) + traffic_lines(summary) + health_lines(summary):
         print(f"  {line}")
     print(f"  results: {out}")
     live = folder / "summary.json"

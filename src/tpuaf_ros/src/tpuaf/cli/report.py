@@ -1,4 +1,6 @@
-"""`tpuaf report DIR`: the Markdown report (tables, figures, verdicts) of a `tpuaf compare` folder."""
+"""`tpuaf report DIR`: the Markdown report (tables, figures, verdicts) of a `tpuaf compare` folder;
+a sweep still running or interrupted is said to be incomplete (N of M planned runs finished)
+and its verdicts are marked provisional."""
 
 from __future__ import annotations
 
@@ -29,10 +31,13 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None and args.out.exists() and not args.out.is_dir():
         raise CliError(f"--out {args.out}: is an existing file, not a folder")
 
+    progress: list = []
     try:
         path = write_report(args.dir, out=args.out, paper=args.paper, title=args.title,
-                            bounds=args.bounds)
+                            bounds=args.bounds, progress=progress)
     except ReportError as err:
         raise CliError(str(err)) from None
     print(f"report: {path}")
+    if progress and progress[0] is not None and progress[0].line():
+        print(f"tpuaf report: {progress[0].line().strip('*')}")
     return 0

@@ -172,6 +172,27 @@ def lock_folder(folder: str | Path, option: str = "--out") -> Path:
     return folder
 
 
+@contextlib.contextmanager
+def read_lock(folder: str | Path):
+    """A reader's shared lock on the folder (flock LOCK_SH on LOCK_FILE) while the block runs;
+    yields None, or the pid (text) of a writer holding the lock: the folder is being written
+    (then no lock is taken, the reader goes on and says so)."""
+    try:
+        fd = os.open(Path(folder) / LOCK_FILE, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except OSError:
+        yield None  # no lock file: nobody ever wrote there with a lock
+        return
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            yield os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
+            return
+        yield None
+    finally:
+        os.close(fd)
+
+
 def unlock_folder(folder: str | Path) -> None:
     """Release the lock `lock_folder` took (else it lasts as long as the process)."""
     fd = _LOCKS.pop(os.path.realpath(folder), None)

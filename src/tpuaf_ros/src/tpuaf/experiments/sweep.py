@@ -23,6 +23,10 @@ folders after every sweep:
     DIR/reference.csv          reference tours (cyclic, partition) per (map, N), tours.py
     DIR/sweep.json             the last sweep's grid and wall time, plus `history`: every sweep
                                into this folder (its wall time, runs computed, git commit)
+    DIR/plan.json              the runs the last sweep planned (their folders under runs/),
+                               written before the first run and marked `ended` after the last:
+                               `tpuaf report` tells a finished sweep from a running or an
+                               interrupted one (finished, failed, missing runs)
 """
 
 from __future__ import annotations
@@ -813,6 +817,7 @@ def run_sweep(spec: SweepSpec, root: Path, *, scheduler: str | None = None,
     outcome = SweepOutcome(total=total, skipped=total - len(todo), ran=0, failed=0,
                            wall_time_s=0.0)
     write_reference(root, spec.maps, spec.robots, spec.map_params)
+    write_plan(root, spec, ended=False)
     start = time.perf_counter()
     if todo:
         # The longest runs first (more robots), so the end of the sweep is not one long tail.
@@ -899,7 +904,20 @@ def _git_commit() -> str | None:
     return head + ("+dirty" if dirty.strip() else "")
 
 
+PLAN_FILE = "plan.json"
+
+
+def write_plan(root: Path, spec: SweepSpec, ended: bool, interrupted: bool = False) -> None:
+    """DIR/plan.json: the run folders (relative to DIR) this sweep planned; `ended` once it
+    returns (`interrupted` when stopped early)."""
+    record = {"planned": [k.folder(Path(".")).as_posix() for k in spec.keys()],
+              "ended": ended, "interrupted": interrupted,
+              "updated_at": time.strftime("%Y-%m-%dT%H:%M:%S")}
+    atomic_write(Path(root) / PLAN_FILE, _json_bytes(record))
+
+
 def _finish(root: Path, spec: SweepSpec, outcome: SweepOutcome) -> None:
+    write_plan(root, spec, ended=True, interrupted=outcome.interrupted)
     write_tables(root)
     path = Path(root) / "sweep.json"
     history: list = []

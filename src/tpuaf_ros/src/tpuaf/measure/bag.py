@@ -13,10 +13,14 @@ on /tf and /tf_static), /<robot>/amcl_pose, /<robot>/odom; without any, visits a
 computed and X and interference are not (the notes say so). Liveness: the agents' heartbeats.
 
 Time: the analysed span is the bag's own (record times, shifted onto the message stamps' clock
-when the recorder ran on another one): it starts at /fleet/start (a fleet bag) or at the bag's
-beginning plus `start_offset_s`, and ends after `duration_s` or at the bag's end; a span outside
-the bag is refused. Memory: messages are streamed; state is per robot and per vertex, plus the
-recorder's rows (one per second of the analysed span).
+when the recorder ran on another one): it starts at /fleet/start (a fleet bag: the run's one
+start, tpuaf.team.epoch; later ones are counted refusals), at the bag's beginning plus
+`start_offset_s`, or, in a bag without /fleet/start, at the agents' first report (the first
+START event, else the first agent event or team message; a note says so), and ends after
+`duration_s` or at the bag's end; a span outside the bag is refused. Messages are replayed in
+stamp order. Agent events pass the monitor's checks (tpuaf.measure.traffic: duplicates, sender,
+clock, rate; refusals counted in the summary's `rejected`). Memory: messages are streamed;
+state is per robot and per vertex, plus the recorder's rows (one per second of the span).
 
 Entry points (pure functions of a file; every problem is a BagError naming it):
 `inspect(path)` -> BagInfo (tpuaf.measure.bag_info: what the bag holds) and
@@ -32,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from tpuaf.measure.bag_decode import (
+    REORDER_WINDOW_S,
     BagError,
     guarded,
     in_stamp_order,
@@ -56,7 +61,9 @@ from tpuaf.measure.bag_info import (
 )
 from tpuaf.measure.monitor import OUTAGE_SILENT, STAMP_EPS_S, FleetMonitor, with_epoch
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
+from tpuaf.measure.traffic import TrafficGuard
 from tpuaf.params import LIVENESS_DEFAULTS
+from tpuaf.team.epoch import CROSS_WINDOW_S
 from tpuaf.topics import (
     AMCL_POSE,
     DEFAULT_TEAM_NS,
@@ -70,6 +77,11 @@ from tpuaf.topics import (
     START,
     START_TOPIC,
 )
+
+REORDER_MARGIN_S = 5.0  # [s] beyond the latest message measured by inspect
+# a robot with fewer ground-truth poses than this share of the most (the simulator publishes
+# all alike): the recorder dropped messages under load, and the analysis says so
+LOST_POSES = 0.98
 
 __all__ = ["Analysis", "BagError", "BagInfo", "analyze", "inspect", "is_visit"]
 
@@ -147,12 +159,14 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
 
     store = typestore(reader)
     if source is None:
-        recorder, reports = _replay_reports(path, reader, store, info, patrol_map, n, start,
-                                            end, timeout, team, liveness)
+        recorder, reports, guard, end = _replay_reports(path, reader, store, info, patrol_map,
+                                                        n, start, end, timeout, team, liveness)
         monitor = None
     else:
+        # the announced start is run time 0 itself, as in the live monitor
+        exact = start_offset_s is None and start in (info.fleet_start_s, info.first_report_s)
         monitor, reports = _replay(path, reader, store, info, patrol_map, n, start, end,
-                                   timeout, team, source, mate_timeout)
+                                   timeout, team, source, mate_timeout, exact)
         recorder = monitor.recorder
     if info.out_of_span:
         notes.append(f"{info.out_of_span} message(s) stamped outside the bag's span ignored")
@@ -161,6 +175,7 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
         start_used = monitor.start_time
     else:
         summary = with_epoch(recorder.summary(end - start), start)
+        summary.update(guard.summary())
         start_used = start
     end_used = start_used + summary["duration_s"]
     # reports inside the analysed span (a START before it is the first visit at its start)
@@ -228,6 +243,13 @@ def _pose_source(path: Path, info: BagInfo, n: int, pose_source: str | None,
         notes.append(_missing_poses(info, n))
     else:
         notes.append(f"positions (X, interference) from {POSE_SOURCES[source]}")
+        counts = {r: info.topics.get(t, 0) for r, t in info.pose_topics.get(source, {}).items()
+                  if r < n}
+        if (source == "ground_truth" and counts
+                and min(counts.values()) < LOST_POSES * max(counts.values())):
+            notes.append("the recorder lost poses (per robot: " + ", ".join(
+                f"{r}: {k}" for r, k in sorted(counts.items())) + "; all are published "
+                "alike): visits may be missed where a robot's poses are missing")
     return source
 
 
@@ -235,6 +257,10 @@ def _start_notes(info: BagInfo, start_offset_s: float | None) -> list[str]:
     """Notes on the bag's run starts: several (a robot that restarted and announced a new
     run), or one outside the bag."""
     if not info.fleet_starts:
+        if start_offset_s is None and info.first_report_s is not None:
+            return [f"no run start on {START_TOPIC}: analysed from the agents' first report "
+                    f"({info.first_report_s - info.start_s:+.1f} s from the bag's beginning; "
+                    "a START event, else any agent event or team message; --start to choose)"]
         return []
 
     def when(s):
@@ -246,8 +272,11 @@ def _start_notes(info: BagInfo, start_offset_s: float | None) -> list[str]:
                 "lie outside the bag: analysed from its beginning"]
     if len(info.fleet_starts) == 1:
         return []
+    earliest = min(s for s, _ in info.fleet_starts)
     used = ("--start" if start_offset_s is not None
-            else f"the earliest, {when(info.fleet_start_s)}")
+            else f"the earliest, {when(info.fleet_start_s)}" if info.fleet_start_s == earliest
+            else f"the first announced, {when(info.fleet_start_s)} (a start more than "
+                 f"{CROSS_WINDOW_S:g} s before the run's is a stray one: ignored, counted)")
     return [f"the bag holds {len(info.fleet_starts)} different run starts on {START_TOPIC} "
             f"({', '.join(when(s) for s, _ in info.fleet_starts)} from the bag's beginning; "
             f"an agent that restarted and announced a new run?): analysed from {used}"]
@@ -278,6 +307,9 @@ def _span(info: BagInfo, start_offset_s: float | None, duration_s: float | None
         start = b0 + start_offset_s
     elif info.fleet_start_s is not None and b0 - STAMP_MARGIN_S <= info.fleet_start_s < b1:
         start = max(info.fleet_start_s, b0)
+    elif not info.fleet_starts and info.first_report_s is not None and (
+            b0 - STAMP_MARGIN_S <= info.first_report_s < b1):
+        start = max(info.first_report_s, b0)  # no /fleet/start: the agents' first report
     else:
         start = b0
     left = b1 - start
@@ -321,11 +353,15 @@ class _Reports:
         self.info, self.map, self.n, self.team = info, patrol_map, n, team
         self.use_visits = not info.visit_events
         self.started = [False] * n
+        self.off_clock: list[int] = []  # robots of the messages stamped outside the bag
 
     def __call__(self, conn: Any, msg: Any) -> tuple[int, int | None, int, float, int] | None:
         r = int(msg.robot_index)
         t = stamp_of(msg)
-        if not 0 <= r < self.n or not _in_span(self.info, t):
+        if not 0 <= r < self.n:
+            return None
+        if not _in_span(self.info, t):
+            self.off_clock.append(r)  # refused as off the clock (counted by the replay)
             return None
         from_vertex = -1
         if conn.topic == EVENTS_TOPIC and not self.use_visits:
@@ -346,12 +382,34 @@ class _Reports:
         return r, kind, vertex, t, from_vertex
 
 
+def reorder_window(info: BagInfo) -> float:
+    """[s] the replay's reorder window: rosbag's usual lag, or the latest message seen."""
+    return max(REORDER_WINDOW_S, info.max_lateness_s + REORDER_MARGIN_S)
+
+
+def stamp_span(info: BagInfo) -> tuple[float, float]:
+    """[s] the stamps a replayed message may have (the bag's span with its margin)."""
+    return info.start_s - STAMP_MARGIN_S, info.end_s + STAMP_MARGIN_S
+
+
+def sender_of(conn: Any) -> str | None:
+    """The node that published on a connection (its caller id), when the bag says."""
+    return getattr(getattr(conn, "ext", None), "callerid", None) or None
+
+
+def robot_names(info: BagInfo, n: int) -> list[str]:
+    return [info.names.get(r, f"{info.prefix}{r}") for r in range(n)]
+
+
 def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team, source,
-            teammate_timeout_s):
+            teammate_timeout_s, exact_start=False):
     """Reports and poses, in bag order, through a FleetMonitor."""
     monitor = FleetMonitor(patrol_map, n, end - start, start_after=start,
                            death_timeout_s=timeout, teammate_timeout_s=teammate_timeout_s,
-                           visit_source="poses" if info.visit_events else "reports")
+                           visit_source="poses" if info.visit_events else "reports",
+                           robot_names=robot_names(info, n), exact_start=exact_start)
+    for _ in range(info.ignored_starts):
+        monitor.reject(-1, "start")
     conns = _report_connections(reader, info, team)
     robot_of: dict[int, int] = {}
     raw_poses: dict[int, bool] = {}  # connection id -> is Odometry (read raw)
@@ -373,7 +431,8 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
     report_of = _Reports(info, patrol_map, n, team)
 
     raw_poses.update(raw_readers([c for c in conns if c.topic == EVENTS_TOPIC]))
-    for conn, _t_rec, msg in in_stamp_order(read_messages(path, reader, store, conns, raw_poses)):
+    for conn, t_rec, msg in in_stamp_order(read_messages(path, reader, store, conns, raw_poses),
+                                           reorder_window(info), stamp_span(info)):
         if conn.topic in TF_TOPICS:
             for r in feed_chains(chains, msg.transforms):
                 pose = chain_pose(chains[r])
@@ -393,10 +452,12 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
             if rep is None:
                 continue
             r, kind, vertex, t, from_vertex = rep
-            if is_visit(kind, vertex):
-                reports.append((t, kind == START))
             if kind is not None:
-                monitor.on_event(r, kind, vertex, t, from_vertex)
+                if not monitor.on_event(r, kind, vertex, t, from_vertex, sender_of(conn),
+                                        t_rec - info.clock_offset_s):
+                    continue  # refused (tpuaf.measure.traffic): counted in the summary
+                if is_visit(kind, vertex):
+                    reports.append((t, kind == START))
             if team.get(conn.topic) == "Intention":  # for the recovery metrics
                 target = patrol_map.lookup_index(int(msg.vertex))
                 if target is not None and target >= 0:
@@ -404,6 +465,8 @@ def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team,
         if monitor.finished:
             break
     feed.close()  # up to the bag's last poses
+    for r in report_of.off_clock:
+        monitor.reject(r, "clock")
     if not monitor.started:
         raise BagError(f"{path}: no complete set of robot positions ({source}) between "
                        f"t = {start - info.start_s:.2f} s and the bag's end")
@@ -419,6 +482,9 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
     from tpuaf.measure.metrics import RunRecorder
 
     recorder = RunRecorder(patrol_map, n, ground_truth=False)  # run time: 0 at `start`
+    guard = TrafficGuard(n, patrol_map.num_vertices, robot_names(info, n))
+    for _ in range(info.ignored_starts):
+        guard.count(-1, "start")
     heard = [start] * n  # last sign of life [s]
     alive = [True] * n
     reports: list[tuple[float, bool]] = []  # (stamp, is START) of the visit reports
@@ -431,16 +497,22 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
                 recorder.record_robot_outage(r, round(heard[r] - start, 9), OUTAGE_SILENT)
 
     conns = _report_connections(reader, info, team)
+    last = start  # [s] the last report's stamp
     for conn, _t, msg in in_stamp_order(
-            read_messages(path, reader, store, conns, raw_readers(conns))):
+            read_messages(path, reader, store, conns, raw_readers(conns)), reorder_window(info),
+            stamp_span(info)):
         rep = report_of(conn, msg)
         if rep is None:
             continue
         r, kind, vertex, t, from_vertex = rep
         if t > end:
             break
+        last = max(last, t)
         if kind is None or (t < start and kind != START):
             continue  # no sign of life; before the run (a START is the first visit at the start)
+        if guard.check(r, kind, vertex, from_vertex, t, _t - info.clock_offset_s,
+                       sender_of(conn)):
+            continue  # refused, counted
         t = max(t, start)
         if liveness:
             deaths_until(t)
@@ -455,7 +527,11 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
             recorder.record_goal(r, vertex, from_vertex, round(t - start, 9))
         elif kind == DWELL and vertex >= 0:
             recorder.record_dwell(r, vertex, round(t - start, 9))
+    else:  # the bag ends within the span: up to its last report (record times may trail)
+        end = min(end, last)
+    for r in report_of.off_clock:
+        guard.count(r, "clock")
     if liveness:
         deaths_until(end)
     recorder.finish(end - start)
-    return recorder, reports
+    return recorder, reports, guard, end

@@ -314,17 +314,23 @@ def _order_key(msg: Any, t_rec: float) -> float:
         return t_rec
 
 
-def in_stamp_order(stream: Iterator[tuple], window_s: float = REORDER_WINDOW_S
-                   ) -> Iterator[tuple]:
+def in_stamp_order(stream: Iterator[tuple], window_s: float = REORDER_WINDOW_S,
+                   span: tuple[float, float] = (-math.inf, math.inf)) -> Iterator[tuple]:
     """(connection, record time, message) of `stream` in stamp order (ties: arrival order),
     given that no message is recorded more than `window_s` after one stamped later: a bounded
     reorder buffer, sorted in batches (Timsort on nearly sorted runs, instead of a heap
-    operation per message); it holds at most about two windows of messages."""
+    operation per message); it holds at most about two windows of messages. A message stamped
+    outside `span` [s] (off the bag's clock: refused by the reader) passes at once: it cannot
+    hold the others back."""
     held: list[tuple] = []  # (key, seq, connection, record time, message)
     newest = -math.inf
     next_sort = -math.inf
+    lo, hi = span
     for seq, (conn, t_rec, msg) in enumerate(stream):
         key = _order_key(msg, t_rec)
+        if not lo <= key <= hi:
+            yield conn, t_rec, msg
+            continue
         if key > newest:
             newest = key
         held.append((key, seq, conn, t_rec, msg))

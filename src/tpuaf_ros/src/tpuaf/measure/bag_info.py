@@ -27,6 +27,7 @@ from tpuaf.measure.bag_decode import (
 )
 from tpuaf.measure.poses import POSE_SOURCES, feed_chains, robot_chains
 from tpuaf.team import messages as team_messages
+from tpuaf.team.epoch import RunEpoch
 from tpuaf.topics import (
     AMCL_POSE,
     EVENTS_TOPIC,
@@ -58,6 +59,9 @@ VISITS_BASENAME = TEAM_TOPICS[team_messages.Visit.__name__]
 STAMP_MARGIN_S = 5.0
 # [s] a record-time/stamp offset larger than this is a recorder on another clock.
 CLOCK_OFFSET_S = 5.0
+# [s] a connection whose messages lag the bag's clock more than this is on another clock: its
+# lag does not widen the replay's reorder window
+MAX_LATENESS_S = 600.0
 
 
 @dataclass
@@ -75,10 +79,17 @@ class BagInfo:
     fleet_start_s: float | None = None  # the run's start: the earliest in the span [s]
     fleet_starts: list[tuple[float, str]] = field(default_factory=list)  # every distinct
     # start on /fleet/start, (epoch [s], announcer), in time order
+    ignored_starts: int = 0  # later starts not adopted (tpuaf.team.epoch: one start per run)
+    # [s] without a start on /fleet/start: the first START event (else the first agent event or
+    # team message) stamped in the bag, the analysis' documented fallback start
+    first_report_s: float | None = None
     fleet_duration_s: float | None = None  # /fleet/metrics duration [s]
     monitor_finished: bool = False
     monitor_final: dict | None = None
     clock_offset_s: float = 0.0  # record time - stamp [s], when the recorder's clock differs
+    # [s] how much later than usual (the median record time - stamp) an agent event or team
+    # message was recorded, at most: the replay's reorder window covers it
+    max_lateness_s: float = 0.0
     events: int = 0  # AgentEvent messages
     visit_events: int = 0  # START (with a vertex) and REACHED events: the visits reported
     visit_messages: int = 0  # Visit team messages
@@ -153,10 +164,14 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
         elif _team_kind(conn.topic) and conn.msgtype.startswith("tpuaf_ros/"):
             info.team_topics[conn.topic] = _team_kind(conn.topic)
             small.append(conn)
-    offsets: list[float] = []
+    # (connection, robot) -> record time - stamp [s] of its first 200 messages, and the largest
+    offsets: dict[tuple[int, int], list[float]] = {}
+    latest: dict[tuple[int, int], float] = {}
+    starts: list[float] = []  # in record order
+    first_start, first_any = math.inf, math.inf
     for conn, t_rec, msg in read_messages(path, reader, store, small, raw_readers(small)):
         if conn.topic == START_TOPIC:
-            _add_start(info, msg)
+            starts.append(_add_start(info, msg))
         elif conn.topic == METRICS_TOPIC:
             info.fleet_duration_s = float(msg.duration)
             if msg.finished:
@@ -169,24 +184,27 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
                 info.robots = max(info.robots, r + 1)
                 if msg.robot:
                     info.names.setdefault(r, str(msg.robot).strip("/"))
+            t = stamp_of(msg)
+            if math.isfinite(t):
+                first_any = min(first_any, t)
             if conn.topic == EVENTS_TOPIC:
                 info.events += 1
                 info.visit_events += is_visit(int(msg.event), int(msg.vertex))
+                if int(msg.event) == START and math.isfinite(t):
+                    first_start = min(first_start, t)
             elif info.team_topics[conn.topic] == "Visit":
                 info.visit_messages += 1
-            if len(offsets) < 2001:
-                offsets.append(t_rec - stamp_of(msg))
+            if math.isfinite(t):
+                key = (conn.id, r)
+                lag = offsets.setdefault(key, [])
+                if len(lag) < 200:
+                    lag.append(t_rec - t)
+                latest[key] = max(latest.get(key, -math.inf), t_rec - t)
     if info.pose_topics:
         info.robots = max(info.robots, max(max(d) for d in info.pose_topics.values()) + 1)
-    if offsets:
-        offset = statistics.median(offsets)
-        if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
-            info.clock_offset_s = offset
-            info.start_s -= offset
-            info.end_s -= offset
-    inside = [s for s, _ in info.fleet_starts
-              if info.start_s - STAMP_MARGIN_S <= s < info.end_s]
-    info.fleet_start_s = min(inside) if inside else None
+    _clock_and_start(info, offsets, latest, starts)
+    first = first_start if math.isfinite(first_start) else first_any
+    info.first_report_s = first if math.isfinite(first) else None
     names = {r: info.names.get(r, f"{_prefix(info)}{r}") for r in range(info.robots)}
     info.prefix = _prefix(info)
     if tf_conns and names:
@@ -200,6 +218,34 @@ def inspect_reader(path: Path, reader: Any) -> BagInfo:
     return info
 
 
+def _clock_and_start(info: BagInfo, offsets: dict, latest: dict, starts: list) -> None:
+    """The bag's clock offset and reorder lateness (from the report messages' record time -
+    stamp per (connection, robot)), then the run's one start (the agents' rule, record order)."""
+    if offsets:
+        offset = clock_offset(offsets)
+        info.max_lateness_s = max([0.0, *(x - offset for x in latest.values()
+                                         if x - offset <= MAX_LATENESS_S)])
+        if abs(offset) > CLOCK_OFFSET_S:  # e.g. recorded without use_sim_time
+            info.clock_offset_s = offset
+            info.start_s -= offset
+            info.end_s -= offset
+    epoch = RunEpoch()
+    for s in starts:
+        if s is not None and info.start_s - STAMP_MARGIN_S <= s < info.end_s:
+            epoch.offer(s)
+    info.fleet_start_s = epoch.epoch_s
+    info.ignored_starts = max(0, len(info.fleet_starts) - 1)
+
+
+def clock_offset(offsets: dict[tuple[int, int], list[float]]) -> float:
+    """[s] record time - stamp of the bag's clock: the median of each connection's messages of
+    one robot, then the one most others agree with (within CLOCK_OFFSET_S; ties: the smallest,
+    as a late robot's all lag). A node stamping on another clock (a rogue, a node started
+    before use_sim_time was set) cannot move it unless it holds most of them."""
+    medians = sorted(statistics.median(v) for v in offsets.values() if v)
+    return max(medians, key=lambda c: (sum(abs(c - d) <= CLOCK_OFFSET_S for d in medians), -c))
+
+
 def _add_start(info: BagInfo, msg: Any) -> None:
     """A run start on /fleet/start: RunStart (its header stamp) or, version 1, Float64."""
     if hasattr(msg, "data"):
@@ -207,10 +253,11 @@ def _add_start(info: BagInfo, msg: Any) -> None:
     else:
         start, announcer = stamp_of(msg), str(msg.announcer)
     if not math.isfinite(start):
-        return
+        return None
     if all(abs(start - s) > SAME_START_S for s, _ in info.fleet_starts):
         info.fleet_starts.append((start, announcer))
         info.fleet_starts.sort()
+    return start
 
 
 def _prefix(info: BagInfo) -> str:

@@ -10,7 +10,10 @@ same two streams, in arrival order, and so compute the same metrics:
 - `on_event(robot, kind, vertex, t)`: AgentEvent (tpuaf.topics constants, vertex index).
 
 Definitions (SPEC section 6):
-- the run starts at the first complete pose group at or after `start_after` [s];
+- the run starts at the first complete pose group at or after `start_after` [s]; with
+  `exact_start` (an announced start: /fleet/start) at `start_after` itself, once a pose group
+  at or after it is processed and every robot's position is known (a pose dropped by a loaded
+  subscriber cannot delay it: the live node and the bag's analysis start alike);
 - a visit is the one rule of every runtime (tpuaf_core.VisitRule, docs/RUNTIMES.md "Visits")
   applied to the ground-truth poses (`visit_source="poses"`, the default): a pose within the
   map's visit radius of the robot's goal (its GOAL events; a goal just ended stays one for
@@ -36,6 +39,10 @@ Definitions (SPEC section 6):
   (none for `stuck_after_s`), in `live()` and the summary (`robot_health`); `news` holds lines
   for the operator (outages, spells), drained by the live node.
 
+- what it is told is checked first (tpuaf.measure.traffic.TrafficGuard: sender, clock,
+  duplicates, rate, unknown robots and vertices; reported visits far from the robot's pose):
+  a refused event has no effect and is counted (summary `rejected`, `suspect_traffic`).
+
 Time base: inputs are ROS time (stamps); the recorder, and so every results file, works in run
 time, 0 at the run start (docs/RESULTS.md); the summary's `start_time_s` is the ROS time [s] of
 run time 0 and `time_base` says so.
@@ -43,6 +50,7 @@ run time 0 and `time_base` says so.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections import deque
 from typing import Any
@@ -51,9 +59,10 @@ import numpy as np
 
 from tpuaf.measure.health import FleetHealth
 from tpuaf.measure.metrics import RunRecorder, complete_cycles
+from tpuaf.measure.traffic import TrafficGuard
 from tpuaf.params import HEALTH_DEFAULTS, LIVENESS_DEFAULTS
 from tpuaf.plain import plain
-from tpuaf.topics import DWELL, GOAL, REACHED, START
+from tpuaf.topics import DWELL, GOAL, HEARTBEAT, REACHED, START
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
 STAMP_EPS_S = 1e-3
@@ -72,7 +81,9 @@ class FleetMonitor:
                  sample_period_s: float = 1.0, lag_s: float = 2.0,
                  teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s,
                  visit_source: str = "poses",
-                 stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s):
+                 stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s,
+                 robot_names: list[str] | None = None, exact_start: bool = False,
+                 hold_s: float = 0.0):
         if visit_source not in ("poses", "reports"):
             raise ValueError(f"visit_source must be 'poses' or 'reports', not {visit_source!r}")
         self.visit_source = visit_source
@@ -80,6 +91,14 @@ class FleetMonitor:
         self.n = int(n_robots)
         self.duration_s = float(duration_s)
         self.start_after = float(start_after)
+        self.exact_start = bool(exact_start)  # run time 0 is start_after itself
+        # [s] live: a pose group waits (up to this long) until every robot in contact sent a
+        # heartbeat and a pose stamped at or after it: its earlier events and poses have
+        # arrived (one connection each, in order), however far the callbacks trail a fast
+        # lock-step clock
+        self.hold_s = float(hold_s)
+        self._beat = np.full(self.n, -math.inf)  # each robot's newest heartbeat stamp [s]
+        self._seen = np.full(self.n, -math.inf)  # each robot's newest pose stamp [s]
         # [s] the agents' teammate timeout (the recovery metrics' floor at detection)
         self.teammate_timeout_s = float(teammate_timeout_s)
         # [s] silence that makes an agent dead; None: the teammate timeout (one liveness rule)
@@ -112,16 +131,41 @@ class FleetMonitor:
         # [detection time s, robot, end s (first event heard again) or None]
         self.outages: list[list] = []
         self.health = FleetHealth(self.n, stuck_after_s)  # stuck, recoveries, ... per robot
+        # what is accepted of the agents' events (the agents' rules), refusals counted
+        self.traffic = TrafficGuard(self.n, patrol_map.num_vertices, robot_names)
+        self._clock = -math.inf  # [s] the newest pose stamp: the monitor's clock
+        # [m] a reported visit farther than this from the robot's pose is implausible
+        self.plausible_m = 2.0 * self.tolerance
         self.news: list[str] = []  # what an operator should hear (outages, ...); drained by nodes
         self._idl_seen, self._idl_sum, self._idl_n, self._idl_max = 0, 0.0, 0, 0.0
 
     # -- inputs -----------------------------------------------------------------------------
 
     def on_event(self, robot: int, kind: int, vertex: int, t: float,
-                 from_vertex: int = -1) -> None:
-        if not 0 <= robot < self.n:
-            return
-        self._heard_q[robot].append(float(t))
+                 from_vertex: int = -1, sender: str | None = None,
+                 received: float | None = None) -> bool:
+        """An agent event; False when refused (tpuaf.measure.traffic: counted, no effect).
+        `sender`: the publishing node (caller id), when known; `received` [s]: when it was
+        received (the live node's clock, a bag's record time), else the newest pose's stamp."""
+        clock = self._clock if received is None else float(received)
+        if self.traffic.check(robot, kind, vertex, from_vertex, t, clock, sender):
+            return False
+        self._accept_event(robot, kind, vertex, float(t), from_vertex)
+        if kind == HEARTBEAT and t > self._beat[robot]:
+            self._beat[robot] = float(t)
+        return True
+
+    def reject(self, robot: int, reason: str) -> None:
+        """A refusal decided outside (a second run start): counted with the others."""
+        self.traffic.count(robot, reason)
+
+    def _accept_event(self, robot: int, kind: int, vertex: int, t: float,
+                      from_vertex: int) -> None:
+        q = self._heard_q[robot]
+        if q and q[-1] > t:  # out of order (a late message): kept sorted, none blocks another
+            q.insert(bisect.bisect_right(q, t), float(t))
+        else:
+            q.append(float(t))
         self.health.on_event(robot, kind, float(t))
         if not 0 <= vertex < self.patrol_map.num_vertices:
             return
@@ -150,6 +194,10 @@ class FleetMonitor:
         if self.finished or not 0 <= robot < self.n:
             return
         t = float(t)
+        if t > self._clock:
+            self._clock = t
+        if t > self._seen[robot]:
+            self._seen[robot] = t
         if t <= self.now:
             return  # older than what was processed: too late
         group = self._groups.get(t)
@@ -164,11 +212,21 @@ class FleetMonitor:
 
     # -- processing -------------------------------------------------------------------------
 
-    def _flush(self, newest: float) -> None:
+    def drain(self) -> None:
+        """Process every pose group up to the newest but lag_s, holding none (the stream ended)."""
+        if self._groups:
+            self._flush(max(self._groups), force=True)
+
+    def _flush(self, newest: float, force: bool = False) -> None:
         """Process, in time order, the pose groups older than newest - lag_s: agent events
         stamped up to a group's time have arrived by then, in the live node and in a bag alike,
         so the result does not depend on the order in which the two streams interleave."""
         limit = newest - self.lag_s
+        if self.hold_s > 0 and not force:
+            # every robot in contact heard (heartbeat) and seen (pose) at or after the group
+            beats = np.minimum(self._beat, self._seen)[self._alive]
+            mark = float(beats.min()) if beats.size else math.inf
+            limit = min(limit, max(mark, newest - self.hold_s))
         if limit < self._oldest_group:
             return  # nothing old enough (most poses)
         for t in sorted(t for t in self._groups if t <= limit):
@@ -190,10 +248,11 @@ class FleetMonitor:
                     self._back[r] = s  # the first event after the silence
                 self._heard[r] = max(self._heard[r], s)
         if self.recorder is None:
-            if t < self.start_after or count < self.n:
+            known = not np.isnan(self._last[:, 0]).any()
+            if t < self.start_after or not (known if self.exact_start else count == self.n):
                 self.now = t
                 return
-            self._start(t)
+            self._start(self.start_after if self.exact_start else t, t)
             return
         end = self.start_time + self.duration_s
         if t > end:
@@ -280,23 +339,36 @@ class FleetMonitor:
         k = 0
         end = self.start_time + self.duration_s
         while k < len(q) and q[k][0] <= t + STAMP_EPS_S:
-            stamp, robot, vertex, _ = q[k]
+            stamp, robot, vertex, first = q[k]
+            k += 1
+            if not first and self.visit_source == "reports" and not self._plausible(robot,
+                                                                                     vertex):
+                self.traffic.count(robot, "implausible")
+                continue
             if self.start_time - STAMP_EPS_S <= stamp <= end:
                 stamp = min(max(stamp, self.start_time), end)
                 self.recorder.record_visit(robot, vertex, self.run_time(stamp))
                 self.health.on_visit(robot, stamp)
-            k += 1
         del q[:k]
 
-    def _start(self, t: float) -> None:
-        self.start_time = t
+    def _plausible(self, robot: int, vertex: int) -> bool:
+        """A reported visit: the robot's last pose (when known) within plausible_m of it."""
+        x, y = self._last[robot]
+        if math.isnan(x):
+            return True
+        vx, vy = self._positions[vertex]
+        return math.hypot(x - vx, y - vy) <= self.plausible_m
+
+    def _start(self, start: float, t: float) -> None:
+        """The run starts at `start` [s], processed with the pose group at t >= start."""
+        self.start_time = start
         self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s,
                                     teammate_timeout_s=self.teammate_timeout_s)
         # START events before the run start: first visits at the start; REACHED before it
         # belong to no run.
-        self._visits = sorted((max(s, t) if first else s, r, v, first)
+        self._visits = sorted((max(s, start) if first else s, r, v, first)
                               for s, r, v, first in self._visits
-                              if first or s >= t - STAMP_EPS_S)
+                              if first or s >= start - STAMP_EPS_S)
         self._record_visits(t)
         self.recorder.record_positions(0.0, self._last.copy())
         for robot, vertex, stamp in self._announcements:
@@ -332,7 +404,7 @@ class FleetMonitor:
             return {"start_time": nan, "elapsed": 0.0, "visits": 0, "idleness_avg": nan,
                     "idleness_max": nan, "instantaneous_idleness": nan, "worst_idleness": nan,
                     "uncertainty_mean": nan, "interferences": 0, "complete_cycles": 0,
-                    "robots_alive": int(self._alive.sum()),
+                    "robots_alive": int(self._alive.sum()), **self._traffic_live(),
                     **self.health.live(self.now, self.now)}
         new = rec.visit_idleness[self._idl_seen:]
         self._idl_seen += len(new)
@@ -354,9 +426,15 @@ class FleetMonitor:
             "uncertainty_mean": row.get("uncertainty_mean", nan),
             "interferences": len(rec.interferences),
             "complete_cycles": complete_cycles(counts),
-            "robots_alive": int(self._alive.sum()),
+            "robots_alive": int(self._alive.sum()), **self._traffic_live(),
             **self.health.live(self.start_time, max(self.now, self.start_time)),
         }
+
+    def _traffic_live(self) -> dict:
+        """The LiveMetrics fields of the refused traffic (tpuaf.measure.traffic)."""
+        reasons = self.traffic.by_reason()
+        return {"rejected": self.traffic.total, "suspect_traffic": self.traffic.suspect,
+                "rejected_reasons": list(reasons), "rejected_counts": list(reasons.values())}
 
     def summary(self) -> dict:
         """RunRecorder.summary at the run's end (or at the last processed time)."""
@@ -365,6 +443,7 @@ class FleetMonitor:
         end = self.start_time + self.duration_s if self.finished else self.now
         summary = self.recorder.summary(self.run_time(end))
         summary.update(plain(self.health.summary(self.start_time, end)))
+        summary.update(self.traffic.summary())
         return with_epoch(summary, self.start_time)
 
 

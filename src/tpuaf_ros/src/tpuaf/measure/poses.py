@@ -157,3 +157,4 @@ class MonitorFeed:
             t = self._newest + self.monitor.lag_s + 1e-3
             for r, (x, y) in enumerate(self._last):
                 self.monitor.on_pose(r, t, x, y)
+            self.monitor.drain()  # the groups a live monitor held for late events

@@ -11,6 +11,9 @@ agent is ready (~announce_start false: follows the agents' announcement instead)
 /fleet/metrics (tpuaf_ros/LiveMetrics) at 1 Hz of run time and once more with finished = true
 after writing the results folder; then it exits (~exit_delay later; at the run's end on the
 clock even if no pose comes to close it). Works on the wall clock (use_sim_time false) and on sim time.
+Agent events are checked (tpuaf.measure.traffic: the publisher's caller id, the clock, duplicates,
+rate); a run start on /fleet/start after the first is refused; refusals are counted in
+/fleet/metrics and summary.json (docs/FLEET.md "Hostile traffic").
 Private parameters: tpuaf.params.MonitorParams (strict).
 """
 
@@ -34,11 +37,19 @@ from tpuaf.params import MonitorParams, NodeParamError, parse_monitor
 from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, publish, run_node
 from tpuaf.team import messages
-from tpuaf.team.epoch import INVALID, KEPT, RunEpoch
+from tpuaf.team.epoch import INVALID, KEPT, SAME_START_S, RunEpoch
 from tpuaf.topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
 from tpuaf_ros.msg import AgentEvent, Intention, LiveMetrics, RunStart
 
 NODE = "monitor"
+# poses queued per robot: a lock-step simulator at full speed outruns the callbacks for a while
+POSE_QUEUE = 1000
+
+
+def sender_of(msg):
+    """The node that published `msg` (its caller id), '' when rospy does not say."""
+    return getattr(msg, "_connection_header", None) and msg._connection_header.get(
+        "callerid", "") or ""
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
 
 
@@ -59,10 +70,13 @@ class MonitorNode:
         self.p = p
         self.lock = threading.Lock()
         self.patrol_map = patrol_map
+        self.names = [f"{p.robot_prefix}{i}" for i in range(p.robots)]
+        # the announced start is run time 0 (exact_start): as tpuaf analyze on the bag
         self.fm = FleetMonitor(patrol_map, p.robots, p.duration, start_after=math.inf,
                                death_timeout_s=p.death_timeout,
                                teammate_timeout_s=p.teammate_timeout,
-                               stuck_after_s=p.stuck_after)
+                               stuck_after_s=p.stuck_after, robot_names=self.names,
+                               exact_start=True, hold_s=p.death_timeout)
         self.metrics_pub = rospy.Publisher(convert.METRICS_TOPIC, LiveMetrics, queue_size=10,
                                            latch=True)
         self.start_pub = rospy.Publisher(START_TOPIC, RunStart, queue_size=1, latch=True)
@@ -77,13 +91,12 @@ class MonitorNode:
         self.config = run_config(p, patrol_map)
         self.ready = [False] * p.robots
         self.ready_wall = None
-        self.names = [f"{p.robot_prefix}{i}" for i in range(p.robots)]
-        rospy.Subscriber(convert.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=500)
+        rospy.Subscriber(convert.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=5000)
         # announced destinations: how many of a dead robot's intentions were honoured
         rospy.Subscriber(team_topic(p.team_ns, messages.Intention), Intention,
                          self.on_intention, queue_size=500)
-        if not p.announce_start:
-            rospy.Subscriber(START_TOPIC, RunStart, self.on_start, queue_size=10)
+        # followed (~announce_start false), else watched: a start not ours is counted
+        rospy.Subscriber(START_TOPIC, RunStart, self.on_start, queue_size=10)
         # Poses at their own stamps (all but ground truth) are grouped on ticks.
         self.feed = MonitorFeed(self.fm, grouped=p.pose_source != "ground_truth")
         if p.pose_source == "tf":
@@ -95,15 +108,17 @@ class MonitorNode:
                           "amcl": (AMCL_POSE, PoseWithCovarianceStamped)}[p.pose_source]
             for i, name in enumerate(self.names):
                 rospy.Subscriber(f"/{name}/{topic}", cls, self.on_pose, callback_args=i,
-                                 queue_size=100, tcp_nodelay=True)
+                                 queue_size=POSE_QUEUE, tcp_nodelay=True)
 
     def on_event(self, msg):
         with self.lock:
             r = msg.robot_index
-            v = self.patrol_map.lookup_index(msg.vertex)  # not on the map: a sign of life only
+            v = self.patrol_map.lookup_index(msg.vertex)  # not on the map: refused if needed
             f = self.patrol_map.lookup_index(msg.from_vertex)
-            self.fm.on_event(r, msg.event, -1 if v is None else v, convert.stamp_s(msg),
-                             -1 if f is None else f)
+            if not self.fm.on_event(r, msg.event, -1 if v is None else v,
+                                    convert.stamp_s(msg), -1 if f is None else f,
+                                    sender_of(msg), rospy.get_time()):
+                return  # refused (tpuaf.measure.traffic): counted, reported
             if 0 <= r < len(self.ready):
                 self.ready[r] = True
             if (self.p.announce_start and not self.announced and all(self.ready)
@@ -120,9 +135,12 @@ class MonitorNode:
                     rospy.logwarn(f"{NODE}: not every agent is connected to {START_TOPIC} after "
                                   f"{waited:.0f} s; announcing the start anyway (a late agent "
                                   "starts when the latched start reaches it)")
-                # Never in the past of the poses already seen: a late event would otherwise
-                # announce a start the live monitor has passed (a bag replay starts there).
-                start = max(convert.stamp_s(msg), self.fm.now) + self.p.start_delay
+                # Never in the past of the clock nor of the poses already seen: the event that
+                # made every agent ready may be stamped seconds of a fast lock-step clock ago;
+                # a start already past reached the agents late, and each began the run when it
+                # heard it (10-16 s after it, differently in every run: issue 33 item 7).
+                start = max(convert.stamp_s(msg), self.fm.now,
+                            rospy.get_time()) + self.p.start_delay
                 self.fm.start_after = start
                 self.run_start.offer(start, rospy.get_name())
                 publish(self.start_pub, convert.run_start_message(start, rospy.get_name(),
@@ -139,12 +157,21 @@ class MonitorNode:
 
     def on_start(self, msg):
         """~announce_start false: the run starts at the earliest start the agents announce
-        (every agent re-latches the one it keeps: tpuaf.team.epoch)."""
+        (every agent re-latches the one it keeps: tpuaf.team.epoch); a start after the one
+        kept (or, announcing, any start not ours) is refused and counted."""
         start = convert.stamp_s(msg)
         with self.lock:
+            if self.p.announce_start:
+                if sender_of(msg) != rospy.get_name() and not (
+                        self.run_start.known
+                        and abs(start - self.run_start.epoch_s) <= SAME_START_S):
+                    self.refuse_start(start, msg)
+                return
+            ignored = self.run_start.ignored
             result = self.run_start.offer(start, msg.announcer)
-            if result == INVALID:
-                rospy.logwarn(f"{NODE}: ignored run start {start!r} on {START_TOPIC}")
+            if result == INVALID or self.run_start.ignored > ignored or (
+                    result != KEPT and self.fm.started):
+                self.refuse_start(start, msg)
                 return
             if result == KEPT or self.fm.started:
                 return
@@ -153,6 +180,13 @@ class MonitorNode:
             rospy.loginfo(f"{NODE}: run starts at t = {start:.2f} s (announced on "
                           f"{START_TOPIC} by {msg.announcer or 'an unnamed node'}) for "
                           f"{self.p.duration:g} s")
+
+    def refuse_start(self, start, msg):
+        """A run start refused: counted with the refused traffic (with the lock held)."""
+        self.fm.reject(-1, "start")
+        rospy.logwarn(f"{NODE}: ignored run start {start!r} on {START_TOPIC} from "
+                      f"{sender_of(msg) or 'an unknown node'} (announcer "
+                      f"{msg.announcer or 'unnamed'}): one start per run")
 
     def agents_listening(self) -> bool:
         """Is every agent (a node in /<robot_prefix><i>/) connected to our /fleet/start? Then a
@@ -244,6 +278,13 @@ class MonitorNode:
                           f"{summary['visits']} visits, I_avg = {summary['idleness_avg_s']} s, "
                           f"deaths {summary['deaths']}"
                           + (f"; results in {self.p.out}" if self.p.out else ""))
+            refused = summary["rejected"]
+            if refused["total"]:
+                (rospy.logwarn if summary["suspect_traffic"] else rospy.loginfo)(
+                    f"{NODE}: refused {refused['total']} agent message(s) ("
+                    + ", ".join(f"{k} {v}" for k, v in refused["by_reason"].items()) + ")"
+                    + ("; suspect traffic: the figures may be affected"
+                       if summary["suspect_traffic"] else ""))
         if not interrupted:  # the run is over: exit (on hardware nothing else stops us)
             rospy.loginfo(f"{NODE}: exiting in {self.p.exit_delay:g} s")
             timer = threading.Timer(self.p.exit_delay, rospy.signal_shutdown,

@@ -3,7 +3,9 @@
 ROS 1 has no authentication: anything on the team topics reaches every agent. `TeamInbox.accept`
 refuses what cannot be true: an unknown robot (index outside 0..N-1, or our own index), vertices
 outside the map, non-finite numbers, negative travel times or bids, an estimate of the wrong
-length, and times farther than `max_skew_s` from our clock (far future or far past).
+length, times farther than `max_skew_s` from our clock (far future or far past: `clock_problem`,
+the monitor's check too), and a sender's messages beyond `rate_per_s` after a burst of `burst`
+(`RateLimit`, a flood).
 
 Clock skew: each teammate's offset is estimated from its stamps as the median, over the last
 `window` messages, of (stamp - our time at receipt) (= its clock offset minus the transport
@@ -34,6 +36,40 @@ class InboxConfig:
     window: int = 15  # messages per teammate in the median offset estimate
     correct_skew: bool = True  # shift teammates' times by their estimated offset
     deadband_s: float = 0.05  # [s] offsets below this (transport delay) are left alone
+    rate_per_s: float = 20.0  # [msg/s] a sender's sustained rate beyond which ...
+    burst: int = 40  # ... (after a burst of this many messages) its messages are refused
+
+
+def clock_problem(t: float, now: float, max_skew_s: float,
+                  max_past_s: float | None = None) -> str | None:
+    """Why a message time `t` [s] cannot be true at our time `now` [s] (None: it can): farther
+    than `max_skew_s` from our clock (`max_past_s` in the past, when given: a receiver that may
+    trail the clock). The one clock check of the agents (TeamInbox) and the monitor
+    (tpuaf.measure.traffic)."""
+    if not math.isfinite(t):
+        return f"time {t!r} is not finite"
+    past = max_skew_s if max_past_s is None else max_past_s
+    if t - now > max_skew_s or now - t > past:
+        return (f"time {t:.3f} s is {t - now:+.1f} s from our clock (beyond "
+                f"{max_skew_s:g} s ahead or {past:g} s behind)")
+    return None
+
+
+class RateLimit:
+    """Token bucket per sender: `burst` messages at once, then `rate_per_s` [msg/s] of the
+    clock given (the sender's stamps); `allow(sender, now)` is False for a message beyond it."""
+
+    def __init__(self, rate_per_s: float, burst: int):
+        self.rate_per_s = float(rate_per_s)
+        self.burst = float(burst)
+        self._tokens: dict = {}  # sender -> (tokens, time [s])
+
+    def allow(self, sender: Any, now: float) -> bool:
+        tokens, then = self._tokens.get(sender, (self.burst, now))
+        tokens = min(self.burst, tokens + max(0.0, now - then) * self.rate_per_s)
+        ok = tokens >= 1.0
+        self._tokens[sender] = (tokens - 1.0 if ok else tokens, max(now, then))
+        return ok
 
 
 class SkewEstimator:
@@ -72,6 +108,7 @@ class TeamInbox:
         self.me = int(me)
         self.config = config or InboxConfig()
         self.skew = SkewEstimator(self.config.window)
+        self.rate = RateLimit(self.config.rate_per_s, self.config.burst)
         self.rejected = 0
 
     # -- checks ---------------------------------------------------------------------------
@@ -86,9 +123,9 @@ class TeamInbox:
         if msg.robot == self.me:
             return f"robot index {msg.robot} is ours"
         t = msg.time
-        if abs(t - now) > self.config.max_skew_s:
-            return (f"time {t:.3f} s is {t - now:+.1f} s from our clock (beyond "
-                    f"{self.config.max_skew_s:g} s)")
+        why = clock_problem(t, now, self.config.max_skew_s)
+        if why is not None:
+            return why
         if type(msg) is m.Intention and abs(msg.expected_arrival - t) > self.config.max_horizon_s:
             return f"expected arrival {msg.expected_arrival - t:+.1f} s after sending"
         return None
@@ -105,6 +142,10 @@ class TeamInbox:
     def accept(self, msg: Any, now: float) -> tuple[Any | None, str | None]:
         """(message on our clock, None) or (None, the reason it is refused)."""
         why = self.problem(msg, now)
+        # the rate on the sender's stamps (within max_skew_s of ours): receipts come in bursts
+        if why is None and not self.rate.allow(msg.robot, msg.time):
+            why = (f"robot {msg.robot} sends beyond {self.config.rate_per_s:g} messages/s "
+                   f"(after a burst of {self.config.burst})")
         if why is not None:
             self.rejected += 1
             return None, why

@@ -188,7 +188,10 @@ def _extra_note(data: Data, cases, col: str, extra: list[str]) -> str:
 
 def verdicts_section(data: Data) -> list[str]:
     """## Verdicts (claims of SPEC section 8)."""
-    return ["## Verdicts (claims of SPEC section 8)", "",
+    provisional = data.progress is not None and not data.progress.complete
+    return ["## Verdicts (claims of SPEC section 8)" + (" - PROVISIONAL" if provisional else ""),
+            "",
+            *([f"Provisional: {data.progress.line().strip('*')}", ""] if provisional else []),
             "Fault-free graph runs. Computed from the means in the tables below (orderings of "
             "means over seeds; where the 95 % confidence intervals overlap, it is noted).", "",
-            *[v.line() for v in verdicts(data)], ""]
+            *[v.line() + (" (provisional)" if provisional else "") for v in verdicts(data)], ""]

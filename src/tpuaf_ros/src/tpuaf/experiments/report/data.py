@@ -32,6 +32,68 @@ def _float(text: str | None) -> float:
 
 
 @dataclass
+class Progress:
+    """How far the folder's last sweep got (DIR/plan.json, the folder's writer lock)."""
+
+    planned: int | None  # runs the last sweep planned (None: no plan.json, an older folder)
+    finished: int  # of those, finished (summary.json) ...
+    failed: int  # ... failed (error.txt) ...
+    missing: list[str]  # ... and neither: not run yet, running, or lost (run folders)
+    state: str  # "complete", "running", "interrupted"
+    writer: str | None = None  # pid of the process writing the folder now
+
+    @property
+    def complete(self) -> bool:
+        return self.state == "complete"
+
+    def line(self) -> str:
+        """One sentence for the report's header."""
+        if self.planned is None:
+            return ("The sweep is still running (pid " + str(self.writer) + "): figures may "
+                    "change." if self.state == "running" else "")
+        done = (f"{self.finished} of {self.planned} planned runs finished, {self.failed} "
+                f"failed, {len(self.missing)} missing")
+        if self.complete:
+            return f"Sweep complete: {done}."
+        why = (f"the sweep is still running (pid {self.writer})" if self.state == "running"
+               else "the sweep was interrupted (re-run the same `tpuaf compare` to finish it)")
+        return (f"**Sweep incomplete: {done}; {why}. Every verdict and table below is "
+                "provisional.**")
+
+
+def sweep_progress(root: Path, writer: str | None) -> Progress:
+    """Progress of the last sweep into `root`; `writer`: the pid holding its lock, if any."""
+    import json
+
+    plan_path = root / "plan.json"
+    try:
+        plan = json.loads(plan_path.read_text()) if plan_path.is_file() else None
+        planned = [str(p) for p in plan["planned"]] if plan else None
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ReportError(f"{plan_path}: unreadable (not the plan `tpuaf compare` writes); "
+                          "delete it to report without it") from None
+    if planned is None:
+        return Progress(None, 0, 0, [], "running" if writer else "complete", writer)
+    finished = failed = 0
+    missing = []
+    for rel in planned:
+        folder = root / rel
+        if (folder / "summary.json").is_file():
+            finished += 1
+        elif (folder / "error.txt").is_file():
+            failed += 1
+        else:
+            missing.append(rel)
+    if writer:
+        state = "running"
+    elif missing or not plan.get("ended") or plan.get("interrupted"):
+        state = "interrupted"
+    else:
+        state = "complete"
+    return Progress(len(planned), finished, failed, missing, state, writer)
+
+
+@dataclass
 class Data:
     rows: list[dict[str, Any]]  # finished runs
     failed: list[dict[str, Any]]
@@ -42,13 +104,14 @@ class Data:
     sweep: dict[str, Any]
     bounds: dict[tuple[str, int], dict[str, float]] = field(default_factory=dict)
     bounds_path: Path | None = None
+    progress: Progress | None = None  # the last sweep's (None: not known)
 
     def subset(self, scenario: str) -> Data:
         """The runs of one scenario (samples are kept for the nominal one only)."""
         return Data([r for r in self.rows if r["scenario"] == scenario],
                     [r for r in self.failed if r["scenario"] == scenario], self.reference,
                     self.samples if scenario == NOMINAL else {}, self.paper, self.paper_path,
-                    self.sweep, self.bounds, self.bounds_path)
+                    self.sweep, self.bounds, self.bounds_path, self.progress)
 
     def scenarios(self) -> list[str]:
         names = {r["scenario"] for r in self.rows}
@@ -118,11 +181,22 @@ def load_paper(path: Path | None) -> dict[tuple[str, int, str, str], float]:
 
 
 def load(root: Path, paper: Path | None = None, bounds: Path | None = None) -> Data:
-    from tpuaf.experiments.sweep import write_tables
+    """The report's inputs, read under the folder's reader lock (a sweep writing there holds
+    the writer lock: then read anyway, and the progress says the sweep is running)."""
+    from tpuaf.experiments.results import read_lock
 
     root = Path(root)
     if not root.is_dir():
         raise ReportError(f"{root}: no such folder (run `tpuaf compare --out {root}` first)")
+    with read_lock(root) as writer:
+        data = _load(root, paper, bounds)
+        data.progress = sweep_progress(root, writer)
+    return data
+
+
+def _load(root: Path, paper: Path | None, bounds: Path | None) -> Data:
+    from tpuaf.experiments.sweep import write_tables
+
     if (root / "runs").is_dir():
         write_tables(root)
     results = root / "results.csv"
