@@ -80,13 +80,24 @@ class Navigator:
         # is in line of sight with this clearance from the walls: the bare footprint + 2 cm
         self.sight_clearance_m = controller.config.robot_radius + SIGHT_MARGIN_M
         self._corner_tight = False  # the first corner must be reached within TIGHT_CORNER_M
+        # The lane layer (robot/lanes.py LaneAccess; None: no lanes): a leg into a lane starts
+        # only from its waiting spot (reached within GATE_TOLERANCE_M) holding the lane.
+        self.lanes = None
+        self._gate: tuple[int, bool] | None = None  # waiting at: (next vertex, advance route)
+        self.gate_waits = 0  # waits at a lane's waiting spot
 
     def set_route(self, route: GraphRoute, t: float) -> None:
         self.route = route
         self._short = False
         self._give_way = None
         self._near_since = None
+        self._gate = None
         at_start = bool(route.waypoints) and route.waypoints[0] != route.start
+        if self.lanes is not None:
+            self.lanes.withdraw()
+            if at_start and not self.lanes.may_start(route.start, route.waypoints[0], t):
+                self._gate = (route.start, False)
+                self.gate_waits += 1
         self._new_leg(route.start if at_start else None)
         self._retries_seen = 0
         self._aim(t, new_goal=True)
@@ -94,6 +105,9 @@ class Navigator:
     def cancel(self) -> None:
         self.route = None
         self._give_way = None
+        self._gate = None
+        if self.lanes is not None:
+            self.lanes.withdraw()
         self._corners = []
         self._plan_pending = False
         self.controller.target = None
@@ -125,6 +139,9 @@ class Navigator:
             self.controller.set_target(self._corners[0], tol, t, new_goal=new_goal)
             return
         tol = self.goal_tolerance if route.is_last else self.waypoint_tolerance
+        if self.lanes is not None and not route.is_last and self.lanes.enters(
+                *_around(route)):
+            tol = min(tol, max(self.goal_tolerance, GATE_TOLERANCE_M))
         self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
 
     def _plan_leg(self, t: float, pose: tuple[float, float, float],
@@ -407,6 +424,10 @@ class Navigator:
         self._remember(pose)
         if self._give_way is not None:
             return self._step_give_way(t, pose, points), Event.NONE, -1
+        if self._gate is not None:
+            waiting = self._step_gate(t, pose, points)
+            if waiting is not None:
+                return waiting
         if self._plan_pending:
             self._plan_leg(t, pose)
         elif (self.planner is not None and ctl.retries > self._retries_seen
@@ -440,9 +461,23 @@ class Navigator:
             cmd = ctl.step(t, pose, points)
         if cmd.status != Status.REACHED:
             return cmd, Event.NONE, -1
+        if self.lanes is not None and not route.is_last and not self.lanes.may_start(
+                route.next_waypoint, route.waypoints[route._k + 1], t):
+            self._gate = (route.next_waypoint, True)  # wait here, at the lane's waiting spot
+            self.gate_waits += 1
+            return Command(0.0, 0.0, Status.DRIVING), Event.NONE, -1
+        return self._pass_waypoint(t, pose, points, cmd)
+
+    def _pass_waypoint(self, t: float, pose: tuple[float, float, float],
+                       points: np.ndarray | None, cmd: Command) -> tuple[Command, Event, int]:
+        """The next waypoint is reached: the goal (ARRIVED), or on to the next leg."""
+        route = self.route
+        ctl = self.controller
         last = route.is_last
         vertex = route.advance()
         if last:
+            if self.lanes is not None:
+                self.lanes.arrive(vertex, t)
             self.cancel()
             return cmd, Event.ARRIVED, vertex
         self._new_leg(vertex)
@@ -454,6 +489,26 @@ class Navigator:
         cmd = ctl.step(t, pose, points)
         return cmd, Event.WAYPOINT, vertex
 
+
+    def _step_gate(self, t: float, pose: tuple[float, float, float],
+                   points: np.ndarray | None) -> tuple[Command, Event, int] | None:
+        """At a lane's waiting spot: None once the lane is held (drive on), else stand (and
+        make room for a robot that comes up to us, as a parked robot: `park_step`)."""
+        route = self.route
+        u, advance = self._gate
+        nxt = route.waypoints[route._k + 1] if advance else route.next_waypoint
+        if self.lanes.may_start(u, nxt, t):
+            self._gate = None
+            self.controller.restart_progress(t)
+            if advance:
+                return self._pass_waypoint(t, pose, points, Command(0.0, 0.0, Status.REACHED))
+            return None
+        v, w = self.park_step(t, pose, points)
+        if self._give_way is not None:  # making room: back to the spot afterwards
+            self._gate = None
+            if not advance:  # the spot becomes a waypoint again, reached before the lane
+                route.waypoints.insert(route._k, u)
+        return Command(v, w, Status.DRIVING), Event.NONE, -1
 
     def _near_goal(self, pose: tuple[float, float, float]) -> bool:
         """On the route's last leg, within `near_goal_m` of the goal vertex."""
@@ -480,6 +535,7 @@ HELD_M = 0.05  # [m] a robot that has not moved this far is held still
 BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
 
 
+GATE_TOLERANCE_M = 0.15  # [m] a lane's waiting spot is reached within this (at least goal tol.)
 MAX_DETOUR_FACTOR = 1.5  # a way round another robot may be this much longer than the free way
 MAX_DETOUR_EXTRA_M = 1.0  # [m] ... plus this
 MAX_GIVE_WAYS_PER_LEG = 2  # then the usual recovery decides (a robot that does not move)
@@ -495,6 +551,14 @@ GIVE_WAY_PASS_M = 2.0  # [m] the other robot drives this far to be past (the wai
 PARKED_YIELD_S = 0.5  # [s] a parked robot makes room after another has been near this long
 TRAIL_STEP_M = 0.1  # [m] between the remembered positions
 TRAIL_POINTS = 30  # remembered positions (3 m)
+
+
+def _around(route: GraphRoute) -> tuple[int | None, int, int | None]:
+    """(previous, next, following) vertex of a route's next waypoint (None: none)."""
+    k = route._k
+    prev = route.waypoints[k - 1] if k > 0 else route.start
+    nxt = route.waypoints[k + 1] if k + 1 < len(route.waypoints) else None
+    return (None if prev == route.waypoints[k] else prev), route.waypoints[k], nxt
 
 
 def _reasonable_detour(detour: np.ndarray, free: np.ndarray) -> bool:
