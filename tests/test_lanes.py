@@ -231,3 +231,22 @@ def test_lab_lanes_are_its_aisles_and_rails_between_corners_and_junctions():
     assert [lane.spots for lane in found.lanes] == [(0, 4), (0, 5), (4, 9), (5, 9), (5, 10),
                                                      (9, 14), (10, 14)]
     assert found.narrow_vertices == frozenset({1, 2, 3, 6, 7, 8, 11, 12, 13})
+
+
+def test_two_robots_entering_one_aisle_from_both_ends_keep_visiting_in_physics(tmp_path):
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    pm = load_map(str(aisle_map(tmp_path / "aisle")))
+    config = PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1, duration_s=160.0,
+                           robot="burger")
+    run = PhysicsRun(config, patrol_map=pm)
+    assert run.starts == [0, 4]  # one robot in each room: the aisle is entered from both ends
+    counts: list[tuple[float, list[int]]] = []
+    summary = run.run(lambda t: counts.append((t, [a.machine.visits for a in run.agents])))
+    assert summary["lanes"] == 1 and summary["lane_waits"] > 0 and summary["collisions"] == 0
+    for start, end in ((0.0, 80.0), (80.0, 160.0)):  # every robot visits in every window
+        before = next(c for t, c in counts if t >= start)
+        after = [c for t, c in counts if t <= end][-1]
+        assert all(b > a for a, b in zip(before, after, strict=True)), (start, before, after)
+    assert all(access.locks.entries >= 2 for access in run.lane_access)  # both used the aisle

@@ -10,6 +10,7 @@ import numpy as np
 
 from tpuaf.navigation.controller import Command, LocalController, Status
 from tpuaf.navigation.give_way import GiveWay, find_refuge
+from tpuaf.navigation.lane_gate import LaneGate
 from tpuaf.navigation.route import GraphRoute, polyline_length
 
 # ---------------------------------------------------------------------------------------------
@@ -23,7 +24,7 @@ class Event(Enum):
     FAILED = 3  # gave up on the goal
 
 
-class Navigator:
+class Navigator(LaneGate):
     """Follows a `GraphRoute` with a `LocalController`, along planned paths when it has a
     `PathPlanner` (navigation/planner.py), else along the straight edges.
 
@@ -81,9 +82,10 @@ class Navigator:
         self.sight_clearance_m = controller.config.robot_radius + SIGHT_MARGIN_M
         self._corner_tight = False  # the first corner must be reached within TIGHT_CORNER_M
         # The lane layer (robot/lanes.py LaneAccess; None: no lanes): a leg into a lane starts
-        # only from its waiting spot (reached within GATE_TOLERANCE_M) holding the lane.
+        # only from its waiting spot holding the lane (lane_gate.py).
         self.lanes = None
         self._gate: tuple[int, bool] | None = None  # waiting at: (next vertex, advance route)
+        self._gate_corners: list[tuple[float, float]] | None = None  # to a waiting point
         self.gate_waits = 0  # waits at a lane's waiting spot
 
     def set_route(self, route: GraphRoute, t: float) -> None:
@@ -91,7 +93,7 @@ class Navigator:
         self._short = False
         self._give_way = None
         self._near_since = None
-        self._gate = None
+        self._gate = self._gate_corners = None
         at_start = bool(route.waypoints) and route.waypoints[0] != route.start
         if self.lanes is not None:
             self.lanes.withdraw()
@@ -105,7 +107,7 @@ class Navigator:
     def cancel(self) -> None:
         self.route = None
         self._give_way = None
-        self._gate = None
+        self._gate = self._gate_corners = None
         if self.lanes is not None:
             self.lanes.withdraw()
         self._corners = []
@@ -138,10 +140,8 @@ class Navigator:
             tol = TIGHT_CORNER_M if self._corner_tight else self.corner_tolerance
             self.controller.set_target(self._corners[0], tol, t, new_goal=new_goal)
             return
-        tol = self.goal_tolerance if route.is_last else self.waypoint_tolerance
-        if self.lanes is not None and not route.is_last and self.lanes.enters(
-                *_around(route)):
-            tol = min(tol, max(self.goal_tolerance, GATE_TOLERANCE_M))
+        tol = self._gate_tolerance(route, self.goal_tolerance if route.is_last
+                                   else self.waypoint_tolerance)
         self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
 
     def _plan_leg(self, t: float, pose: tuple[float, float, float],
@@ -493,22 +493,18 @@ class Navigator:
     def _step_gate(self, t: float, pose: tuple[float, float, float],
                    points: np.ndarray | None) -> tuple[Command, Event, int] | None:
         """At a lane's waiting spot: None once the lane is held (drive on), else stand (and
-        make room for a robot that comes up to us, as a parked robot: `park_step`)."""
+        wait: lane_gate.py)."""
         route = self.route
         u, advance = self._gate
         nxt = route.waypoints[route._k + 1] if advance else route.next_waypoint
         if self.lanes.may_start(u, nxt, t):
-            self._gate = None
+            self._gate = self._gate_corners = None
             self.controller.restart_progress(t)
             if advance:
                 return self._pass_waypoint(t, pose, points, Command(0.0, 0.0, Status.REACHED))
             return None
-        v, w = self.park_step(t, pose, points)
-        if self._give_way is not None:  # making room: back to the spot afterwards
-            self._gate = None
-            if not advance:  # the spot becomes a waypoint again, reached before the lane
-                route.waypoints.insert(route._k, u)
-        return Command(v, w, Status.DRIVING), Event.NONE, -1
+        obstacles = _obstacle_discs(self._unmapped(_map_points(pose, points)))
+        return self._gate_wait(t, pose, points, u, nxt, obstacles), Event.NONE, -1
 
     def _near_goal(self, pose: tuple[float, float, float]) -> bool:
         """On the route's last leg, within `near_goal_m` of the goal vertex."""
@@ -535,7 +531,6 @@ HELD_M = 0.05  # [m] a robot that has not moved this far is held still
 BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
 
 
-GATE_TOLERANCE_M = 0.15  # [m] a lane's waiting spot is reached within this (at least goal tol.)
 MAX_DETOUR_FACTOR = 1.5  # a way round another robot may be this much longer than the free way
 MAX_DETOUR_EXTRA_M = 1.0  # [m] ... plus this
 MAX_GIVE_WAYS_PER_LEG = 2  # then the usual recovery decides (a robot that does not move)
@@ -551,14 +546,6 @@ GIVE_WAY_PASS_M = 2.0  # [m] the other robot drives this far to be past (the wai
 PARKED_YIELD_S = 0.5  # [s] a parked robot makes room after another has been near this long
 TRAIL_STEP_M = 0.1  # [m] between the remembered positions
 TRAIL_POINTS = 30  # remembered positions (3 m)
-
-
-def _around(route: GraphRoute) -> tuple[int | None, int, int | None]:
-    """(previous, next, following) vertex of a route's next waypoint (None: none)."""
-    k = route._k
-    prev = route.waypoints[k - 1] if k > 0 else route.start
-    nxt = route.waypoints[k + 1] if k + 1 < len(route.waypoints) else None
-    return (None if prev == route.waypoints[k] else prev), route.waypoints[k], nxt
 
 
 def _reasonable_detour(detour: np.ndarray, free: np.ndarray) -> bool:

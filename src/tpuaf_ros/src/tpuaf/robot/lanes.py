@@ -44,6 +44,16 @@ class LaneAccess:
         lane = self.lane_map.lane_of(u, v)
         return lane < 0 or self.locks.may_enter(lane, now)
 
+    def queued_behind_waiter(self, u: int, v: int) -> bool:
+        """Is another robot waiting for the lane of u -> v ahead of us (not only a holder)?"""
+        lane = self.lane_map.lane_of(u, v)
+        for claim in self.locks.queue(lane):
+            if claim.robot == self.locks.robot:
+                return False
+            if not claim.held:
+                return True
+        return False
+
     def withdraw(self) -> None:
         """The route changed: a request not granted yet is dropped (a held lane is kept)."""
         if self.locks.mine.lane >= 0 and not self.locks.mine.held:

@@ -49,6 +49,7 @@ class LaneLocks:
         self._next_announce = -math.inf
         self.waits = 0  # requests that were not granted at once
         self.wait_s = 0.0  # [s] from those requests to their grant
+        self.entries = 0  # lanes entered (granted)
         self._waiting = False
 
     @property
@@ -116,5 +117,6 @@ class LaneLocks:
         if self._waiting:
             self.wait_s += now - m.stamp
             self._waiting = False
+        self.entries += 1
         self._set(lane, m.stamp, True, now)
         return True
