@@ -250,3 +250,16 @@ def test_two_robots_entering_one_aisle_from_both_ends_keep_visiting_in_physics(t
         after = [c for t, c in counts if t <= end][-1]
         assert all(b > a for a, b in zip(before, after, strict=True)), (start, before, after)
     assert all(access.locks.entries >= 2 for access in run.lane_access)  # both used the aisle
+
+
+def test_tpuaf_maps_prints_and_draws_the_lanes(tmp_path, capsys):
+    from tpuaf.cli import main
+
+    folder = aisle_map(tmp_path / "aisle")
+    assert main(["maps", str(folder), "--lanes", "--json", "--picture", str(tmp_path)]) == 0
+    import json
+
+    (summary,) = json.loads(capsys.readouterr().out)
+    assert [(lane["edges"], lane["waiting_spots"]) for lane in summary["lanes"]] == [
+        ([[0, 1], [1, 2]], [0, 2])]
+    assert (tmp_path / "aisle.png").read_bytes()[:4] == b"\x89PNG"
