@@ -263,3 +263,24 @@ def test_tpuaf_maps_prints_and_draws_the_lanes(tmp_path, capsys):
     assert [(lane["edges"], lane["waiting_spots"]) for lane in summary["lanes"]] == [
         ([[0, 1], [1, 2]], [0, 2])]
     assert (tmp_path / "aisle.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_a_dead_holders_lane_is_freed_in_physics(tmp_path):
+    """Robot 0 dies at 30 s holding the aisle (held up at its end by robot 1, which waits
+    there for the aisle); robot 1 enters once robot 0 is lost (the teammate timeout) and
+    keeps visiting."""
+    from tpuaf.params import LIVENESS_DEFAULTS
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    pm = load_map(str(aisle_map(tmp_path / "aisle")))
+    run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1,
+                                   duration_s=100.0, robot="burger", fail=["0@30"]),
+                     patrol_map=pm)
+    dead, alive = (access.locks for access in run.lane_access)
+    trace: list[tuple[float, int, int, int]] = []
+    run.run(lambda t: trace.append((t, dead.held, alive.held, run.agents[1].machine.visits)))
+    assert dead.held == 0  # it died holding the aisle
+    granted = next(t for t, _, held, _ in trace if t > 30.0 and held == 0)
+    assert granted >= 30.0 + LIVENESS_DEFAULTS.teammate_timeout_s
+    assert trace[-1][3] > next(v for t, _, _, v in trace if t >= granted)
