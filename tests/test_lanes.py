@@ -231,6 +231,9 @@ def test_lab_lanes_are_its_aisles_and_rails_between_corners_and_junctions():
     assert [lane.spots for lane in found.lanes] == [(0, 4), (0, 5), (4, 9), (5, 9), (5, 10),
                                                      (9, 14), (10, 14)]
     assert found.narrow_vertices == frozenset({1, 2, 3, 6, 7, 8, 11, 12, 13})
+    # inside a lane: the middle aisle and the left rail's middle; not at a waiting spot
+    assert found.lane_at([(1.5, 1.3), (0.3, 0.8), (0.3, 1.3), (0.3, 0.3)]).tolist() == [
+        3, 1, -1, -1]
 
 
 def test_two_robots_entering_one_aisle_from_both_ends_keep_visiting_in_physics(tmp_path):

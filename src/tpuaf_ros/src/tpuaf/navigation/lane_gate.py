@@ -38,6 +38,17 @@ class LaneGate:
             return min(tol, max(self.goal_tolerance, GATE_TOLERANCE_M))
         return tol
 
+    @property
+    def _lane_free(self):
+        """Where the robot may stand or drive off its route: outside the lanes it does not
+        hold (a mask function of points (k, 2) [m]); None without lanes."""
+        return None if self.lanes is None else self.lanes.allowed
+
+    def _lane_free_path(self, path: np.ndarray) -> bool:
+        """Whether a path off the route (a way round another robot) keeps out of the lanes
+        the robot does not hold."""
+        return self.lanes is None or bool(self.lanes.allowed(np.asarray(path)[1:]).all())
+
     def _gate_wait(self, t: float, pose: tuple[float, float, float], points, u: int, nxt: int,
                    obstacles) -> Command:
         """The command while waiting for the lane of u -> nxt at its waiting spot u (see the
@@ -73,5 +84,5 @@ class LaneGate:
         k = int(np.searchsorted(np.cumsum(np.hypot(*np.diff(path, axis=0).T)), LANE_MOUTH_M))
         mouth = tuple(float(c) for c in path[min(k + 1, len(path) - 1)])
         refuge = find_refuge(self.planner, (float(pose[0]), float(pose[1])), mouth, [],
-                             self._pass_clearance_m(), obstacles)
+                             self._pass_clearance_m(), obstacles, allowed=self._lane_free)
         return [] if refuge is None else [(float(x), float(y)) for x, y in refuge[1:]]

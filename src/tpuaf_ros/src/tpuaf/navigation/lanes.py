@@ -23,6 +23,8 @@ import numpy as np
 PASS_MARGIN_M = 0.05  # [m] beyond two footprints side by side (the navigator's pass margin)
 SAMPLE_STEP_M = 0.05  # [m] between the checked points of a planned path
 LATERAL_STEP_M = 0.025  # [m] between the checked points across it
+LANE_REGION_M = 0.2  # [m] points this close to a lane's path are inside the lane ...
+SPOT_CLEAR_M = 0.35  # [m] ... except near its waiting spots (a robot waits there)
 
 
 @dataclass(frozen=True)
@@ -45,6 +47,8 @@ class LaneMap:
     edge_width_m: dict[tuple[int, int], float]  # [m] narrowest band along each edge
     narrow_vertices: frozenset[int]
     pass_band_m: float  # [m] a band narrower than this is one robot wide
+    region: tuple | None = None  # (lane index per map cell, row 0 at the bottom; origin [m],
+    # resolution [m]): where a robot is inside a lane (`lane_at`), None: nowhere
     _edge_lane: dict[tuple[int, int], int] = field(default_factory=dict)
     _vertex_lane: dict[int, int] = field(default_factory=dict)
 
@@ -62,6 +66,19 @@ class LaneMap:
     def interior_of(self, v: int) -> int:
         """The lane `v` lies inside (not a waiting spot), -1 when none."""
         return self._vertex_lane.get(int(v), -1)
+
+    def lane_at(self, points) -> np.ndarray:
+        """The lane each map-frame point (k, 2) [m] lies inside, -1 where none."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        out = np.full(len(points), -1, dtype=int)
+        if self.region is None:
+            return out
+        ids, (ox, oy), res = self.region
+        cols = np.floor((points[:, 0] - ox) / res).astype(int)
+        rows = np.floor((points[:, 1] - oy) / res).astype(int)
+        inside = (rows >= 0) & (rows < ids.shape[0]) & (cols >= 0) & (cols < ids.shape[1])
+        out[inside] = ids[rows[inside], cols[inside]]
+        return out
 
     def __bool__(self) -> bool:
         return bool(self.lanes)
@@ -130,7 +147,37 @@ def find_lanes(planner, patrol_map) -> LaneMap:
         at_vertex.setdefault(e[0], []).append(float(bands[0]))
         at_vertex.setdefault(e[1], []).append(float(bands[-1]))
     narrow_v = frozenset(v for v, bands in at_vertex.items() if max(bands) < need)
-    return group_lanes(widths, narrow_v, need, len(positions))
+    lane_map = group_lanes(widths, narrow_v, need, len(positions))
+    if lane_map:
+        lane_map.region = _region(planner, patrol_map, lane_map, positions)
+    return lane_map
+
+
+def _region(planner, patrol_map, lane_map: LaneMap, positions: np.ndarray) -> tuple:
+    """Map cells within LANE_REGION_M of a lane's planned paths, away from its waiting spots
+    (SPOT_CLEAR_M), marked with the lane's index (see LaneMap.region)."""
+    grid = patrol_map.occupancy_grid()
+    res = float(grid.resolution)
+    ox, oy = float(grid.origin[0]), float(grid.origin[1])
+    ids = np.full(np.asarray(grid.occupied).shape, -1, dtype=np.int32)
+    reach = int(math.ceil(LANE_REGION_M / res))
+    offsets = np.arange(-reach, reach + 1)
+    dr, dc = np.meshgrid(offsets, offsets, indexing="ij")
+    disc = np.hypot(dr, dc) * res <= LANE_REGION_M
+    for lane in lane_map.lanes:
+        paths = [planner.edge_path(*e) for e in lane.edges]
+        points = np.vstack([_sampled(positions[list(e)] if p is None else np.asarray(p))[0]
+                            for e, p in zip(lane.edges, paths, strict=True)])
+        spots = positions[list(lane.spots)]
+        if len(spots):
+            near = np.hypot(points[:, None, 0] - spots[None, :, 0],
+                            points[:, None, 1] - spots[None, :, 1]).min(axis=1)
+            points = points[near > SPOT_CLEAR_M]
+        rows = np.floor((points[:, 1] - oy) / res).astype(int)[:, None] + dr[disc][None]
+        cols = np.floor((points[:, 0] - ox) / res).astype(int)[:, None] + dc[disc][None]
+        ok = (rows >= 0) & (rows < ids.shape[0]) & (cols >= 0) & (cols < ids.shape[1])
+        ids[rows[ok], cols[ok]] = lane.index
+    return ids, (ox, oy), res
 
 
 def group_lanes(edge_width_m: dict[tuple[int, int], float], narrow_vertices: frozenset[int],

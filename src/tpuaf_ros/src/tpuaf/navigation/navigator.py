@@ -170,7 +170,8 @@ class Navigator(LaneGate):
                 # Round another robot only when that is not much longer than the free way:
                 # it will move anyway (waiting, or giving way, is then quicker).
                 free = self.planner.plan((x, y), target)
-                if path is None or (free is not None and not _reasonable_detour(path, free)):
+                if path is None or (free is not None and not (
+                        _reasonable_detour(path, free) and self._lane_free_path(path))):
                     path = free
         if path is None:
             self.unplanned_legs += 1
@@ -242,6 +243,8 @@ class Navigator(LaneGate):
         target = self.route.next_position()
         detour = self.planner.plan((x, y), target, obstacles)
         free = self._remaining_path(pose)
+        if detour is not None and not self._lane_free_path(detour):
+            detour = None  # a way round through a lane we do not hold: not taken
         if detour is not None and (free is None or _reasonable_detour(detour, free)):
             self.replans += 1
             self._plan_leg(t, pose, ahead, keep_obstacles=True)
@@ -293,7 +296,7 @@ class Navigator(LaneGate):
         obstacles = np.vstack((_obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
         aim = None if parked else self.controller.target
         path = find_refuge(self.planner, me, blocker, [] if parked else self._trail,
-                           self._pass_clearance_m(), obstacles, aim)
+                           self._pass_clearance_m(), obstacles, aim, self._lane_free)
         if path is None:
             return False
         speed = self.controller.config.max_linear_speed

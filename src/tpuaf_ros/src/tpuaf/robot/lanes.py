@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from tpuaf.navigation.lanes import LaneMap
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
@@ -53,6 +55,11 @@ class LaneAccess:
             if not claim.held:
                 return True
         return False
+
+    def allowed(self, points) -> np.ndarray:
+        """Mask of map-frame points (k, 2) [m] outside every lane but the one held."""
+        lanes = self.lane_map.lane_at(points)
+        return (lanes < 0) | (lanes == self.locks.held)
 
     def withdraw(self) -> None:
         """The route changed: a request not granted yet is dropped (a held lane is kept)."""
