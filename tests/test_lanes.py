@@ -242,7 +242,7 @@ def test_two_robots_entering_one_aisle_from_both_ends_keep_visiting_in_physics(t
 
     pm = load_map(str(aisle_map(tmp_path / "aisle")))
     config = PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1, duration_s=160.0,
-                           robot="burger")
+                           robot="burger", lanes=True)
     run = PhysicsRun(config, patrol_map=pm)
     assert run.starts == [0, 4]  # one robot in each room: the aisle is entered from both ends
     counts: list[tuple[float, list[int]]] = []
@@ -278,7 +278,7 @@ def test_a_dead_holders_lane_is_freed_in_physics(tmp_path):
 
     pm = load_map(str(aisle_map(tmp_path / "aisle")))
     run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1,
-                                   duration_s=100.0, robot="burger", fail=["0@30"]),
+                                   duration_s=100.0, robot="burger", fail=["0@30"], lanes=True),
                      patrol_map=pm)
     dead, alive = (access.locks for access in run.lane_access)
     trace: list[tuple[float, int, int, int]] = []
