@@ -25,6 +25,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--allow-occupied-vertices", action="store_true",
                         help="a vertex outside the image's free space is a warning, not an error")
+    parser.add_argument("--lanes", action="store_true",
+                        help="also find the lanes: stretches one robot wide, with their waiting "
+                        "spots (docs/LANES.md), for the map's robot radius")
+    parser.add_argument("--picture", metavar="DIR", default=None,
+                        help="write DIR/<map>.png: the map, its graph and (with --lanes) its "
+                        "lanes")
     add_map_params(p=parser)
 
 
@@ -206,6 +212,45 @@ def format_edge_check(name: str, check: dict, allow_occupied_vertices: bool = Fa
     return line, errors, warnings
 
 
+def lanes_of(pm):
+    """The map's lanes for its robot radius (navigation/lanes.py)."""
+    from tpuaf.navigation.lanes import find_lanes
+    from tpuaf.navigation.planner import shared_planner
+
+    return find_lanes(shared_planner(pm, float(pm.settings.robot_radius)), pm)
+
+
+def lane_summary(pm, lane_map) -> list[dict]:
+    ids = pm.vertex_ids
+    texts = lane_map.describe(ids)
+    return [{"edges": [[ids[u], ids[v]] for u, v in lane.edges],
+             "waiting_spots": [ids[s] for s in lane.spots],
+             "narrowest_band_m": round(lane.min_width_m, 3), "text": text}
+            for lane, text in zip(lane_map.lanes, texts, strict=True)]
+
+
+def picture(pm, folder: str, lane_map):
+    """DIR/<map>.png: the map and graph, lanes drawn over it (their planned paths)."""
+    from pathlib import Path
+
+    from tpuaf.experiments.graph_figure import graph_png
+
+    out = Path(folder)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise CliError(f"--picture: cannot create folder {out}: {err.strerror}") from None
+    lanes = None
+    if lane_map is not None:
+        from tpuaf.navigation.planner import shared_planner
+
+        planner = shared_planner(pm, float(pm.settings.robot_radius))
+        lanes = [([planner.edge_path(u, v) for u, v in lane.edges], list(lane.spots))
+                 for lane in lane_map.lanes]
+    return graph_png(pm, out / f"{pm.name}.png", lanes=lanes,
+                     title=f"{pm.name}" + (f": {len(lanes)} lanes" if lanes is not None else ""))
+
+
 def run(args: argparse.Namespace) -> int:
     from tpuaf.maps import MapError, builtin_map_names, load_map, map_summary
     from tpuaf.maps.params import CLI, effective_params, format_params
@@ -226,6 +271,11 @@ def run(args: argparse.Namespace) -> int:
             summary["notes"] = list(pm.notes)
         if pm.warnings:
             summary["warnings"] = list(pm.warnings)
+        lane_map = lanes_of(pm) if args.lanes else None
+        if lane_map is not None:
+            summary["lanes"] = lane_summary(pm, lane_map)
+        if args.picture:
+            summary["picture"] = str(picture(pm, args.picture, lane_map))
         for warning in pm.warnings:
             print(f"tpuaf maps: warning ({pm.name}): {warning}", file=sys.stderr)
         summaries.append(summary)
@@ -238,6 +288,11 @@ def run(args: argparse.Namespace) -> int:
         for s in summaries:
             for note in s.get("notes", []):
                 print(f"note ({s['name']}): {note}")
+            if "lanes" in s:
+                print(f"lanes of {s['name']}: {len(s['lanes'])} (one robot wide, entered "
+                      "holding a lock from a waiting spot)")
+                for lane in s["lanes"]:
+                    print("  " + lane["text"])
     blocked = False
     for s in summaries:
         line, errors, warnings = format_edge_check(s["name"], s["edge_check"],

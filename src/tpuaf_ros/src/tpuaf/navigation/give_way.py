@@ -79,10 +79,12 @@ def other_way(me: tuple[float, float], blocker: tuple[float, float],
 def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
                 trail: list[tuple[float, float]], pass_clearance_m: float,
                 obstacles: np.ndarray | None,
-                heading_to: tuple[float, float] | None = None) -> np.ndarray | None:
+                heading_to: tuple[float, float] | None = None,
+                allowed=None) -> np.ndarray | None:
     """The planned path (k, 2) [m] from `me` to the nearest refuge: a free spot at least
     `pass_clearance_m` from the other robot's expected way (`other_way`), reachable without
-    crossing `obstacles` (discs (x, y, radius) [m]: the other robots), or None.
+    crossing `obstacles` (discs (x, y, radius) [m]: the other robots), where `allowed`
+    (points (k, 2) -> bool mask; None: anywhere) lets the robot stand, or None.
 
     Nearest by a wave over a square of cells round `me` (free: not lethal for the robot, not
     within a disc's lethal reach), then a plan to the first few refuges the wave met."""
@@ -124,6 +126,8 @@ def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
     idx = np.flatnonzero(refuge.ravel())
     way = other_way(me, blocker, trail, heading_to)
     idx = idx[segment_distances(cells[idx], way) >= pass_clearance_m]
+    if allowed is not None:  # e.g. not inside a lane the robot does not hold (lanes.py)
+        idx = idx[allowed(cells[idx])]
     for j in idx[np.argsort(order.ravel()[idx], kind="stable")][:REFUGE_PLANS]:
         path = planner.plan(me, tuple(cells[j]), obstacles)
         if path is not None and polyline_length(path) <= (

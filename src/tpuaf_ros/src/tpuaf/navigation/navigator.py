@@ -10,6 +10,7 @@ import numpy as np
 
 from tpuaf.navigation.controller import Command, LocalController, Status
 from tpuaf.navigation.give_way import GiveWay, find_refuge
+from tpuaf.navigation.lane_gate import LaneGate
 from tpuaf.navigation.route import GraphRoute, polyline_length
 
 # ---------------------------------------------------------------------------------------------
@@ -23,7 +24,7 @@ class Event(Enum):
     FAILED = 3  # gave up on the goal
 
 
-class Navigator:
+class Navigator(LaneGate):
     """Follows a `GraphRoute` with a `LocalController`, along planned paths when it has a
     `PathPlanner` (navigation/planner.py), else along the straight edges.
 
@@ -80,13 +81,25 @@ class Navigator:
         # is in line of sight with this clearance from the walls: the bare footprint + 2 cm
         self.sight_clearance_m = controller.config.robot_radius + SIGHT_MARGIN_M
         self._corner_tight = False  # the first corner must be reached within TIGHT_CORNER_M
+        # The lane layer (robot/lanes.py LaneAccess; None: no lanes): a leg into a lane starts
+        # only from its waiting spot holding the lane (lane_gate.py).
+        self.lanes = None
+        self._gate: tuple[int, bool] | None = None  # waiting at: (next vertex, advance route)
+        self._gate_corners: list[tuple[float, float]] | None = None  # to a waiting point
+        self.gate_waits = 0  # waits at a lane's waiting spot
 
     def set_route(self, route: GraphRoute, t: float) -> None:
         self.route = route
         self._short = False
         self._give_way = None
         self._near_since = None
+        self._gate = self._gate_corners = None
         at_start = bool(route.waypoints) and route.waypoints[0] != route.start
+        if self.lanes is not None:
+            self.lanes.withdraw()
+            if at_start and not self.lanes.may_start(route.start, route.waypoints[0], t):
+                self._gate = (route.start, False)
+                self.gate_waits += 1
         self._new_leg(route.start if at_start else None)
         self._retries_seen = 0
         self._aim(t, new_goal=True)
@@ -94,6 +107,9 @@ class Navigator:
     def cancel(self) -> None:
         self.route = None
         self._give_way = None
+        self._gate = self._gate_corners = None
+        if self.lanes is not None:
+            self.lanes.withdraw()
         self._corners = []
         self._plan_pending = False
         self.controller.target = None
@@ -124,7 +140,8 @@ class Navigator:
             tol = TIGHT_CORNER_M if self._corner_tight else self.corner_tolerance
             self.controller.set_target(self._corners[0], tol, t, new_goal=new_goal)
             return
-        tol = self.goal_tolerance if route.is_last else self.waypoint_tolerance
+        tol = self._gate_tolerance(route, self.goal_tolerance if route.is_last
+                                   else self.waypoint_tolerance)
         self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
 
     def _plan_leg(self, t: float, pose: tuple[float, float, float],
@@ -153,7 +170,8 @@ class Navigator:
                 # Round another robot only when that is not much longer than the free way:
                 # it will move anyway (waiting, or giving way, is then quicker).
                 free = self.planner.plan((x, y), target)
-                if path is None or (free is not None and not _reasonable_detour(path, free)):
+                if path is None or (free is not None and not (
+                        _reasonable_detour(path, free) and self._lane_free_path(path))):
                     path = free
         if path is None:
             self.unplanned_legs += 1
@@ -225,6 +243,8 @@ class Navigator:
         target = self.route.next_position()
         detour = self.planner.plan((x, y), target, obstacles)
         free = self._remaining_path(pose)
+        if detour is not None and not self._lane_free_path(detour):
+            detour = None  # a way round through a lane we do not hold: not taken
         if detour is not None and (free is None or _reasonable_detour(detour, free)):
             self.replans += 1
             self._plan_leg(t, pose, ahead, keep_obstacles=True)
@@ -276,7 +296,7 @@ class Navigator:
         obstacles = np.vstack((_obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
         aim = None if parked else self.controller.target
         path = find_refuge(self.planner, me, blocker, [] if parked else self._trail,
-                           self._pass_clearance_m(), obstacles, aim)
+                           self._pass_clearance_m(), obstacles, aim, self._lane_free)
         if path is None:
             return False
         speed = self.controller.config.max_linear_speed
@@ -407,6 +427,10 @@ class Navigator:
         self._remember(pose)
         if self._give_way is not None:
             return self._step_give_way(t, pose, points), Event.NONE, -1
+        if self._gate is not None:
+            waiting = self._step_gate(t, pose, points)
+            if waiting is not None:
+                return waiting
         if self._plan_pending:
             self._plan_leg(t, pose)
         elif (self.planner is not None and ctl.retries > self._retries_seen
@@ -440,9 +464,23 @@ class Navigator:
             cmd = ctl.step(t, pose, points)
         if cmd.status != Status.REACHED:
             return cmd, Event.NONE, -1
+        if self.lanes is not None and not route.is_last and not self.lanes.may_start(
+                route.next_waypoint, route.waypoints[route._k + 1], t):
+            self._gate = (route.next_waypoint, True)  # wait here, at the lane's waiting spot
+            self.gate_waits += 1
+            return Command(0.0, 0.0, Status.DRIVING), Event.NONE, -1
+        return self._pass_waypoint(t, pose, points, cmd)
+
+    def _pass_waypoint(self, t: float, pose: tuple[float, float, float],
+                       points: np.ndarray | None, cmd: Command) -> tuple[Command, Event, int]:
+        """The next waypoint is reached: the goal (ARRIVED), or on to the next leg."""
+        route = self.route
+        ctl = self.controller
         last = route.is_last
         vertex = route.advance()
         if last:
+            if self.lanes is not None:
+                self.lanes.arrive(vertex, t)
             self.cancel()
             return cmd, Event.ARRIVED, vertex
         self._new_leg(vertex)
@@ -454,6 +492,22 @@ class Navigator:
         cmd = ctl.step(t, pose, points)
         return cmd, Event.WAYPOINT, vertex
 
+
+    def _step_gate(self, t: float, pose: tuple[float, float, float],
+                   points: np.ndarray | None) -> tuple[Command, Event, int] | None:
+        """At a lane's waiting spot: None once the lane is held (drive on), else stand (and
+        wait: lane_gate.py)."""
+        route = self.route
+        u, advance = self._gate
+        nxt = route.waypoints[route._k + 1] if advance else route.next_waypoint
+        if self.lanes.may_start(u, nxt, t):
+            self._gate = self._gate_corners = None
+            self.controller.restart_progress(t)
+            if advance:
+                return self._pass_waypoint(t, pose, points, Command(0.0, 0.0, Status.REACHED))
+            return None
+        obstacles = _obstacle_discs(self._unmapped(_map_points(pose, points)))
+        return self._gate_wait(t, pose, points, u, nxt, obstacles), Event.NONE, -1
 
     def _near_goal(self, pose: tuple[float, float, float]) -> bool:
         """On the route's last leg, within `near_goal_m` of the goal vertex."""

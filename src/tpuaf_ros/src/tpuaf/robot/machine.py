@@ -33,7 +33,7 @@ from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import Policy, RobotContextBase
 from tpuaf.robot.learning import LearnedTravel
 from tpuaf.team.liveness import TeammateLiveness
-from tpuaf.team.messages import IdlenessEstimate, Intention, Visit
+from tpuaf.team.messages import IdlenessEstimate, Intention, LaneClaim, Visit
 from tpuaf.topics import DWELL, FAILED, GOAL, REACHED, START
 
 STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long (a DWELL, no visit)
@@ -115,6 +115,7 @@ class RobotMachine(RobotContextBase):
         self.liveness = TeammateLiveness(self.n_robots, self.robot, teammate_timeout_s)
         # The team's measured edge durations; the plan is re-timed on them (robot/learning.py).
         self.learned = LearnedTravel(patrol_map)
+        self.lane_locks = None  # team.lane_locks.LaneLocks on maps with lanes (robot/lanes.py)
 
     def at_vertex(self, vertex: int) -> bool:
         """Is the robot within the map's goal tolerance [m] of `vertex` (it dwells there rather
@@ -265,7 +266,12 @@ class RobotMachine(RobotContextBase):
         self.decide()
 
     def on_message(self, message: Any) -> None:
-        """A team message from another robot (never its own)."""
+        """A team message from another robot (never its own); lane claims go to the lane
+        locks, not to the policy."""
+        if isinstance(message, LaneClaim):
+            if self.alive and self.lane_locks is not None:
+                self.lane_locks.on_claim(message)
+            return
         if self.alive and self.started:
             self.learned.observe(message)
             self.policy.on_message(message, self)

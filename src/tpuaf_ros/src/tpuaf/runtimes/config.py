@@ -155,6 +155,7 @@ class PhysicsConfig(RunConfig):
     physics_step_s: float = PHYSICS_STEP_S
     control_period_s: float = CONTROL_PERIOD_S
     planner: bool = True  # navigator on planned paths (False: straight edges, as before)
+    lanes: bool = False  # lane locks where the map is one robot wide (docs/LANES.md; opt-in)
 
     def validate(self) -> None:
         if self.robot is None:

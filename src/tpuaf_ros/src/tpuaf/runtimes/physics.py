@@ -38,9 +38,11 @@ from tpuaf.navigation import (
     retry_wait_for,
     scan_points_batch,
 )
+from tpuaf.navigation.lanes import find_lanes
 from tpuaf.navigation.planner import shared_planner
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import REGISTRY
+from tpuaf.robot.lanes import attach_lanes
 from tpuaf.robot.model import RobotModel, world_robot
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.base import TeamRun
@@ -98,6 +100,11 @@ class PhysicsRun(TeamRun):
                                    else LIVENESS_DEFAULTS.heartbeat_period_s)
         self._liveness_checks: list[tuple[float, int, int]] = []  # heap: (t [s], robot, token)
         self._team([a.machine for a in self.agents])
+        # The lane layer where the map has stretches one robot wide (docs/LANES.md).
+        self.lane_map = (find_lanes(self.planner, world_map)
+                         if self.planner is not None and config.lanes else None)
+        self.lane_access = ([attach_lanes(a, self.lane_map, starts[i])
+                             for i, a in enumerate(self.agents)] if self.lane_map else [])
         self.steps_per_control = round(config.control_period_s / config.physics_step_s)
         # Scans at the laser rate, on control ticks (LDS-01 5 Hz: every other 10 Hz tick).
         self.scan_every = max(1, round(1.0 / (laser.rate * config.control_period_s)))
@@ -174,6 +181,8 @@ class PhysicsRun(TeamRun):
                     continue
                 x, y, th = rows[i]
                 a.on_pose(t, x, y, th)
+                if self.lane_access:
+                    self.lane_access[i].tick(t)
                 commands[i] = a.tick(t, points[i], scan_rows[i])
                 if self.bus.ready:
                     self.deliver_ready()
@@ -215,4 +224,9 @@ class PhysicsRun(TeamRun):
         summary["goal_failures"] = int(sum(a.machine.failures for a in self.agents))
         # goals ended short of the vertex, held there by another robot (DWELL, no visit)
         summary["short_arrivals"] = int(sum(a.navigator.short_arrivals for a in self.agents))
+        if self.lane_access:  # lane waits: requests not granted at once, and their time [s]
+            locks = [access.locks for access in self.lane_access]
+            summary["lanes"] = len(self.lane_map.lanes)
+            summary["lane_waits"] = int(sum(lk.waits for lk in locks))
+            summary["lane_wait_s"] = round(float(sum(lk.wait_s for lk in locks)), 3)
         return summary

@@ -62,6 +62,19 @@ class TaskBid:
     time: float
 
 
+@dataclass(frozen=True)
+class LaneClaim:
+    """Robot `robot`'s lane lock (docs/LANES.md): it asks for `lane` since `stamp` [s], or
+    holds it (`held`); `lane` -1: none. Sent on every change and re-announced periodically;
+    the lane layer's own message, not handed to policies."""
+
+    robot: int
+    lane: int
+    stamp: float  # [s] run time of the request (the queue's order)
+    held: bool
+    time: float
+
+
 TeamMessage = Visit | Intention | IdlenessEstimate | TaskRequest | TaskBid
 
 
@@ -115,6 +128,16 @@ def problem(message: object, n_robots: int, n_vertices: int) -> str | None:
         if not all(_finite(x) and x >= 0 for x in estimate):
             return "estimate has a negative or non-finite idleness"
     return None
+
+
+def lane_claim_problem(message: LaneClaim, n_robots: int, n_lanes: int) -> str | None:
+    """Why a lane claim cannot be used (None: it can): the check of `problem` for LaneClaim."""
+    r = message.robot
+    if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < n_robots:
+        return f"unknown robot index {r!r} (team of {n_robots})"
+    if not (_finite(message.time) and _finite(message.stamp)):
+        return "lane claim time or stamp is not finite"
+    return _index_problem(message.lane, "lane", n_lanes, allow_none=True)
 
 
 def well_formed(message: object, n_robots: int, n_vertices: int) -> bool:

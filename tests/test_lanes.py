@@ -1,0 +1,289 @@
+"""Lanes (docs/LANES.md): found on hand-built occupancy maps (an aisle, a T, a dead end, a wide
+room), and the lane locks' guarantee on random request sequences (no wait cycle, one lane
+per robot, every request served once messages arrive; one holder per lane when they arrive)."""
+
+from __future__ import annotations
+
+import math
+import random
+from pathlib import Path
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from tpuaf.maps import load_map
+from tpuaf.navigation.lanes import find_lanes
+from tpuaf.navigation.planner import PathPlanner
+from tpuaf.team.lane_locks import SETTLE_S, LaneLocks, claim_order
+
+RES = 0.05  # [m per cell]
+RADIUS = 0.105  # [m] a TurtleBot3 Burger
+
+
+def write_map(folder: Path, size_m: tuple[float, float], free: list[tuple],
+              vertices: list[tuple[float, float]], edges: list[tuple[int, int]]) -> Path:
+    """A map folder: walls everywhere but the free rectangles (x0, y0, x1, y1) [m]."""
+    w, h = round(size_m[0] / RES), round(size_m[1] / RES)
+    occ = np.ones((h, w), dtype=bool)  # row 0 at the bottom
+    for x0, y0, x1, y1 in free:
+        occ[round(y0 / RES):round(y1 / RES), round(x0 / RES):round(x1 / RES)] = False
+    folder.mkdir(parents=True, exist_ok=True)
+    pixels = np.where(occ, 0, 254).astype(np.uint8)[::-1]
+    (folder / "occupancy.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + pixels.tobytes())
+    (folder / "occupancy.yaml").write_text(
+        f"image: occupancy.pgm\nresolution: {RES}\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    (folder / "map.yaml").write_text(
+        f"name: {folder.name}\ngraph: graph.yaml\noccupancy: occupancy.yaml\nsettings:\n"
+        f"  nominal_speed: 0.22\n  goal_tolerance: 0.1\n  robot_radius: {RADIUS}\n")
+    (folder / "graph.yaml").write_text(
+        "vertices:\n" + "".join(f"  - {{id: {i}, x: {x}, y: {y}}}\n"
+                                for i, (x, y) in enumerate(vertices))
+        + "edges:\n" + "".join(f"  - [{u}, {v}]\n" for u, v in edges))
+    return folder
+
+
+def aisle_map(folder: Path) -> Path:
+    """Two rooms 1.6 m square joined by an aisle 0.45 m wide, 2.5 m long: vertices 0 (left
+    room), 1 (aisle middle), 2 (right room), 3 and 4 (the rooms' other corners)."""
+    return write_map(folder, (5.8, 1.7), [(0.05, 0.05, 1.65, 1.65), (1.6, 0.6, 4.2, 1.05),
+                                          (4.15, 0.05, 5.75, 1.65)],
+                     [(0.85, 0.825), (2.9, 0.825), (4.95, 0.825), (0.45, 1.3), (5.35, 1.3)],
+                     [(0, 1), (1, 2), (0, 3), (2, 4)])
+
+
+def lanes_of(folder: Path):
+    pm = load_map(str(folder))
+    lanes = find_lanes(PathPlanner(pm, RADIUS), pm)
+    return [(lane.edges, lane.interior, lane.spots) for lane in lanes.lanes], lanes
+
+
+def test_an_aisle_is_one_lane_with_a_waiting_spot_in_each_room(tmp_path):
+    found, lanes = lanes_of(aisle_map(tmp_path / "aisle"))
+    assert found == [(((0, 1), (1, 2)), (1,), (0, 2))]
+    assert lanes.lane_of(2, 1) == 0 and lanes.lane_of(0, 3) == -1
+    assert lanes.interior_of(1) == 0 and lanes.interior_of(0) == -1
+    assert lanes.edge_width_m[(0, 3)] > lanes.pass_band_m > lanes.edge_width_m[(0, 1)]
+
+
+def test_a_t_is_three_lanes_meeting_at_the_junction(tmp_path):
+    # a corridor 0.45 m wide from the left room to the right one, a stem down from its middle
+    folder = write_map(tmp_path / "tee", (6.0, 4.0),
+                       [(0.05, 2.0, 1.65, 3.95), (1.6, 2.8, 4.4, 3.25), (4.35, 2.0, 5.95, 3.95),
+                        (2.775, 1.6, 3.225, 3.0), (2.0, 0.05, 4.0, 1.65)],
+                       [(0.85, 3.0), (2.2, 3.025), (3.0, 3.025), (3.8, 3.025), (5.15, 3.0),
+                        (3.0, 2.2), (3.0, 0.85)],
+                       [(0, 1), (1, 2), (2, 3), (3, 4), (2, 5), (5, 6)])
+    found, _ = lanes_of(folder)
+    assert found == [(((0, 1), (1, 2)), (1,), (0, 2)), (((2, 3), (3, 4)), (3,), (2, 4)),
+                     (((2, 5), (5, 6)), (5,), (2, 6))]
+
+
+def test_a_dead_end_is_a_lane_with_one_waiting_spot(tmp_path):
+    folder = write_map(tmp_path / "dead_end", (4.2, 1.7),
+                       [(0.05, 0.05, 1.65, 1.65), (1.6, 0.6, 4.15, 1.05)],
+                       [(0.85, 0.825), (2.5, 0.825), (3.8, 0.825)], [(0, 1), (1, 2)])
+    found, lanes = lanes_of(folder)
+    assert found == [(((0, 1), (1, 2)), (1, 2), (0,))]
+    assert "waiting spots 0" in lanes.describe(["0", "1", "2"])[0]
+
+
+def test_a_wide_room_has_no_lanes(tmp_path):
+    folder = write_map(tmp_path / "room", (3.0, 3.0), [(0.05, 0.05, 2.95, 2.95)],
+                       [(0.8, 0.8), (2.2, 2.2), (0.8, 2.2)], [(0, 1), (1, 2)])
+    found, lanes = lanes_of(folder)
+    assert found == [] and not lanes
+
+
+# --- the lock rule on random request sequences --------------------------------------------
+
+class Team:
+    """N robots' LaneLocks over a radio that loses, delays and reorders claims (`lossy`)."""
+
+    def __init__(self, n: int, rng: random.Random, lossy: bool):
+        self.rng, self.lossy, self.now = rng, lossy, 0.0
+        self.in_flight: list = []  # (recipient, claim)
+        self.locks = [LaneLocks(i, self._sender(i)) for i in range(n)]
+        for lk in self.locks:
+            lk.hold(-1, 0.0)
+
+    def _sender(self, i: int):
+        def send(claim) -> None:
+            for j in range(len(self.locks)):
+                if j != i:
+                    self.in_flight.append((j, claim))
+            if not self.lossy:
+                self.deliver_all()
+        return send
+
+    def deliver_all(self) -> None:
+        while self.in_flight:
+            j, claim = self.in_flight.pop(0)
+            self.locks[j].on_claim(claim)
+
+    def deliver_some(self) -> None:
+        if self.in_flight:
+            j, claim = self.in_flight.pop(self.rng.randrange(len(self.in_flight)))
+            if self.rng.random() > 0.3:  # 30 % lost
+                self.locks[j].on_claim(claim)
+
+    def waits_for(self) -> dict[int, set[int]]:
+        """Over the robots' true claims: a waiting robot waits for those ahead of it."""
+        true = [lk.mine for lk in self.locks]
+        out: dict[int, set[int]] = {}
+        for c in true:
+            if c.lane >= 0 and not c.held:
+                out[c.robot] = {d.robot for d in true if d.lane == c.lane and d.robot != c.robot
+                                and claim_order(d) < claim_order(c)}
+        return out
+
+
+def acyclic(graph: dict[int, set[int]]) -> bool:
+    state: dict[int, int] = {}
+
+    def visit(v: int) -> bool:
+        if state.get(v) == 1:
+            return False
+        if state.get(v) == 2:
+            return True
+        state[v] = 1
+        ok = all(visit(w) for w in graph.get(v, ()))
+        state[v] = 2
+        return ok
+
+    return all(visit(v) for v in graph)
+
+
+def step(team: Team, robot: int, op: int, lane: int) -> None:
+    lk = team.locks[robot]
+    if op == 0 and lk.held < 0:  # at a waiting spot: ask for a lane (or keep asking)
+        lk.may_enter(lk.mine.lane if lk.mine.lane >= 0 else lane, team.now)
+    elif op == 1 and lk.held >= 0:  # out of the lane at its waiting spot
+        lk.release(team.now)
+    elif op == 2:
+        team.now += 0.3
+        for other in team.locks:
+            other.tick(team.now)
+    elif op == 3:
+        team.deliver_some()
+
+
+OPS = st.lists(st.tuples(st.integers(0, 3), st.integers(0, 3), st.integers(0, 2)),
+               min_size=1, max_size=120)
+
+
+@settings(derandomize=True, max_examples=150, deadline=None)
+@given(ops=OPS, seed=st.integers(0, 1000))
+def test_no_wait_cycle_one_lane_each_and_every_request_served_under_loss(ops, seed):
+    team = Team(4, random.Random(seed), lossy=True)
+    for robot, op, lane in ops:
+        step(team, robot, op, lane)
+        assert acyclic(team.waits_for())
+        for lk in team.locks:  # holds at most one lane, asks only while holding none
+            assert lk.mine.lane >= -1 and (lk.mine.held or lk.held == -1)
+    # Then the radio works again: every waiting robot gets its lane in turn.
+    team.lossy = False
+    for _ in range(4 * len(team.locks) + 2):
+        team.now += REANNOUNCE_STEP_S
+        for lk in team.locks:
+            lk.tick(team.now)
+        team.deliver_all()
+        for lk in team.locks:
+            if lk.held >= 0:
+                lk.release(team.now)
+            elif lk.mine.lane >= 0:
+                lk.may_enter(lk.mine.lane, team.now)
+        team.deliver_all()
+    assert all(lk.mine.lane == -1 for lk in team.locks)
+
+
+REANNOUNCE_STEP_S = max(SETTLE_S, 1.0) + 0.1  # [s] one round of the drain
+
+
+@settings(derandomize=True, max_examples=150, deadline=None)
+@given(ops=OPS)
+def test_one_holder_per_lane_when_claims_arrive(ops):
+    team = Team(4, random.Random(0), lossy=False)
+    for robot, op, lane in ops:
+        step(team, robot, op, lane)
+        held = [lk.held for lk in team.locks if lk.held >= 0]
+        assert len(held) == len(set(held))
+
+
+def test_a_dead_holders_lane_is_free_after_the_liveness_timeout():
+    lost: set[int] = set()
+    sent: list = []
+    waiter = LaneLocks(1, sent.append, lambda r: r in lost)
+    holder = LaneLocks(0, waiter.on_claim)
+    holder.hold(-1, 0.0)
+    assert holder.may_enter(2, 0.0) is False and holder.may_enter(2, SETTLE_S)
+    assert waiter.may_enter(2, 1.0) is False
+    assert waiter.may_enter(2, 1.0 + 5 * SETTLE_S) is False  # held by robot 0
+    lost.add(0)  # silent for the teammate timeout: TeammateLiveness calls it lost
+    assert waiter.may_enter(2, 12.0) and waiter.held == 2
+    assert waiter.waits == 1 and math.isclose(waiter.wait_s, 11.0)
+    assert sent[-1].held and sent[-1].lane == 2
+
+
+def test_lab_lanes_are_its_aisles_and_rails_between_corners_and_junctions():
+    pm = load_map("lab")
+    found = find_lanes(PathPlanner(pm, RADIUS), pm)  # 0.5 m corridors everywhere
+    assert [lane.spots for lane in found.lanes] == [(0, 4), (0, 5), (4, 9), (5, 9), (5, 10),
+                                                     (9, 14), (10, 14)]
+    assert found.narrow_vertices == frozenset({1, 2, 3, 6, 7, 8, 11, 12, 13})
+    # inside a lane: the middle aisle and the left rail's middle; not at a waiting spot
+    assert found.lane_at([(1.5, 1.3), (0.3, 0.8), (0.3, 1.3), (0.3, 0.3)]).tolist() == [
+        3, 1, -1, -1]
+
+
+def test_two_robots_entering_one_aisle_from_both_ends_keep_visiting_in_physics(tmp_path):
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    pm = load_map(str(aisle_map(tmp_path / "aisle")))
+    config = PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1, duration_s=160.0,
+                           robot="burger", lanes=True)
+    run = PhysicsRun(config, patrol_map=pm)
+    assert run.starts == [0, 4]  # one robot in each room: the aisle is entered from both ends
+    counts: list[tuple[float, list[int]]] = []
+    summary = run.run(lambda t: counts.append((t, [a.machine.visits for a in run.agents])))
+    assert summary["lanes"] == 1 and summary["lane_waits"] > 0 and summary["collisions"] == 0
+    for start, end in ((0.0, 80.0), (80.0, 160.0)):  # every robot visits in every window
+        before = next(c for t, c in counts if t >= start)
+        after = [c for t, c in counts if t <= end][-1]
+        assert all(b > a for a, b in zip(before, after, strict=True)), (start, before, after)
+    assert all(access.locks.entries >= 2 for access in run.lane_access)  # both used the aisle
+
+
+def test_tpuaf_maps_prints_and_draws_the_lanes(tmp_path, capsys):
+    from tpuaf.cli import main
+
+    folder = aisle_map(tmp_path / "aisle")
+    assert main(["maps", str(folder), "--lanes", "--json", "--picture", str(tmp_path)]) == 0
+    import json
+
+    (summary,) = json.loads(capsys.readouterr().out)
+    assert [(lane["edges"], lane["waiting_spots"]) for lane in summary["lanes"]] == [
+        ([[0, 1], [1, 2]], [0, 2])]
+    assert (tmp_path / "aisle.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_a_dead_holders_lane_is_freed_in_physics(tmp_path):
+    """Robot 0 dies at 30 s holding the aisle (held up at its end by robot 1, which waits
+    there for the aisle); robot 1 enters once robot 0 is lost (the teammate timeout) and
+    keeps visiting."""
+    from tpuaf.params import LIVENESS_DEFAULTS
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    pm = load_map(str(aisle_map(tmp_path / "aisle")))
+    run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1,
+                                   duration_s=100.0, robot="burger", fail=["0@30"], lanes=True),
+                     patrol_map=pm)
+    dead, alive = (access.locks for access in run.lane_access)
+    trace: list[tuple[float, int, int, int]] = []
+    run.run(lambda t: trace.append((t, dead.held, alive.held, run.agents[1].machine.visits)))
+    assert dead.held == 0  # it died holding the aisle
+    granted = next(t for t, _, held, _ in trace if t > 30.0 and held == 0)
+    assert granted >= 30.0 + LIVENESS_DEFAULTS.teammate_timeout_s
+    assert trace[-1][3] > next(v for t, _, _, v in trace if t >= granted)
