@@ -124,17 +124,22 @@ def test_silent_mate_is_dropped_and_cycle_respaced():
     assert recovery["recovery_time_s"] <= 40.0 + 1e-6
 
 
-def test_silence_timeout_without_runtime_report():
+def test_a_silent_mate_leaves_only_when_the_liveness_rule_reports_it():
+    """One rule for "a teammate is gone": silence alone changes nothing; the runtime's report
+    (its teammate timeout) removes the mate; a message from it brings it back."""
     pm = square(starts=(0, 2))
-    policy = REGISTRY.create("tpuaf_plus", {"silence_timeout_s": 30.0})
+    policy = REGISTRY.create("tpuaf_plus", {})
     ctx = FakeCtx(pm, 0, 2, 0)
     policy.start(ctx)
     assert policy.team == [0, 1]
-    ctx.now = 31.0
+    ctx.now = 500.0  # silent far beyond any timeout: no own rule
+    policy.decide(ctx)
+    assert policy.team == [0, 1]
+    policy.on_teammate_lost(1, ctx)
     policy.decide(ctx)
     assert policy.team == [0]
-    policy.on_message(Visit(1, 2, 32.0, 3), ctx)  # it speaks again: back in the team
-    ctx.now = 33.0
+    policy.on_message(Visit(1, 2, 501.0, 3), ctx)  # it speaks again: back in the team
+    ctx.now = 502.0
     policy.decide(ctx)
     assert policy.team == [0, 1]
 

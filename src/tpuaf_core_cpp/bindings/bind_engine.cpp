@@ -201,7 +201,6 @@ void wrap_tpuaf_plus(py::module_& m) {
       .def_readwrite("pace_weight", &TpuafPlusParams::pace_weight)
       .def_readwrite("deadband_s", &TpuafPlusParams::deadband_s)
       .def_readwrite("dwell_revisit_s", &TpuafPlusParams::dwell_revisit_s)
-      .def_readwrite("silence_timeout_s", &TpuafPlusParams::silence_timeout_s)
       .def_readwrite("stay_s", &TpuafPlusParams::stay_s);
   py::class_<TpuafPlusStrategy, TeamStrategy>(
       m, "TpuafPlusStrategy", "TPUAF+'s decision path in C++ (tpuaf.policies.tpuaf_plus).")

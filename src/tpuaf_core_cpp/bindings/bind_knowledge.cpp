@@ -12,22 +12,21 @@ void tpuaf::bindings::bind_knowledge(py::module_& m) {
       "What one TPUAF robot knows (SPEC 4, steps 3, 6, 7): latest visit per vertex, announced "
       "intentions of the others (stale ones dropped) and its estimate of every X_j.")
       .def(py::init<const Eigen::VectorXd&, const Eigen::VectorXd&, UncertaintyModel, double,
-                    double, double, double>(),
+                    double, double>(),
            py::arg("importance"), py::arg("initial"), py::arg("model"), py::arg("pass_coverage"),
-           py::arg("pass_time_s"), py::arg("intention_timeout_s"), py::arg("silence_timeout_s"))
+           py::arg("pass_time_s"), py::arg("intention_timeout_s"))
       .def("record_visit", &TpuafKnowledge::record_visit, py::arg("vertex"), py::arg("time_s"),
            "A visit of vertex at time_s [s]: idleness clock and one pass on the estimate.")
       .def("hear_visit", &TpuafKnowledge::hear_visit, py::arg("robot"), py::arg("vertex"),
-           py::arg("time_s"), py::arg("now_s"))
+           py::arg("time_s"))
       .def(
           "hear_intention",
           [](TpuafKnowledge& k, int robot, int from_vertex, int vertex, double arrival,
-             double travel, double sent, double now) {
-            k.hear_intention({robot, from_vertex, vertex, arrival, travel, sent}, now);
+             double travel, double sent) {
+            k.hear_intention({robot, from_vertex, vertex, arrival, travel, sent});
           },
           py::arg("robot"), py::arg("from_vertex"), py::arg("vertex"),
-          py::arg("expected_arrival_s"), py::arg("travel_time_s"), py::arg("sent_s"),
-          py::arg("now_s"))
+          py::arg("expected_arrival_s"), py::arg("travel_time_s"), py::arg("sent_s"))
       .def("forget_intention", &TpuafKnowledge::forget_intention, py::arg("robot"))
       .def("drop_stale", &TpuafKnowledge::drop_stale, py::arg("now_s"))
       .def("estimate", &TpuafKnowledge::estimate, py::arg("now_s"), "X_j estimate at now_s")

@@ -14,15 +14,14 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 TpuafKnowledge::TpuafKnowledge(const Eigen::VectorXd& importance, const Eigen::VectorXd& initial,
                                UncertaintyModel model, double pass_coverage, double pass_time_s,
-                               double intention_timeout_s, double silence_timeout_s)
+                               double intention_timeout_s)
     : importance_(importance),
       last_visit_(Eigen::VectorXd::Zero(importance.size())),
       anchor_(static_cast<std::size_t>(importance.size())),
       model_(std::move(model)),
       pass_coverage_(pass_coverage),
       pass_time_s_(pass_time_s),
-      intention_timeout_s_(intention_timeout_s),
-      silence_timeout_s_(silence_timeout_s) {
+      intention_timeout_s_(intention_timeout_s) {
   model_.validate();
   if (initial.size() != importance.size()) {
     throw std::invalid_argument("need one importance C and one initial X0 per vertex");
@@ -32,8 +31,8 @@ TpuafKnowledge::TpuafKnowledge(const Eigen::VectorXd& importance, const Eigen::V
   if (!(pass_coverage >= 0) || !(pass_time_s >= 0)) {
     throw std::invalid_argument("pass coverage and pass time must be >= 0");
   }
-  if (!(intention_timeout_s > 0) || !(silence_timeout_s > 0)) {
-    throw std::invalid_argument("timeouts must be > 0 s");
+  if (!(intention_timeout_s > 0)) {
+    throw std::invalid_argument("the intention timeout must be > 0 s");
   }
 }
 
@@ -74,27 +73,25 @@ TpuafKnowledge::Slot* TpuafKnowledge::slot(int robot) {
   return &slots_[static_cast<std::size_t>(robot)];
 }
 
-void TpuafKnowledge::hear_visit(int robot, int vertex, double time_s, double now_s) {
+void TpuafKnowledge::hear_visit(int robot, int vertex, double time_s) {
   Slot* s = slot(robot);  // throws for robot < 0
-  s->last_heard_s = now_s;
   record_visit(vertex, time_s);
   if (s->intention.vertex == vertex) s->held = s->open = false;
 }
 
-bool TpuafKnowledge::hear_team_visit(int robot, int vertex, double now_s) {
+bool TpuafKnowledge::hear_team_visit(int robot, int vertex) {
   check_vertex(vertex);
   Slot* s = slot(robot);  // throws for robot < 0
-  s->last_heard_s = now_s;
   if (s->open && s->intention.vertex != vertex) return false;
   if (s->intention.vertex == vertex) s->held = s->open = false;
   return true;
 }
 
-bool TpuafKnowledge::hear_team_intention(const Intention& intention, double now_s) {
+bool TpuafKnowledge::hear_team_intention(const Intention& intention) {
   check_vertex(intention.vertex);
   Slot* s = slot(intention.robot);  // throws for robot < 0
   if (s->open) return false;  // held implies open: a closed slot is free in every robot's copy
-  *s = Slot{intention, next_order_++, true, true, now_s};
+  *s = Slot{intention, next_order_++, true, true};
   return true;
 }
 
@@ -104,15 +101,14 @@ TpuafKnowledge TpuafKnowledge::as_robot(int robot) const {
   return copy;
 }
 
-void TpuafKnowledge::hear_intention(const Intention& intention, double now_s) {
+void TpuafKnowledge::hear_intention(const Intention& intention) {
   check_vertex(intention.vertex);
   Slot* s = slot(intention.robot);  // throws for robot < 0
-  s->last_heard_s = now_s;
   if (s->held) {
     if (intention.sent_s >= s->intention.sent_s) s->intention = intention;
     return;
   }
-  *s = Slot{intention, next_order_++, true, true, now_s};
+  *s = Slot{intention, next_order_++, true, true};
 }
 
 void TpuafKnowledge::forget_intention(int robot) {
@@ -127,7 +123,7 @@ void TpuafKnowledge::drop_stale(double now_s) {
     const Intention& i = s.intention;
     const bool late = now_s - i.expected_arrival_s > intention_timeout_s_;
     // s is robot i.robot's slot: its last message time is kept there.
-    if (late || now_s - s.last_heard_s > silence_timeout_s_) s.held = false;
+    if (late) s.held = false;
   }
 }
 
@@ -164,8 +160,7 @@ void TpuafKnowledge::announced(Eigen::VectorXd& arrival_s, Eigen::VectorXd& trav
 
 UtilityResult TpuafKnowledge::utilities(const PatrolGraph& graph, double now_s, int current_vertex,
                                         const std::vector<int>& candidates, double speed_mps,
-                                        UtilityForm form, bool use_path_length,
-                                        int exclude_robot) {
+                                        UtilityForm form, bool use_path_length, int exclude_robot) {
   if (graph.num_vertices() != size()) {
     throw std::invalid_argument("graph and knowledge disagree on the number of vertices");
   }

@@ -60,8 +60,7 @@ void TpuafStrategy::presume_choice(StrategyHost& host, int robot, int mate) {
     if (result.utility[j] > result.utility[best] || std::isnan(result.utility[j])) best = j;
   }
   k.hear_intention({mate, here, candidates_[static_cast<std::size_t>(best)], result.arrival_s[best],
-                    result.travel_time_s[best], now},
-                   now);
+                    result.travel_time_s[best], now});
 }
 
 void TpuafStrategy::track_shadow(int robot, const TeamMessage& visit) {
@@ -178,17 +177,17 @@ int TpuafStrategy::decide(StrategyHost& host, int robot) {
   return target;
 }
 
-bool TpuafStrategy::on_team_message(StrategyHost& host, int sender, const TeamMessage& message) {
+bool TpuafStrategy::on_team_message(StrategyHost& /*host*/, int sender,
+                                    const TeamMessage& message) {
   if (!shared_) return false;
   TpuafKnowledge& k = knowledge_[0];
   bool kept = true;
   if (message.kind == TeamMessage::Kind::kVisit) {
-    kept = k.hear_team_visit(message.robot, message.vertex, host.now());
+    kept = k.hear_team_visit(message.robot, message.vertex);
   } else if (message.kind == TeamMessage::Kind::kIntention) {
     kept =
         k.hear_team_intention({message.robot, message.from_vertex, message.vertex,
-                               message.expected_arrival_s, message.travel_time_s, message.time_s},
-                              host.now());
+                               message.expected_arrival_s, message.travel_time_s, message.time_s});
   }
   // Without delay the latency is 0 and nothing of Colocation changes; other kinds are ignored
   // as on_message ignores them.
@@ -216,12 +215,11 @@ void TpuafStrategy::on_message(StrategyHost& host, int robot, const TeamMessage&
     if (latency > c.latency_s) c.latency_s = latency;  // Python's max(latency, now - sent)
   }
   if (message.kind == TeamMessage::Kind::kVisit) {
-    k.hear_visit(message.robot, message.vertex, message.time_s, host.now());
+    k.hear_visit(message.robot, message.vertex, message.time_s);
     if (colocation_ && host.messages_may_be_late()) track_shadow(robot, message);
   } else if (message.kind == TeamMessage::Kind::kIntention) {
     k.hear_intention({message.robot, message.from_vertex, message.vertex,
-                      message.expected_arrival_s, message.travel_time_s, message.time_s},
-                     host.now());
+                      message.expected_arrival_s, message.travel_time_s, message.time_s});
   }
 }
 

@@ -84,7 +84,6 @@ void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
   r = Robot(prototype_);
   const std::size_t size = static_cast<std::size_t>(n);
   r.alive.assign(size, 1);
-  r.last_heard.assign(size, host.now());
   r.lost_at.assign(size, kInf);
   r.heard.assign(size, Heard{});
   r.has_heard.assign(size, 0);
@@ -267,8 +266,6 @@ double TpuafPlusStrategy::respace_wait(Robot& r, int robot, double now) {
 // ------------------------------------------------------------------ messages
 
 void TpuafPlusStrategy::heard_from(Robot& r, int k, double sent) const {
-  double& last = r.last_heard[static_cast<std::size_t>(k)];
-  if (sent > last) last = sent;
   double& lost = r.lost_at[static_cast<std::size_t>(k)];
   if (sent > lost) lost = kInf;  // heard again after it was reported lost
 }
@@ -294,7 +291,7 @@ void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s
                      params_.speed_mps);
 }
 
-void TpuafPlusStrategy::on_message(StrategyHost& host, int robot, const TeamMessage& message) {
+void TpuafPlusStrategy::on_message(StrategyHost& /*host*/, int robot, const TeamMessage& message) {
   Robot& r = state(robot);
   const int k = message.robot;
   if (k < 0 || k >= static_cast<int>(r.heard.size())) return;
@@ -302,7 +299,7 @@ void TpuafPlusStrategy::on_message(StrategyHost& host, int robot, const TeamMess
   Heard& latest = r.heard[static_cast<std::size_t>(k)];
   char& has = r.has_heard[static_cast<std::size_t>(k)];
   if (message.kind == TeamMessage::Kind::kVisit) {
-    r.knowledge.hear_visit(k, message.vertex, sent, host.now());
+    r.knowledge.hear_visit(k, message.vertex, sent);
     heard_from(r, k, sent);
     learn_pace(r, k, message.vertex, sent);
     const int next = message.next_vertex >= 0 ? message.next_vertex : message.vertex;
@@ -332,24 +329,23 @@ void TpuafPlusStrategy::on_teammate_lost(StrategyHost& host, int robot, int lost
 }
 
 void TpuafPlusStrategy::update_team(StrategyHost& host, int robot) {
-  // Mates silent for longer than the timeout (or reported lost) leave; one heard rejoins.
+  // Mates the runtime's liveness rule reported lost leave (on_teammate_lost); one heard again
+  // rejoins (heard_from).
   Robot& r = state(robot);
   const double now = host.now();
   const std::size_t n = r.alive.size();
   std::vector<char> alive(n, 0);
   for (std::size_t k = 0; k < n; ++k) {
-    alive[k] = static_cast<int>(k) == robot ||
-               (std::isinf(r.lost_at[k]) && now - r.last_heard[k] <= params_.silence_timeout_s);
+    alive[k] = static_cast<int>(k) == robot || std::isinf(r.lost_at[k]);
   }
   if (alive == r.alive) return;
-  // dated as every survivor dates it: the loss report, else the end of the silence
+  // dated as every survivor dates it: the loss report
   double latest_gone = -kInf;
   bool any_gone = false;
   for (std::size_t k = 0; k < n; ++k) {
     if (r.alive[k] && !alive[k]) {
       any_gone = true;
-      latest_gone = std::max(latest_gone,
-                             std::min(r.lost_at[k], r.last_heard[k] + params_.silence_timeout_s));
+      latest_gone = std::max(latest_gone, r.lost_at[k]);
     }
   }
   r.changed_at = any_gone ? std::min(latest_gone, now) : now;

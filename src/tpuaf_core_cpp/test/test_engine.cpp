@@ -204,8 +204,8 @@ struct TpuafRun {
   bool shared = false;
 };
 
-// TPUAF with 8 robots for 900 s; short timeouts so that intentions go stale (dropped by some
-// robots' decisions and not by others').
+// TPUAF with 8 robots for 900 s; a short intention timeout so that intentions go stale (dropped by
+// some robots' decisions and not by others').
 TpuafRun run_tpuaf(double loss, bool any_vertex, UtilityForm form) {
   const PatrolGraph g = lattice_graph();
   const int n = 8;
@@ -214,7 +214,7 @@ TpuafRun run_tpuaf(double loss, bool any_vertex, UtilityForm form) {
   c.loss = loss;
   GraphEngine engine(g, g.positions(), c, field_of(g), numpy_3_1());
   const TpuafKnowledge prototype(Eigen::VectorXd::Constant(30, 0.01),
-                                 Eigen::VectorXd::Constant(30, 0.5), {}, 0.2, 2.0, 1.5, 6.0);
+                                 Eigen::VectorXd::Constant(30, 0.5), {}, 0.2, 2.0, 1.5);
   std::vector<NumpyPcg64> rngs;
   for (int i = 0; i < n; ++i) rngs.push_back(NumpyPcg64(7, 11 + i, 13, 2 * i + 1));
   TpuafStrategy strategy(prototype, form, any_vertex, rngs);

@@ -8,9 +8,9 @@
 namespace tpuaf {
 namespace {
 
-TpuafKnowledge three_vertices(double intention_timeout_s = 10.0, double silence_timeout_s = 30.0) {
+TpuafKnowledge three_vertices(double intention_timeout_s = 10.0) {
   return TpuafKnowledge(Eigen::VectorXd::Constant(3, 0.01), Eigen::VectorXd::Constant(3, 0.0), {},
-                        0.5, 4.0, intention_timeout_s, silence_timeout_s);
+                        0.5, 4.0, intention_timeout_s);
 }
 
 TEST(Knowledge, NewestVisitWinsAndOlderOnesAreIgnored) {
@@ -38,29 +38,43 @@ TEST(Knowledge, IntentionIsAnnouncedThenClearedByTheVisit) {
   in.expected_arrival_s = 15.0;
   in.travel_time_s = 5.0;
   in.sent_s = 10.0;
-  k.hear_intention(in, 10.0);
+  k.hear_intention(in);
   Eigen::VectorXd arrival, travel;
   k.announced(arrival, travel);
   EXPECT_DOUBLE_EQ(arrival(2), 15.0);
   EXPECT_DOUBLE_EQ(travel(2), 5.0);
   EXPECT_TRUE(std::isinf(arrival(1)));
-  k.hear_visit(1, 2, 15.0, 15.0);
+  k.hear_visit(1, 2, 15.0);
   k.announced(arrival, travel);
   EXPECT_TRUE(std::isinf(arrival(2)));
   EXPECT_DOUBLE_EQ(k.last_visit()(2), 15.0);
 }
 
 TEST(Knowledge, StaleIntentionsAreDropped) {
-  TpuafKnowledge k = three_vertices(10.0, 1000.0);
+  TpuafKnowledge k = three_vertices(10.0);
   Intention in;
   in.robot = 0;
   in.vertex = 1;
   in.expected_arrival_s = 5.0;
   in.sent_s = 0.0;
-  k.hear_intention(in, 0.0);
+  k.hear_intention(in);
   k.drop_stale(14.0);
   EXPECT_EQ(k.intentions().size(), 1u);
   k.drop_stale(16.0);  // arrival passed by more than the 10 s timeout
+  EXPECT_TRUE(k.intentions().empty());
+}
+
+TEST(Knowledge, SilenceAloneKeepsAnIntentionUntilTheRobotIsReportedLost) {
+  // One liveness rule: the runtime reports a lost teammate; the knowledge has no timer of its own.
+  TpuafKnowledge k = three_vertices(1000.0);
+  Intention in;
+  in.robot = 1;
+  in.vertex = 2;
+  in.expected_arrival_s = 5.0;
+  k.hear_intention(in);
+  k.drop_stale(900.0);
+  EXPECT_EQ(k.intentions().size(), 1u);
+  k.forget_intention(1);
   EXPECT_TRUE(k.intentions().empty());
 }
 
@@ -78,16 +92,16 @@ TEST(Knowledge, TeamKnowledgeLeavesOutTheDecidersOwnIntentionAndRefusesAnUnclose
   in.expected_arrival_s = 15.0;
   in.travel_time_s = 5.0;
   in.sent_s = 10.0;
-  ASSERT_TRUE(team.hear_team_intention(in, 10.0));
+  ASSERT_TRUE(team.hear_team_intention(in));
   EXPECT_EQ(team.intentions().size(), 1u);
   EXPECT_TRUE(team.as_robot(1).intentions().empty());  // robot 1 never counts its own
   EXPECT_EQ(team.as_robot(0).intentions().size(), 1u);
   in.vertex = 1;
-  EXPECT_FALSE(team.hear_team_intention(in, 11.0));  // robot 1's intention for 2 still open
-  EXPECT_FALSE(team.hear_team_visit(1, 1, 12.0));    // a visit of another vertex
-  EXPECT_TRUE(team.hear_team_visit(1, 2, 15.0));     // closes it
+  EXPECT_FALSE(team.hear_team_intention(in));  // robot 1's intention for 2 still open
+  EXPECT_FALSE(team.hear_team_visit(1, 1));    // a visit of another vertex
+  EXPECT_TRUE(team.hear_team_visit(1, 2));     // closes it
   EXPECT_TRUE(team.intentions().empty());
-  EXPECT_TRUE(team.hear_team_intention(in, 15.0));
+  EXPECT_TRUE(team.hear_team_intention(in));
 }
 
 }  // namespace

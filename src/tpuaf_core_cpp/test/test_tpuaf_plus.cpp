@@ -61,7 +61,7 @@ std::unique_ptr<TpuafPlusStrategy> strategy(std::vector<std::pair<int, double>> 
   plan->route_of.assign(static_cast<std::size_t>(n), 0);
   plan->schedule = std::move(schedule);
   TpuafKnowledge knowledge(Eigen::VectorXd::Ones(4), Eigen::VectorXd::Ones(4), {}, 8.0 / 15.0, 10.0,
-                           30.0, 60.0);
+                           30.0);
   return std::make_unique<TpuafPlusStrategy>(
       knowledge, TpuafPlusParams{},
       [plan](const std::vector<int>&) { return std::shared_ptr<const PlusPlan>(plan); });

@@ -26,19 +26,19 @@ class TpuafKnowledge {
   // nominal speed: X <- evolve(X, C - pass_coverage, pass_time_s) (mean M over the pass).
   TpuafKnowledge(const Eigen::VectorXd& importance, const Eigen::VectorXd& initial,
                  UncertaintyModel model, double pass_coverage, double pass_time_s,
-                 double intention_timeout_s, double silence_timeout_s);
+                 double intention_timeout_s);
 
   // A visit of `vertex` at `time_s` (own or heard). Visits older than the newest known one of
   // that vertex only update nothing but the idleness clock when newer.
   void record_visit(int vertex, double time_s);
-  // A Visit message of `robot` heard at `now_s`: records the visit and clears that robot's
+  // A Visit message of `robot`: records the visit and clears that robot's
   // intention if it was for this vertex.
-  void hear_visit(int robot, int vertex, double time_s, double now_s);
-  // An Intention message heard at `now_s`; the newest intention per robot wins.
-  void hear_intention(const Intention& intention, double now_s);
+  void hear_visit(int robot, int vertex, double time_s);
+  // An Intention message; the newest intention per robot wins.
+  void hear_intention(const Intention& intention);
   void forget_intention(int robot);
-  // Drops intentions whose expected arrival passed more than intention_timeout_s ago and those
-  // of robots silent for more than silence_timeout_s.
+  // Drops intentions whose expected arrival passed more than intention_timeout_s ago. A silent
+  // robot's intention goes when the runtime's liveness rule reports it lost (forget_intention).
   void drop_stale(double now_s);
 
   Eigen::VectorXd estimate(double now_s) const;
@@ -60,8 +60,8 @@ class TpuafKnowledge {
   // if the messages leave the pattern that keeps the robots' copies equal: a robot's intention
   // is closed by its visit of that vertex before its next intention (otherwise robots that
   // dropped the intention as stale and robots that did not would disagree).
-  bool hear_team_visit(int robot, int vertex, double now_s);
-  bool hear_team_intention(const Intention& intention, double now_s);
+  bool hear_team_visit(int robot, int vertex);
+  bool hear_team_intention(const Intention& intention);
   // A copy as robot `robot` holds it: without its own intention.
   TpuafKnowledge as_robot(int robot) const;
 
@@ -80,7 +80,7 @@ class TpuafKnowledge {
   };
   std::vector<Anchor> anchor_;
   UncertaintyModel model_;
-  double pass_coverage_, pass_time_s_, intention_timeout_s_, silence_timeout_s_;
+  double pass_coverage_, pass_time_s_, intention_timeout_s_;
   // At most one intention per robot, held in the robot's slot; `order` is when the slot was
   // filled (ties of announced() go to the earlier one). O(1) per message, O(robots) per
   // decision.
@@ -89,7 +89,6 @@ class TpuafKnowledge {
     std::uint64_t order = 0;
     bool held = false;
     bool open = false;  // an intention not yet closed by the robot's visit of its vertex
-    double last_heard_s = -std::numeric_limits<double>::infinity();  // that robot, any message
   };
   Slot* slot(int robot);
   struct VisitResult {

@@ -33,13 +33,12 @@ struct PlusPlan {
 };
 
 struct TpuafPlusParams {
-  double speed_mps = 1.0;         // plan speed v (the map's nominal speed)
-  double gain = 0.35;             // an early robot dwells 2 gain e / u (phase error e [m])
-  double pace_weight = 0.25;      // weight of a new pace sample in a mate's running average
-  double deadband_s = 0.5;        // no dwell below this
-  double dwell_revisit_s = 5.0;   // a dwelling robot re-visits its vertex this often
-  double silence_timeout_s = 60;  // a mate silent this long is presumed dead (resolved)
-  double stay_s = 1.0;            // the runtimes' dwell for a goal equal to the vertex
+  double speed_mps = 1.0;        // plan speed v (the map's nominal speed)
+  double gain = 0.35;            // an early robot dwells 2 gain e / u (phase error e [m])
+  double pace_weight = 0.25;     // weight of a new pace sample in a mate's running average
+  double deadband_s = 0.5;       // no dwell below this
+  double dwell_revisit_s = 5.0;  // a dwelling robot re-visits its vertex this often
+  double stay_s = 1.0;           // the runtimes' dwell for a goal equal to the vertex
 };
 
 // Python's float a % b (np.mod): the result takes the sign of b.
@@ -120,9 +119,8 @@ class TpuafPlusStrategy : public TeamStrategy {
     explicit Robot(const TpuafKnowledge& k) : knowledge(k) {}
     TpuafKnowledge knowledge;
     std::vector<char> alive;
-    std::vector<double> last_heard;  // [s] newest sent time heard per robot
-    std::vector<double> lost_at;     // [s] reported lost by the runtime (+inf: not)
-    std::vector<Heard> heard;        // latest timed message per mate
+    std::vector<double> lost_at;  // [s] reported lost by the runtime (+inf: not)
+    std::vector<Heard> heard;     // latest timed message per mate
     std::vector<char> has_heard;
     std::vector<double> mate_arc;  // last estimated arc [m] per mate
     std::vector<char> has_mate_arc;

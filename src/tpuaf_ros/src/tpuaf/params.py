@@ -119,6 +119,12 @@ class LivenessDefaults:
         """[s] the monitor: an agent silent this long is dead (= the teammate timeout)."""
         return self.teammate_timeout_s
 
+    @staticmethod
+    def death_timeout_for(teammate_timeout_s: float, death_timeout_s: float | None) -> float:
+        """[s] the monitor's death timeout: the one given, else the teammate timeout (the one
+        rule, written here only: FleetMonitor and the monitor node's parameters use it)."""
+        return float(teammate_timeout_s if death_timeout_s is None else death_timeout_s)
+
 
 LIVENESS_DEFAULTS = LivenessDefaults()
 _L = LIVENESS_DEFAULTS
@@ -246,8 +252,8 @@ def parse_monitor(values: dict[str, Any], node: str) -> MonitorParams:
     """MonitorParams from {name: value}; ~death_timeout, when not given, is ~teammate_timeout
     (one liveness rule: the monitor calls a robot dead when its teammates lose it)."""
     p = parse(MonitorParams, values, node)
-    if "death_timeout" not in values:
-        p.death_timeout = p.teammate_timeout
+    given = p.death_timeout if "death_timeout" in values else None
+    p.death_timeout = LIVENESS_DEFAULTS.death_timeout_for(p.teammate_timeout, given)
     return p
 
 

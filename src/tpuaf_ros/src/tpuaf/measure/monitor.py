@@ -102,8 +102,8 @@ class FleetMonitor:
         # [s] the agents' teammate timeout (the recovery metrics' floor at detection)
         self.teammate_timeout_s = float(teammate_timeout_s)
         # [s] silence that makes an agent dead; None: the teammate timeout (one liveness rule)
-        self.death_timeout_s = float(self.teammate_timeout_s if death_timeout_s is None
-                                     else death_timeout_s)
+        self.death_timeout_s = LIVENESS_DEFAULTS.death_timeout_for(self.teammate_timeout_s,
+                                                                   death_timeout_s)
         self.sample_period_s = float(sample_period_s)
         self.lag_s = float(lag_s)
         self.tolerance = float(patrol_map.settings.goal_tolerance)

@@ -36,7 +36,7 @@ def _positive(x) -> bool:
     return isinstance(x, int | float) and x > 0
 
 
-def new_knowledge(patrol_map, intention_timeout_s: float, silence_timeout_s: float):
+def new_knowledge(patrol_map, intention_timeout_s: float):
     """TpuafKnowledge for a map. A known visit applies one straight pass at nominal speed: the
     mean perception over the 2r/v crossing is 8G/15 (integral of Eq. 1 along a diameter)."""
     import tpuaf_core
@@ -49,7 +49,6 @@ def new_knowledge(patrol_map, intention_timeout_s: float, silence_timeout_s: flo
         pass_coverage=8.0 * s.sensing_peak / 15.0,
         pass_time_s=2.0 * s.sensing_radius / s.nominal_speed,
         intention_timeout_s=intention_timeout_s,
-        silence_timeout_s=silence_timeout_s,
     )
 
 
@@ -71,9 +70,6 @@ class Tpuaf(CoreStrategyPolicy):
             "drop an intention whose expected arrival passed more than this [s] ago",
             _positive,
         ),
-        "silence_timeout_s": Parameter(
-            120.0, "drop the intention of a robot not heard from for this long [s]", _positive
-        ),
         "colocation": Parameter(
             True,
             "resolve robots that arrive together before late messages tell (true) or not, "
@@ -86,8 +82,7 @@ class Tpuaf(CoreStrategyPolicy):
     def core_strategy(cls, params: dict, patrol_map, n_robots: int, streams: list):
         import tpuaf_core
 
-        knowledge = new_knowledge(patrol_map, params["intention_timeout_s"],
-                                  params["silence_timeout_s"])
+        knowledge = new_knowledge(patrol_map, params["intention_timeout_s"])
         form = (tpuaf_core.UtilityForm.EQ14 if params["utility"] == "eq14"
                 else tpuaf_core.UtilityForm.EQ13)
         colocation = params["colocation"] in (True, 1, "true")

@@ -26,7 +26,8 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    dwells. A convoy dissolves within a lap; the gaps converge to L / m.
 4. Dwelling. A dwelling robot re-visits its vertex every `dwell_revisit_s` (goal = its own
    vertex: it is physically there) and re-announces its departure time (a heartbeat).
-5. Faults. A mate not heard from for `silence_timeout_s` is presumed dead; every survivor
+5. Faults. A mate the runtime's one liveness rule reports lost (silent for the teammate
+   timeout, `--teammate-timeout`, the agents' ~teammate_timeout) is presumed dead; every survivor
    then recomputes the plan for the survivors (step 1); a cycle re-spaces at once (each
    survivor dwells its share of the survivors' even spacing, capped so that no vertex ahead
    waits beyond L / (m v); `_respace_target`, `_idle_room`), then by step 3;
@@ -34,7 +35,7 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    robots new to one walk enter it where the start schedule, from where each stood when the
    team changed, puts their slots: `_transition_entries`). A presumed-dead robot
    that speaks again rejoins. Stale information never blocks a vertex: nothing is reserved;
-   an old message only places a mate on its walk, and it expires with the silence timeout.
+   an old message only places a mate on its walk, and it goes when the mate is reported lost.
 6. Repair. While driving to a (new) part, the robot chooses among the neighbours on a
    shortest path the one of maximal TPUAF utility (Eq. 13: X^ * I / dt), from the same shared
    visit knowledge as TPUAF.
@@ -306,16 +307,6 @@ def _assign_survivors(patrol_map, team, all_starts, part, slots, dist, mode) -> 
     return out
 
 
-def silence_timeout(graph, speed: float, setting: float) -> float:
-    """The silence timeout [s]: `setting`, or for 0 max(60 s, 8 x the longest edge's travel
-    time at `speed` [m/s])."""
-    timeout = float(setting)
-    if timeout <= 0:
-        longest = max((float(c) for _, _, c in graph.edges), default=0.0)
-        timeout = max(60.0, 8.0 * longest / speed)
-    return timeout
-
-
 @register
 class TpuafPlus(CoreStrategyPolicy):
     """TPUAF+: shared tour plan, closed-loop spacing from timed messages (measured paces,
@@ -359,12 +350,6 @@ class TpuafPlus(CoreStrategyPolicy):
             _CORE_DEFAULTS.dwell_revisit_s,
             "a dwelling robot re-visits its vertex and re-announces every this [s]", _positive,
         ),
-        "silence_timeout_s": Parameter(
-            0.0,
-            "a mate silent this long [s] is presumed dead; 0 = auto: max(60 s, 8 x the longest "
-            "edge's travel time)",
-            _non_negative,
-        ),
     }
 
     @classmethod
@@ -386,8 +371,6 @@ class TpuafPlus(CoreStrategyPolicy):
         out.pace_weight = float(params["pace_weight"])
         out.deadband_s = float(params["deadband_s"])
         out.dwell_revisit_s = float(params["dwell_revisit_s"])
-        out.silence_timeout_s = silence_timeout(patrol_map.graph, speed,
-                                                params["silence_timeout_s"])
         out.stay_s = STAY_S
 
         def plans(team: list[int]):
@@ -398,7 +381,7 @@ class TpuafPlus(CoreStrategyPolicy):
             schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n_robots)]
             return routes, route_of, schedule
 
-        knowledge = new_knowledge(patrol_map, INTENTION_TIMEOUT_S, out.silence_timeout_s)
+        knowledge = new_knowledge(patrol_map, INTENTION_TIMEOUT_S)
         return tpuaf_core.TpuafPlusStrategy(knowledge, out, plans)
 
     @property
