@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <list>
 #include <mutex>
@@ -23,6 +24,7 @@ struct PatrolGraph::PathCache {
   std::list<int> order;      // sources, most recently used first
   std::unordered_map<int, std::pair<std::shared_ptr<const DistanceRow>, std::list<int>::iterator>>
       rows;
+  std::unordered_map<std::uint64_t, double> pairs;  // (u << 32 | v) -> d(u, v) [m]
   std::unique_ptr<Eigen::MatrixXd> distances;
   std::unique_ptr<Eigen::MatrixXi> hops;
 };
@@ -189,8 +191,12 @@ double PatrolGraph::distance(int u, int v) const {
   std::lock_guard<std::mutex> lock(c.mutex);
   auto it = c.rows.find(u);
   if (it != c.rows.end()) return it->second.first->distance[v];
+  const std::uint64_t key = (static_cast<std::uint64_t>(u) << 32) | static_cast<std::uint32_t>(v);
+  const auto known = c.pairs.find(key);
+  if (known != c.pairs.end()) return known->second;
   c.work.run(arcs_, {u}, 0.0, {}, v);  // the same label as the whole row's (settled: final)
-  return c.work.distance(v);
+  if (c.pairs.size() >= kPairCacheEntries) c.pairs.clear();
+  return c.pairs.emplace(key, c.work.distance(v)).first->second;
 }
 
 int PatrolGraph::first_hop(int u, int v) const {

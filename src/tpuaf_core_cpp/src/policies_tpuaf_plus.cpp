@@ -10,6 +10,25 @@
 #include "tpuaf_core/tpuaf_plus.hpp"
 
 namespace tpuaf {
+
+const std::vector<int>& PlusRoute::positions(int from, int to) const {
+  const auto key = [](int a, int b) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) |
+           static_cast<std::uint32_t>(b);
+  };
+  if (at_vertex_.empty() && !walk.empty()) {
+    const std::size_t n = walk.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      at_vertex_[key(walk[i], walk[i])].push_back(static_cast<int>(i));
+      on_step_[key(walk[i], walk[(i + 1) % n])].push_back(static_cast<int>(i));
+    }
+  }
+  static const std::vector<int> kNone;
+  const auto& table = from == to ? at_vertex_ : on_step_;
+  const auto it = table.find(key(from, to));
+  return it == table.end() ? kNone : it->second;
+}
+
 namespace {
 
 constexpr double kEps = 1e-6;  // tpuaf_plus._EPS
@@ -378,24 +397,20 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc, doubl
   if (scheduled && now < schedule[kk].second) return on_slot();
   if (!r.has_heard[kk]) return scheduled ? on_slot() : false;
   const Heard& info = r.heard[kk];
-  const std::size_t n = route.walk.size();
   const double moved = r.pace[kk] * (now - info.departure);
   int chosen = -1;
   int hits = 0;
   double best = kInf;
-  for (std::size_t i = 0; i < n; ++i) {
-    const bool hit = info.from == info.to
-                         ? route.walk[i] == info.from
-                         : route.walk[i] == info.from && route.walk[(i + 1) % n] == info.to;
-    if (!hit) continue;
+  for (const int i : route.positions(info.from, info.to)) {
     ++hits;
-    if (chosen < 0) chosen = static_cast<int>(i);
+    if (chosen < 0) chosen = i;
     if (r.has_mate_arc[kk]) {  // several hits: the one nearest my last estimate
-      const double off =
-          std::abs(py_mod((route.arc[i] + moved - r.mate_arc[kk]) + L / 2, L) - L / 2);
+      const double off = std::abs(
+          py_mod((route.arc[static_cast<std::size_t>(i)] + moved - r.mate_arc[kk]) + L / 2, L) -
+          L / 2);
       if (off < best) {
         best = off;
-        if (hits > 1) chosen = static_cast<int>(i);
+        if (hits > 1) chosen = i;
       }
     }
   }

@@ -26,6 +26,9 @@ struct DistanceRow {
 // Rows kept per graph (least recently used dropped beyond this): every row of a graph up to
 // about 2,300 vertices, 530 rows of a 10,000-vertex one.
 constexpr std::size_t kRowCacheBytes = 64u << 20;  // [B]
+// Single distances d(u, v) of sources without a kept row, kept until this many (then cleared):
+// strategies ask the same few pairs (a walk's steps) again and again.
+constexpr std::size_t kPairCacheEntries = 1u << 20;  // ~40 MB at most
 
 class PatrolGraph {
  public:

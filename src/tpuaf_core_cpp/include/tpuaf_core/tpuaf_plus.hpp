@@ -5,10 +5,12 @@
 // called only when a robot's view of the team changes. Times in seconds, lengths in metres.
 #pragma once
 
+#include <cstdint>
 #include <deque>
 #include <functional>
 #include <map>
 #include <memory>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -22,6 +24,14 @@ struct PlusRoute {
   std::vector<double> arc;  // [m] arc position of each walk entry from walk[0]
   double length = 0;        // [m] L
   std::vector<int> robots;  // robot indices on this walk, sorted
+
+  // The walk indices i, ascending, where walk[i] == from (from == to) or where the walk steps
+  // from -> to (walk[i] == from, walk[i + 1] == to, last -> first too); empty if none. Built on
+  // first use (O(walk)), then O(1): placing a mate costs its hits, not the walk's length.
+  const std::vector<int>& positions(int from, int to) const;
+
+  // positions()'s cache (public members keep PlusRoute an aggregate)
+  mutable std::unordered_map<std::uint64_t, std::vector<int>> at_vertex_, on_step_;
 };
 
 // A plan (tpuaf_plus.Plan): its walks, each robot's walk and the start schedule.
