@@ -15,6 +15,19 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 void DijkstraWorkspace::run(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
                             const std::vector<char>& allowed, int stop_at) {
+  search(arcs, sources, tolerance, allowed, [stop_at](int v) { return v == stop_at; });
+}
+
+void DijkstraWorkspace::run_until(const ArcLists& arcs, const std::vector<int>& sources,
+                                  double tolerance, const std::vector<char>& allowed,
+                                  const std::function<bool(int)>& stop) {
+  search(arcs, sources, tolerance, allowed, stop);
+}
+
+template <class Stop>
+void DijkstraWorkspace::search(const ArcLists& arcs, const std::vector<int>& sources,
+                               double tolerance, const std::vector<char>& allowed,
+                               const Stop& stop) {
   const int n = static_cast<int>(arcs.size());
   if (!allowed.empty() && static_cast<int>(allowed.size()) != n) {
     throw std::invalid_argument("dijkstra: the allowed mask has " + std::to_string(allowed.size()) +
@@ -34,6 +47,7 @@ void DijkstraWorkspace::run(const ArcLists& arcs, const std::vector<int>& source
     settled_[v] = labelled_[v] = 0;
   }
   touched_.clear();
+  order_.clear();
   using Item = std::tuple<double, int, int>;  // distance, source index, vertex
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
   for (int k = 0; k < static_cast<int>(sources.size()); ++k) {
@@ -52,7 +66,8 @@ void DijkstraWorkspace::run(const ArcLists& arcs, const std::vector<int>& source
     if (settled_[u]) continue;
     settled_[u] = 1;
     source_[u] = k;
-    if (u == stop_at) break;
+    order_.push_back(u);
+    if (stop(u)) break;
     for (const Arc& arc : arcs[u]) {
       const int w = arc.to;
       if (w < 0 || w >= n)

@@ -19,7 +19,10 @@ namespace {
 
 constexpr double kEps = 1e-9;    // [m] an improvement must beat this
 constexpr int kNeighbours = 16;  // candidate list length of the local search
-constexpr int kKickWindow = 50;  // positions: double bridges stay local on long orders
+constexpr int kDenseKickWindow = 50;
+constexpr int kLandmarks = 32;  // rows that rank vertices by remoteness on large graphs
+// Pairs a sparse metric memoises (16 B each at half load: 32 MB), then it forgets them all.
+constexpr std::size_t kMemoEntries = 1u << 20;  // positions: double bridges stay local on long orders
 
 // splitmix64: a fixed, portable sequence for the kicks.
 struct Rng {
@@ -33,34 +36,232 @@ struct Rng {
   int below(int bound) { return static_cast<int>(next() % static_cast<std::uint64_t>(bound)); }
 };
 
+// Outgoing arcs of the subgraph induced by the sorted `vertices`, in local indices (each
+// vertex's arcs in the graph's neighbour order).
+ArcLists subset_arcs(const PatrolGraph& graph, const std::vector<int>& vertices) {
+  const int k = static_cast<int>(vertices.size());
+  std::vector<int> local(graph.num_vertices(), -1);
+  for (int a = 0; a < k; ++a) {
+    graph.check_vertex(vertices[a]);
+    local[vertices[a]] = a;
+  }
+  ArcLists arcs(k);
+  for (int a = 0; a < k; ++a) {
+    const int v = vertices[a];
+    for (int w : graph.neighbours(v)) {
+      if (w != v && local[w] >= 0) arcs[a].push_back({local[w], graph.edge_length(v, w)});
+    }
+  }
+  return arcs;
+}
+
+std::vector<int> sorted_unique(std::vector<int> vertices) {
+  std::sort(vertices.begin(), vertices.end());
+  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+  return vertices;
+}
+
+[[noreturn]] void throw_not_connected(const PatrolGraph& graph, int k, int from) {
+  throw std::invalid_argument("closed_walk: the " + std::to_string(k) +
+                              " vertices do not induce a connected subgraph (from " +
+                              graph.vertex_name(from) + ")");
+}
+
+// The metric of the orders: lengths [m] between indices 0..n-1. Two kinds with the same
+// values: DenseMetric, every pair in an n x n matrix; SubsetPaths' searches on demand
+// (SparseMetric) for large vertex subsets.
+
+class DenseMetric {
+ public:
+  static constexpr bool kIncremental = false;  // a tour's length: summed again, O(n)
+  static constexpr int kCandidates = kNeighbours;
+  static constexpr int kKickWindow = kDenseKickWindow;
+  DenseMetric(const std::vector<double>& dist, int n) : d_(dist.data()), n_(n) {}
+  int size() const { return n_; }
+  double operator()(int a, int b) const { return d_[static_cast<std::size_t>(a) * n_ + b]; }
+  // The k nearest others of a, by (length, index).
+  std::vector<int> nearest(int a, int k) const {
+    std::vector<int> idx(n_);
+    std::iota(idx.begin(), idx.end(), 0);
+    idx.erase(idx.begin() + a);
+    std::partial_sort(idx.begin(), idx.begin() + k, idx.end(), [&](int x, int y) {
+      const double dx = (*this)(a, x), dy = (*this)(a, y);
+      return dx < dy || (dx == dy && x < y);
+    });
+    idx.resize(k);
+    return idx;
+  }
+  // The nearest index not `seen` from `from` (the lowest among equals).
+  int nearest_unseen(int from, const std::vector<char>& seen) const {
+    const double* row = d_ + static_cast<std::size_t>(from) * n_;
+    int best = -1;
+    for (int v = 0; v < n_; ++v) {
+      if (!seen[v] && (best < 0 || row[v] < row[best])) best = v;
+    }
+    return best;
+  }
+
+ private:
+  const double* d_;
+  int n_;
+};
+
+// Lengths [m] of ordered pairs (a, b) of 0..n-1: open addressing, linear probing; at most
+// kMemoEntries.
+class PairMemo {
+ public:
+  explicit PairMemo(int n) : n_(static_cast<std::uint64_t>(n)) { resize(1u << 12); }
+  const double* find(int a, int b) const {
+    const std::uint64_t k = key(a, b);
+    for (std::size_t i = slot(k);; i = (i + 1) & mask_) {
+      if (keys_[i] == k) return &values_[i];
+      if (keys_[i] == kEmpty) return nullptr;
+    }
+  }
+  double put(int a, int b, double value) {
+    if (size_ >= kMemoEntries) {  // full: forget (a value asked again is searched again)
+      std::fill(keys_.begin(), keys_.end(), kEmpty);
+      size_ = 0;
+    }
+    if (2 * (size_ + 1) > keys_.size()) resize(2 * keys_.size());
+    const std::uint64_t k = key(a, b);
+    std::size_t i = slot(k);
+    while (keys_[i] != kEmpty && keys_[i] != k) i = (i + 1) & mask_;
+    if (keys_[i] == kEmpty) ++size_;
+    keys_[i] = k;
+    values_[i] = value;
+    return value;
+  }
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::uint64_t key(int a, int b) const {
+    return static_cast<std::uint64_t>(a) * n_ + static_cast<std::uint64_t>(b);
+  }
+  std::size_t slot(std::uint64_t k) const {
+    return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ULL) >> shift_);
+  }
+  void resize(std::size_t capacity) {  // a power of two
+    std::vector<std::uint64_t> keys(capacity, kEmpty);
+    std::vector<double> values(capacity);
+    mask_ = capacity - 1;
+    shift_ = 64;
+    for (std::size_t c = capacity; c > 1; c >>= 1) --shift_;
+    for (std::size_t i = 0; i < keys_.size(); ++i) {
+      if (keys_[i] == kEmpty) continue;
+      std::size_t j = slot(keys_[i]);
+      while (keys[j] != kEmpty) j = (j + 1) & mask_;
+      keys[j] = keys_[i];
+      values[j] = values_[i];
+    }
+    keys_.swap(keys);
+    values_.swap(values);
+  }
+  std::uint64_t n_;
+  std::vector<std::uint64_t> keys_;
+  std::vector<double> values_;
+  std::size_t size_ = 0, mask_ = 0;
+  int shift_ = 64;
+};
+
+// Shortest paths inside a large vertex subset, searched on demand: the same search
+// (DijkstraWorkspace, settling order (length, index), relabelled when shorter by more than
+// kEps) as the dense rows, stopped early, so every value equals the dense matrix's entry.
+// Each vertex's kNeighbours nearest (one search settling 17 vertices) and their lengths are
+// kept; a pair asked is searched from its first vertex, and every label that search settled
+// memoised (the local search asks pairs near each other). Memory O(edges + kMemoEntries).
+class SparseMetric {
+ public:
+  static constexpr bool kIncremental = true;  // a tour's length: kept up to date move by move
+  static constexpr int kCandidates = 16;
+  static constexpr int kKickWindow = 50;
+  SparseMetric(const PatrolGraph& graph, const std::vector<int>& vertices)
+      : arcs_(subset_arcs(graph, vertices)),
+        n_(static_cast<int>(vertices.size())),
+        k_(std::min(n_ - 1, kCandidates)),
+        memo_(n_) {
+    work_.run(arcs_, {0}, -kEps);  // connected?
+    if (static_cast<int>(work_.settled_order().size()) < n_) {
+      throw_not_connected(graph, n_, vertices[0]);
+    }
+    near_.resize(static_cast<std::size_t>(n_) * k_);
+    near_length_.resize(near_.size());
+    for (int a = 0; a < n_; ++a) {
+      work_.run_until(arcs_, {a}, -kEps, {},
+                      [&](int) { return static_cast<int>(work_.settled_order().size()) > k_; });
+      for (int t = 0; t < k_; ++t) {
+        const int x = work_.settled_order()[static_cast<std::size_t>(t) + 1];
+        near_[static_cast<std::size_t>(a) * k_ + t] = x;
+        near_length_[static_cast<std::size_t>(a) * k_ + t] = work_.distance(x);
+      }
+    }
+  }
+  int size() const { return n_; }
+  double operator()(int a, int b) {
+    const int* near = near_.data() + static_cast<std::size_t>(a) * k_;
+    for (int t = 0; t < k_; ++t) {
+      if (near[t] == b) return near_length_[static_cast<std::size_t>(a) * k_ + t];
+    }
+    if (a == b) return 0.0;
+    if (const double* hit = memo_.find(a, b)) return *hit;
+    work_.run(arcs_, {a}, -kEps, {}, b);
+    for (int v : work_.settled_order()) memo_.put(a, v, work_.distance(v));  // final labels
+    return work_.distance(b);
+  }
+  // The k nearest others of a, by (length, index) (k <= kNeighbours).
+  std::vector<int> nearest(int a, int k) const {
+    const auto first = near_.begin() + static_cast<std::ptrdiff_t>(a) * k_;
+    return std::vector<int>(first, first + k);
+  }
+  int nearest_unseen(int from, const std::vector<char>& seen) {
+    work_.run_until(arcs_, {from}, -kEps, {}, [&](int v) { return !seen[v]; });
+    const int v = work_.settled_order().back();
+    if (seen[v]) return -1;
+    memo_.put(from, v, work_.distance(v));
+    return v;
+  }
+  // The vertices of a shortest path from a to b after a, b included (local indices).
+  void append_path(int a, int b, std::vector<int>* out) {
+    work_.run(arcs_, {a}, -kEps, {}, b);
+    const std::size_t first = out->size();
+    for (int v = b; v != a; v = work_.parent(v)) out->push_back(v);
+    std::reverse(out->begin() + static_cast<std::ptrdiff_t>(first), out->end());
+  }
+
+ private:
+  ArcLists arcs_;
+  int n_, k_;
+  std::vector<int> near_;            // n x k_: the nearest others of each vertex
+  std::vector<double> near_length_;  // their lengths [m]
+  PairMemo memo_;
+  DijkstraWorkspace work_;
+};
+
 // 2-opt and Or-opt (segments of 1-3, either orientation) over neighbour lists with a queue of
-// vertices to look at ("don't-look bits"); first improvement.
+// vertices to look at ("don't-look bits"); first improvement. `gain()`: the summed length
+// change [m] of the moves made since `set_order`.
+template <class Metric>
 class LocalSearch {
  public:
-  LocalSearch(const std::vector<double>& dist, int n) : d_(dist.data()), n_(n) {
-    const int k = std::min(n - 1, kNeighbours);
+  explicit LocalSearch(Metric& metric) : m_(&metric), n_(metric.size()) {
+    const int k = std::min(n_ - 1, Metric::kCandidates);
     k_ = k;
-    nbr_.resize(static_cast<std::size_t>(n) * k);
-    std::vector<int> idx;
-    for (int a = 0; a < n; ++a) {
-      idx.resize(n);
-      std::iota(idx.begin(), idx.end(), 0);
-      idx.erase(idx.begin() + a);
-      std::partial_sort(idx.begin(), idx.begin() + k, idx.end(), [&](int x, int y) {
-        const double dx = D(a, x), dy = D(a, y);
-        return dx < dy || (dx == dy && x < y);
-      });
-      std::copy(idx.begin(), idx.begin() + k, nbr_.begin() + static_cast<std::size_t>(a) * k);
+    nbr_.resize(static_cast<std::size_t>(n_) * k);
+    for (int a = 0; a < n_; ++a) {
+      const std::vector<int> near = metric.nearest(a, k);
+      std::copy(near.begin(), near.end(), nbr_.begin() + static_cast<std::size_t>(a) * k);
     }
-    queued_.assign(n, 0);
-    pos_.assign(n, 0);
+    queued_.assign(n_, 0);
+    pos_.assign(n_, 0);
   }
 
   void set_order(const std::vector<int>& order) {
     order_ = order;
     for (int i = 0; i < n_; ++i) pos_[order_[i]] = i;
+    gain_ = 0.0;
   }
   const std::vector<int>& order() const { return order_; }
+  double gain() const { return gain_; }
 
   void push(int v) {
     if (!queued_[v]) {
@@ -83,7 +284,7 @@ class LocalSearch {
   }
 
  private:
-  double D(int a, int b) const { return d_[static_cast<std::size_t>(a) * n_ + b]; }
+  double D(int a, int b) const { return (*m_)(a, b); }
   int at(int i) const { return order_[((i % n_) + n_) % n_]; }
   int succ(int v) const { return at(pos_[v] + 1); }
   int pred(int v) const { return at(pos_[v] - 1); }
@@ -126,6 +327,7 @@ class LocalSearch {
           } else {
             reverse(pos_[a], pos_[e]);  // b a .. e c -> b e .. a c
           }
+          gain_ += delta;
           push(b);
           push(c);
           push(e);
@@ -181,6 +383,7 @@ class LocalSearch {
         if (best_u >= 0) {
           const int best_w = succ(best_u);
           move_segment(first, len, best_u, best_reversed);
+          gain_ += best;
           for (int v : {p, nx, s1, s2, best_u, best_w}) push(v);
           return true;
         }
@@ -201,49 +404,128 @@ class LocalSearch {
       out.push_back(v);
       if (v == u) out.insert(out.end(), seg.begin(), seg.end());
     }
+    const double gain = gain_;
     set_order(out);
+    gain_ = gain;
   }
 
-  const double* d_;
+  Metric* m_;
   int n_, k_ = 0;
+  double gain_ = 0.0;
   std::vector<int> nbr_, order_, pos_;
   std::vector<char> queued_;
   std::deque<int> queue_;
 };
 
-std::vector<int> nearest_neighbour(const std::vector<double>& dist, int n, int start) {
+template <class Metric>
+std::vector<int> nearest_neighbour(Metric& metric, int start) {
+  const int n = metric.size();
   std::vector<char> seen(n, 0);
   std::vector<int> order{start};
   seen[start] = 1;
   for (int step = 1; step < n; ++step) {
-    const double* row = dist.data() + static_cast<std::size_t>(order.back()) * n;
-    int best = -1;
-    for (int v = 0; v < n; ++v) {
-      if (!seen[v] && (best < 0 || row[v] < row[best])) best = v;
-    }
+    const int best = metric.nearest_unseen(order.back(), seen);
     order.push_back(best);
     seen[best] = 1;
   }
   return order;
 }
 
+template <class Metric>
+double cyclic_length(Metric& metric, const std::vector<int>& order) {
+  const int m = static_cast<int>(order.size());
+  if (m < 2) return 0.0;
+  double total = 0.0;
+  for (int i = 0; i < m; ++i) total += metric(order[i], order[(i + 1) % m]);
+  return total;
+}
+
 // Double bridge A B C D -> A C B D; cuts within kKickWindow positions of a random one.
-std::vector<int> double_bridge(const std::vector<int>& order, Rng& rng) {
+struct Bridge {
+  std::vector<int> order;
+  // the ends of its three new edges, in the kicked order's sequence: A|C, C|B, B|D
+  int ends[6];
+};
+
+Bridge double_bridge(const std::vector<int>& order, int max_window, Rng& rng) {
   const int n = static_cast<int>(order.size());
-  const int window = std::min(n, kKickWindow);
+  const int window = std::min(n, max_window);
   const int origin = window < n ? rng.below(n) : 0;
   int cut[3];
   do {
     for (int& c : cut) c = 1 + rng.below(window - 1);
     std::sort(cut, cut + 3);
   } while (cut[0] == cut[1] || cut[1] == cut[2]);
-  std::vector<int> rot(n);
-  for (int i = 0; i < n; ++i) rot[i] = order[(origin + i) % n];
-  std::vector<int> out(rot.begin(), rot.begin() + cut[0]);
-  out.insert(out.end(), rot.begin() + cut[1], rot.begin() + cut[2]);
-  out.insert(out.end(), rot.begin() + cut[0], rot.begin() + cut[1]);
-  out.insert(out.end(), rot.begin() + cut[2], rot.end());
+  auto rot = [&](int i) { return order[(origin + i) % n]; };
+  Bridge out;
+  out.order.reserve(n);
+  for (int i = 0; i < cut[0]; ++i) out.order.push_back(rot(i));
+  for (int i = cut[1]; i < cut[2]; ++i) out.order.push_back(rot(i));
+  for (int i = cut[0]; i < cut[1]; ++i) out.order.push_back(rot(i));
+  for (int i = cut[2]; i < n; ++i) out.order.push_back(rot(i));
+  const int ends[6] = {rot(cut[0] - 1), rot(cut[1]), rot(cut[2] - 1),
+                       rot(cut[0]),     rot(cut[1] - 1), rot(cut[2])};
+  std::copy(ends, ends + 6, out.ends);
   return out;
+}
+
+// Nearest neighbour from `starts` spread indices, 2-opt + Or-opt, then `kicks` double-bridge
+// kicks of the best, each kept when the local optimum it leads to is shorter.
+template <class Metric>
+std::vector<int> search_order(Metric& metric, const TourSearch& search) {
+  const int n = metric.size();
+  std::vector<int> identity(n);
+  std::iota(identity.begin(), identity.end(), 0);
+  if (n <= 3) return identity;
+  LocalSearch<Metric> ls(metric);
+  std::vector<int> best;
+  double best_len = std::numeric_limits<double>::infinity();
+  const int starts = std::max(1, std::min(search.starts, n));
+  int previous = -1;
+  for (int i = 0; i < starts; ++i) {
+    // start vertices spread evenly over 0..n-1
+    const int s =
+        starts == 1 ? 0 : static_cast<int>((static_cast<long long>(n - 1) * i) / (starts - 1));
+    if (s == previous) continue;
+    previous = s;
+    ls.set_order(nearest_neighbour(metric, s));
+    ls.push_all();
+    ls.run();
+    const double len = cyclic_length(metric, ls.order());
+    if (len < best_len - kEps) {
+      best = ls.order();
+      best_len = len;
+    }
+  }
+  if (n >= 8) {
+    Rng rng{search.seed};
+    for (int kick = 0; kick < search.kicks; ++kick) {
+      const Bridge kicked = double_bridge(best, Metric::kKickWindow, rng);
+      ls.set_order(kicked.order);
+      for (int v : kicked.ends) ls.push(v);  // the (at most 6) vertices of the new edges
+      ls.run();
+      double len;
+      if constexpr (Metric::kIncremental) {
+        const int* e = kicked.ends;  // new edges A|C, C|B, B|D replace A|B, B|C, C|D
+        const double bridge = metric(e[0], e[1]) + metric(e[2], e[3]) + metric(e[4], e[5]) -
+                              metric(e[0], e[3]) - metric(e[4], e[1]) - metric(e[2], e[5]);
+        len = best_len + bridge + ls.gain();
+      } else {
+        len = cyclic_length(metric, ls.order());
+      }
+      if (len < best_len - kEps) {
+        best = ls.order();
+        best_len = len;
+      }
+    }
+  }
+  return best;
+}
+
+// Lengths searched on demand for this many vertices (TourSearch::metric).
+bool sparse_tour(int n_vertices, const TourSearch& search) {
+  return search.metric == TourMetric::kSparse ||
+         (search.metric == TourMetric::kAuto && n_vertices > kDenseTourMax);
 }
 
 // Shortest paths inside a vertex subset (local indices), for a part's metric and its walk.
@@ -256,23 +538,9 @@ struct SubsetPaths {
 SubsetPaths subset_paths(const PatrolGraph& graph, const std::vector<int>& input,
                          bool with_parents) {
   SubsetPaths out;
-  out.vertices = input;
-  std::sort(out.vertices.begin(), out.vertices.end());
-  out.vertices.erase(std::unique(out.vertices.begin(), out.vertices.end()), out.vertices.end());
+  out.vertices = sorted_unique(input);
   const int k = static_cast<int>(out.vertices.size());
-  const int n = graph.num_vertices();
-  std::vector<int> local(n, -1);
-  for (int a = 0; a < k; ++a) {
-    graph.check_vertex(out.vertices[a]);
-    local[out.vertices[a]] = a;
-  }
-  std::vector<std::vector<std::pair<int, double>>> adj(k);
-  for (int a = 0; a < k; ++a) {
-    const int v = out.vertices[a];
-    for (int w : graph.neighbours(v)) {
-      if (w != v && local[w] >= 0) adj[a].push_back({local[w], graph.edge_length(v, w)});
-    }
-  }
+  const ArcLists adj = subset_arcs(graph, out.vertices);
   const double inf = std::numeric_limits<double>::infinity();
   out.dist.assign(static_cast<std::size_t>(k) * k, inf);
   if (with_parents) out.parent.assign(static_cast<std::size_t>(k) * k, -1);
@@ -289,19 +557,16 @@ SubsetPaths subset_paths(const PatrolGraph& graph, const std::vector<int>& input
       heap.pop();
       if (du > row[u]) continue;
       ++settled;
-      for (const auto& [w, c] : adj[u]) {
-        if (du + c < row[w] - kEps) {
-          row[w] = du + c;
+      for (const Arc& arc : adj[u]) {
+        const int w = arc.to;
+        if (du + arc.weight < row[w] - kEps) {
+          row[w] = du + arc.weight;
           if (par) par[w] = u;
           heap.push({row[w], w});
         }
       }
     }
-    if (settled < k) {
-      throw std::invalid_argument("closed_walk: the " + std::to_string(k) +
-                                  " vertices do not induce a connected subgraph (from " +
-                                  graph.vertex_name(out.vertices[s]) + ")");
-    }
+    if (settled < k) throw_not_connected(graph, k, out.vertices[s]);
   }
   return out;
 }
@@ -350,66 +615,38 @@ std::vector<int> tsp_order(const std::vector<double>& dist, int n, const TourSea
   if (n < 0 || dist.size() != static_cast<std::size_t>(n) * n) {
     throw std::invalid_argument("tsp_order: the distance matrix is not n x n");
   }
-  std::vector<int> identity(n);
-  std::iota(identity.begin(), identity.end(), 0);
-  if (n <= 3) return identity;
-  LocalSearch ls(dist, n);
-  std::vector<int> best;
-  double best_len = std::numeric_limits<double>::infinity();
-  const int starts = std::max(1, std::min(search.starts, n));
-  int previous = -1;
-  for (int i = 0; i < starts; ++i) {
-    // start vertices spread evenly over 0..n-1
-    const int s =
-        starts == 1 ? 0 : static_cast<int>((static_cast<long long>(n - 1) * i) / (starts - 1));
-    if (s == previous) continue;
-    previous = s;
-    ls.set_order(nearest_neighbour(dist, n, s));
-    ls.push_all();
-    ls.run();
-    const double len = order_length(dist, n, ls.order());
-    if (len < best_len - kEps) {
-      best = ls.order();
-      best_len = len;
-    }
-  }
-  if (n >= 8) {
-    Rng rng{search.seed};
-    for (int kick = 0; kick < search.kicks; ++kick) {
-      const std::vector<int> kicked = double_bridge(best, rng);
-      ls.set_order(kicked);
-      // the (at most 8) vertices whose edges the bridge changed
-      std::vector<int> where(n);
-      for (int i = 0; i < n; ++i) where[best[i]] = i;
-      for (int i = 0; i < n; ++i) {
-        const int v = kicked[i], next = kicked[(i + 1) % n];
-        if (best[(where[v] + 1) % n] != next) {
-          ls.push(v);
-          ls.push(next);
-        }
-      }
-      ls.run();
-      const double len = order_length(dist, n, ls.order());
-      if (len < best_len - kEps) {
-        best = ls.order();
-        best_len = len;
-      }
-    }
-  }
-  return best;
+  DenseMetric metric(dist, n);
+  return search_order(metric, search);
 }
 
 ClosedWalk closed_walk(const PatrolGraph& graph, const std::vector<int>& vertices,
                        const TourSearch& search) {
   ClosedWalk out;
   if (vertices.empty()) return out;
-  const SubsetPaths sp = subset_paths(graph, vertices, true);
-  const int k = static_cast<int>(sp.vertices.size());
+  const std::vector<int> sorted = sorted_unique(vertices);
+  const int k = static_cast<int>(sorted.size());
   if (k == 1) {
-    out.walk = sp.vertices;
+    graph.check_vertex(sorted[0]);
+    out.walk = sorted;
     return out;
   }
-  const std::vector<int> order = tsp_order(sp.dist, k, search);
+  if (sparse_tour(k, search)) {
+    SparseMetric metric(graph, sorted);
+    const std::vector<int> order = search_order(metric, search);
+    out.length_m = cyclic_length(metric, order);
+    std::vector<int> path;
+    for (int i = 0; i < k; ++i) {
+      const int a = order[i], b = order[(i + 1) % k];
+      out.walk.push_back(sorted[a]);
+      path.clear();
+      metric.append_path(a, b, &path);  // after a, up to b: b starts the next step
+      for (std::size_t j = 0; j + 1 < path.size(); ++j) out.walk.push_back(sorted[path[j]]);
+    }
+    return out;
+  }
+  const SubsetPaths sp = subset_paths(graph, sorted, true);
+  DenseMetric metric(sp.dist, k);
+  const std::vector<int> order = search_order(metric, search);
   out.length_m = order_length(sp.dist, k, order);
   for (int i = 0; i < k; ++i) {
     const int a = order[i], b = order[(i + 1) % k];
@@ -423,10 +660,16 @@ ClosedWalk closed_walk(const PatrolGraph& graph, const std::vector<int>& vertice
 
 double closed_walk_length(const PatrolGraph& graph, const std::vector<int>& vertices,
                           const TourSearch& search) {
-  const SubsetPaths sp = subset_paths(graph, vertices, false);
-  const int k = static_cast<int>(sp.vertices.size());
+  const std::vector<int> sorted = sorted_unique(vertices);
+  const int k = static_cast<int>(sorted.size());
   if (k <= 1) return 0.0;
-  return order_length(sp.dist, k, tsp_order(sp.dist, k, search));
+  if (sparse_tour(k, search)) {
+    SparseMetric metric(graph, sorted);
+    return cyclic_length(metric, search_order(metric, search));
+  }
+  const SubsetPaths sp = subset_paths(graph, sorted, false);
+  DenseMetric metric(sp.dist, k);
+  return order_length(sp.dist, k, search_order(metric, search));
 }
 
 std::vector<int> robots_per_part(const std::vector<double>& lengths_m, int n_robots) {
@@ -463,14 +706,24 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
     cost_cache.emplace(part, c);
     return c;
   };
-  // first seeds: the most central vertex, the most remote one, and vertex 0
+  // first seeds: the most central vertex, the most remote one, and vertex 0; a vertex's
+  // remoteness is its summed distance to every vertex (up to kDenseTourMax vertices: n rows),
+  // or, on larger graphs, to kLandmarks vertices spread over the indices (kLandmarks rows)
   std::vector<double> sums(n, 0.0);
-  for (int v = 0; v < n; ++v) {  // summed in index order, as Eigen sums a matrix row
-    const std::shared_ptr<const DistanceRow> row = graph.row(v);
-    const std::vector<double>& d = row->distance;
-    double sum = d[0];
-    for (int t = 1; t < n; ++t) sum += d[t];
-    sums[v] = sum;
+  if (n <= kDenseTourMax) {
+    for (int v = 0; v < n; ++v) {  // summed in index order, as Eigen sums a matrix row
+      const std::shared_ptr<const DistanceRow> row = graph.row(v);
+      const std::vector<double>& d = row->distance;
+      double sum = d[0];
+      for (int t = 1; t < n; ++t) sum += d[t];
+      sums[v] = sum;
+    }
+  } else {
+    for (int l = 0; l < kLandmarks; ++l) {
+      const int landmark = static_cast<int>(static_cast<long long>(n) * l / kLandmarks);
+      const std::shared_ptr<const DistanceRow> row = graph.row(landmark);
+      for (int v = 0; v < n; ++v) sums[v] += row->distance[v];
+    }
   }
   const int remote = static_cast<int>(std::max_element(sums.begin(), sums.end()) - sums.begin());
   const int central = static_cast<int>(std::min_element(sums.begin(), sums.end()) - sums.begin());

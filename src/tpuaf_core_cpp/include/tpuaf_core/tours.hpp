@@ -14,10 +14,19 @@
 
 namespace tpuaf {
 
+// Vertex subsets up to this size are toured on the k x k matrix of their shortest paths (8 k^2 B
+// of lengths, 4 k^2 B of parents); larger ones on lengths searched on demand: candidate lists
+// from searches settling 17 vertices, pairs memoised, no k x k matrix. Both give the same
+// lengths, so the same search gives the same order (up to the sums of lengths compared).
+constexpr int kDenseTourMax = 1000;  // vertices
+
+enum class TourMetric { kAuto, kDense, kSparse };  // kAuto: by size (kDenseTourMax)
+
 struct TourSearch {
   int starts = 12;             // nearest-neighbour starts (spread over the indices)
   int kicks = 30;              // double-bridge kicks of the best local optimum
   std::uint64_t seed = 12345;  // of the kicks
+  TourMetric metric = TourMetric::kAuto;
 };
 
 // Called now and then by long searches: (stage name, done, total). May throw to abort.
