@@ -15,19 +15,25 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 void DijkstraWorkspace::run(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
                             const std::vector<char>& allowed, int stop_at) {
-  search(arcs, sources, tolerance, allowed, [stop_at](int v) { return v == stop_at; });
+  search(arcs, sources, tolerance, allowed, [stop_at](int v) { return v == stop_at; },
+         [](int) { return true; });
 }
 
 void DijkstraWorkspace::run_until(const ArcLists& arcs, const std::vector<int>& sources,
                                   double tolerance, const std::vector<char>& allowed,
-                                  const std::function<bool(int)>& stop) {
-  search(arcs, sources, tolerance, allowed, stop);
+                                  const std::function<bool(int)>& stop,
+                                  const std::function<bool(int)>& expand) {
+  if (expand) {
+    search(arcs, sources, tolerance, allowed, stop, expand);
+  } else {
+    search(arcs, sources, tolerance, allowed, stop, [](int) { return true; });
+  }
 }
 
-template <class Stop>
+template <class Stop, class Expand>
 void DijkstraWorkspace::search(const ArcLists& arcs, const std::vector<int>& sources,
                                double tolerance, const std::vector<char>& allowed,
-                               const Stop& stop) {
+                               const Stop& stop, const Expand& expand) {
   const int n = static_cast<int>(arcs.size());
   if (!allowed.empty() && static_cast<int>(allowed.size()) != n) {
     throw std::invalid_argument("dijkstra: the allowed mask has " + std::to_string(allowed.size()) +
@@ -68,6 +74,7 @@ void DijkstraWorkspace::search(const ArcLists& arcs, const std::vector<int>& sou
     source_[u] = k;
     order_.push_back(u);
     if (stop(u)) break;
+    if (!expand(u)) continue;
     for (const Arc& arc : arcs[u]) {
       const int w = arc.to;
       if (w < 0 || w >= n)

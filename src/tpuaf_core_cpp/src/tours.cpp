@@ -21,8 +21,8 @@ constexpr double kEps = 1e-9;    // [m] an improvement must beat this
 constexpr int kNeighbours = 16;  // candidate list length of the local search
 constexpr int kDenseKickWindow = 50;
 constexpr int kLandmarks = 32;  // rows that rank vertices by remoteness on large graphs
-// Pairs a sparse metric memoises (16 B each at half load: 32 MB), then it forgets them all.
-constexpr std::size_t kMemoEntries = 1u << 20;  // positions: double bridges stay local on long orders
+// Pairs a sparse metric memoises (16 B each at half load: 64 MB), then it forgets them all.
+constexpr std::size_t kMemoEntries = 1u << 21;  // positions: double bridges stay local on long orders
 
 // splitmix64: a fixed, portable sequence for the kicks.
 struct Rng {
@@ -166,7 +166,8 @@ class PairMemo {
 
 // Shortest paths inside a large vertex subset, searched on demand: the same search
 // (DijkstraWorkspace, settling order (length, index), relabelled when shorter by more than
-// kEps) as the dense rows, stopped early, so every value equals the dense matrix's entry.
+// kEps) as the dense rows, stopped early, so every value is the dense matrix's entry (a, b) or,
+// when only that is known, its entry (b, a) (the same length summed the other way round).
 // Each vertex's kNeighbours nearest (one search settling 17 vertices) and their lengths are
 // kept; a pair asked is searched from its first vertex, and every label that search settled
 // memoised (the local search asks pairs near each other). Memory O(edges + kMemoEntries).
@@ -204,6 +205,12 @@ class SparseMetric {
     }
     if (a == b) return 0.0;
     if (const double* hit = memo_.find(a, b)) return *hit;
+    // the other direction when known: the same path's length, summed the other way round
+    const int* from_b = near_.data() + static_cast<std::size_t>(b) * k_;
+    for (int t = 0; t < k_; ++t) {
+      if (from_b[t] == a) return near_length_[static_cast<std::size_t>(b) * k_ + t];
+    }
+    if (const double* hit = memo_.find(b, a)) return *hit;
     work_.run(arcs_, {a}, -kEps, {}, b);
     for (int v : work_.settled_order()) memo_.put(a, v, work_.distance(v));  // final labels
     return work_.distance(b);
@@ -727,13 +734,16 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
   }
   const int remote = static_cast<int>(std::max_element(sums.begin(), sums.end()) - sums.begin());
   const int central = static_cast<int>(std::min_element(sums.begin(), sums.end()) - sums.begin());
-  std::vector<int> firsts{remote, central, 0};
+  // (large graphs: the most remote one only; each seeding costs its moves)
+  std::vector<int> firsts = n <= kDenseTourMax ? std::vector<int>{remote, central, 0}
+                                               : std::vector<int>{remote};
   std::sort(firsts.begin(), firsts.end());
   firsts.erase(std::unique(firsts.begin(), firsts.end()), firsts.end());
 
   std::vector<std::vector<int>> best_parts;
   double best_cost = std::numeric_limits<double>::infinity();
   std::vector<char> mark(n, 0);
+  DijkstraWorkspace work;
   for (std::size_t f = 0; f < firsts.size(); ++f) {
     std::vector<int> seeds{firsts[f]};
     std::vector<double> nearest(n);
@@ -742,8 +752,15 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
       const int far =
           static_cast<int>(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
       seeds.push_back(far);
-      const std::shared_ptr<const DistanceRow> from = graph.row(far);
-      for (int v = 0; v < n; ++v) nearest[v] = std::min(nearest[v], from->distance[v]);
+      if (n <= kDenseTourMax) {
+        const std::shared_ptr<const DistanceRow> from = graph.row(far);
+        for (int v = 0; v < n; ++v) nearest[v] = std::min(nearest[v], from->distance[v]);
+      } else {  // a search from `far` that leaves no vertex it does not bring nearer: O(its cell)
+        work.run_until(
+            arcs, {far}, 0.0, {}, [](int) { return false; },
+            [&](int v) { return work.distance(v) < nearest[v]; });
+        for (int v : work.settled_order()) nearest[v] = std::min(nearest[v], work.distance(v));
+      }
     }
     std::vector<int> owner = dijkstra(arcs, seeds, kEps).source;
     std::vector<std::vector<int>> parts(k);

@@ -34,9 +34,11 @@ class DijkstraWorkspace {
   // settled. A settled vertex's labels are final: those of a search without `stop_at`.
   void run(const ArcLists& arcs, const std::vector<int>& sources, double tolerance = 0.0,
            const std::vector<char>& allowed = {}, int stop_at = -1);
-  // The same search, stopped once `stop(v)` is true for a vertex v just settled.
+  // The same search, stopped once `stop(v)` is true for a vertex v just settled; a settled
+  // vertex for which `expand` (when given) is false is not left (its arcs are not relaxed).
   void run_until(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
-                 const std::vector<char>& allowed, const std::function<bool(int)>& stop);
+                 const std::vector<char>& allowed, const std::function<bool(int)>& stop,
+                 const std::function<bool(int)>& expand = nullptr);
   // Vertices the last search settled, in settling order.
   const std::vector<int>& settled_order() const { return order_; }
   double distance(int v) const { return distance_[v]; }  // +inf: not reached
@@ -47,9 +49,9 @@ class DijkstraWorkspace {
   ShortestPathTree tree() const;
 
  private:
-  template <class Stop>
+  template <class Stop, class Expand>
   void search(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
-              const std::vector<char>& allowed, const Stop& stop);
+              const std::vector<char>& allowed, const Stop& stop, const Expand& expand);
   void mark(int v) {
     if (!labelled_[v]) {
       labelled_[v] = 1;
