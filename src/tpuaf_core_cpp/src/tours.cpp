@@ -19,10 +19,10 @@ namespace {
 
 constexpr double kEps = 1e-9;    // [m] an improvement must beat this
 constexpr int kNeighbours = 16;  // candidate list length of the local search
-constexpr int kDenseKickWindow = 50;
-constexpr int kLandmarks = 32;  // rows that rank vertices by remoteness on large graphs
+constexpr int kKickWindow = 50;  // positions: double bridges stay local on long orders
+constexpr int kLandmarks = 32;   // rows that rank vertices by remoteness on large graphs
 // Pairs a sparse metric memoises (16 B each at half load: 64 MB), then it forgets them all.
-constexpr std::size_t kMemoEntries = 1u << 21;  // positions: double bridges stay local on long orders
+constexpr std::size_t kMemoEntries = 1u << 21;
 
 // splitmix64: a fixed, portable sequence for the kicks.
 struct Rng {
@@ -74,8 +74,6 @@ std::vector<int> sorted_unique(std::vector<int> vertices) {
 class DenseMetric {
  public:
   static constexpr bool kIncremental = false;  // a tour's length: summed again, O(n)
-  static constexpr int kCandidates = kNeighbours;
-  static constexpr int kKickWindow = kDenseKickWindow;
   DenseMetric(const std::vector<double>& dist, int n) : d_(dist.data()), n_(n) {}
   int size() const { return n_; }
   double operator()(int a, int b) const { return d_[static_cast<std::size_t>(a) * n_ + b]; }
@@ -174,12 +172,10 @@ class PairMemo {
 class SparseMetric {
  public:
   static constexpr bool kIncremental = true;  // a tour's length: kept up to date move by move
-  static constexpr int kCandidates = 16;
-  static constexpr int kKickWindow = 50;
   SparseMetric(const PatrolGraph& graph, const std::vector<int>& vertices)
       : arcs_(subset_arcs(graph, vertices)),
         n_(static_cast<int>(vertices.size())),
-        k_(std::min(n_ - 1, kCandidates)),
+        k_(std::min(n_ - 1, kNeighbours)),
         memo_(n_) {
     work_.run(arcs_, {0}, -kEps);  // connected?
     if (static_cast<int>(work_.settled_order().size()) < n_) {
@@ -251,7 +247,7 @@ template <class Metric>
 class LocalSearch {
  public:
   explicit LocalSearch(Metric& metric) : m_(&metric), n_(metric.size()) {
-    const int k = std::min(n_ - 1, Metric::kCandidates);
+    const int k = std::min(n_ - 1, kNeighbours);
     k_ = k;
     nbr_.resize(static_cast<std::size_t>(n_) * k);
     for (int a = 0; a < n_; ++a) {
@@ -454,9 +450,9 @@ struct Bridge {
   int ends[6];
 };
 
-Bridge double_bridge(const std::vector<int>& order, int max_window, Rng& rng) {
+Bridge double_bridge(const std::vector<int>& order, Rng& rng) {
   const int n = static_cast<int>(order.size());
-  const int window = std::min(n, max_window);
+  const int window = std::min(n, kKickWindow);
   const int origin = window < n ? rng.below(n) : 0;
   int cut[3];
   do {
@@ -507,7 +503,7 @@ std::vector<int> search_order(Metric& metric, const TourSearch& search) {
   if (n >= 8) {
     Rng rng{search.seed};
     for (int kick = 0; kick < search.kicks; ++kick) {
-      const Bridge kicked = double_bridge(best, Metric::kKickWindow, rng);
+      const Bridge kicked = double_bridge(best, rng);
       ls.set_order(kicked.order);
       for (int v : kicked.ends) ls.push(v);  // the (at most 6) vertices of the new edges
       ls.run();
