@@ -18,6 +18,7 @@ namespace tpuaf {
 namespace {
 
 constexpr double kEps = 1e-9;    // [m] an improvement must beat this
+constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kNeighbours = 16;  // candidate list length of the local search
 constexpr int kKickWindow = 50;  // positions: double bridges stay local on long orders
 constexpr int kLandmarks = 32;   // rows that rank vertices by remoteness on large graphs
@@ -77,6 +78,7 @@ class DenseMetric {
   DenseMetric(const std::vector<double>& dist, int n) : d_(dist.data()), n_(n) {}
   int size() const { return n_; }
   double operator()(int a, int b) const { return d_[static_cast<std::size_t>(a) * n_ + b]; }
+  double at_most(int a, int b, double /*limit*/) const { return (*this)(a, b); }
   // The k nearest others of a, by (length, index).
   std::vector<int> nearest(int a, int k) const {
     std::vector<int> idx(n_);
@@ -177,6 +179,16 @@ class SparseMetric {
         n_(static_cast<int>(vertices.size())),
         k_(std::min(n_ - 1, kNeighbours)),
         memo_(n_) {
+    xy_.resize(static_cast<std::size_t>(n_));
+    for (int a = 0; a < n_; ++a) {
+      xy_[a] = {graph.positions()(vertices[a], 0), graph.positions()(vertices[a], 1)};
+    }
+    for (int a = 0; a < n_; ++a) {
+      for (const Arc& arc : arcs_[a]) {
+        const double straight = straight_m(a, arc.to);
+        if (straight > 0) stretch_ = std::min(stretch_, arc.weight / straight);
+      }
+    }
     work_.run(arcs_, {0}, -kEps);  // connected?
     if (static_cast<int>(work_.settled_order().size()) < n_) {
       throw_not_connected(graph, n_, vertices[0]);
@@ -194,7 +206,9 @@ class SparseMetric {
     }
   }
   int size() const { return n_; }
-  double operator()(int a, int b) {
+  double operator()(int a, int b) { return at_most(a, b, kInf); }
+  // The length a -> b, or +inf when it is not below `limit` [m] (the search stops there).
+  double at_most(int a, int b, double limit) {
     const int* near = near_.data() + static_cast<std::size_t>(a) * k_;
     for (int t = 0; t < k_; ++t) {
       if (near[t] == b) return near_length_[static_cast<std::size_t>(a) * k_ + t];
@@ -207,9 +221,11 @@ class SparseMetric {
       if (from_b[t] == a) return near_length_[static_cast<std::size_t>(b) * k_ + t];
     }
     if (const double* hit = memo_.find(b, a)) return *hit;
-    work_.run(arcs_, {a}, -kEps, {}, b);
+    if (stretch_ * straight_m(a, b) >= limit) return kInf;  // no path that short
+    work_.run_until(arcs_, {a}, -kEps, {},
+                    [&](int v) { return v == b || work_.distance(v) >= limit; });
     for (int v : work_.settled_order()) memo_.put(a, v, work_.distance(v));  // final labels
-    return work_.distance(b);
+    return work_.settled(b) ? work_.distance(b) : kInf;
   }
   // The k nearest others of a, by (length, index) (k <= kNeighbours).
   std::vector<int> nearest(int a, int k) const {
@@ -236,8 +252,13 @@ class SparseMetric {
   int n_, k_;
   std::vector<int> near_;            // n x k_: the nearest others of each vertex
   std::vector<double> near_length_;  // their lengths [m]
+  double straight_m(int a, int b) const {
+    return std::hypot(xy_[a].first - xy_[b].first, xy_[a].second - xy_[b].second);
+  }
   PairMemo memo_;
   DijkstraWorkspace work_;
+  std::vector<std::pair<double, double>> xy_;  // [m] positions
+  double stretch_ = 1.0;  // the least length / straight line of an edge: paths are no shorter
 };
 
 // 2-opt and Or-opt (segments of 1-3, either orientation) over neighbour lists with a queue of
@@ -288,6 +309,8 @@ class LocalSearch {
 
  private:
   double D(int a, int b) const { return (*m_)(a, b); }
+  // The length a -> b when below `limit` [m], else the length or +inf (no move with it is kept).
+  double D(int a, int b, double limit) const { return m_->at_most(a, b, limit); }
   int at(int i) const { return order_[((i % n_) + n_) % n_]; }
   int succ(int v) const { return at(pos_[v] + 1); }
   int pred(int v) const { return at(pos_[v] - 1); }
@@ -323,7 +346,8 @@ class LocalSearch {
         if (ac >= ab - kEps) break;
         const int e = dir == 0 ? succ(c) : pred(c);
         if (c == b || e == a) continue;
-        const double delta = ac + D(b, e) - ab - D(c, e);
+        const double ce = D(c, e);
+        const double delta = ac + D(b, e, ab + ce - ac + kEps) - ab - ce;
         if (delta < -kEps) {
           if (dir == 0) {
             reverse(pos_[b], pos_[c]);  // a b .. c e -> a c .. b e
@@ -348,7 +372,8 @@ class LocalSearch {
         const int first = side == 0 ? pos_[a] : pos_[a] - len + 1;
         const int s1 = at(first), s2 = at(first + len - 1);
         const int p = at(first - 1), nx = at(first + len);
-        const double removed = D(p, s1) + D(s2, nx) - D(p, nx);
+        const double ps1 = D(p, s1), s2nx = D(s2, nx);
+        const double removed = ps1 + s2nx - D(p, nx, ps1 + s2nx + kEps);
         if (removed <= kEps) continue;
         auto in_segment = [&](int v) {
           const int off = ((pos_[v] - first) % n_ + n_) % n_;
@@ -368,8 +393,9 @@ class LocalSearch {
               const int w = succ(u);
               if (in_segment(u) || in_segment(w)) continue;
               const double base = D(u, w);
-              const double fwd = D(u, s1) + D(s2, w) - base - removed;
-              const double rev = D(u, s2) + D(s1, w) - base - removed;
+              const double limit = best + base + removed + kEps;  // of each added length
+              const double fwd = D(u, s1, limit) + D(s2, w, limit) - base - removed;
+              const double rev = D(u, s2, limit) + D(s1, w, limit) - base - removed;
               if (fwd < best) {
                 best = fwd;
                 best_u = u;
