@@ -44,6 +44,14 @@ TpuafPlusStrategy::TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusP
   prototype_.share_visit_results();  // the team hears the same visits: one Eq. 2 per visit
 }
 
+double TpuafPlusStrategy::distance(int u, int v) const {
+  const std::uint64_t key = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) |
+                            static_cast<std::uint32_t>(v);
+  KnownLength& slot = lengths_[static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> 50)];
+  if (slot.u != u || slot.v != v) slot = {u, v, graph_->distance(u, v)};
+  return slot.length_m;
+}
+
 TpuafPlusStrategy::Robot& TpuafPlusStrategy::state(int robot) {
   if (robot < 0 || robot >= static_cast<int>(robots_.size())) {
     throw std::out_of_range("unknown robot " + std::to_string(robot));
@@ -164,7 +172,7 @@ int TpuafPlusStrategy::urgent_entry(const Robot& r, const PlusRoute& route, int 
   std::vector<double> idle(n), reach(n), worst(n);
   for (std::size_t i = 0; i < n; ++i) {
     idle[i] = now - last[route.walk[i]];
-    reach[i] = graph_->distance(vertex, route.walk[i]) / speed;
+    reach[i] = distance(vertex, route.walk[i]) / speed;
   }
   for (std::size_t k = 0; k < n; ++k) {
     double top = -kInf;
@@ -197,7 +205,7 @@ std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
     if (info == nullptr) return {};
     starts.push_back(info->to);
     late.push_back(
-        std::max(0.0, info->departure + graph_->distance(info->from, info->to) / speed - t_ref) *
+        std::max(0.0, info->departure + distance(info->from, info->to) / speed - t_ref) *
         speed);
   }
   const Eigen::VectorXd& last = r.knowledge.last_visit();
@@ -290,9 +298,7 @@ void TpuafPlusStrategy::heard_from(Robot& r, int k, double sent) const {
 }
 
 void TpuafPlusStrategy::remember(Robot& r, int robot, const Heard& entry) {
-  auto& past = r.history[static_cast<std::size_t>(robot)];
-  past.push_back(entry);
-  if (past.size() > 4) past.pop_front();
+  r.history[static_cast<std::size_t>(robot)].push(entry);
 }
 
 void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s) const {
@@ -306,7 +312,7 @@ void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s
   const double drive_s = arrived_s - last->departure;
   if (!(drive_s > kEps)) return;
   double& pace = r.pace[static_cast<std::size_t>(k)];
-  pace = update_pace(pace, graph_->distance(last->from, vertex) / drive_s, params_.pace_weight,
+  pace = update_pace(pace, distance(last->from, vertex) / drive_s, params_.pace_weight,
                      params_.speed_mps);
 }
 
@@ -419,7 +425,7 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc, doubl
     // entry vertex in time, it left unheard (delay, loss)
     const int entry_vertex = route.walk[static_cast<std::size_t>(schedule[kk].first)];
     const double to_entry_m =
-        graph_->distance(info.from, info.to) + graph_->distance(info.to, entry_vertex);
+        distance(info.from, info.to) + distance(info.to, entry_vertex);
     const double due_s = info.departure + to_entry_m / speed;  // at its entry vertex
     if (chosen < 0 || due_s <= schedule[kk].second + kEps) return on_slot();
   }
@@ -563,10 +569,10 @@ int TpuafPlusStrategy::repair_hop(StrategyHost& host, int robot, int here, int t
   }
   std::sort(nbrs.begin(), nbrs.end());
   nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
-  const double best = graph_->distance(here, target);
+  const double best = distance(here, target);
   std::vector<int> on_path;
   for (int w : nbrs) {
-    if (std::abs(graph_->edge_length(here, w) + graph_->distance(w, target) - best) <=
+    if (std::abs(graph_->edge_length(here, w) + distance(w, target) - best) <=
         1e-6 * (1 + best)) {
       on_path.push_back(w);
     }
@@ -575,7 +581,7 @@ int TpuafPlusStrategy::repair_hop(StrategyHost& host, int robot, int here, int t
   if (on_path.empty()) {
     int pick = -1;
     for (int w : nbrs) {
-      if (pick < 0 || graph_->distance(w, target) < graph_->distance(pick, target)) pick = w;
+      if (pick < 0 || distance(w, target) < distance(pick, target)) pick = w;
     }
     return pick;
   }

@@ -5,9 +5,10 @@
 // called only when a robot's view of the team changes. Times in seconds, lengths in metres.
 #pragma once
 
+#include <array>
 #include <cstdint>
-#include <deque>
 #include <functional>
+#include <initializer_list>
 #include <map>
 #include <memory>
 #include <unordered_map>
@@ -125,6 +126,27 @@ class TpuafPlusStrategy : public TeamStrategy {
     int from = -1, to = -1;
     double departure = 0, sent = 0;
   };
+  // The last 4 announcements of one robot, oldest first (in place: one per message heard).
+  class Recent {
+   public:
+    Recent() = default;
+    Recent(std::initializer_list<Heard> entries) {
+      for (const Heard& entry : entries) push(entry);
+    }
+    void push(const Heard& entry) {
+      if (size_ == items_.size()) {
+        std::copy(items_.begin() + 1, items_.end(), items_.begin());
+        --size_;
+      }
+      items_[size_++] = entry;
+    }
+    const Heard* begin() const { return items_.data(); }
+    const Heard* end() const { return items_.data() + size_; }
+
+   private:
+    std::array<Heard, 4> items_{};
+    std::size_t size_ = 0;
+  };
   struct Robot {
     explicit Robot(const TpuafKnowledge& k) : knowledge(k) {}
     TpuafKnowledge knowledge;
@@ -134,7 +156,7 @@ class TpuafPlusStrategy : public TeamStrategy {
     std::vector<char> has_heard;
     std::vector<double> mate_arc;  // last estimated arc [m] per mate
     std::vector<char> has_mate_arc;
-    std::vector<std::deque<Heard>> history;  // the last 4 announcements per robot
+    std::vector<Recent> history;  // the last 4 announcements per robot
     std::vector<double> pace;  // [m/s] measured pace along the walk per robot (me too)
     double changed_at = 0;     // [s] when the team last changed
     bool holding = false;
@@ -171,6 +193,14 @@ class TpuafPlusStrategy : public TeamStrategy {
   int step(StrategyHost& host, int robot, bool waking);
   int repair_hop(StrategyHost& host, int robot, int here, int target);
 
+  // d(u, v) [m] on graph_, through a direct-mapped memo (every robot asks the same steps).
+  double distance(int u, int v) const;
+
+  struct KnownLength {
+    int u = -1, v = -1;
+    double length_m = 0;
+  };
+  mutable std::vector<KnownLength> lengths_ = std::vector<KnownLength>(1u << 14);
   TpuafKnowledge prototype_;
   TpuafPlusParams params_;
   PlanSource plans_;
