@@ -222,8 +222,12 @@ class SparseMetric {
     }
     if (const double* hit = memo_.find(b, a)) return *hit;
     if (stretch_ * straight_m(a, b) >= limit) return kInf;  // no path that short
-    work_.run_until(arcs_, {a}, -kEps, {},
-                    [&](int v) { return v == b || work_.distance(v) >= limit; });
+    // A* towards b (the straight line times stretch_ is a consistent potential): stopped at b,
+    // or once nothing left can reach b below `limit`
+    const auto to_b = [&](int v) { return stretch_ * straight_m(v, b); };
+    work_.run_until(
+        arcs_, {a}, -kEps, {},
+        [&](int v) { return v == b || work_.distance(v) + to_b(v) >= limit; }, nullptr, to_b);
     for (int v : work_.settled_order()) memo_.put(a, v, work_.distance(v));  // final labels
     return work_.settled(b) ? work_.distance(b) : kInf;
   }
@@ -421,21 +425,44 @@ class LocalSearch {
     return false;
   }
 
-  // The segment of `len` positions from `first` moves between u and its successor.
+  // The segment of `len` positions from `first` moves between u and its successor: the order
+  // rebuilt from the segment's successor on (dense: O(n)), or, for large orders, in place,
+  // shifting the shorter stretch between the segment and its new place (O(that stretch)).
   void move_segment(int first, int len, int u, bool reversed) {
-    std::vector<int> seg(len);
+    int seg[3];
     for (int s = 0; s < len; ++s) seg[s] = at(first + s);
-    if (reversed) std::reverse(seg.begin(), seg.end());
+    if (reversed) std::reverse(seg, seg + len);
+    if constexpr (Metric::kIncremental) {
+      const int wrap_first = ((first % n_) + n_) % n_;
+      const int after = (pos_[u] - (wrap_first + len - 1) + n_) % n_;     // entries after it to u
+      const int before = (wrap_first - pos_[succ(u)] + n_) % n_;           // from u's successor
+      if (after <= before) {  // the `after` entries move back by len, the segment ends at u
+        for (int s = 0; s < after; ++s) place(wrap_first + s, order_[(wrap_first + len + s) % n_]);
+        for (int s = 0; s < len; ++s) place(wrap_first + after + s, seg[s]);
+      } else {  // the `before` entries move on by len, the segment starts at u's successor
+        for (int s = before - 1; s >= 0; --s) {
+          place(wrap_first - before + s + len, order_[(wrap_first - before + s + n_) % n_]);
+        }
+        for (int s = 0; s < len; ++s) place(wrap_first - before + s, seg[s]);
+      }
+      return;
+    }
     std::vector<int> out;
     out.reserve(n_);
     for (int s = 0; s < n_ - len; ++s) {
       const int v = at(first + len + s);
       out.push_back(v);
-      if (v == u) out.insert(out.end(), seg.begin(), seg.end());
+      if (v == u) out.insert(out.end(), seg, seg + len);
     }
     const double gain = gain_;
     set_order(out);
     gain_ = gain;
+  }
+
+  void place(int i, int v) {  // v at position i (mod n)
+    i = ((i % n_) + n_) % n_;
+    order_[i] = v;
+    pos_[v] = i;
   }
 
   Metric* m_;
@@ -488,10 +515,16 @@ Bridge double_bridge(const std::vector<int>& order, Rng& rng) {
   auto rot = [&](int i) { return order[(origin + i) % n]; };
   Bridge out;
   out.order.reserve(n);
-  for (int i = 0; i < cut[0]; ++i) out.order.push_back(rot(i));
-  for (int i = cut[1]; i < cut[2]; ++i) out.order.push_back(rot(i));
-  for (int i = cut[0]; i < cut[1]; ++i) out.order.push_back(rot(i));
-  for (int i = cut[2]; i < n; ++i) out.order.push_back(rot(i));
+  const auto append = [&](int from, int to) {  // rotated positions from..to-1, in one or two runs
+    const int a = (origin + from) % n, len = to - from;
+    const int first_run = std::min(len, n - a);
+    out.order.insert(out.order.end(), order.begin() + a, order.begin() + a + first_run);
+    out.order.insert(out.order.end(), order.begin(), order.begin() + (len - first_run));
+  };
+  append(0, cut[0]);
+  append(cut[1], cut[2]);
+  append(cut[0], cut[1]);
+  append(cut[2], n);
   const int ends[6] = {rot(cut[0] - 1), rot(cut[1]), rot(cut[2] - 1),
                        rot(cut[0]),     rot(cut[1] - 1), rot(cut[2])};
   std::copy(ends, ends + 6, out.ends);

@@ -36,9 +36,13 @@ class DijkstraWorkspace {
            const std::vector<char>& allowed = {}, int stop_at = -1);
   // The same search, stopped once `stop(v)` is true for a vertex v just settled; a settled
   // vertex for which `expand` (when given) is false is not left (its arcs are not relaxed).
+  // `potential` (when given): vertices are settled in the order (distance + potential, ...)
+  // (A*); with a potential no larger than the length to the goal and consistent (p(u) <=
+  // length(u, w) + p(w) on every arc), every settled label is still a shortest length.
   void run_until(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
                  const std::vector<char>& allowed, const std::function<bool(int)>& stop,
-                 const std::function<bool(int)>& expand = nullptr);
+                 const std::function<bool(int)>& expand = nullptr,
+                 const std::function<double(int)>& potential = nullptr);
   // Vertices the last search settled, in settling order.
   const std::vector<int>& settled_order() const { return order_; }
   double distance(int v) const { return distance_[v]; }  // +inf: not reached
@@ -49,9 +53,10 @@ class DijkstraWorkspace {
   ShortestPathTree tree() const;
 
  private:
-  template <class Stop, class Expand>
+  template <class Stop, class Expand, class Potential>
   void search(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
-              const std::vector<char>& allowed, const Stop& stop, const Expand& expand);
+              const std::vector<char>& allowed, const Stop& stop, const Expand& expand,
+              const Potential& potential);
   void mark(int v) {
     if (!labelled_[v]) {
       labelled_[v] = 1;
