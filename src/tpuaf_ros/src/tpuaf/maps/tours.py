@@ -47,7 +47,7 @@ LARGE_PART = 40  # vertices per part: above, the search scores parts by their sp
 
 
 DENSE_TOUR_MAX = tpuaf_core.DENSE_TOUR_MAX  # vertices: larger sets toured on lengths on demand
-LARGE_KICKS = 0.25  # kicks per vertex of a walk through more than DENSE_TOUR_MAX vertices
+LARGE_KICKS = 0.5  # kicks per vertex of a walk through more than DENSE_TOUR_MAX vertices
 
 
 def _effort(n_vertices: int) -> tuple[int, int]:
