@@ -11,7 +11,6 @@
 #include <initializer_list>
 #include <map>
 #include <memory>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -26,13 +25,23 @@ struct PlusRoute {
   double length = 0;        // [m] L
   std::vector<int> robots;  // robot indices on this walk, sorted
 
+  // Walk indices (a range of ints).
+  struct Indices {
+    const int* first;
+    const int* last;
+    const int* begin() const { return first; }
+    const int* end() const { return last; }
+  };
   // The walk indices i, ascending, where walk[i] == from (from == to) or where the walk steps
   // from -> to (walk[i] == from, walk[i + 1] == to, last -> first too); empty if none. Built on
-  // first use (O(walk)), then O(1): placing a mate costs its hits, not the walk's length.
-  const std::vector<int>& positions(int from, int to) const;
+  // first use (O(walk)), then O(hits of `from`): placing a mate costs its hits, not the walk's
+  // length.
+  Indices positions(int from, int to) const;
 
-  // positions()'s cache (public members keep PlusRoute an aggregate)
-  mutable std::unordered_map<std::uint64_t, std::vector<int>> at_vertex_, on_step_;
+  // positions()'s index (public members keep PlusRoute an aggregate): per vertex v, entries
+  // by_vertex_[v] .. by_vertex_[v + 1] of at_ (walk indices at v, ascending) and of steps_ (the
+  // same, ordered by the next vertex, then ascending)
+  mutable std::vector<int> by_vertex_, at_, steps_;
 };
 
 // A plan (tpuaf_plus.Plan): its walks, each robot's walk and the start schedule.
