@@ -69,8 +69,8 @@ void tpuaf::bindings::bind_tours(py::module_& m) {
   m.attr("DENSE_TOUR_MAX") = kDenseTourMax;
   m.def(
       "balanced_partition",
-      [](const PatrolGraph& graph, int k, int max_moves, int starts, int kicks,
-         std::uint64_t seed, const Progress& progress, bool tree_score) {
+      [](const PatrolGraph& graph, int k, int max_moves, int starts, int kicks, std::uint64_t seed,
+         const Progress& progress, bool tree_score) {
         if (k < 1) throw py::value_error("balanced_partition: k must be >= 1");
         return balanced_partition(graph, k, max_moves, search_of(starts, kicks, seed), progress,
                                   tree_score);

@@ -222,9 +222,8 @@ std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
     }
     if (info == nullptr) return {};
     starts.push_back(info->to);
-    late.push_back(
-        std::max(0.0, info->departure + distance(info->from, info->to) / speed - t_ref) *
-        speed);
+    late.push_back(std::max(0.0, info->departure + distance(info->from, info->to) / speed - t_ref) *
+                   speed);
   }
   const Eigen::VectorXd& last = r.knowledge.last_visit();
   std::vector<double> idle(static_cast<std::size_t>(last.size()));
@@ -442,8 +441,7 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc, doubl
     // its latest message is from before it left its start slot: off my walk, or due at its
     // entry vertex in time, it left unheard (delay, loss)
     const int entry_vertex = route.walk[static_cast<std::size_t>(schedule[kk].first)];
-    const double to_entry_m =
-        distance(info.from, info.to) + distance(info.to, entry_vertex);
+    const double to_entry_m = distance(info.from, info.to) + distance(info.to, entry_vertex);
     const double due_s = info.departure + to_entry_m / speed;  // at its entry vertex
     if (chosen < 0 || due_s <= schedule[kk].second + kEps) return on_slot();
   }
@@ -590,8 +588,7 @@ int TpuafPlusStrategy::repair_hop(StrategyHost& host, int robot, int here, int t
   const double best = distance(here, target);
   std::vector<int> on_path;
   for (int w : nbrs) {
-    if (std::abs(graph_->edge_length(here, w) + distance(w, target) - best) <=
-        1e-6 * (1 + best)) {
+    if (std::abs(graph_->edge_length(here, w) + distance(w, target) - best) <= 1e-6 * (1 + best)) {
       on_path.push_back(w);
     }
   }

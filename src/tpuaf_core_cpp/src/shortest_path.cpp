@@ -40,9 +40,8 @@ void DijkstraWorkspace::run_until(const ArcLists& arcs, const std::vector<int>& 
 
 template <class Stop, class Expand, class Potential>
 void DijkstraWorkspace::search(const ArcLists& arcs, const std::vector<int>& sources,
-                               double tolerance, const std::vector<char>& allowed,
-                               const Stop& stop, const Expand& expand,
-                               const Potential& potential) {
+                               double tolerance, const std::vector<char>& allowed, const Stop& stop,
+                               const Expand& expand, const Potential& potential) {
   const int n = static_cast<int>(arcs.size());
   if (!allowed.empty() && static_cast<int>(allowed.size()) != n) {
     throw std::invalid_argument("dijkstra: the allowed mask has " + std::to_string(allowed.size()) +

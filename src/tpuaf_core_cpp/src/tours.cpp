@@ -17,7 +17,7 @@
 namespace tpuaf {
 namespace {
 
-constexpr double kEps = 1e-9;    // [m] an improvement must beat this
+constexpr double kEps = 1e-9;  // [m] an improvement must beat this
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kNeighbours = 16;  // candidate list length of the local search
 constexpr int kKickWindow = 50;  // positions: double bridges stay local on long orders
@@ -434,8 +434,8 @@ class LocalSearch {
     if (reversed) std::reverse(seg, seg + len);
     if constexpr (Metric::kIncremental) {
       const int wrap_first = ((first % n_) + n_) % n_;
-      const int after = (pos_[u] - (wrap_first + len - 1) + n_) % n_;     // entries after it to u
-      const int before = (wrap_first - pos_[succ(u)] + n_) % n_;           // from u's successor
+      const int after = (pos_[u] - (wrap_first + len - 1) + n_) % n_;  // entries after it to u
+      const int before = (wrap_first - pos_[succ(u)] + n_) % n_;       // from u's successor
       if (after <= before) {  // the `after` entries move back by len, the segment ends at u
         for (int s = 0; s < after; ++s) place(wrap_first + s, order_[(wrap_first + len + s) % n_]);
         for (int s = 0; s < len; ++s) place(wrap_first + after + s, seg[s]);
@@ -525,7 +525,7 @@ Bridge double_bridge(const std::vector<int>& order, Rng& rng) {
   append(cut[1], cut[2]);
   append(cut[0], cut[1]);
   append(cut[2], n);
-  const int ends[6] = {rot(cut[0] - 1), rot(cut[1]), rot(cut[2] - 1),
+  const int ends[6] = {rot(cut[0] - 1), rot(cut[1]),     rot(cut[2] - 1),
                        rot(cut[0]),     rot(cut[1] - 1), rot(cut[2])};
   std::copy(ends, ends + 6, out.ends);
   return out;
@@ -790,8 +790,8 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
   const int remote = static_cast<int>(std::max_element(sums.begin(), sums.end()) - sums.begin());
   const int central = static_cast<int>(std::min_element(sums.begin(), sums.end()) - sums.begin());
   // (large graphs: the most remote one only; each seeding costs its moves)
-  std::vector<int> firsts = n <= kDenseTourMax ? std::vector<int>{remote, central, 0}
-                                               : std::vector<int>{remote};
+  std::vector<int> firsts =
+      n <= kDenseTourMax ? std::vector<int>{remote, central, 0} : std::vector<int>{remote};
   std::sort(firsts.begin(), firsts.end());
   firsts.erase(std::unique(firsts.begin(), firsts.end()), firsts.end());
 
