@@ -74,7 +74,7 @@ std::vector<int> sorted_unique(std::vector<int> vertices) {
 
 class DenseMetric {
  public:
-  static constexpr bool kIncremental = false;  // a tour's length: summed again, O(n)
+  static constexpr bool kOnDemand = false;  // a tour's length summed again (O(n)), moves rebuild
   DenseMetric(const std::vector<double>& dist, int n) : d_(dist.data()), n_(n) {}
   int size() const { return n_; }
   double operator()(int a, int b) const { return d_[static_cast<std::size_t>(a) * n_ + b]; }
@@ -164,16 +164,18 @@ class PairMemo {
   int shift_ = 64;
 };
 
-// Shortest paths inside a large vertex subset, searched on demand: the same search
-// (DijkstraWorkspace, settling order (length, index), relabelled when shorter by more than
-// kEps) as the dense rows, stopped early, so every value is the dense matrix's entry (a, b) or,
-// when only that is known, its entry (b, a) (the same length summed the other way round).
-// Each vertex's kNeighbours nearest (one search settling 17 vertices) and their lengths are
-// kept; a pair asked is searched from its first vertex, and every label that search settled
-// memoised (the local search asks pairs near each other). Memory O(edges + kMemoEntries).
+// Shortest paths inside a large vertex subset, searched on demand (DijkstraWorkspace, relabelled
+// when shorter by more than kEps, as the dense rows). Each vertex's kNeighbours nearest (a
+// search settling 17 vertices: the dense candidate lists) and their lengths are kept; another
+// pair (a, b) is taken in either direction when known, else searched from a by A* towards b,
+// stopped once it cannot beat the caller's limit, and every label that search settled is
+// memoised (the local search asks pairs near each other). Lengths are shortest-path lengths
+// (a sum over an equally short path may differ from the dense entry in the last bits).
+// Memory O(edges + kMemoEntries).
 class SparseMetric {
  public:
-  static constexpr bool kIncremental = true;  // a tour's length: kept up to date move by move
+  // a tour's length kept up to date move by move, Or-opt moves made in place
+  static constexpr bool kOnDemand = true;
   SparseMetric(const PatrolGraph& graph, const std::vector<int>& vertices)
       : arcs_(subset_arcs(graph, vertices)),
         n_(static_cast<int>(vertices.size())),
@@ -432,7 +434,7 @@ class LocalSearch {
     int seg[3];
     for (int s = 0; s < len; ++s) seg[s] = at(first + s);
     if (reversed) std::reverse(seg, seg + len);
-    if constexpr (Metric::kIncremental) {
+    if constexpr (Metric::kOnDemand) {
       const int wrap_first = ((first % n_) + n_) % n_;
       const int after = (pos_[u] - (wrap_first + len - 1) + n_) % n_;  // entries after it to u
       const int before = (wrap_first - pos_[succ(u)] + n_) % n_;       // from u's successor
@@ -567,7 +569,7 @@ std::vector<int> search_order(Metric& metric, const TourSearch& search) {
       for (int v : kicked.ends) ls.push(v);  // the (at most 6) vertices of the new edges
       ls.run();
       double len;
-      if constexpr (Metric::kIncremental) {
+      if constexpr (Metric::kOnDemand) {
         const int* e = kicked.ends;  // new edges A|C, C|B, B|D replace A|B, B|C, C|D
         const double bridge = metric(e[0], e[1]) + metric(e[2], e[3]) + metric(e[4], e[5]) -
                               metric(e[0], e[3]) - metric(e[4], e[1]) - metric(e[2], e[5]);

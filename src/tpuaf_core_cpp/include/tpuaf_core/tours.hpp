@@ -15,9 +15,10 @@
 namespace tpuaf {
 
 // Vertex subsets up to this size are toured on the k x k matrix of their shortest paths (8 k^2 B
-// of lengths, 4 k^2 B of parents); larger ones on lengths searched on demand: candidate lists
-// from searches settling 17 vertices, pairs memoised, no k x k matrix. Both give the same
-// lengths, so the same search gives the same order (up to the sums of lengths compared).
+// of lengths, 4 k^2 B of parents); larger ones on lengths searched on demand (the same
+// candidate lists; other pairs by A*, bounded by what a move could gain, memoised; no k x k
+// matrix): the same search over the same lengths up to their last bits, with Or-opt moves made
+// in place. The effort (starts, kicks) is the caller's: tours._effort lowers it by size.
 constexpr int kDenseTourMax = 1000;  // vertices
 
 enum class TourMetric { kAuto, kDense, kSparse };  // kAuto: by size (kDenseTourMax)
