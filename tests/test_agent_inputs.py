@@ -257,10 +257,9 @@ def test_goal_navigator_fails_on_abort_and_without_progress():
     ({"robot_index": 2}, False, "~robot_index 2 not in 0..1"),
 ])
 def test_agent_parameter_combinations_are_refused(values, sim, why):
-    pytest.importorskip("rospy")
     from tpuaf.params import AgentParams, NodeParamError, parse
-    from tpuaf.ros.agent_node import check_params
+    from tpuaf.runtimes.agent_setup import check_agent_params
 
     with pytest.raises(NodeParamError, match=re.escape(why)):  # by the parser or the node
-        check_params(parse(AgentParams, {"map": "lab", "robot_index": 0, "robots": 2, **values},
-                           "agent"), sim)
+        check_agent_params(parse(AgentParams, {"map": "lab", "robot_index": 0, "robots": 2,
+                                               **values}, "agent"), sim)
