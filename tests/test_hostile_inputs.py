@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tpuaf.experiments.results import unlock_folder
+from tpuaf.experiments.results_folder import unlock_folder
 from tpuaf.maps import MapError, load_map
 
 from tests.test_bad_input import assert_one_line_error, cli
