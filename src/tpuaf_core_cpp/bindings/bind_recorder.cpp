@@ -136,7 +136,7 @@ void wrap_logs(py::class_<GroundTruthRecorder>& rec) {
            "Drop the 1 Hz rows before index first (written to disk).");
 }
 
-// Per-vertex figures, faults, sums and the field.
+// Interference episodes and the per-vertex figures.
 void wrap_figures(py::class_<GroundTruthRecorder>& rec) {
   rec.def(
          "interferences",
@@ -182,17 +182,21 @@ void wrap_figures(py::class_<GroundTruthRecorder>& rec) {
                                }
                                return out;
                              })
-      .def_property_readonly("visit_counts",
-                             [](const GroundTruthRecorder& r) {
-                               std::vector<long long> out;
-                               for (const auto& times : r.vertex_times()) {
-                                 out.push_back(static_cast<long long>(times.size()));
-                               }
-                               return out;
-                             })
-      .def_property_readonly(
-          "deaths", [](const GroundTruthRecorder& r) { return time_robot(r.deaths()); },
-          "(t [s], robot) of the recorded deaths.")
+      .def_property_readonly("visit_counts", [](const GroundTruthRecorder& r) {
+        std::vector<long long> out;
+        for (const auto& times : r.vertex_times()) {
+          out.push_back(static_cast<long long>(times.size()));
+        }
+        return out;
+      });
+}
+
+// Faults, announcements, the worst idleness and sums of the summary, the field and the latest
+// positions.
+void wrap_faults_and_field(py::class_<GroundTruthRecorder>& rec) {
+  rec.def_property_readonly(
+         "deaths", [](const GroundTruthRecorder& r) { return time_robot(r.deaths()); },
+         "(t [s], robot) of the recorded deaths.")
       .def(
           "final_deaths", [](const GroundTruthRecorder& r) { return time_robot(r.final_deaths()); },
           "(t [s], robot) of the deaths and of the outages never ended, in that order.")
@@ -249,4 +253,5 @@ void tpuaf::bindings::bind_recorder(py::module_& m) {
   wrap_feed(rec);
   wrap_logs(rec);
   wrap_figures(rec);
+  wrap_faults_and_field(rec);
 }

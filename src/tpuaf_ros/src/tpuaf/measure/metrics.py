@@ -50,6 +50,14 @@ TIMESERIES_COLUMNS = ["time_s", "idleness_ins_s", "worst_idleness_s", "uncertain
 _DEFAULTS = tpuaf_core.RecorderConfig()
 
 
+def _caught_up(copy: list, count: int, read_from) -> list:
+    """`copy` of a log of the core that only grows, extended to its `count` entries
+    (`read_from(first)`: the entries from index first on)."""
+    if len(copy) < count:
+        copy.extend(read_from(len(copy)))
+    return copy
+
+
 class RecorderView:
     """The read side of a `tpuaf_core.GroundTruthRecorder` (`_core`), what the results writer,
     the monitor and the summaries read. A subclass sets `_core` and patrol_map, n_robots,
@@ -88,30 +96,23 @@ class RecorderView:
     @property
     def visits(self) -> list[tuple[float, int, int]]:
         """(time [s], robot, vertex) of every visit, in arrival order."""
-        if len(self._visits) < self._core.visit_count:
-            self._visits.extend(self._core.visits(len(self._visits)))
-        return self._visits
+        return _caught_up(self._visits, self._core.visit_count, self._core.visits)
 
     @property
     def visit_idleness(self) -> list[float]:
         """Per visit, its interval idleness [s] as known at arrival (NaN: a first visit)."""
-        if len(self._idleness) < self._core.visit_count:
-            self._idleness.extend(self._core.visit_idleness(len(self._idleness)))
-        return self._idleness
+        return _caught_up(self._idleness, self._core.visit_count, self._core.visit_idleness)
 
     @property
     def timeseries(self) -> list[dict]:
         """The 1 Hz rows (dicts of TIMESERIES_COLUMNS)."""
-        if len(self._rows) < self._core.row_count:
-            self._rows.extend(self._core.timeseries(len(self._rows)))
-        return self._rows
+        return _caught_up(self._rows, self._core.row_count, self._core.timeseries)
 
     @property
     def interferences(self) -> list[tuple[float, int, int]]:
         """(entry time [s], robot a, robot b) of every counted episode, in time order."""
-        if len(self._interferences) < self._core.interference_count:
-            self._interferences.extend(self._core.interferences(len(self._interferences)))
-        return self._interferences
+        return _caught_up(self._interferences, self._core.interference_count,
+                          self._core.interferences)
 
     # -- per-vertex figures and faults --------------------------------------------------------
 
