@@ -8,6 +8,7 @@ void bind_graph(pybind11::module_& m);
 void bind_utility(pybind11::module_& m);
 void bind_knowledge(pybind11::module_& m);
 void bind_world(pybind11::module_& m);
+void bind_recorder(pybind11::module_& m);
 void bind_engine(pybind11::module_& m);
 void bind_planner(pybind11::module_& m);
 void bind_tours(pybind11::module_& m);

@@ -382,8 +382,7 @@ void GraphEngine::arrive(int robot) {
   if (rules_[static_cast<std::size_t>(robot)].arrive(vertex, x, y)) {
     recorder_.record_visit(robot, vertex, now_);
   } else {
-    ++dwells_;
-    dwell_time_s_ += stay_s;
+    recorder_.count_dwell(stay_s);
   }
   r.goal = -1;
   decide(robot);

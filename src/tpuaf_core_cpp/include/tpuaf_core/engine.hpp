@@ -80,9 +80,6 @@ class GraphEngine final : public StrategyHost {
   GroundTruthRecorder& recorder() { return recorder_; }
   const BusStats& bus_stats() const { return bus_; }
   long long events() const { return events_; }
-  // Goal arrivals that were no visit (VisitRule): dwells on the vertex the robot stood on.
-  long long dwells() const { return dwells_; }
-  double dwell_time_s() const { return dwell_time_s_; }  // [s] standing in those dwells
   const VisitRule& visit_rule(int robot) const {
     robot_at(robot);
     return rules_[static_cast<std::size_t>(robot)];
@@ -153,8 +150,6 @@ class GraphEngine final : public StrategyHost {
   TeamStrategy* strategy_ = nullptr;
   std::vector<Robot> robots_;
   std::vector<VisitRule> rules_;  // one per robot: the one definition of a visit
-  long long dwells_ = 0;
-  double dwell_time_s_ = 0;
   double now_ = 0;
   double last_positions_time_ = -1.0;
   std::priority_queue<Event, std::vector<Event>, std::greater<Event>> events_queue_;

@@ -154,7 +154,7 @@ def pairing_problems(result, patrol_map, robots: int | None, unknown: dict[int, 
     seen = int(getattr(result.info, "robots", 0) or 0)
     if robots is not None and seen > robots:
         problems.append(f"the bag holds {seen} robots, the team is {robots} ({where})")
-    pos = getattr(result.recorder, "_pos", None)
+    pos = result.recorder.last_positions
     if pos is not None and len(pos):
         p = np.asarray(pos, dtype=float)[:, :2]
         p = p[np.all(np.isfinite(p), axis=1)]
