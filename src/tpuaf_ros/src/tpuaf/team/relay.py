@@ -17,7 +17,7 @@ from tpuaf.team.bus import BusStats, TeamBus, bus_stream
 
 class RelayModel:
     def __init__(self, n_robots: int, delay_s: float, loss: float, seed: int):
-        # The batch runtime seeds its bus with [seed, 1]; the relay with its own stream.
+        # The batch runtimes draw their losses from [seed, 1]; the relay from [seed, 1, 7].
         self.bus = TeamBus(n_robots, delay_s, loss, bus_stream(seed, 7))
 
     @property
