@@ -349,7 +349,7 @@ py::class_<GraphEngine> wrap_engine(py::module_& m) {
       .def("wake_at", &GraphEngine::wake_at, py::arg("robot"), py::arg("time_s"))
       .def("change_goal", &GraphEngine::change_goal, py::arg("robot"), py::arg("vertex"))
       .def_property_readonly("bus_stats", [](const GraphEngine& e) {
-        const BusStats& s = e.bus_stats();
+        const TeamBusStats& s = e.bus_stats();
         return py::make_tuple(s.sent, s.delivered, s.lost);
       });
   return engine;

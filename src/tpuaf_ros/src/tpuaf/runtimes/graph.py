@@ -34,7 +34,7 @@ from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, announced_vertex
 from tpuaf.runtimes.base import TeamRun, liveness_summary
 from tpuaf.runtimes.config import RunConfig, run_description, run_robot, travel_map
 from tpuaf.runtimes.faults import DEATH
-from tpuaf.team.bus import BusStats
+from tpuaf.team.bus import BusStats, bus_stream
 from tpuaf.team.liveness import heartbeat_streams
 
 
@@ -255,7 +255,7 @@ class GraphRun:
             self.patrol_map.uncertainty_model(),
         )
         self._engine = tpuaf_core.GraphEngine(
-            self.graph, positions, ec, field, _rng_stream(self.seed, 1)
+            self.graph, positions, ec, field, bus_stream(self.seed)
         )
         if self.faults:
             self._engine.set_faults([float(f.time_s) for f in self.faults],
