@@ -311,7 +311,8 @@ SWEEP_STRATEGIES = ["tpuaf", "gbs", "dtag", "dtap"]  # dtap runs its Python poli
 def sweep_wall(workers: int, root: Path) -> float:
     """Wall time of one small sweep (grid x SWEEP_STRATEGIES x N = 4, 12 x 2 seeds x 30 min) on
     a local Dask cluster of `workers` single-threaded processes, cluster start included."""
-    from tpuaf.experiments.sweep import make_spec, run_sweep
+    from tpuaf.experiments.sweep.execute import run_sweep
+    from tpuaf.experiments.sweep.grid import make_spec
 
     spec = make_spec(["grid"], SWEEP_STRATEGIES, [4, 12], 2, 1800.0)
     start = time.perf_counter()

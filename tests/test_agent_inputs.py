@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from tpuaf.maps import load_map
 from tpuaf.navigation import Event, GoalClient, GoalNavigator, GraphRoute
-from tpuaf.navigation.frames import FrameChain
+from tpuaf.navigation.frames import FrameChain, StaticFrames
 from tpuaf.policies import REGISTRY, RobotContextBase
 from tpuaf.team import messages as m
 from tpuaf.team.inbox import InboxConfig, TeamInbox
@@ -196,6 +196,35 @@ def test_frame_chain_composes_map_odom_base_and_skips_other_robots():
     assert stamp == pytest.approx(4.9)
 
 
+def test_static_frames_give_the_laser_mount_and_complete_a_chain():
+    statics = StaticFrames()
+    assert statics.pose_in("tb3_0/base_footprint", "tb3_0/base_scan") is None
+    statics.add("tb3_0/base_footprint", "/tb3_0/base_link", 0.0, 0.0, 0.0)
+    statics.add("tb3_0/base_link", "tb3_0/base_scan", -0.032, 0.0, 0.5)
+    assert statics.pose_in("tb3_0/base_footprint", "tb3_0/base_scan")[:3] == \
+        pytest.approx((-0.032, 0.0, 0.5))
+    assert statics.pose_in("tb3_0/base_footprint", "/tb3_0/base_footprint") is None  # itself
+    chain = FrameChain("tb3_0/base_footprint", "tb3_0/base_scan")
+    statics.feed(chain)  # two links, joined in two passes
+    assert set(chain.links) == {"tb3_0/base_scan", "tb3_0/base_link"}
+
+
+def test_the_odom_origin_is_the_initial_pose_else_the_start_vertex():
+    from tpuaf.navigation.frames import compose
+    from tpuaf.params import AgentParams
+    from tpuaf.runtimes.agent_setup import odom_origin
+
+    pm = load_map("grid")
+    assert odom_origin(AgentParams(map="grid", localization="tf"), pm) is None
+    given = AgentParams(map="grid", localization="odom", initial_pose=[1.0, 2.0, 0.5])
+    assert odom_origin(given, pm) == (1.0, 2.0, 0.5)
+    start = odom_origin(AgentParams(map="grid", localization="odom", robots=2, robot_index=1), pm)
+    assert start[2] == 0.0 and any(np.allclose(start[:2], xy) for xy in pm.positions)
+    # odom frame -> map frame: (1, 2, 90 deg) * (1, 0, 0) = (1, 3, 90 deg)
+    assert compose((1.0, 2.0, math.pi / 2), (1.0, 0.0, 0.0)) == \
+        pytest.approx((1.0, 3.0, math.pi / 2))
+
+
 # --- move_base navigator ---------------------------------------------------------------------
 
 
@@ -257,10 +286,9 @@ def test_goal_navigator_fails_on_abort_and_without_progress():
     ({"robot_index": 2}, False, "~robot_index 2 not in 0..1"),
 ])
 def test_agent_parameter_combinations_are_refused(values, sim, why):
-    pytest.importorskip("rospy")
     from tpuaf.params import AgentParams, NodeParamError, parse
-    from tpuaf.ros.agent_node import check_params
+    from tpuaf.runtimes.agent_setup import check_agent_params
 
     with pytest.raises(NodeParamError, match=re.escape(why)):  # by the parser or the node
-        check_params(parse(AgentParams, {"map": "lab", "robot_index": 0, "robots": 2, **values},
-                           "agent"), sim)
+        check_agent_params(parse(AgentParams, {"map": "lab", "robot_index": 0, "robots": 2,
+                                               **values}, "agent"), sim)

@@ -165,7 +165,7 @@ def test_overwrite_refuses_a_folder_that_holds_no_results(capsys, tmp_path):
 
 
 def test_manifest_cannot_delete_outside_the_folder(tmp_path):
-    from tpuaf.experiments.results import prepare_out_dir
+    from tpuaf.experiments.results_folder import prepare_out_dir
 
     victim = tmp_path / "victim.txt"
     victim.write_text("keep\n")
@@ -231,7 +231,7 @@ def test_monitor_node_ranges(name, value):
 
 def test_one_error_base_class():
     from tpuaf.experiments.report import ReportError
-    from tpuaf.experiments.sweep import SweepError
+    from tpuaf.experiments.sweep.grid import SweepError
     from tpuaf.measure.bag import BagError
     from tpuaf.runtimes.config import ConfigError
 

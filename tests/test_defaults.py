@@ -248,7 +248,8 @@ def test_run_flag_default_is_the_declared_one():
 
 def test_compare_flag_reaches_every_run(tmp_path):
     from tpuaf.cli import main
-    from tpuaf.experiments.sweep import RunKey, make_spec, run_config
+    from tpuaf.experiments.sweep.grid import RunKey, make_spec
+    from tpuaf.experiments.sweep.worker import run_config
 
     spec = make_spec(["grid"], ["gbs"], [2], 1, 60.0, teammate_timeout_s=3.0)
     task = spec.task(RunKey("grid", "gbs", 2, 0))

@@ -9,7 +9,7 @@ import subprocess
 import sys
 import textwrap
 
-from tpuaf.experiments.results import LOCK_FILE, MANIFEST, prepare_out_dir, unlock_folder
+from tpuaf.experiments.results_folder import LOCK_FILE, MANIFEST, prepare_out_dir, unlock_folder
 from tpuaf.files import _temp_path, atomic_write_text
 
 from tests.test_bad_input import assert_one_line_error, cli
@@ -21,7 +21,7 @@ def hold_lock(folder) -> subprocess.Popen:
     """A second process that takes the folder's writer lock and keeps it until killed."""
     code = textwrap.dedent(f"""
         import sys, time
-        from tpuaf.experiments.results import prepare_out_dir
+        from tpuaf.experiments.results_folder import prepare_out_dir
         prepare_out_dir({str(folder)!r})
         print("locked", flush=True)
         time.sleep(60)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tpuaf.experiments.results import unlock_folder
+from tpuaf.experiments.results_folder import unlock_folder
 from tpuaf.maps import MapError, load_map
 
 from tests.test_bad_input import assert_one_line_error, cli
@@ -154,8 +154,8 @@ def test_streamed_rows_are_forgotten_by_the_engine(tmp_path):
     with pytest.raises(ValueError, match="forgotten"):
         run.recorder.timeseries_since(0)
     visits = (tmp_path / "out" / "visits.csv").read_text().splitlines()
-    assert len(visits) - 1 == summary["visits"] == run._engine.visit_count > 100
-    assert run._engine.visits_kept == 0  # every visit is on disk, none in memory
+    assert len(visits) - 1 == summary["visits"] == run._engine.recorder.visit_count > 100
+    assert run._engine.recorder.visits_kept == 0  # every visit is on disk, none in memory
     with pytest.raises(ValueError, match="forgotten"):
         run.recorder.visits_since(0)
     timeresults = (tmp_path / "out" / "timeresults.csv").read_text().splitlines()

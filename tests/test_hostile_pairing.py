@@ -6,8 +6,10 @@ from __future__ import annotations
 import json
 
 import pytest
-from tpuaf.experiments.results import unlock_folder
-from tpuaf.experiments.sweep import SweepError, check_existing, make_spec, write_run
+from tpuaf.experiments.results_folder import unlock_folder
+from tpuaf.experiments.sweep.execute import check_existing
+from tpuaf.experiments.sweep.folders import write_run
+from tpuaf.experiments.sweep.grid import SweepError, make_spec
 from tpuaf.maps import load_map
 from tpuaf.maps.mapfile import save_map_folder
 

@@ -156,7 +156,8 @@ def test_run_overrides_reach_the_metrics_and_config_yaml(tmp_path):
 
 
 def test_sweep_tasks_carry_the_overrides():
-    from tpuaf.experiments.sweep import make_spec, run_config
+    from tpuaf.experiments.sweep.grid import make_spec
+    from tpuaf.experiments.sweep.worker import run_config
 
     plain = make_spec(["lab"], ["gbs"], [2], 1, duration_s=60)
     spec = make_spec(["lab"], ["gbs"], [2], 1, duration_s=60,

@@ -87,9 +87,9 @@ def test_death_floor_on_a_square_hand_log():
     rec.record_robot_death(1, 25.0)
     from tpuaf.measure.metrics import death_floor
 
-    assert death_floor(pm, 1.0, 0.0, rec._vertex_times, rec.visits, 25.0, 100.0, [0]) == pytest.approx(30.0)
-    assert death_floor(pm, 1.0, 0.0, rec._vertex_times, rec.visits, 25.0, 32.0, [0]) == pytest.approx(22.0)  # capped: v1 at 32 s
-    assert math.isnan(death_floor(pm, 1.0, 0.0, rec._vertex_times, rec.visits, 25.0, 100.0, []))
+    assert death_floor(pm, 1.0, 0.0, rec.vertex_times, rec.visits, 25.0, 100.0, [0]) == pytest.approx(30.0)
+    assert death_floor(pm, 1.0, 0.0, rec.vertex_times, rec.visits, 25.0, 32.0, [0]) == pytest.approx(22.0)  # capped: v1 at 32 s
+    assert math.isnan(death_floor(pm, 1.0, 0.0, rec.vertex_times, rec.visits, 25.0, 100.0, []))
     (r,) = rec.summary(100.0)["recovery"]
     assert r["floor_worst_idleness_after_s"] == pytest.approx(30.0)
     assert r["ideal_worst_idleness_survivors_s"] == pytest.approx(40.0)

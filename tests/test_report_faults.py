@@ -14,16 +14,16 @@ from pathlib import Path
 import pytest
 from tpuaf.cli import main
 from tpuaf.experiments.report import load, write_report
-from tpuaf.experiments.sweep import (
+from tpuaf.experiments.sweep.folders import key_of
+from tpuaf.experiments.sweep.grid import (
     NOMINAL,
-    RESULT_COLUMNS,
     RunKey,
     Scenario,
     SweepError,
-    _key_of,
     make_scenarios,
     make_spec,
 )
+from tpuaf.experiments.sweep.tables import RESULT_COLUMNS
 
 
 def test_scenarios_are_one_factor_at_a_time():
@@ -79,7 +79,7 @@ def test_scenario_folders_round_trip(tmp_path):
     for key in (RunKey("grid", "tpuaf", 4, 2), RunKey("grid", "tpuaf", 4, 2, "loss0.3"),
                 RunKey("1r5", "cgg", 12, 0, "deaths1of4")):
         folder = key.folder(tmp_path)
-        assert _key_of(folder) == key
+        assert key_of(folder) == key
     assert RunKey("grid", "gbs", 8, 1).folder(tmp_path) == tmp_path / "runs/grid/gbs/N8/seed1"
 
 

@@ -175,7 +175,7 @@ def _launch_params(args: list[str]) -> dict:
     ([], {}, "patrolling_sim", 1.0),
 ])
 def test_robot_launch_reaches_the_agents_model(args, env, preset, speed, monkeypatch):
-    from tpuaf.ros.agent_node import agent_robot
+    from tpuaf.runtimes.agent_setup import agent_robot
 
     params = _launch_params(["map:=grid", "robots:=2", *args])
     ns = "/robot_0/patrol_agent/"

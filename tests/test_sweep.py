@@ -18,8 +18,10 @@ from pathlib import Path
 import pytest
 from tpuaf.cli import main
 from tpuaf.experiments.report import load, verdicts, write_report
-from tpuaf.experiments.results import lock_folder, unlock_folder
-from tpuaf.experiments.sweep import RESULT_COLUMNS, RunKey, make_spec, run_sweep
+from tpuaf.experiments.results_folder import lock_folder, unlock_folder
+from tpuaf.experiments.sweep.execute import run_sweep
+from tpuaf.experiments.sweep.grid import RunKey, make_spec
+from tpuaf.experiments.sweep.tables import RESULT_COLUMNS
 
 TINY = ["--maps", "grid", "--strategies", "gbs", "TPUAF", "--robots", "1", "2",
         "--duration", "120", "--seeds", "1", "--quiet"]

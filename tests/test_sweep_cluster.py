@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import json
 
-from tpuaf.experiments.sweep import make_spec, run_sweep, run_task
+from tpuaf.experiments.sweep.execute import run_sweep
+from tpuaf.experiments.sweep.grid import make_spec
+from tpuaf.experiments.sweep.worker import run_task
 
 
 def test_two_worker_local_cluster_runs_every_run_once_with_equal_results(tmp_path):

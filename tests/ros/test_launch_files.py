@@ -109,7 +109,7 @@ def test_every_arg_has_a_doc_with_its_unit_and_choices(name):
     from tpuaf.measure.markers import MODES
     from tpuaf.measure.poses import POSE_SOURCES
     from tpuaf.policies import REGISTRY
-    from tpuaf.ros.agent_node import LOCALIZATIONS
+    from tpuaf.runtimes.agent_setup import LOCALIZATIONS
 
     choices = {"localization": LOCALIZATIONS, "pose_source": tuple(POSE_SOURCES),
                "color_by": MODES, "navigation": ("builtin", "move_base"),

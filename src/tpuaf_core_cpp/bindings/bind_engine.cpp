@@ -349,178 +349,20 @@ py::class_<GraphEngine> wrap_engine(py::module_& m) {
       .def("wake_at", &GraphEngine::wake_at, py::arg("robot"), py::arg("time_s"))
       .def("change_goal", &GraphEngine::change_goal, py::arg("robot"), py::arg("vertex"))
       .def_property_readonly("bus_stats", [](const GraphEngine& e) {
-        const BusStats& s = e.bus_stats();
+        const TeamBusStats& s = e.bus_stats();
         return py::make_tuple(s.sent, s.delivered, s.lost);
       });
   return engine;
 }
 
-// Position in the kept visits of visit index `first` (clamped to the end); a forgotten visit
-// cannot be read again.
-std::size_t kept_visit_index(const GroundTruthRecorder& rec, std::size_t first) {
-  if (first < rec.visits_forgotten()) {
-    throw py::value_error("visits: visits before " + std::to_string(rec.visits_forgotten()) +
-                          " were forgotten");
-  }
-  return std::min(first - rec.visits_forgotten(), rec.visits().size());
-}
-
-// GraphEngine's recorder: visits, 1 Hz rows, interferences, visit intervals and sums.
-// Over 80 lines on purpose: one .def per bound member, in the order of the C++ header; split,
-// one class's binding would be scattered.
+// GraphEngine's recorder (bind_recorder: GroundTruthRecorder) and the robots' visit rules.
 void wrap_recorder(py::class_<GraphEngine>& engine) {
   engine
-      .def(
-          "visits",
-          [](const GraphEngine& e, std::size_t first) {
-            const auto& rec = e.recorder();
-            const auto& v = rec.visits();
-            py::list out;
-            for (std::size_t k = kept_visit_index(rec, first); k < v.size(); ++k) {
-              out.append(py::make_tuple(v[k].time_s, v[k].robot, v[k].vertex));
-            }
-            return out;
-          },
-          py::arg("first") = 0, "(time_s, robot, vertex) of the visits from index first on.")
-      .def(
-          "visit_idleness",
-          [](const GraphEngine& e, std::size_t first) {
-            const auto& rec = e.recorder();
-            const auto& v = rec.visit_idleness();
-            return std::vector<double>(
-                v.begin() + static_cast<std::ptrdiff_t>(kept_visit_index(rec, first)), v.end());
-          },
-          py::arg("first") = 0)
-      .def_property_readonly("visit_count",
-                             [](const GraphEngine& e) { return e.recorder().visit_count(); })
-      .def_property_readonly("dwells", &GraphEngine::dwells,
-                             "Goal arrivals that were no visit (VisitRule): dwells.")
-      .def_property_readonly("dwell_time_s", &GraphEngine::dwell_time_s)
+      .def_property_readonly(
+          "recorder", [](GraphEngine& e) -> GroundTruthRecorder& { return e.recorder(); },
+          py::return_value_policy::reference_internal, "The run's ground-truth recorder.")
       .def("visit_rule", &GraphEngine::visit_rule, py::arg("robot"), py::return_value_policy::copy,
-           "A copy of robot's VisitRule now.")
-      .def_property_readonly(
-          "visits_kept", [](const GraphEngine& e) { return e.recorder().visits().size(); },
-          "Visits still held in memory (the others were forgotten: forget_visits_before).")
-      .def(
-          "forget_visits_before",
-          [](GraphEngine& e, std::size_t first) { e.recorder().forget_visits_before(first); },
-          py::arg("first"), "Drop the visits before index first (written to disk).")
-      .def(
-          "timeseries",
-          [](const GraphEngine& e, std::size_t first) {
-            const auto& rec = e.recorder();
-            const auto& rows = rec.timeseries();
-            if (first < rec.rows_forgotten()) {
-              throw py::value_error("timeseries: rows before " +
-                                    std::to_string(rec.rows_forgotten()) + " were forgotten");
-            }
-            py::list out;
-            for (std::size_t k = first - rec.rows_forgotten(); k < rows.size(); ++k) {
-              const SampleRow& r = rows[k];
-              py::dict d;
-              d["time_s"] = r.time_s;
-              d["idleness_ins_s"] = r.idleness_ins_s;
-              d["worst_idleness_s"] = r.worst_idleness_s;
-              d["uncertainty_mean"] = r.uncertainty_mean;
-              d["visits"] = r.visits;
-              d["interferences"] = r.interferences;
-              out.append(d);
-            }
-            return out;
-          },
-          py::arg("first") = 0)
-      .def_property_readonly("row_count",
-                             [](const GraphEngine& e) { return e.recorder().row_count(); })
-      .def(
-          "forget_rows_before",
-          [](GraphEngine& e, std::size_t first) { e.recorder().forget_rows_before(first); },
-          py::arg("first"), "Drop the 1 Hz rows before index first (written to disk).")
-      .def_property_readonly("interferences",
-                             [](const GraphEngine& e) {
-                               py::list out;
-                               for (const auto& r : e.recorder().interferences()) {
-                                 out.append(py::make_tuple(r.time_s, r.a, r.b));
-                               }
-                               return out;
-                             })
-      .def_property_readonly("interval_samples",
-                             [](const GraphEngine& e) {
-                               // Filled in place: no second copy of millions of samples.
-                               std::size_t count = 0;
-                               for (const auto& times : e.recorder().vertex_times()) {
-                                 count += times.empty() ? 0 : times.size() - 1;
-                               }
-                               py::array_t<double> out(static_cast<py::ssize_t>(count));
-                               double* data = out.mutable_data();
-                               for (const auto& times : e.recorder().vertex_times()) {
-                                 for (std::size_t k = 1; k < times.size(); ++k) {
-                                   *data++ = times[k] - times[k - 1];
-                                 }
-                               }
-                               return out;
-                             })
-      .def_property_readonly("first_visit_times",
-                             [](const GraphEngine& e) {
-                               std::vector<double> out;  // [s] per vertex; NaN: never visited
-                               for (const auto& times : e.recorder().vertex_times()) {
-                                 out.push_back(times.empty() ? std::nan("") : times.front());
-                               }
-                               return out;
-                             })
-      .def_property_readonly("vertex_times",
-                             [](const GraphEngine& e) {
-                               py::list out;  // [s] sorted visit times per vertex
-                               for (const auto& times : e.recorder().vertex_times()) {
-                                 out.append(py::cast(times));
-                               }
-                               return out;
-                             })
-      .def_property_readonly("deaths",
-                             [](const GraphEngine& e) {
-                               py::list out;  // (t [s], robot)
-                               for (const auto& d : e.recorder().deaths()) {
-                                 out.append(py::make_tuple(d.time_s, d.robot));
-                               }
-                               return out;
-                             })
-      .def_property_readonly("stalls",
-                             [](const GraphEngine& e) {
-                               py::list out;  // (t [s], robot)
-                               for (const auto& d : e.recorder().stalls()) {
-                                 out.append(py::make_tuple(d.time_s, d.robot));
-                               }
-                               return out;
-                             })
-      .def_property_readonly("announcements",
-                             [](const GraphEngine& e) {
-                               py::list out;  // (t [s], robot, vertex)
-                               for (const auto& a : e.recorder().announcements()) {
-                                 out.append(py::make_tuple(a.time_s, a.robot, a.vertex));
-                               }
-                               return out;
-                             })
-      .def_property_readonly("visit_counts",
-                             [](const GraphEngine& e) {
-                               std::vector<long long> out;
-                               for (const auto& times : e.recorder().vertex_times()) {
-                                 out.push_back(static_cast<long long>(times.size()));
-                               }
-                               return out;
-                             })
-      .def(
-          "worst_idleness",
-          [](const GraphEngine& e, double end_s) { return e.recorder().worst_idleness(end_s); },
-          py::arg("end_s"))
-      .def_property_readonly(
-          "field_values",
-          [](const GraphEngine& e) { return Eigen::VectorXd(e.recorder().field_values()); })
-      .def_property_readonly("ins_sum", [](const GraphEngine& e) { return e.recorder().ins_sum(); })
-      .def_property_readonly("x_sum", [](const GraphEngine& e) { return e.recorder().x_sum(); })
-      .def_property_readonly("x_count", [](const GraphEngine& e) { return e.recorder().x_count(); })
-      .def_property_readonly("positions_time", [](const GraphEngine& e) -> py::object {
-        if (!e.recorder().has_positions()) return py::none();
-        return py::float_(e.recorder().positions_time());
-      });
+           "A copy of robot's VisitRule now.");
 }
 
 }  // namespace

@@ -8,12 +8,14 @@ void bind_graph(pybind11::module_& m);
 void bind_utility(pybind11::module_& m);
 void bind_knowledge(pybind11::module_& m);
 void bind_world(pybind11::module_& m);
+void bind_recorder(pybind11::module_& m);
 void bind_engine(pybind11::module_& m);
 void bind_planner(pybind11::module_& m);
 void bind_tours(pybind11::module_& m);
 void bind_assignment(pybind11::module_& m);
 void bind_visit_rule(pybind11::module_& m);
 void bind_strategy(pybind11::module_& m);
+void bind_team_bus(pybind11::module_& m);
 }  // namespace tpuaf::bindings
 
 namespace tpuaf {

@@ -10,7 +10,9 @@ PYBIND11_MODULE(_core, m) {
   tpuaf::bindings::bind_knowledge(m);
   tpuaf::bindings::bind_world(m);
   tpuaf::bindings::bind_strategy(m);
+  tpuaf::bindings::bind_recorder(m);
   tpuaf::bindings::bind_engine(m);
+  tpuaf::bindings::bind_team_bus(m);
   tpuaf::bindings::bind_planner(m);
   tpuaf::bindings::bind_tours(m);
   tpuaf::bindings::bind_assignment(m);

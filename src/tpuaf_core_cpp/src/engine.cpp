@@ -24,20 +24,13 @@ GraphEngine::GraphEngine(const PatrolGraph& graph, Points positions, EngineConfi
       positions_(std::move(positions)),
       config_(std::move(config)),
       recorder_(config_, std::move(field)),
-      bus_rng_(bus_rng) {
+      bus_(config_.robots, config_.delay_s, config_.loss, bus_rng) {
   const int n = config_.robots;
-  if (n < 1) throw std::invalid_argument("need at least one robot");
   if (positions_.rows() != graph_.num_vertices()) {
     throw std::invalid_argument("need one position per graph vertex");
   }
   if (static_cast<int>(config_.start_vertices.size()) != n) {
     throw std::invalid_argument("need one start vertex per robot");
-  }
-  if (!(config_.delay_s >= 0) || !std::isfinite(config_.delay_s)) {
-    throw std::invalid_argument("message delay must be a finite number >= 0 s");
-  }
-  if (!(config_.loss >= 0 && config_.loss <= 1)) {
-    throw std::invalid_argument("message loss probability must be in [0, 1]");
   }
   if (!(config_.nominal_speed_mps > 0)) throw std::invalid_argument("nominal speed must be > 0");
   robots_.resize(static_cast<std::size_t>(n));
@@ -109,52 +102,21 @@ void GraphEngine::send(int robot, TeamMessage message) {
   } else {
     robot_at(robot);
   }
-  const int n = config_.robots;
-  ++bus_.sent;
-  Delivery d;
-  d.message = std::move(message);
-  d.sender = robot;
-  if (faults) {
-    // TeamBus.recipients: the live robots but the sender; one loss draw per robot (all n).
-    for (int i = 0; i < n; ++i) {
-      const bool lost = config_.loss > 0 && bus_rng_.random() < config_.loss;
-      if (i == robot || !robots_[static_cast<std::size_t>(i)].alive) continue;
-      if (lost) {
-        ++bus_.lost;
-      } else {
-        d.recipients.push_back(i);
-      }
-    }
-  } else if (config_.loss > 0) {
-    // numpy: lost = rng.random(n) < loss, one draw per robot (the sender's too).
-    for (int i = 0; i < n; ++i) {
-      const bool lost = bus_rng_.random() < config_.loss;
-      if (i == robot) continue;
-      if (lost) {
-        ++bus_.lost;
-      } else {
-        d.recipients.push_back(i);
-      }
-    }
+  std::int64_t id;
+  if (!free_messages_.empty()) {
+    id = free_messages_.back();
+    free_messages_.pop_back();
+    messages_[static_cast<std::size_t>(id)] = std::move(message);
   } else {
-    d.all_but_sender = true;
+    id = static_cast<std::int64_t>(messages_.size());
+    messages_.push_back(std::move(message));
   }
-  const bool empty = d.all_but_sender ? n <= 1 : d.recipients.empty();
-  if (empty) return;
-  if (config_.delay_s == 0) {
-    ready_.push_back(std::move(d));
-  } else {
-    int slot;
-    if (!free_slots_.empty()) {
-      slot = free_slots_.back();
-      free_slots_.pop_back();
-      slots_[static_cast<std::size_t>(slot)] = std::move(d);
-    } else {
-      slot = static_cast<int>(slots_.size());
-      slots_.push_back(std::move(d));
-    }
-    push(now_ + config_.delay_s, kDeliver, slot);
-  }
+  if (!bus_.send(robot, id, now_)) free_message(id);
+}
+
+void GraphEngine::free_message(std::int64_t id) {
+  messages_[static_cast<std::size_t>(id)] = TeamMessage{};  // drops a Python message now
+  free_messages_.push_back(id);
 }
 
 void GraphEngine::wake_at(int robot, double time_s) {
@@ -173,35 +135,34 @@ void GraphEngine::deliver_batch_by_robot() {
   // The ready deliveries, robot by robot; each robot gets them in their order (the strategy's
   // messages_are_local() makes this the same as delivery by delivery).
   batch_.clear();
-  while (!ready_.empty()) {
-    batch_.push_back(std::move(ready_.front()));
-    ready_.pop_front();
-  }
+  while (!bus_.ready().empty()) batch_.push_back(bus_.pop_ready());
   batch_cursor_.assign(batch_.size(), 0);
   const int n = config_.robots;
   const bool faults = !faults_.empty();
   for (int r = 0; r < n; ++r) {
     for (std::size_t k = 0; k < batch_.size(); ++k) {
-      Delivery& d = batch_[k];
+      const BusDelivery& d = batch_[k];
       if (d.all_but_sender) {
-        if (r != d.sender) strategy_->on_message(*this, r, d.message);
+        if (r == d.sender) continue;
       } else {
         std::size_t& c = batch_cursor_[k];
-        if (c < d.recipients.size() && d.recipients[c] == r) {  // recipients are ascending
-          ++c;
-          if (faults) {  // deliver_heard's steps (hear cannot bring a teammate back here)
-            if (!robots_[static_cast<std::size_t>(r)].alive) continue;
-            hear(r, d.message.robot, now_);
-            ++bus_.delivered;
-          }
-          strategy_->on_message(*this, r, d.message);
-        }
+        if (c == d.recipients.size() || d.recipients[c] != r) continue;  // ascending
+        ++c;
       }
+      const TeamMessage& message = message_of(d);
+      if (faults) {  // deliver_heard's steps (hear cannot bring a teammate back here)
+        if (!robots_[static_cast<std::size_t>(r)].alive) continue;
+        hear(r, message.robot, now_);
+        bus_.count_delivered(1);
+      }
+      strategy_->on_message(*this, r, message);
     }
   }
-  for (const Delivery& d : batch_) {
-    if (faults) break;  // counted per live recipient above
-    bus_.delivered += d.all_but_sender ? n - 1 : static_cast<long long>(d.recipients.size());
+  for (const BusDelivery& d : batch_) {
+    if (!faults) {  // else counted per live recipient above
+      bus_.count_delivered(d.all_but_sender ? n - 1 : static_cast<long long>(d.recipients.size()));
+    }
+    free_message(d.message);
   }
   batch_.clear();
 }
@@ -209,27 +170,29 @@ void GraphEngine::deliver_batch_by_robot() {
 void GraphEngine::deliver_heard() {
   // TeamRun._deliver_heard: message by message, each live recipient first hears its sender
   // (liveness; a teammate back from lost moves its checks), then gets the message.
-  while (!ready_.empty()) {
-    Delivery d = std::move(ready_.front());
-    ready_.pop_front();
-    const int sender = d.message.robot;
-    for (int r : d.recipients) {
-      if (!robots_[static_cast<std::size_t>(r)].alive) continue;
+  while (!bus_.ready().empty()) {
+    const BusDelivery d = bus_.pop_ready();
+    const TeamMessage& message = message_of(d);
+    const int sender = message.robot;
+    d.for_each_recipient(config_.robots, [&](int r) {
+      if (!robots_[static_cast<std::size_t>(r)].alive) return;
       if (hear(r, sender, now_)) plan_liveness(r);
-      strategy_->on_message(*this, r, d.message);
-      ++bus_.delivered;
-    }
+      strategy_->on_message(*this, r, message);
+      bus_.count_delivered(1);
+    });
+    free_message(d.message);
   }
 }
 
 void GraphEngine::deliver_ready() {
+  const std::deque<BusDelivery>& ready = bus_.ready();
   if (!faults_.empty()) {
     // While no robot holds a sender of these messages for lost, hearing it cannot plan a
     // liveness check (no event is pushed during the deliveries): robot by robot is then the
     // same as message by message.
-    bool batch = ready_.size() > 1 && strategy_->messages_are_local();
-    for (std::size_t k = 0; batch && k < ready_.size(); ++k) {
-      const int sender = ready_[k].message.robot;
+    bool batch = ready.size() > 1 && strategy_->messages_are_local();
+    for (std::size_t k = 0; batch && k < ready.size(); ++k) {
+      const int sender = message_of(ready[k]).robot;
       batch =
           sender < 0 || sender >= config_.robots || lost_by_[static_cast<std::size_t>(sender)] == 0;
     }
@@ -242,30 +205,27 @@ void GraphEngine::deliver_ready() {
   }
   if (team_hears_alike()) {  // the strategy may hear a message once for the team
     const long long mates = config_.robots - 1;
-    while (!ready_.empty() && ready_.front().all_but_sender &&
-           strategy_->on_team_message(*this, ready_.front().sender, ready_.front().message)) {
-      ready_.pop_front();
-      bus_.delivered += mates;
+    while (!ready.empty() && ready.front().all_but_sender &&
+           strategy_->on_team_message(*this, ready.front().sender, message_of(ready.front()))) {
+      free_message(bus_.pop_ready().message);
+      bus_.count_delivered(mates);
     }
-    if (ready_.empty()) return;
+    if (ready.empty()) return;
   }
-  if (ready_.size() > 1 && strategy_->messages_are_local()) {
+  if (ready.size() > 1 && strategy_->messages_are_local()) {
     deliver_batch_by_robot();
     return;
   }
-  while (!ready_.empty()) {
-    Delivery d = std::move(ready_.front());
-    ready_.pop_front();
-    if (d.all_but_sender) {
-      const int n = config_.robots;
-      for (int r = 0; r < n; ++r) {
-        if (r != d.sender) strategy_->on_message(*this, r, d.message);
-      }
-      bus_.delivered += n - 1;
-    } else {
-      for (int r : d.recipients) strategy_->on_message(*this, r, d.message);
-      bus_.delivered += static_cast<long long>(d.recipients.size());
-    }
+  while (!ready.empty()) {
+    const BusDelivery d = bus_.pop_ready();
+    const TeamMessage& message = message_of(d);
+    long long delivered = 0;
+    d.for_each_recipient(config_.robots, [&](int r) {
+      strategy_->on_message(*this, r, message);
+      ++delivered;
+    });
+    bus_.count_delivered(delivered);
+    free_message(d.message);
   }
 }
 
@@ -382,8 +342,7 @@ void GraphEngine::arrive(int robot) {
   if (rules_[static_cast<std::size_t>(robot)].arrive(vertex, x, y)) {
     recorder_.record_visit(robot, vertex, now_);
   } else {
-    ++dwells_;
-    dwell_time_s_ += stay_s;
+    recorder_.count_dwell(stay_s);
   }
   r.goal = -1;
   decide(robot);
@@ -418,15 +377,25 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
   }
   double next_progress = 0.0;
   auto next_wall = std::chrono::steady_clock::now() + std::chrono::milliseconds(100);
-  while (!events_queue_.empty() && events_queue_.top().time <= end) {
-    const Event ev = events_queue_.top();
-    events_queue_.pop();
+  for (;;) {
+    // The next event: the queue's, or the bus's next message in flight at its due time (as a
+    // kDeliver event: after arrivals and wake-ups of that time, before the other kinds).
+    const double due_s = bus_.next_due_s();
+    const bool message_next =
+        events_queue_.empty() || due_s < events_queue_.top().time ||
+        (due_s == events_queue_.top().time && kDeliver < events_queue_.top().kind);
+    Event ev{due_s, kDeliver, 0, -1};
+    if (!message_next) ev = events_queue_.top();
+    if (!(ev.time <= end)) break;
+    if (!message_next) events_queue_.pop();
     ++events_;
     if (ev.time > now_) {
       record_positions(ev.time);
       now_ = ev.time;
     }
-    if (ev.kind == kArrive) {
+    if (ev.kind == kDeliver) {
+      bus_.release_next();
+    } else if (ev.kind == kArrive) {
       if (robots_[static_cast<std::size_t>(ev.payload)].pending == ev.seq) arrive(ev.payload);
     } else if (ev.kind == kWake) {
       if (robots_[static_cast<std::size_t>(ev.payload)].goal < 0) decide(ev.payload);
@@ -438,11 +407,6 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
       if (robots_[static_cast<std::size_t>(ev.payload)].liveness == ev.seq) {
         liveness_due(ev.payload);
       }
-    } else {
-      const auto slot = static_cast<std::size_t>(ev.payload);
-      ready_.push_back(std::move(slots_[slot]));
-      slots_[slot] = Delivery{};
-      free_slots_.push_back(ev.payload);
     }
     deliver_ready();
     // Every 1/200 of the run, and every 0.1 s of wall time (looked at every 256 events): a

@@ -81,6 +81,7 @@ void GraphEngine::inject(const EngineFault& fault) {
   if (fault.death) {
     freeze(i);
     r.alive = false;
+    bus_.set_alive(i, false);  // it receives nothing sent after
     r.goal = r.redirect = -1;
     r.dwelling = false;
     recorder_.record_robot_death(i, now_);

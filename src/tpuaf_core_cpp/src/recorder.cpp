@@ -1,4 +1,4 @@
-// The graph runtime's ground-truth recorder (visits, samples, interference, X of Eq. 2-3).
+// The one ground-truth recorder (visits, samples, interference, X of Eq. 2-3, faults, dwells).
 #include "tpuaf_core/recorder.hpp"
 
 #include <algorithm>
@@ -18,9 +18,24 @@ inline double py_max(double a, double b) { return b > a ? b : a; }
 
 // --------------------------------------------------------------------- GroundTruthRecorder
 
-GroundTruthRecorder::GroundTruthRecorder(const EngineConfig& config, UncertaintyField field)
-    : n_robots_(config.robots),
+RecorderConfig recorder_config(const EngineConfig& config) {
+  RecorderConfig out;
+  out.robots = config.robots;
+  out.sample_period_s = config.sample_period_s;
+  out.refractory_s = config.refractory_s;
+  out.max_substep_s = config.max_substep_s;
+  out.field_merge_s = config.field_merge_s;
+  out.interference_distance_m = config.interference_distance_m;
+  out.sensing_peak = config.sensing_peak;
+  out.sensing_radius_m = config.sensing_radius_m;
+  return out;
+}
+
+GroundTruthRecorder::GroundTruthRecorder(const RecorderConfig& config, UncertaintyField field)
+    : config_(config),
+      n_robots_(config.robots),
       n_vertices_(field.size()),
+      start_(config.start_time_s),
       period_(config.sample_period_s),
       refractory_(config.refractory_s),
       max_substep_(config.max_substep_s),
@@ -31,10 +46,16 @@ GroundTruthRecorder::GroundTruthRecorder(const EngineConfig& config, Uncertainty
       values_(field_.values()),
       peaks_(Eigen::VectorXd::Constant(config.robots, config.sensing_peak)),
       radii_(Eigen::VectorXd::Constant(config.robots, config.sensing_radius_m)),
+      field_t_(config.start_time_s),
+      alive_(static_cast<std::size_t>(std::max(config.robots, 0)), 1),
       vertex_times_(static_cast<std::size_t>(n_vertices_)),
-      sample_last_(Eigen::VectorXd::Zero(n_vertices_)),
-      next_sample_(0.0 + config.sample_period_s) {
+      sample_last_(Eigen::VectorXd::Constant(n_vertices_, config.start_time_s)),
+      next_sample_(config.start_time_s + config.sample_period_s) {
+  if (n_robots_ <= 0) {
+    throw std::invalid_argument("need at least one robot, got " + std::to_string(n_robots_));
+  }
   if (!(period_ > 0)) throw std::invalid_argument("sample period must be > 0 s");
+  if (!(max_substep_ > 0)) throw std::invalid_argument("max_substep_s must be > 0 s");
   verlet_skin_ = std::max(2.0 * d_if_, 1e-3);  // [m]
   // Target cells of one sensing radius over the targets' bounding box.
   const auto& targets = field_.targets();
@@ -95,6 +116,19 @@ void GroundTruthRecorder::record_visit(int robot, int vertex, double time) {
                          [](double t, const std::pair<double, int>& p) { return t < p.first; });
     pending_.insert(it, {time, vertex});
   }
+  if (!config_.ground_truth) emit_until(time);
+}
+
+void GroundTruthRecorder::emit_until(double t) {
+  while (next_sample_ <= t + 1e-9) {
+    emit_row(next_sample_, kNaN);
+    advance_sample();
+  }
+}
+
+void GroundTruthRecorder::advance_sample() {
+  ++sample_k_;
+  next_sample_ = start_ + static_cast<double>(sample_k_) * period_;
 }
 
 void GroundTruthRecorder::apply_pending(double t) {
@@ -131,15 +165,71 @@ void GroundTruthRecorder::emit_row(double t, double x_mean) {
   rows_.push_back({t, ins, worst, x_mean, sample_visits_, interferences_until(t)});
 }
 
-void GroundTruthRecorder::record_robot_death(int robot, double time_s) {
+void GroundTruthRecorder::check_robot(int robot) const {
   if (robot < 0 || robot >= n_robots_) {
-    throw std::out_of_range("unknown robot " + std::to_string(robot));
+    throw std::out_of_range("unknown robot " + std::to_string(robot) + " (team of " +
+                            std::to_string(n_robots_) + ")");
   }
-  if (alive_.empty()) alive_.assign(static_cast<std::size_t>(n_robots_), 1);
+}
+
+void GroundTruthRecorder::record_robot_death(int robot, double time_s) {
+  check_robot(robot);
   if (!alive_[static_cast<std::size_t>(robot)]) return;
   alive_[static_cast<std::size_t>(robot)] = 0;
   all_alive_ = false;
   deaths_.push_back({time_s, robot, -1});
+}
+
+void GroundTruthRecorder::record_robot_outage(int robot, double time_s, const std::string& cause) {
+  check_robot(robot);
+  if (!alive_[static_cast<std::size_t>(robot)]) return;
+  alive_[static_cast<std::size_t>(robot)] = 0;
+  all_alive_ = false;
+  outages_.push_back({robot, time_s, kNaN, false, cause});
+}
+
+void GroundTruthRecorder::record_robot_back(int robot, double time_s) {
+  check_robot(robot);
+  for (auto it = outages_.rbegin(); it != outages_.rend(); ++it) {
+    if (it->robot != robot) continue;
+    if (!it->ended && !alive_[static_cast<std::size_t>(robot)]) {
+      it->ended = true;
+      it->end_s = time_s;
+      alive_[static_cast<std::size_t>(robot)] = 1;
+      all_alive_ = std::all_of(alive_.begin(), alive_.end(), [](char a) { return a != 0; });
+    }
+    return;
+  }
+}
+
+void GroundTruthRecorder::record_robot_stall(int robot, double time_s) {
+  check_robot(robot);
+  stalls_.push_back({time_s, robot, -1});
+}
+
+std::vector<VisitRecord> GroundTruthRecorder::final_deaths() const {
+  std::vector<VisitRecord> out = deaths_;
+  for (const OutageRecord& o : outages_) {
+    if (!o.ended) out.push_back({o.start_s, o.robot, -1});
+  }
+  std::sort(out.begin(), out.end(), [](const VisitRecord& a, const VisitRecord& b) {
+    if (a.time_s != b.time_s) return a.time_s < b.time_s;
+    return a.robot < b.robot;
+  });
+  return out;
+}
+
+void GroundTruthRecorder::record_goal(int robot, int vertex, int from_vertex, double time_s) {
+  goals_[robot] = {time_s, vertex, from_vertex};
+}
+
+void GroundTruthRecorder::record_dwell(int robot, int vertex, double time_s) {
+  double stay_s = 0.0;
+  auto it = goals_.find(robot);
+  if (it != goals_.end() && it->second.vertex == vertex && it->second.from_vertex == vertex) {
+    stay_s = py_max(time_s - it->second.time_s, 0.0);
+  }
+  count_dwell(stay_s);
 }
 
 void GroundTruthRecorder::record_positions(double t1, const Points& given) {
@@ -154,8 +244,9 @@ void GroundTruthRecorder::record_positions(double t1, const Points& given) {
     rows = &masked_;
   }
   const Points& p1 = *rows;
-  // No NaN in p1 (nor in the previous positions: deaths are for good) while all are alive.
-  const bool finite = all_alive_;
+  const bool p1_finite = !p1.hasNaN();
+  // No robot absent at either end of the interval.
+  const bool finite = p1_finite && (!has_pos_ || pos_finite_);
   if (!has_pos_) {
     // Pairs already close at the start are not counted (they did not come close).
     close_.clear();
@@ -167,18 +258,12 @@ void GroundTruthRecorder::record_positions(double t1, const Points& given) {
         }
       }
     }
-    if (!finite || next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
-      advance_field(field_t_, t1, p1, p1, finite && field_finite_);
-      field_t_ = t1;
-      field_p_ = p1;
-      has_field_p_ = true;
-      field_finite_ = finite;
-    }
   } else {
     const double t0 = pos_time_;
     if (t1 < t0) {
       throw std::invalid_argument("positions at " + std::to_string(t1) +
-                                  " s are earlier than the previous ones");
+                                  " s are earlier than the previous ones (" + std::to_string(t0) +
+                                  " s)");
     }
     if (n_robots_ > 1) {
       if (finite) {
@@ -188,18 +273,24 @@ void GroundTruthRecorder::record_positions(double t1, const Points& given) {
         interference_all(t0, t1, pos_, p1);
       }
     }
-    // The field advances over chunks of >= field_merge_s, at every sample time and whenever a
-    // robot is absent.
+  }
+  if (config_.ground_truth) {
+    // The field advances over chunks of >= field_merge_s (the chord of the chunk), at every
+    // sample time and whenever a robot is absent.
     if (!finite || next_sample_ <= t1 + 1e-9 || t1 - field_t_ >= field_merge_ || !has_field_p_) {
-      advance_field(field_t_, t1, has_field_p_ ? field_p_ : pos_, p1, finite && field_finite_);
+      const Points& from = has_field_p_ ? field_p_ : (has_pos_ ? pos_ : p1);
+      advance_field(field_t_, t1, from, p1, finite && field_finite_);
       field_t_ = t1;
       field_p_ = p1;
       has_field_p_ = true;
       field_finite_ = finite;
     }
+  } else if (next_sample_ <= t1 + 1e-9) {
+    emit_until(t1);
   }
   pos_time_ = t1;
   pos_ = p1;
+  pos_finite_ = p1_finite;
   has_pos_ = true;
 }
 
@@ -372,8 +463,7 @@ void GroundTruthRecorder::advance_field(double t0, double t1, const Points& p0_a
     Points pb = span > 0 ? Points(p0 + (p1 - p0) * ((ts - t0) / span)) : p1;
     step_field(ts - ta, pa, pb);
     emit_row(ts, numpy_mean(values_.data(), static_cast<std::size_t>(n_vertices_)));
-    ++sample_k_;
-    next_sample_ = 0.0 + static_cast<double>(sample_k_) * period_;
+    advance_sample();
     ta = ts;
     pa = pb;
   }
@@ -474,7 +564,7 @@ void GroundTruthRecorder::advance_linear(double dt, const Points& start, const P
 double GroundTruthRecorder::worst_idleness(double end_s) const {
   double worst = 0.0;
   for (const auto& times : vertex_times_) {
-    double prev = 0.0;
+    double prev = start_;
     for (double t : times) {
       worst = py_max(worst, t - prev);
       prev = t;
@@ -485,12 +575,21 @@ double GroundTruthRecorder::worst_idleness(double end_s) const {
 }
 
 void GroundTruthRecorder::finish(double end_s) {
-  if (has_pos_ && end_s > pos_time_) {
+  if (!config_.ground_truth) {
+    emit_until(end_s);
+  } else if (!has_pos_) {  // no positions ever: no robot covered anything
+    const Points absent = Points::Constant(n_robots_, 2, kNaN);
+    record_positions(end_s, absent);
+  } else if (end_s > pos_time_) {
     const Points held = pos_;
     record_positions(end_s, held);
   }
-  if (has_pos_ && field_t_ < pos_time_) {  // a merged chunk still pending
-    const bool finite = field_finite_ && all_alive_;
+  flush_field();
+}
+
+void GroundTruthRecorder::flush_field() {
+  if (config_.ground_truth && has_pos_ && field_t_ < pos_time_) {  // a merged chunk pending
+    const bool finite = field_finite_ && pos_finite_;
     advance_field(field_t_, pos_time_, field_p_, pos_, finite);
     field_t_ = pos_time_;
     field_p_ = pos_;

@@ -96,8 +96,8 @@ TEST(Engine, DrivesEdgesAtNominalSpeedDwellsAndRetries) {
   ASSERT_EQ(visits.size(), 2u);  // the start vertex, then 3 at 15 s; the dwell is no visit
   EXPECT_EQ(visits[1].vertex, 3);
   EXPECT_DOUBLE_EQ(visits[1].time_s, 15.0);  // pass-through vertices 1, 2 are no visits
-  EXPECT_EQ(engine.dwells(), 1);
-  EXPECT_DOUBLE_EQ(engine.dwell_time_s(), 1.0);  // STAY_S = 1 s
+  EXPECT_EQ(engine.recorder().dwells(), 1);
+  EXPECT_DOUBLE_EQ(engine.recorder().dwell_time_s(), 1.0);  // STAY_S = 1 s
   // Waiting without a wake-up: asked again every retry_s = 1 s.
   const auto& t = s.decide_times[0];
   ASSERT_GE(t.size(), 5u);

@@ -21,6 +21,7 @@
 #include "tpuaf_core/run_config.hpp"
 #include "tpuaf_core/strategies.hpp"
 #include "tpuaf_core/strategy.hpp"
+#include "tpuaf_core/team_bus.hpp"
 #include "tpuaf_core/uncertainty.hpp"
 #include "tpuaf_core/visit_rule.hpp"
 
@@ -30,7 +31,7 @@ class GraphEngine final : public StrategyHost {
  public:
   // graph: the patrol graph (kept by reference, must outlive the engine); positions: vertex
   // positions [m] used for motion; field: the ground-truth X field at its initial values;
-  // bus_rng: numpy default_rng([seed, 1]).
+  // bus_rng: the team bus's loss stream (tpuaf.team.bus.bus_stream: default_rng([seed, 1])).
   GraphEngine(const PatrolGraph& graph, Points positions, EngineConfig config,
               UncertaintyField field, NumpyPcg64 bus_rng);
 
@@ -78,18 +79,16 @@ class GraphEngine final : public StrategyHost {
 
   const GroundTruthRecorder& recorder() const { return recorder_; }
   GroundTruthRecorder& recorder() { return recorder_; }
-  const BusStats& bus_stats() const { return bus_; }
+  const TeamBusStats& bus_stats() const { return bus_.stats(); }
   long long events() const { return events_; }
-  // Goal arrivals that were no visit (VisitRule): dwells on the vertex the robot stood on.
-  long long dwells() const { return dwells_; }
-  double dwell_time_s() const { return dwell_time_s_; }  // [s] standing in those dwells
   const VisitRule& visit_rule(int robot) const {
     robot_at(robot);
     return rules_[static_cast<std::size_t>(robot)];
   }
 
  private:
-  // Event kinds, in the order ties resolve (tpuaf.runtimes.graph).
+  // Event kinds, in the order ties resolve (tpuaf.runtimes.graph); a message in flight (the
+  // bus's) is a kDeliver event at its due time.
   static constexpr int kArrive = 0, kWake = 1, kDeliver = 2, kFault = 3, kGiveUp = 4, kLiveness = 5;
   struct Robot {
     int current = 0, start = 0, goal = -1, redirect = -1;
@@ -108,18 +107,12 @@ class GraphEngine final : public StrategyHost {
     double time;
     int kind;
     std::uint64_t seq;
-    int payload;  // robot, delivery slot or fault index
+    int payload;  // robot or fault index
     bool operator>(const Event& o) const {
       if (time != o.time) return time > o.time;
       if (kind != o.kind) return kind > o.kind;
       return seq > o.seq;
     }
-  };
-  struct Delivery {
-    TeamMessage message;
-    int sender = -1;
-    bool all_but_sender = false;  // recipients = every robot but the sender
-    std::vector<int> recipients;
   };
 
   const Robot& robot_at(int robot) const;
@@ -138,6 +131,10 @@ class GraphEngine final : public StrategyHost {
   void plan_liveness(int robot);
   void liveness_due(int robot);
   void deliver_batch_by_robot();
+  const TeamMessage& message_of(const BusDelivery& d) const {
+    return messages_[static_cast<std::size_t>(d.message)];
+  }
+  void free_message(std::int64_t id);  // its message is delivered: the id is free
   void decide(int robot);
   void plan_route(Robot& r, int goal);
   void start_segment(int robot);
@@ -149,23 +146,21 @@ class GraphEngine final : public StrategyHost {
   Points positions_;
   EngineConfig config_;
   GroundTruthRecorder recorder_;
-  NumpyPcg64 bus_rng_;
+  TeamBus bus_;
   TeamStrategy* strategy_ = nullptr;
   std::vector<Robot> robots_;
   std::vector<VisitRule> rules_;  // one per robot: the one definition of a visit
-  long long dwells_ = 0;
-  double dwell_time_s_ = 0;
   double now_ = 0;
   double last_positions_time_ = -1.0;
   std::priority_queue<Event, std::vector<Event>, std::greater<Event>> events_queue_;
   std::uint64_t seq_ = 0;
   long long events_ = 0;
-  std::vector<Delivery> slots_;
-  std::vector<int> free_slots_;
-  std::deque<Delivery> ready_;
-  std::vector<Delivery> batch_;
+  // The messages on the bus, by id (a deque: a strategy's sends during a delivery keep the
+  // delivered message where it is); ids are reused once delivered.
+  std::deque<TeamMessage> messages_;
+  std::vector<std::int64_t> free_messages_;
+  std::vector<BusDelivery> batch_;
   std::vector<std::size_t> batch_cursor_;
-  BusStats bus_;
   Points scratch_;
   std::vector<double> lost_scratch_;
   std::vector<EngineFault> faults_;

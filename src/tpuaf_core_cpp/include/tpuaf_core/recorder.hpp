@@ -1,9 +1,13 @@
-// The ground-truth recorder of the graph runtime: visits, 1 Hz samples, interference, the
-// uncertainty field X (Eq. 2-3). Times in seconds, lengths in metres.
+// The one ground-truth recorder of every runtime (SPEC section 6): visits, 1 Hz samples,
+// interference, the uncertainty field X (Eq. 2-3), deaths, outages, stalls, dwells. The graph
+// runtime's event loop feeds it in C++; the physics runtime, the fleet monitor and bag analysis
+// through tpuaf.measure.metrics.RunRecorder. Times in seconds, lengths in metres.
 #pragma once
 
 #include <cstdint>
 #include <deque>
+#include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "tpuaf_core/numpy_random.hpp"
@@ -32,21 +36,84 @@ struct BusStats {
   long long sent = 0, delivered = 0, lost = 0;
 };
 
-// Ground truth of one run (tpuaf.measure.metrics.RunRecorder with ground truth, all robots alive).
+// A silence of a robot (the monitor's outage): from start_s [s] until end_s [s] when it was
+// heard again; `ended` false: never heard again, a death.
+struct OutageRecord {
+  int robot;
+  double start_s, end_s;
+  bool ended;
+  std::string cause;
+};
+
+// The recorder's settings; their one declaration (RunRecorder's keyword defaults read them, and
+// the graph runtime sets EngineConfig's from those).
+struct RecorderConfig {
+  int robots = 1;
+  double start_time_s = 0.0;     // run clock at the start [s]
+  double sample_period_s = 1.0;  // 1 Hz rows [s]
+  double refractory_s = 10.0;    // interference episodes of a pair closer than this merge [s]
+  double max_substep_s = 0.25;   // ground-truth field substep [s]
+  // Consecutive position updates closer than this [s] merge into one linear field step (0 =
+  // never merge); 0.5 s changes X by < 0.3 % at 1 m/s.
+  double field_merge_s = 0.5;
+  double interference_distance_m = 2.0;
+  double sensing_peak = 1.0;
+  double sensing_radius_m = 5.0;
+  // false: no field (X NaN); the 1 Hz rows then follow the visits and positions as they come.
+  bool ground_truth = true;
+};
+
+// The recorder's settings of a graph-runtime run.
+RecorderConfig recorder_config(const EngineConfig& config);
+
+// Every metric of SPEC section 6 during one run. Feed it record_visit (goal arrivals, in time
+// order or not), record_positions (true robot positions, any rate; motion between calls is taken
+// as linear; a NaN row: robot absent) and the faults. Visits may run ahead of positions: the 1 Hz
+// rows are emitted when positions reach them (or, without ground truth, by any call), so every
+// row sees exactly the visits up to its time.
 class GroundTruthRecorder {
  public:
-  GroundTruthRecorder(const EngineConfig& config, UncertaintyField field);
+  GroundTruthRecorder(const RecorderConfig& config, UncertaintyField field);
+  GroundTruthRecorder(const EngineConfig& config, UncertaintyField field)
+      : GroundTruthRecorder(recorder_config(config), std::move(field)) {}
+  const RecorderConfig& config() const { return config_; }
   void record_visit(int robot, int vertex, double time_s);
   void record_positions(double time_s, const Points& positions);
-  void finish(double end_s);  // robots held at their last positions until end_s
-  // Robot `robot` died at time_s [s]: it no longer senses nor interferes (a NaN position, as
-  // RunRecorder.record_robot_death).
+  // Robots held at their last positions until end_s (without ground truth: the rows up to
+  // end_s), then flush_field().
+  void finish(double end_s);
+  // The field brought to the last positions' time (a merged chunk still pending is advanced).
+  void flush_field();
+  // Robot `robot` died at time_s [s]: it no longer senses nor interferes (a NaN position).
   void record_robot_death(int robot, double time_s);
-  void record_robot_stall(int robot, double time_s) { stalls_.push_back({time_s, robot, -1}); }
+  // Robot `robot` went out of contact at time_s [s] (it no longer senses nor interferes): a
+  // death unless record_robot_back ends the outage.
+  void record_robot_outage(int robot, double time_s, const std::string& cause);
+  // Robot `robot`, out of contact, was heard again at time_s [s]: alive again.
+  void record_robot_back(int robot, double time_s);
+  void record_robot_stall(int robot, double time_s);  // stopped moving; still senses, talks
+  // Robot `robot` announced at time_s [s] that it heads to `vertex`.
   void record_announcement(int robot, int vertex, double time_s) {
     announcements_.push_back({time_s, robot, vertex});
   }
+  // Robot `robot` chose goal `vertex` at time_s [s], standing at `from_vertex`.
+  void record_goal(int robot, int vertex, int from_vertex, double time_s);
+  // A goal of `robot` ended at `vertex` without a visit (a dwell, VisitRule) at time_s [s]:
+  // counted apart, no effect on idleness; the time since its goal counts as standing when that
+  // goal was the vertex it stood on.
+  void record_dwell(int robot, int vertex, double time_s);
+  // A dwell of stay_s [s] standing (a caller that knows how long the robot stood).
+  void count_dwell(double stay_s) {
+    ++dwells_;
+    dwell_time_s_ += stay_s;
+  }
+  long long dwells() const { return dwells_; }
+  double dwell_time_s() const { return dwell_time_s_; }               // [s] standing in the dwells
   const std::vector<VisitRecord>& deaths() const { return deaths_; }  // (t, robot, -1)
+  const std::vector<OutageRecord>& outages() const { return outages_; }
+  // (t, robot, -1) of the deaths, those recorded and the outages never ended, in (t, robot)
+  // order.
+  std::vector<VisitRecord> final_deaths() const;
   const std::vector<VisitRecord>& stalls() const { return stalls_; }
   const std::vector<VisitRecord>& announcements() const { return announcements_; }
 
@@ -85,12 +152,16 @@ class GroundTruthRecorder {
   long long x_count() const { return x_count_; }
   bool has_positions() const { return has_pos_; }
   double positions_time() const { return pos_time_; }
+  const Points& positions() const { return pos_; }  // the last ones (absent robots: NaN rows)
   double worst_idleness(double end_s) const;
 
  private:
+  void check_robot(int robot) const;
   void apply_pending(double t);
   void apply_visit(double vt, int v);
   void emit_row(double t, double x_mean);
+  void emit_until(double t);  // the rows up to t without ground truth (X NaN)
+  void advance_sample();
   void advance_field(double t0, double t1, const Points& p0, const Points& p1, bool finite);
   void step_field(double dt, const Points& pa, const Points& pb);
   void interference(double t0, double t1, const Points& p0, const Points& p1, double step);
@@ -101,8 +172,9 @@ class GroundTruthRecorder {
   void rebuild_verlet(const Points& p, double reach);
   long long interferences_until(double t) const;
 
+  RecorderConfig config_;
   int n_robots_, n_vertices_;
-  double period_, refractory_, max_substep_, field_merge_, dif2_, d_if_;
+  double start_, period_, refractory_, max_substep_, field_merge_, dif2_, d_if_;
   UncertaintyField field_;  // targets, importance and growth law of the ground truth
   Eigen::VectorXd values_;  // ground-truth X_j
   // Targets bucketed by cells of one sensing radius (the coverage of a robot only looks at
@@ -123,6 +195,14 @@ class GroundTruthRecorder {
   bool all_alive_ = true;
   Points masked_;  // positions with the dead robots' rows NaN
   std::vector<VisitRecord> deaths_, stalls_, announcements_;
+  std::vector<OutageRecord> outages_;
+  struct Goal {
+    double time_s;
+    int vertex, from_vertex;
+  };
+  std::unordered_map<int, Goal> goals_;  // robot -> its latest goal
+  long long dwells_ = 0;
+  double dwell_time_s_ = 0;
 
   std::vector<VisitRecord> visits_;
   std::vector<double> visit_idleness_;
@@ -142,6 +222,7 @@ class GroundTruthRecorder {
   bool has_pos_ = false;
   double pos_time_ = 0;
   Points pos_;
+  bool pos_finite_ = true;            // no NaN in pos_
   std::vector<std::uint64_t> close_;  // sorted pair keys i * n + j (i < j) within d_if
   std::unordered_map<std::uint64_t, double> last_count_;  // pair -> last counted entry [s]
   std::vector<InterferenceRecord> interferences_;

@@ -154,7 +154,7 @@ def pairing_problems(result, patrol_map, robots: int | None, unknown: dict[int, 
     seen = int(getattr(result.info, "robots", 0) or 0)
     if robots is not None and seen > robots:
         problems.append(f"the bag holds {seen} robots, the team is {robots} ({where})")
-    pos = getattr(result.recorder, "_pos", None)
+    pos = result.recorder.last_positions
     if pos is not None and len(pos):
         p = np.asarray(pos, dtype=float)[:, :2]
         p = p[np.all(np.isfinite(p), axis=1)]
@@ -239,7 +239,8 @@ def _liveness_timeouts(args: argparse.Namespace, config: dict) -> tuple[float | 
 def run(args: argparse.Namespace) -> int:
     from tpuaf.cli import limits
     from tpuaf.errors import TpuafError
-    from tpuaf.experiments.results import ResultsWriter, prepare_out_dir
+    from tpuaf.experiments.results import ResultsWriter
+    from tpuaf.experiments.results_folder import prepare_out_dir
     from tpuaf.maps import load_map
     from tpuaf.measure.bag import BagError, analyze
 
@@ -382,7 +383,7 @@ def _report(bag: Path, result, out: Path) -> int:
             fx = f"{x:.3f}" if isinstance(x, float) and math.isfinite(x) else str(x)
             fy = f"{y:.3f}" if isinstance(y, float) and math.isfinite(y) else str(y)
             print(f"    {key:<22} monitor {fx:>12}  bag {fy:>12}  {'ok' if ok else 'DIFFERS'}")
-        from tpuaf.experiments.results import record_written
+        from tpuaf.experiments.results_folder import record_written
         from tpuaf.files import atomic_write_text
 
         record_written(out, "comparison.json")
@@ -398,7 +399,7 @@ def _abandon(out: Path, created: bool) -> None:
     import contextlib
     import os
 
-    from tpuaf.experiments.results import LOCK_FILE, MANIFEST, unlock_folder
+    from tpuaf.experiments.results_folder import LOCK_FILE, MANIFEST, unlock_folder
 
     if not created:
         return
@@ -413,7 +414,7 @@ def _abandon(out: Path, created: bool) -> None:
 def _interrupted(out: Path, bag: Path) -> None:
     """An interrupted analysis: summary.json says so ("complete": false), whatever was
     written before the signal."""
-    from tpuaf.experiments.results import record_written
+    from tpuaf.experiments.results_folder import record_written
     from tpuaf.files import atomic_write_text
 
     path = out / "summary.json"

@@ -81,7 +81,8 @@ def check_scheduler(address: str | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from tpuaf.cli import limits
-    from tpuaf.experiments.sweep import SweepError, make_scenarios, make_spec, run_sweep
+    from tpuaf.experiments.sweep.execute import run_sweep
+    from tpuaf.experiments.sweep.grid import SweepError, make_scenarios, make_spec
 
     if args.scheduler and args.workers:
         raise CliError("--workers applies to the local cluster only, not with --scheduler")
@@ -107,7 +108,8 @@ def run(args: argparse.Namespace) -> int:
                          map_params=map_params(args))
     except SweepError as err:
         raise CliError(str(err)) from None
-    from tpuaf.experiments.results import ResultsError, lock_folder
+    from tpuaf.experiments.results_folder import lock_folder
+    from tpuaf.experiments.run_files import ResultsError
 
     try:  # a sweep folder is resumed, so it may exist: only check that it can be written
         args.out.mkdir(parents=True, exist_ok=True)

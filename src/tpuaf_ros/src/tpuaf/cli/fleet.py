@@ -223,7 +223,7 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     except RobotChoiceError as err:
         raise CliError(str(err)) from None
     faults = fault_plan(args)
-    from tpuaf.experiments.results import prepare_out_dir, record_written
+    from tpuaf.experiments.results_folder import prepare_out_dir, record_written
     from tpuaf.files import atomic_write_text
     from tpuaf.maps import builtin_map_names
 

@@ -28,7 +28,7 @@ TEAM_COEFFS = {
     "tpuaf_plus": {"n2": 3300.0, "n3": 8.0, "nv": 64.0},
     "recorder": {"n2": 0.0, "n3": 0.0, "nv": 64.0},  # tpuaf analyze: the metrics alone
 }
-RECORDER_BYTES_PER_PAIR = 48.0  # pairwise robot distances for interference (measure/metrics)
+RECORDER_BYTES_PER_PAIR = 48.0  # interference pairs: keys, last entries (core recorder.cpp)
 SWEEP_BYTES_PER_RUN = 24 << 10  # one run's key, task, future and results row in the driver
 WORKER_BYTES = 400 << 20  # one Dask worker process with a run in it
 MAX_FRAMES = 5000  # an animation's frames (each held by the GIF / MP4 writer)

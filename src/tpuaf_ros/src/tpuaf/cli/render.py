@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, KeyError, OSError) as err:
         raise CliError(f"{folder}: {err}") from None
     if path.resolve().parent == folder.resolve():  # `--overwrite` of the folder clears it
-        from tpuaf.experiments.results import record_written
+        from tpuaf.experiments.results_folder import record_written
 
         record_written(folder, path.name)
     print(f"animation: {path} ({count} frames at {args.fps:g} fps)")

@@ -325,7 +325,7 @@ def run(args: argparse.Namespace) -> int:
     for warning in patrol_map.warnings:
         print(f"tpuaf run: warning: {warning}", file=sys.stderr)
     if args.out is not None:
-        from tpuaf.experiments.results import prepare_out_dir
+        from tpuaf.experiments.results_folder import prepare_out_dir
 
         args.out = prepare_out_dir(args.out, overwrite=args.overwrite)
     return execute(engine, args.out, quiet=args.quiet, plots=not args.no_plots)

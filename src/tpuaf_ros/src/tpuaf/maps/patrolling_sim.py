@@ -113,6 +113,29 @@ def parse_graph(path: str | Path) -> dict:
         raise MapError(f"{tk.where(3)}: resolution must be > 0, got {res}")
     off_x = tk.number("offset x [m]")
     off_y = tk.number("offset y [m]")
+    ids, px, adjacency = _read_vertices(tk, n)
+    edges, notes = _merged_edges(tk, ids, adjacency, res)
+    positions = np.array(px, dtype=float) * res + np.array([off_x, off_y])
+    _check_extent(path, positions, edges)
+    return {
+        "n": n,
+        "width_px": width,
+        "height_px": height,
+        "resolution": res,
+        "offset": (off_x, off_y),
+        "ids": ids,
+        "pixels": np.array(px, dtype=float),
+        "positions": positions,
+        "edges": edges,
+        "notes": notes,
+        "directed_count": sum(len(a) for a in adjacency),
+    }
+
+
+def _read_vertices(tk: _Tokens, n: int) -> tuple[list[int], list[tuple[float, float]],
+                                                  list[list[tuple[int, float, int]]]]:
+    """The n vertices after the header: ids, pixel positions and each one's listed neighbours
+    (neighbour id, cost [px], token index); nothing may follow them."""
     ids: list[int] = []
     px: list[tuple[float, float]] = []
     adjacency: list[list[tuple[int, float, int]]] = []  # (neighbour id, cost px, token index)
@@ -148,6 +171,14 @@ def parse_graph(path: str | Path) -> dict:
             f"{tk.where()}: unexpected data after {n} vertices (vertex count mismatch: "
             f"header says {n})"
         )
+    return ids, px, adjacency
+
+
+def _merged_edges(tk: _Tokens, ids: list[int], adjacency: list[list[tuple[int, float, int]]],
+                  res: float) -> tuple[list[tuple[int, int, float]], list[str]]:
+    """Undirected edges (index, index, length [m]) from the listed directed costs, the
+    shortest kept per pair, and notes on parallel and asymmetric costs; a neighbour unknown,
+    the vertex itself, or listed one way only is refused."""
     index = {v: i for i, v in enumerate(ids)}
     # Directed costs, merged (shortest) per ordered pair; remember parallels.
     directed: dict[tuple[int, int], float] = {}
@@ -187,7 +218,11 @@ def parse_graph(path: str | Path) -> dict:
                     "other: kept the shortest"
                 )
             edges.append((i, j, min(cost, back) * res))
-    positions = np.array(px, dtype=float) * res + np.array([off_x, off_y])
+    return edges, notes
+
+
+def _check_extent(path: Path, positions: np.ndarray, edges: list[tuple[int, int, float]]) -> None:
+    """Edges at least MIN_METRES long; vertices and edges within MAX_METRES."""
     far = float(np.abs(positions).max()) if len(positions) else 0.0
     longest = max((length for _, _, length in edges), default=0.0)
     shortest = min((length for _, _, length in edges), default=MIN_METRES)
@@ -198,19 +233,6 @@ def parse_graph(path: str | Path) -> dict:
         what = f"a vertex at {far:g} m" if far > MAX_METRES else f"an edge of {longest:g} m"
         raise MapError(f"{path}: {what} (pixels x resolution + offset): a map must lie within "
                        f"+-{MAX_METRES:g} m, edges at most {MAX_METRES:g} m long")
-    return {
-        "n": n,
-        "width_px": width,
-        "height_px": height,
-        "resolution": res,
-        "offset": (off_x, off_y),
-        "ids": ids,
-        "pixels": np.array(px, dtype=float),
-        "positions": positions,
-        "edges": edges,
-        "notes": notes,
-        "directed_count": sum(len(a) for a in adjacency),
-    }
 
 
 def read_initial_poses(path: str | Path, map_name: str) -> tuple[dict, dict]:

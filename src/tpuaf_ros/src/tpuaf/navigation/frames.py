@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 
-def _compose(a: tuple[float, float, float], b: tuple[float, float, float]):
+def compose(a: tuple[float, float, float], b: tuple[float, float, float]):
     """Planar pose a * b (x [m], y [m], yaw [rad])."""
     c, s = math.cos(a[2]), math.sin(a[2])
     return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], a[2] + b[2])
@@ -52,7 +52,7 @@ class FrameChain:
             if link is None:
                 return None
             parent, tf, t = link
-            out = _compose(tf, out)
+            out = compose(tf, out)
             if t > 0:
                 stamp = min(stamp, t)
             frame = parent
@@ -69,3 +69,30 @@ class FrameChain:
                 return frame
             frame = link[0]
         return frame
+
+
+class StaticFrames:
+    """The static transforms (/tf_static) heard so far, for the chains that need them: the
+    robot's own chain and the laser's mounting on its base."""
+
+    def __init__(self) -> None:
+        self.links: dict[str, tuple[str, float, float, float]] = {}  # child -> (parent, x, y, yaw)
+
+    def add(self, parent: str, child: str, x: float, y: float, yaw: float) -> None:
+        self.links[child.lstrip("/")] = (parent, x, y, yaw)
+
+    def feed(self, chain: FrameChain) -> None:
+        """The static transforms into `chain`, in as many passes as links join it."""
+        for _ in range(chain.max_links):
+            before = len(chain.links)
+            for child, (parent, x, y, yaw) in self.links.items():
+                chain.update(parent, child, x, y, yaw, 0.0)
+            if len(chain.links) == before:
+                break
+
+    def pose_in(self, base: str, frame: str) -> tuple[float, float, float, float] | None:
+        """(x [m], y [m], yaw [rad], stamp) of `frame` in `base` from the static transforms,
+        None while incomplete or when `frame` is `base` itself."""
+        chain = FrameChain(base, frame)
+        self.feed(chain)
+        return chain.pose() if frame.lstrip("/") != base else None

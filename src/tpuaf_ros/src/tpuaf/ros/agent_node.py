@@ -15,7 +15,6 @@ import re
 import threading
 import time
 import warnings
-from dataclasses import replace
 
 import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, TwistStamped
@@ -25,32 +24,28 @@ from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
 from tpuaf import topics
-from tpuaf.maps import MapError, load_map, start_vertices
-from tpuaf.navigation import (
-    ControllerConfig,
-    GoalNavigator,
-    LaserMount,
-    Scan,
-    retry_wait_for,
-    scan_points,
-)
-from tpuaf.navigation.frames import FrameChain
+from tpuaf.maps import MapError, load_map
+from tpuaf.navigation import GoalNavigator, LaserMount, Scan, scan_points
+from tpuaf.navigation.frames import FrameChain, StaticFrames, compose
 from tpuaf.navigation.planner import shared_planner
 from tpuaf.navigation.travel_time import timed_map
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
-from tpuaf.robot.model import RobotChoiceError, RobotModel, choose_robot
 from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, publish, run_node, yaw_of
 from tpuaf.runtimes.agent import AgentRuntime
+from tpuaf.runtimes.agent_setup import (
+    agent_controller,
+    agent_robot,
+    check_agent_params,
+    odom_origin,
+)
 from tpuaf.team.epoch import ADOPTED, INVALID, KEPT, RunEpoch
 from tpuaf.team.inbox import InboxConfig, TeamInbox
 from tpuaf.team.liveness import InputWatchdog
 from tpuaf_ros.msg import AgentEvent, RunStart
 
 NODE = "patrol_agent"
-LOCALIZATIONS = ("tf", "odom", "ground_truth", "amcl")
-NAVIGATIONS = ("builtin", "move_base")
 WARN_PERIOD_S = 5.0  # [s wall] throttle of repeated warnings
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
 
@@ -58,37 +53,6 @@ warnings.filterwarnings("ignore", message="The publisher should be created with 
 def _shape(reason: str) -> str:
     """A reason without its numbers (the throttle key of its warning)."""
     return re.sub(r"[-+0-9.e]+", "#", reason)
-
-
-def agent_robot(p: AgentParams, patrol_map) -> RobotModel:
-    """The robot model of ~robot (auto: TURTLEBOT3_MODEL, else the map's preset) with the
-    ~max_linear_speed, ~max_angular_speed and ~robot_radius overrides (0: the robot's)."""
-    try:
-        robot = choose_robot(p.robot, patrol_map.settings, option="~robot")
-    except RobotChoiceError as err:
-        raise NodeParamError(str(err)) from None
-    return replace(robot, speed_mps=p.max_linear_speed or robot.speed_mps,
-                   max_angular_speed=p.max_angular_speed or robot.max_angular_speed,
-                   radius_m=p.robot_radius or robot.radius_m)
-
-
-def check_params(p: AgentParams, sim: bool) -> None:
-    """Cross-parameter and choice checks (one-line NodeParamError naming the problem); the
-    numeric limits of single parameters are AgentParams.ranges, checked by `parse`."""
-    if not 0 <= p.robot_index < p.robots:
-        raise NodeParamError(f"~robot_index {p.robot_index} not in 0..{p.robots - 1}")
-    if p.localization not in LOCALIZATIONS:
-        raise NodeParamError(f"~localization must be one of {', '.join(LOCALIZATIONS)}, got "
-                             f"{p.localization!r}")
-    if p.navigation not in NAVIGATIONS:
-        raise NodeParamError(f"~navigation must be builtin or move_base, got {p.navigation!r}")
-    if p.initial_pose and (len(p.initial_pose) != 3 or not all(
-            isinstance(v, (int, float)) and math.isfinite(v) for v in p.initial_pose)):
-        raise NodeParamError(f"~initial_pose must be [x, y, yaw], got {p.initial_pose}")
-    if sim and p.clock_offset != 0.0:
-        raise NodeParamError("~clock_offset needs the wall clock (use_sim_time false)")
-    if p.lockstep and p.navigation == "move_base":
-        raise NodeParamError("~lockstep needs ~navigation builtin (move_base drives the robot)")
 
 
 class AgentNode:
@@ -161,14 +125,7 @@ class AgentNode:
         """The robot's model, controller, strategy and AgentRuntime; navigation and the pose
         origin."""
         robot = agent_robot(p, patrol_map)
-        cfg = ControllerConfig(
-            max_linear_speed=robot.speed_mps,
-            max_angular_speed=robot.max_angular_speed,
-            robot_radius=robot.radius_m,
-            safety_margin=p.safety_margin, plan_margin=p.plan_margin,
-            stuck_timeout_s=p.stuck_timeout, backoff_s=p.backoff_time, max_retries=p.max_retries,
-            retry_wait_s=retry_wait_for(p.robot_index),
-        )
+        cfg = agent_controller(p, robot)
         policy = REGISTRY.create(p.strategy, p.strategy_params)
         # Built-in navigation plans on the map's occupancy grid, as the physics runtime does.
         planner = (shared_planner(patrol_map, cfg.robot_radius)
@@ -198,14 +155,8 @@ class AgentNode:
         self._scan = None
         self._deferred = None  # lock-step: (stamp, run time) of a tick waiting for its scan
         self._stride = 1
-        self.origin = None
-        if p.localization == "odom":
-            if p.initial_pose:
-                self.origin = tuple(float(v) for v in p.initial_pose)
-            else:
-                v = start_vertices(patrol_map, p.robots)[p.robot_index]
-                self.origin = (*map(float, patrol_map.positions[v]), 0.0)
-        elif p.initial_pose and p.localization in ("tf", "amcl"):
+        self.origin = odom_origin(p, patrol_map)  # odom frame in the map frame
+        if p.initial_pose and p.localization in ("tf", "amcl"):
             self._send_initial_pose(p.initial_pose)
 
 
@@ -223,7 +174,7 @@ class AgentNode:
         self.base_frame = p.base_frame or (f"{ns}/base_footprint" if ns else "base_footprint")
         # The laser's mounting (base -> laser frame) from /tf_static: scan points are used in
         # the base frame, as in the physics runtime (LDS-01 on a Burger: 3.2 cm behind).
-        self._statics = {}  # child -> (parent, x, y, yaw)
+        self._statics = StaticFrames()
         self.laser_pose = None  # (x, y, yaw) of the laser in the base frame, once known
         self._laser_frame = None
         rospy.Subscriber("/tf_static", TFMessage, self.on_tf_static, queue_size=5)
@@ -398,9 +349,7 @@ class AgentNode:
         pose = msg.pose.pose
         x, y, th = pose.position.x, pose.position.y, yaw_of(pose.orientation)
         if self.origin is not None:  # odom frame -> map frame
-            ox, oy, oth = self.origin
-            c, s = math.cos(oth), math.sin(oth)
-            x, y, th = ox + c * x - s * y, oy + s * x + c * y, th + oth
+            x, y, th = compose(self.origin, (x, y, th))
         self.pose_tick(msg.header.stamp, x, y, th)
 
     def on_tf(self, msg):
@@ -427,27 +376,16 @@ class AgentNode:
         with self.lock:
             for tf in msg.transforms:
                 tr = tf.transform
-                self._statics[tf.child_frame_id.lstrip("/")] = (
-                    tf.header.frame_id, tr.translation.x, tr.translation.y, yaw_of(tr.rotation))
+                self._statics.add(tf.header.frame_id, tf.child_frame_id, tr.translation.x,
+                                  tr.translation.y, yaw_of(tr.rotation))
             if self.chain is not None:
-                self._feed_statics(self.chain)
+                self._statics.feed(self.chain)
             if self.laser_pose is None and self._laser_frame:
                 self._find_laser()
 
-    def _feed_statics(self, chain):
-        """The static transforms into `chain`, in as many passes as links join it."""
-        for _ in range(chain.max_links):
-            before = len(chain.links)
-            for child, (parent, x, y, yaw) in self._statics.items():
-                chain.update(parent, child, x, y, yaw, 0.0)
-            if len(chain.links) == before:
-                break
-
     def _find_laser(self):
         """The laser frame's pose in the base frame from the static transforms, if complete."""
-        chain = FrameChain(self.base_frame, self._laser_frame)
-        self._feed_statics(chain)
-        pose = chain.pose() if self._laser_frame.lstrip("/") != self.base_frame else None
+        pose = self._statics.pose_in(self.base_frame, self._laser_frame)
         if pose is not None:
             self.laser_pose = pose[:3]
             self.points = None
@@ -588,7 +526,7 @@ def main():
     try:
         p = parse(AgentParams, private_params(), rospy.get_name())
         sim = bool(rospy.get_param("/use_sim_time", False))
-        check_params(p, sim)
+        check_agent_params(p, sim)
         patrol_map = load_map(p.map, params=p.map_params, params_origin="~map_params")
         node = AgentNode(p, patrol_map, sim)
     except (NodeParamError, MapError, ParameterError, KeyError) as err:

@@ -24,14 +24,12 @@ from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
-import numpy as np
-
 from tpuaf.maps import load_map
 from tpuaf.measure.metrics import RunRecorder
 from tpuaf.robot.machine import RobotMachine
 from tpuaf.runtimes.config import RunConfig, run_robot, travel_map
 from tpuaf.runtimes.faults import DEATH, Fault
-from tpuaf.team.bus import TeamBus
+from tpuaf.team.bus import TeamBus, bus_stream
 from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, heartbeat_links
 from tpuaf.topics import DWELL, GOAL, REACHED, START
 
@@ -50,8 +48,7 @@ class TeamRun:
         self.patrol_map = travel_map(config, self.source_map, self.robot)
         self.seed = int(config.seed)
         self.now = 0.0
-        self.bus = TeamBus(config.robots, config.delay_s, config.loss,
-                           np.random.default_rng([self.seed, 1]))
+        self.bus = TeamBus(config.robots, config.delay_s, config.loss, bus_stream(self.seed))
         self.faults = config.faults()
         self.recorder: RunRecorder | None = None
         self.machines: list[RobotMachine] = []
@@ -109,23 +106,24 @@ class TeamRun:
         """Hand every ready message to its live recipients."""
         ready = self.bus.ready
         machines = self.machines
-        stats = self.bus.stats
         if self.links is not None:
             self._deliver_heard()
             return
+        delivered = 0
         while ready:
             message, recipients = ready.popleft()
             for r in recipients:
                 machine = machines[r]
                 if machine.alive:
                     machine.on_message(message)
-                    stats.delivered += 1
+                    delivered += 1
+        self.bus.count_delivered(delivered)
 
     def _deliver_heard(self) -> None:
         """deliver_ready, each message also heard by its recipient's liveness."""
         ready = self.bus.ready
         machines = self.machines
-        stats = self.bus.stats
+        delivered = 0
         while ready:
             message, recipients = ready.popleft()
             sender = getattr(message, "robot", -1)
@@ -135,7 +133,8 @@ class TeamRun:
                     if machine.hear(sender, self.now):
                         self._plan_liveness(r)  # back: its next silence may come sooner
                     machine.on_message(message)
-                    stats.delivered += 1
+                    delivered += 1
+        self.bus.count_delivered(delivered)
 
     # --- liveness (runs with faults) ---
     def start_liveness(self) -> None:
@@ -191,7 +190,7 @@ class TeamRun:
         if fault.kind == DEATH:
             self._stop_motion(i)
             machine.die()
-            self.bus.alive[i] = False
+            self.bus.set_dead(i)
             self.recorder.record_robot_death(i, self.now)
             self._died_at[i] = self.now
             self.links.died(i, self.now)  # its heartbeats stop: every survivor's checks move
@@ -221,7 +220,6 @@ class TeamRun:
         """How the survivors noticed each death (see `liveness_summary`)."""
         return liveness_summary(float(self.config.teammate_timeout_s), self.links.period_s,
                                 self._died_at, self.losses)
-
 
 def liveness_summary(teammate_timeout_s: float, heartbeat_period_s: float,
                      died_at: dict[int, float], losses: list[tuple[float, int, int]]

@@ -26,7 +26,7 @@ from dataclasses import asdict
 import numpy as np
 
 from tpuaf.maps import load_map, start_vertices
-from tpuaf.measure.metrics import RunRecorder, build_summary, recovery_after_deaths
+from tpuaf.measure.metrics import RecorderView, RunRecorder
 from tpuaf.navigation import navigator_give_up_s
 from tpuaf.policies import REGISTRY, RobotContextBase
 from tpuaf.policies.core import CoreStrategyPolicy
@@ -34,7 +34,7 @@ from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, announced_vertex
 from tpuaf.runtimes.base import TeamRun, liveness_summary
 from tpuaf.runtimes.config import RunConfig, run_description, run_robot, travel_map
 from tpuaf.runtimes.faults import DEATH
-from tpuaf.team.bus import BusStats
+from tpuaf.team.bus import BusStats, bus_stream
 from tpuaf.team.liveness import heartbeat_streams
 
 
@@ -149,11 +149,13 @@ class _Bus:
         return BusStats(sent=sent, delivered=delivered, lost=lost)
 
 
-class GraphRecorder:
-    """RunRecorder's read side over the C++ recorder (what results.ResultsWriter reads)."""
+class GraphRecorder(RecorderView):
+    """The read side of the C++ event loop's recorder (what results.ResultsWriter reads); the
+    loop feeds it itself."""
 
     def __init__(self, run: GraphRun):
         self._engine = run._engine
+        self._core = run._engine.recorder
         self.patrol_map = run.patrol_map
         self.n_robots = run.config.robots
         # [m/s] the survivors' ideal of the recovery metrics (RunRecorder's default)
@@ -166,128 +168,41 @@ class GraphRecorder:
         self.start_time = 0.0
         self.sample_period_s = float(run.config.sample_period_s)
         self.d_if = float(run.patrol_map.settings.interference_distance)
-        self._visits: list = []
-        self._idleness: list = []
-        self._rows: list = []
+        self.ground_truth = True
+        self._start_view()
 
-    @property
-    def visits(self) -> list[tuple[float, int, int]]:
-        if len(self._visits) < self._engine.visit_count:
-            self._visits.extend(self._engine.visits(len(self._visits)))
-        return self._visits
+    def finish(self, end_time: float) -> None:
+        """The loop's recorder brought to the loop's now (the run's end)."""
+        self._engine.finish()
 
-    @property
-    def dwells(self) -> int:
-        """Goal arrivals that were no visit (VisitRule): dwells on the vertex stood on."""
-        return int(self._engine.dwells)
-
-    @property
-    def dwell_time_s(self) -> float:
-        return float(self._engine.dwell_time_s)
-
-    @property
-    def visit_idleness(self) -> list[float]:
-        if len(self._idleness) < self._engine.visit_count:
-            self._idleness.extend(self._engine.visit_idleness(len(self._idleness)))
-        return self._idleness
-
-    @property
-    def timeseries(self) -> list[dict]:
-        if len(self._rows) < self._engine.row_count:
-            self._rows.extend(self._engine.timeseries(len(self._rows)))
-        return self._rows
+    def _flush(self) -> None:
+        self._engine.finish()
 
     def timeseries_since(self, first: int) -> list[dict]:
         """The 1 Hz rows from index `first` on, not cached here."""
-        return self._engine.timeseries(first)
+        return self._core.timeseries(first)
 
     def forget_timeseries_before(self, first: int) -> None:
-        """The engine drops the rows before index `first` (a results writer has them on
+        """The recorder drops the rows before index `first` (a results writer has them on
         disk: a long run's memory stays bounded; `timeseries` can then no longer be read from
         the start)."""
-        self._engine.forget_rows_before(first)
+        self._core.forget_rows_before(first)
         self._rows = []
 
     def visits_since(self, first: int) -> tuple[list, list]:
         """(visits, their idleness) from index `first` on, not cached here."""
-        return self._engine.visits(first), self._engine.visit_idleness(first)
+        return self._core.visits(first), self._core.visit_idleness(first)
 
     def forget_visits_before(self, first: int) -> None:
-        """The engine drops the visits before index `first` (a results writer has them in
-        visits.csv); the summary needs none of them (per-vertex times stay in the engine), but
-        `visits` can then no longer be read from the start. A run with deaths keeps them (its
-        recovery metrics read them)."""
+        """The recorder drops the visits before index `first` (a results writer has them in
+        visits.csv); the summary needs none of them (per-vertex times stay in the recorder),
+        but `visits` can then no longer be read from the start. A run with deaths keeps them
+        (its recovery metrics read them)."""
         if self._keep_visits:
             return
-        self._engine.forget_visits_before(first)
+        self._core.forget_visits_before(first)
         self._visits = []
         self._idleness = []
-
-    @property
-    def interferences(self) -> list[tuple[float, int, int]]:
-        return self._engine.interferences
-
-    @property
-    def interval_samples(self) -> list[float]:
-        return self._engine.interval_samples.tolist()
-
-    @property
-    def first_visit_times(self) -> list[float]:
-        """[s] each vertex's first visit (NaN: none), without reading the visit log."""
-        return list(self._engine.first_visit_times)
-
-    @property
-    def visit_counts(self) -> list[int]:
-        return [int(c) for c in self._engine.visit_counts]
-
-    @property
-    def deaths(self) -> list[tuple[float, int]]:
-        return self._engine.deaths
-
-    @property
-    def stalls(self) -> list[tuple[float, int]]:
-        return self._engine.stalls
-
-    @property
-    def announcements(self) -> list[tuple[float, int, int]]:
-        return self._engine.announcements
-
-    @property
-    def vertex_times(self) -> list[list[float]]:
-        """Per vertex, its visit times [s], sorted (runs with deaths keep every visit)."""
-        return self._engine.vertex_times
-
-    def recovery(self, end_time: float) -> list[dict]:
-        """RunRecorder.recovery of the same run."""
-        return recovery_after_deaths(
-            self.patrol_map, self.n_robots, self.speed_mps, self.start_time,
-            self._engine.vertex_times, self.visits, self.deaths, self.announcements, end_time,
-            teammate_timeout_s=self.teammate_timeout_s)
-
-    @property
-    def _pos_time(self) -> float | None:
-        return self._engine.positions_time
-
-    def worst_idleness(self, end_time: float) -> float:
-        return self._engine.worst_idleness(float(end_time))
-
-    def uncertainty(self) -> np.ndarray:
-        self._engine.finish()
-        return np.asarray(self._engine.field_values, dtype=float)
-
-    def summary(self, end_time: float) -> dict:
-        """RunRecorder.summary of the same run, key for key and digit for digit."""
-        engine = self._engine
-        engine.finish()
-        end_time = float(end_time)
-        deaths = self.deaths
-        return build_summary(
-            self, end_time, interval_samples=engine.interval_samples, ins_sum=engine.ins_sum,
-            n_rows=engine.row_count, worst=engine.worst_idleness(end_time), x_sum=engine.x_sum,
-            x_count=engine.x_count, x_final=float(np.mean(engine.field_values)),
-            n_interferences=len(engine.interferences), n_visits=engine.visit_count,
-            deaths=deaths, stalls=self.stalls,
-            recovery=self.recovery(end_time) if deaths else None)
 
 
 class GraphRun:
@@ -340,7 +255,7 @@ class GraphRun:
             self.patrol_map.uncertainty_model(),
         )
         self._engine = tpuaf_core.GraphEngine(
-            self.graph, positions, ec, field, _rng_stream(self.seed, 1)
+            self.graph, positions, ec, field, bus_stream(self.seed)
         )
         if self.faults:
             self._engine.set_faults([float(f.time_s) for f in self.faults],
@@ -402,7 +317,7 @@ class GraphRun:
         summary["messages"] = asdict(self.bus.stats)
         summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
         if self.faults:
-            died_at = {int(robot): float(t) for t, robot in self._engine.deaths}
+            died_at = {int(robot): float(t) for t, robot in self.recorder.deaths}
             summary["liveness"] = liveness_summary(
                 float(self.config.teammate_timeout_s), float(TeamRun.heartbeat_period_s),
                 died_at, self.losses)

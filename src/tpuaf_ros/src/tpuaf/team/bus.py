@@ -1,21 +1,26 @@
-"""In-process team bus of the batch runtime: broadcast with a fixed delay and seeded loss.
+"""The team bus of the physics runtime and the fleet's relay: the core's one bus, with Python
+messages.
 
-The ROS runtime carries the same typed messages (tpuaf.team.messages) on topics; this bus models what
-a radio does to them: every recipient independently loses a message with probability `loss`,
-and the others receive it `delay_s` seconds after it was sent. The bus keeps the messages in
-flight itself (`in_flight`, a heap); a runtime
-releases them into `ready` when they are due (in due order, then send order) and then hands `ready` to the robots.
+The ROS runtime carries the same typed messages (tpuaf.team.messages) on topics; the bus models
+what a radio does to them: every recipient independently loses a message with probability
+`loss`, and the others receive it `delay_s` seconds after it was sent. The loss draws, the
+counters, the live robots and the messages in flight are the core's `tpuaf_core.TeamBus` (the
+graph loop's bus too); this adapter keeps each Python message under the id the core carries. A
+runtime releases the messages in flight into `ready` when they are due (in due order, then send
+order) and then hands `ready` to the robots, counting what it delivered.
 """
 
 from __future__ import annotations
 
-import heapq
 import itertools
-import math
 from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import tpuaf_core
+
+BUS_STREAM_KEY = 1  # the bus's losses: numpy default_rng([seed, 1, *subkey])
 
 
 @dataclass
@@ -25,53 +30,67 @@ class BusStats:
     lost: int = 0
 
 
+def bus_stream(seed: int, *subkey: int) -> tpuaf_core.NumpyPcg64:
+    """The loss stream of a run's bus: numpy default_rng([seed, 1, *subkey]) (the graph loop's
+    and the physics runtime's; the fleet relay adds its own subkey)."""
+    generator = np.random.default_rng([int(seed), BUS_STREAM_KEY, *map(int, subkey)])
+    return tpuaf_core.NumpyPcg64(generator.bit_generator.state)
+
+
 class TeamBus:
-    def __init__(self, n_robots: int, delay_s: float, loss: float, rng: np.random.Generator):
-        if not (delay_s >= 0 and np.isfinite(delay_s)):
-            raise ValueError(f"message delay must be a finite number >= 0 s, got {delay_s}")
-        if not 0.0 <= loss <= 1.0:
-            raise ValueError(f"message loss probability must be in [0, 1], got {loss}")
-        self.n_robots = n_robots
+    def __init__(self, n_robots: int, delay_s: float, loss: float,
+                 stream: tpuaf_core.NumpyPcg64):
+        self._core = tpuaf_core.TeamBus(int(n_robots), float(delay_s), float(loss), stream)
+        self.n_robots = int(n_robots)
         self.delay_s = float(delay_s)
         self.loss = float(loss)
-        self.rng = rng
-        self.alive = np.ones(n_robots, dtype=bool)
-        self.stats = BusStats()
-        self.ready: deque = deque()  # (message, recipients) to deliver now
-        self.in_flight: list = []  # heap of (due time [s], send order, message, recipients)
-        self._order = itertools.count()
+        self.ready: deque[tuple[Any, list[int]]] = deque()  # (message, recipients) to deliver now
+        self._messages: dict[int, Any] = {}  # id -> message in flight
+        self._ids = itertools.count()
 
-    def recipients(self, sender: int) -> list[int]:
-        keep = self.alive.copy()
-        keep[sender] = False
-        if self.loss > 0:
-            lost = self.rng.random(self.n_robots) < self.loss
-            self.stats.lost += int(np.count_nonzero(keep & lost))
-            keep &= ~lost
-        return np.flatnonzero(keep).tolist()
+    @property
+    def stats(self) -> BusStats:
+        sent, delivered, lost = self._core.stats
+        return BusStats(sent=sent, delivered=delivered, lost=lost)
+
+    def count_delivered(self, pairs: int) -> None:
+        """(message, recipient) pairs handed to live robots."""
+        self._core.count_delivered(int(pairs))
+
+    def set_dead(self, robot: int) -> None:
+        """Robot `robot` died: it receives nothing sent from now on."""
+        self._core.set_alive(int(robot), False)
+
+    @property
+    def in_flight(self) -> int:
+        """Messages sent and not yet due."""
+        return self._core.in_flight
 
     def send(self, sender: int, message, now: float) -> None:
         """Broadcast at time `now` [s]: ready at once without delay, else in flight."""
-        self.stats.sent += 1
-        recipients = self.recipients(sender)
-        if not recipients:
-            return
+        key = next(self._ids)
+        if not self._core.send(sender, key, now):
+            return  # nobody is to receive it
+        self._messages[key] = message
         if self.delay_s == 0:
-            self.ready.append((message, recipients))
-        else:
-            heapq.heappush(self.in_flight,
-                           (now + self.delay_s, next(self._order), message, recipients))
+            self._take_ready()
 
     def next_due_s(self) -> float:
         """[s] when the next message in flight is due (+inf if none)."""
-        return self.in_flight[0][0] if self.in_flight else math.inf
+        return self._core.next_due_s()
 
     def release_next(self) -> None:
         """The next message in flight becomes ready."""
-        _, _, message, recipients = heapq.heappop(self.in_flight)
-        self.ready.append((message, recipients))
+        self._core.release_next()
+        self._take_ready()
 
     def release_due(self, now: float, slack_s: float = 1e-9) -> None:
         """Every message in flight due by `now` [s] (within `slack_s`) becomes ready."""
-        while self.in_flight and self.in_flight[0][0] <= now + slack_s:
-            self.release_next()
+        if self._core.next_due_s() <= now + slack_s:
+            self._core.release_due(now, slack_s)
+            self._take_ready()
+
+    def _take_ready(self) -> None:
+        messages = self._messages
+        for key, recipients in self._core.take_ready():
+            self.ready.append((messages.pop(key), recipients))

@@ -12,15 +12,13 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
-from tpuaf.team.bus import BusStats, TeamBus
+from tpuaf.team.bus import BusStats, TeamBus, bus_stream
 
 
 class RelayModel:
     def __init__(self, n_robots: int, delay_s: float, loss: float, seed: int):
-        # The batch runtime seeds its bus with [seed, 1]; the relay with its own stream.
-        self.bus = TeamBus(n_robots, delay_s, loss, np.random.default_rng([int(seed), 1, 7]))
+        # The batch runtimes draw their losses from [seed, 1]; the relay from [seed, 1, 7].
+        self.bus = TeamBus(n_robots, delay_s, loss, bus_stream(seed, 7))
 
     @property
     def stats(self) -> BusStats:
@@ -39,8 +37,8 @@ class RelayModel:
         while self.bus.ready:
             msg, recipients = self.bus.ready.popleft()
             out += [(r, msg) for r in recipients]
-        self.bus.stats.delivered += len(out)
+        self.bus.count_delivered(len(out))
         return out
 
     def pending(self) -> int:
-        return len(self.bus.in_flight)
+        return self.bus.in_flight

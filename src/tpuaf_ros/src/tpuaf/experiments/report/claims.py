@@ -48,13 +48,38 @@ def _cmp_text(m, n, col_label, res) -> str:
             f"{fmt(st_best.mean)}{note}")
 
 
-def verdicts(data: Data) -> list[Verdict]:
-    out: list[Verdict] = []
-    maps = [m for m in ("grid", "cumberland") if m in data.maps()]
-    among = [s for s in PAPER_STRATEGIES if s in data.strategies()]
-    extra = [s for s in data.strategies() if s not in PAPER_STRATEGIES]
+@dataclass(frozen=True)
+class _Scope:
+    """What the claims 2 to 4 compare: the paper's maps present, the paper's strategies present
+    (`among`) and the others (`extra`), the (map, N) cases at N = 8 and 12."""
 
-    # 1. idleness and uncertainty fall as N grows (over the paper's team sizes when present).
+    maps: list[str]
+    among: list[str]
+    extra: list[str]
+    cases: list[tuple[str, int]]
+    have_t: bool  # TPUAF ran
+    vs: str  # "among ... (the paper's comparison)"
+
+    @classmethod
+    def of(cls, data: Data) -> _Scope:
+        maps = [m for m in ("grid", "cumberland") if m in data.maps()]
+        among = [s for s in PAPER_STRATEGIES if s in data.strategies()]
+        return cls(maps, among, [s for s in data.strategies() if s not in PAPER_STRATEGIES],
+                   [(m, n) for m in maps for n in (8, 12) if n in data.robots(m)],
+                   "tpuaf" in data.strategies(),
+                   f"among {', '.join(label(s) for s in among)} (the paper's comparison)")
+
+
+def verdicts(data: Data) -> list[Verdict]:
+    """One verdict per claim of SPEC section 8, in its order."""
+    scope = _Scope.of(data)
+    return [_falling_verdict(data), _lowest_max_verdict(data, scope),
+            _lowest_ins_x_verdict(data, scope), _dtag_exception_verdict(data, scope),
+            _not_best_at_4_verdict(data, scope)]
+
+
+def _falling_verdict(data: Data) -> Verdict:
+    """1. idleness and uncertainty fall as N grows (over the paper's team sizes when present)."""
     paper_ns = [n for n in (4, 8, 12) if n in data.robots()]
     scope = paper_ns if len(paper_ns) >= 2 else data.robots()
     claim = ("Idleness (I_avg, I_ins) and uncertainty (X) fall as N grows, for every map and "
@@ -62,75 +87,79 @@ def verdicts(data: Data) -> list[Verdict]:
              f"N = {', '.join(map(str, scope))}")
     checked, broken = _falling(data, scope)
     if not checked:
-        out.append(Verdict(claim, "not tested", "Needs at least two team sizes."))
-    else:
-        bad = len({b.split(" (N")[0].rsplit(" ", 1)[0] for b in broken})
-        nums = f"Strictly falling in {checked - bad} of {checked} series (map, strategy, metric)"
-        nums += "." if not broken else "; exceptions: " + "; ".join(broken) + "."
-        if scope != data.robots():
-            _, more = _falling(data, data.robots())
-            more = [b for b in more if b not in broken]
-            nums += (f" Including N = {', '.join(str(n) for n in data.robots() if n not in scope)}"
-                     ": " + ("also " + "; ".join(more) if more else "no further exception") + ".")
-        out.append(Verdict(claim, "reproduced" if not broken else "not reproduced", nums))
+        return Verdict(claim, "not tested", "Needs at least two team sizes.")
+    bad = len({b.split(" (N")[0].rsplit(" ", 1)[0] for b in broken})
+    nums = f"Strictly falling in {checked - bad} of {checked} series (map, strategy, metric)"
+    nums += "." if not broken else "; exceptions: " + "; ".join(broken) + "."
+    if scope != data.robots():
+        _, more = _falling(data, data.robots())
+        more = [b for b in more if b not in broken]
+        nums += (f" Including N = {', '.join(str(n) for n in data.robots() if n not in scope)}"
+                 ": " + ("also " + "; ".join(more) if more else "no further exception") + ".")
+    return Verdict(claim, "reproduced" if not broken else "not reproduced", nums)
 
-    cases = [(m, n) for m in maps for n in (8, 12) if n in data.robots(m)]
-    have_t = "tpuaf" in data.strategies()
-    vs = f"among {', '.join(label(s) for s in among)} (the paper's comparison)"
 
-    # 2. TPUAF lowest I_max at N = 8 and 12 on both maps.
-    claim = f"TPUAF has the lowest I_max at N = 8 and 12 on grid and cumberland, {vs}"
-    results = [(m, n, _lowest(data, m, n, "idleness_max_s", among)) for m, n in cases]
+def _lowest_max_verdict(data: Data, scope: _Scope) -> Verdict:
+    """2. TPUAF lowest I_max at N = 8 and 12 on both maps."""
+    claim = f"TPUAF has the lowest I_max at N = 8 and 12 on grid and cumberland, {scope.vs}"
+    results = [(m, n, _lowest(data, m, n, "idleness_max_s", scope.among))
+               for m, n in scope.cases]
     results = [r for r in results if r[2] is not None]
-    if not have_t or len(results) < 4:
-        out.append(Verdict(claim, "not tested",
-                           "Needs TPUAF and another strategy on grid and cumberland at N = 8, 12."))
-    else:
-        wins = sum(r[2][0] for r in results)
-        nums = f"Lowest in {wins} of 4 cases: " + "; ".join(
-            _cmp_text(m, n, "I_max", r) for m, n, r in results) + "."
-        nums += _extra_note(data, cases, "idleness_max_s", extra)
-        out.append(Verdict(claim, "reproduced" if wins == 4 else "not reproduced", nums))
+    if not scope.have_t or len(results) < 4:
+        return Verdict(claim, "not tested",
+                       "Needs TPUAF and another strategy on grid and cumberland at N = 8, 12.")
+    wins = sum(r[2][0] for r in results)
+    nums = f"Lowest in {wins} of 4 cases: " + "; ".join(
+        _cmp_text(m, n, "I_max", r) for m, n, r in results) + "."
+    nums += _extra_note(data, scope.cases, "idleness_max_s", scope.extra)
+    return Verdict(claim, "reproduced" if wins == 4 else "not reproduced", nums)
 
-    # 3. TPUAF lowest I_ins and X in three of those four cases.
-    claim = f"TPUAF has the lowest I_ins and X in at least three of those four cases, {vs}"
-    res_ins = {(m, n): _lowest(data, m, n, "idleness_ins_mean_s", among) for m, n in cases}
-    res_x = {(m, n): _lowest(data, m, n, "uncertainty_mean", among) for m, n in cases}
-    if not have_t or len(cases) < 4 or any(v is None for v in [*res_ins.values(), *res_x.values()]):
-        out.append(Verdict(claim, "not tested",
-                           "Needs TPUAF and another strategy on grid and cumberland at N = 8, 12."))
-    else:
-        both = [c for c in cases if res_ins[c][0] and res_x[c][0]]
-        parts = [_cmp_text(m, n, "I_ins", res_ins[(m, n)]) + ", " +
-                 _cmp_text(m, n, "X", res_x[(m, n)]).split(": ", 1)[1] for m, n in cases]
-        nums = f"Lowest in both in {len(both)} of 4 cases: " + "; ".join(parts) + "."
-        nums += _extra_note(data, cases, "idleness_ins_mean_s", extra)
-        out.append(Verdict(claim, "reproduced" if len(both) >= 3 else "not reproduced", nums))
 
-    # 3b. The exception: DTAG lower on grid at N = 8.
+def _lowest_ins_x_verdict(data: Data, scope: _Scope) -> Verdict:
+    """3. TPUAF lowest I_ins and X in three of those four cases."""
+    claim = f"TPUAF has the lowest I_ins and X in at least three of those four cases, {scope.vs}"
+    cases = scope.cases
+    res_ins = {(m, n): _lowest(data, m, n, "idleness_ins_mean_s", scope.among) for m, n in cases}
+    res_x = {(m, n): _lowest(data, m, n, "uncertainty_mean", scope.among) for m, n in cases}
+    if not scope.have_t or len(cases) < 4 or \
+            any(v is None for v in [*res_ins.values(), *res_x.values()]):
+        return Verdict(claim, "not tested",
+                       "Needs TPUAF and another strategy on grid and cumberland at N = 8, 12.")
+    both = [c for c in cases if res_ins[c][0] and res_x[c][0]]
+    parts = [_cmp_text(m, n, "I_ins", res_ins[(m, n)]) + ", " +
+             _cmp_text(m, n, "X", res_x[(m, n)]).split(": ", 1)[1] for m, n in cases]
+    nums = f"Lowest in both in {len(both)} of 4 cases: " + "; ".join(parts) + "."
+    nums += _extra_note(data, cases, "idleness_ins_mean_s", scope.extra)
+    return Verdict(claim, "reproduced" if len(both) >= 3 else "not reproduced", nums)
+
+
+def _dtag_exception_verdict(data: Data, scope: _Scope) -> Verdict:
+    """3b. The exception: DTAG lower on grid at N = 8."""
     claim = "DTAG is lower than TPUAF in I_ins and X on grid at N = 8 (the paper's exception)"
-    if ("grid", 8) not in cases or "dtag" not in data.strategies("grid") or not have_t:
-        out.append(Verdict(claim, "not tested", "Needs DTAG and TPUAF on grid at N = 8."))
-    else:
-        parts, ok = [], True
-        for col, name in (("idleness_ins_mean_s", "I_ins"), ("uncertainty_mean", "X")):
-            d, t = data.stat("grid", "dtag", 8, col), data.stat("grid", "tpuaf", 8, col)
-            ok &= d.mean < t.mean
-            note = " (95 % CIs overlap)" if _overlap(d, t) else ""
-            parts.append(f"{name}: DTAG {fmt(d.mean)} {'<' if d.mean < t.mean else '≥'} TPUAF "
-                         f"{fmt(t.mean)}{note}")
-        out.append(Verdict(claim, "reproduced" if ok else "not reproduced", "; ".join(parts) + "."))
+    if ("grid", 8) not in scope.cases or "dtag" not in data.strategies("grid") or \
+            not scope.have_t:
+        return Verdict(claim, "not tested", "Needs DTAG and TPUAF on grid at N = 8.")
+    parts, ok = [], True
+    for col, name in (("idleness_ins_mean_s", "I_ins"), ("uncertainty_mean", "X")):
+        d, t = data.stat("grid", "dtag", 8, col), data.stat("grid", "tpuaf", 8, col)
+        ok &= d.mean < t.mean
+        note = " (95 % CIs overlap)" if _overlap(d, t) else ""
+        parts.append(f"{name}: DTAG {fmt(d.mean)} {'<' if d.mean < t.mean else '≥'} TPUAF "
+                     f"{fmt(t.mean)}{note}")
+    return Verdict(claim, "reproduced" if ok else "not reproduced", "; ".join(parts) + ".")
 
-    # 4. TPUAF not best at N = 4.
+
+def _not_best_at_4_verdict(data: Data, scope: _Scope) -> Verdict:
+    """4. TPUAF not best at N = 4."""
     claim = ("TPUAF is not best at N = 4: on each map some table metric (I_ins, I_max, I_std, X) "
-             f"is lower for another strategy {vs}")
+             f"is lower for another strategy {scope.vs}")
     cols = [("idleness_ins_mean_s", "I_ins"), ("idleness_max_s", "I_max"),
             ("idleness_std_s", "I_std"), ("uncertainty_mean", "X")]
     per_map, ok, tested = [], True, False
-    for m in maps:
-        if 4 not in data.robots(m) or not have_t:
+    for m in scope.maps:
+        if 4 not in data.robots(m) or not scope.have_t:
             continue
-        res = [(name, _lowest(data, m, 4, col, among)) for col, name in cols]
+        res = [(name, _lowest(data, m, 4, col, scope.among)) for col, name in cols]
         res = [(name, r) for name, r in res if r is not None]
         if not res:
             continue
@@ -142,11 +171,8 @@ def verdicts(data: Data) -> list[Verdict]:
         per_map.append(f"{m}: TPUAF lowest in {', '.join(best) or 'none of them'}"
                        + (f"; not lowest in {', '.join(not_best)}" if not_best else ""))
     if not tested:
-        out.append(Verdict(claim, "not tested", "Needs TPUAF and another strategy at N = 4."))
-    else:
-        out.append(Verdict(claim, "reproduced" if ok else "not reproduced",
-                           "; ".join(per_map) + "."))
-    return out
+        return Verdict(claim, "not tested", "Needs TPUAF and another strategy at N = 4.")
+    return Verdict(claim, "reproduced" if ok else "not reproduced", "; ".join(per_map) + ".")
 
 
 def _falling(data: Data, ns_all: list[int]) -> tuple[int, list[str]]:

@@ -32,7 +32,7 @@ PAPER_STRATEGIES = ["gbs", "dtag", "dtap", "tpuaf"]  # the paper's comparison se
 ORDER = ["gbs", "sebs", "cbls", "dtag", "dtap", "tpuaf", "tpuaf_plus", "tpuaf_any", "cgg", "msp",
          "cr", "hcr", "hpcc", "rand"]
 PAPER_TABLE = {"cumberland": 2, "grid": 3, "lab": 4}
-NOMINAL = "nominal"  # tpuaf.experiments.sweep.NOMINAL: the fault-free graph runs
+NOMINAL = "nominal"  # tpuaf.experiments.sweep.grid.NOMINAL: the fault-free graph runs
 # The fault scenarios of the canonical comparison (issue 13): a quarter of the team dies at half
 # the run, 30 % message loss, 5 s delay. Other scenarios appear in the degradation curves only.
 FAULT_SCENARIOS = ["deaths1of4", "loss0.3", "delay5"]

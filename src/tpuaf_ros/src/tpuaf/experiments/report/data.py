@@ -183,7 +183,7 @@ def load_paper(path: Path | None) -> dict[tuple[str, int, str, str], float]:
 def load(root: Path, paper: Path | None = None, bounds: Path | None = None) -> Data:
     """The report's inputs, read under the folder's reader lock (a sweep writing there holds
     the writer lock: then read anyway, and the progress says the sweep is running)."""
-    from tpuaf.experiments.results import read_lock
+    from tpuaf.experiments.results_folder import read_lock
 
     root = Path(root)
     if not root.is_dir():
@@ -195,7 +195,7 @@ def load(root: Path, paper: Path | None = None, bounds: Path | None = None) -> D
 
 
 def _load(root: Path, paper: Path | None, bounds: Path | None) -> Data:
-    from tpuaf.experiments.sweep import write_tables
+    from tpuaf.experiments.sweep.tables import write_tables
 
     if (root / "runs").is_dir():
         write_tables(root)
