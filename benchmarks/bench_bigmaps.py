@@ -2,7 +2,7 @@
 with 100 robots against the vertex count of a generated building-like graph.
 
     .venv/bin/python benchmarks/bench_bigmaps.py [--sizes 1000,2000,5000,10000,20000]
-        [--repeats 3] [--robots 100] [--duration 3600] [--strategy tpuaf] [--out NAME]
+        [--repeats 3] [--robots 100] [--duration 3600] [--strategy tpuaf] [--out NAME] [--tours]
 
 Each map is a jittered square lattice (rooms 2 m apart) with a quarter of its edges dropped
 (a seeded spanning tree is always kept), written as one of our map folders (map.yaml +
@@ -140,8 +140,54 @@ def bench(args: argparse.Namespace) -> list[dict]:
                 print(f"{n:>6} vertices  {what:<4}  {row[what]['wall_s']:7.2f} s  "
                       f"(CPU {row[what]['cpu_s']:6.2f} s)  "
                       f"{row[what]['peak_mb']:7.0f} MB  (exit {row[what]['exit']})", flush=True)
+            if args.tours:
+                row["tours"] = tour_quality(folder)
+                t = row["tours"]
+                ratio = (f"{t['sparse']['length_m'] / t['dense']['length_m']:.3f} x dense"
+                         if "dense" in t else "")
+                print(f"{n:>6} vertices  tour  sparse {t['sparse']['length_m']:,.1f} m "
+                      f"({t['sparse']['cpu_s']:.2f} s CPU) {ratio}", flush=True)
             rows.append(row)
     return rows
+
+
+DENSE_TOURS_MAX = 2_500  # vertices: the dense tour (k x k matrix) is measured up to this
+
+
+def tour_quality(folder: Path) -> dict:
+    """The closed walk through every vertex (tpuaf_plus's cycle) with the sparse search at its
+    default effort (tours._effort) and, up to DENSE_TOURS_MAX vertices, with the dense one at
+    the effort small maps get (12 starts, 10 kicks per vertex): lengths [m] and CPU times [s]."""
+    import tpuaf_core
+    from tpuaf.maps import load_map, tours
+
+    graph = load_map(folder).graph
+    n = graph.num_vertices
+    out = {"vertices": n}
+    runs = {"sparse": (*tours._effort(n), "sparse")}
+    if n <= DENSE_TOURS_MAX:
+        runs["dense"] = (12, max(30, 10 * n), "dense")
+    for name, (starts, kicks, metric) in runs.items():
+        start = time.process_time()
+        _, length = tpuaf_core.closed_walk(graph, list(range(n)), starts, kicks, tours.SEED,
+                                           metric)
+        out[name] = {"length_m": length, "cpu_s": time.process_time() - start,
+                     "starts": starts, "kicks": kicks}
+    return out
+
+
+def tour_table(rows: list[dict]) -> str:
+    lines = ["| vertices | sparse: starts, kicks | sparse length [m] | sparse CPU [s] | "
+             "dense: starts, kicks | dense length [m] | dense CPU [s] | sparse / dense |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        t = r["tours"]
+        sp, de = t["sparse"], t.get("dense")
+        dense = (f"{de['starts']}, {de['kicks']:,} | {de['length_m']:,.1f} | {de['cpu_s']:.2f} | "
+                 f"{sp['length_m'] / de['length_m']:.3f}") if de else "- | - | - | -"
+        lines.append(f"| {t['vertices']:,} | {sp['starts']}, {sp['kicks']:,} | "
+                     f"{sp['length_m']:,.1f} | {sp['cpu_s']:.2f} | {dense} |")
+    return "\n".join(lines)
 
 
 def table(rows: list[dict]) -> str:
@@ -166,6 +212,9 @@ def main() -> None:
     p.add_argument("--duration", type=float, default=3600.0, help="[s] simulated")
     p.add_argument("--strategy", default="tpuaf")
     p.add_argument("--out", default="bigmaps", help="results name (benchmarks/results/NAME.md)")
+    p.add_argument("--tours", action="store_true",
+                   help="also the closed walk through every vertex: sparse search against the "
+                        f"dense one (up to {DENSE_TOURS_MAX:,} vertices)")
     args = p.parse_args()
     args.sizes = [int(s) for s in args.sizes.split(",")]
     command = "benchmarks/bench_bigmaps.py " + shlex.join(sys.argv[1:])
@@ -182,6 +231,12 @@ def main() -> None:
              f"(`write_building`). Target (issue 34): at 10,000 vertices each under "
              f"{TARGET_S:g} s and {TARGET_MB:g} MB.\n\n")
     text += table(rows) + "\n"
+    if args.tours:
+        text += ("\nThe closed walk through every vertex (tpuaf_plus's cycle, `tours.closed_walk`): "
+                 "the sparse search (lengths on demand, above `tpuaf_core.DENSE_TOUR_MAX` "
+                 "vertices) at its default effort against the dense one (the k x k matrix) at "
+                 "the effort of small maps, CPU time in this process:\n\n")
+        text += tour_table(rows) + "\n"
     write(f"{args.out}.md", text)
     (RESULTS / f"{args.out}.json").write_text(json.dumps(
         {"command": command, "robots": args.robots, "duration_s": args.duration,

@@ -104,3 +104,67 @@ def test_a_big_map_loads_and_runs_without_an_all_pairs_matrix(tmp_path):
     g = pm.graph
     assert not g.has_dense_matrices  # no n x n matrix anywhere on this path
     assert g.cached_rows <= 30 + 1  # a row per start vertex at most
+
+
+def _building(tmp_path, n):
+    return load_map(_bench().write_building(tmp_path / f"b{n}", n))
+
+
+def test_distances_from_a_set_are_the_least_row_entries(tmp_path):
+    g = _building(tmp_path, 400).graph
+    sources = [3, 150, 151, 399]
+    want = np.min([g.distances_from(s) for s in sources], axis=0)
+    assert np.allclose(g.distances_from_set(sources), want, rtol=0, atol=1e-9)
+    assert np.array_equal(g.distances_from_set([7]), g.distances_from(7))
+
+
+def test_sparse_tour_is_a_closed_walk_through_every_vertex_and_near_the_dense_one(tmp_path):
+    g = _building(tmp_path, 1100).graph  # 1,089 vertices: > DENSE_TOUR_MAX, sparse by default
+    n = g.num_vertices
+    assert n > core.DENSE_TOUR_MAX
+    walk, length = core.closed_walk(g, list(range(n)), 1, n // 2, 12345)  # tours._effort's
+    assert set(walk) == set(range(n))
+    assert all(g.has_edge(walk[i], walk[(i + 1) % len(walk)]) for i in range(len(walk)))
+    assert length == pytest.approx(sum(g.edge_length(walk[i], walk[(i + 1) % len(walk)])
+                                       for i in range(len(walk))), rel=1e-12)
+    assert not g.has_dense_matrices
+    _, dense = core.closed_walk(g, list(range(n)), 12, 10 * n, 12345, "dense")
+    assert dense <= length < 1.05 * dense  # measured: +2 % (docs/MAPS.md "Big maps")
+    again, _ = core.closed_walk(g, list(range(n)), 1, n // 2, 12345)
+    assert again == walk  # deterministic: every robot plans the same
+
+
+def test_sparse_and_dense_metrics_search_alike_on_a_small_set():
+    pos = np.array([(c, r) for r in range(6) for c in range(6)], dtype=float)
+    edges = [(r * 6 + c, r * 6 + c + 1) for r in range(6) for c in range(5)]
+    edges += [(r * 6 + c, (r + 1) * 6 + c) for r in range(5) for c in range(6)]
+    g = core.PatrolGraph(pos, [(u, v, 1.0 + 0.1 * ((u * 7 + v) % 3)) for u, v in edges])
+    part = [v for v in range(36) if v % 6 < 4]  # a connected 6 x 4 block
+    dense = core.closed_walk(g, part, 12, 240, 12345, "dense")
+    sparse = core.closed_walk(g, part, 12, 240, 12345, "sparse")
+    assert sparse[1] == pytest.approx(dense[1], rel=0.02)
+    assert set(sparse[0]) == set(part)
+    with pytest.raises(ValueError, match="do not induce a connected subgraph"):
+        core.closed_walk(g, [0, 2, 4, 13], 1, 0, 12345, "sparse")
+    with pytest.raises(ValueError, match="metric"):
+        core.closed_walk(g, part, 1, 0, 12345, "other")
+
+
+def test_a_big_map_plans_tpuaf_plus_without_an_all_pairs_matrix(tmp_path):
+    from tpuaf.policies import tpuaf_plus
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import GraphRun
+
+    folder = _bench().write_building(tmp_path / "plus", 3000)
+    pm = load_map(folder)
+    g = pm.graph
+    plan = tpuaf_plus.make_plan(pm, tuple(range(30)), tuple(start_vertices(pm, 30)), "auto")
+    assert {v for r in plan.routes for v in r.walk} == set(range(g.num_vertices))
+    assert not g.has_dense_matrices  # the cycle, the partition, the schedule: rows only
+    survivors = tpuaf_plus.make_plan(pm, tuple(range(1, 30)), tuple(start_vertices(pm, 30)),
+                                     "partition", "replan")  # parts from set searches
+    assert set(survivors.route_of) == set(range(1, 30))
+    run = GraphRun(RunConfig(map=str(folder), strategy="tpuaf_plus", robots=30,
+                             duration_s=120.0), pm)
+    assert run.run()["visits"] > 30
+    assert not g.has_dense_matrices

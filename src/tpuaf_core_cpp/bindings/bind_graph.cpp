@@ -71,6 +71,20 @@ void tpuaf::bindings::bind_graph(py::module_& m) {
           py::arg("source"),
           "Shortest-path lengths [m] from `source` to every vertex (a copy of the cached row): "
           "the same values as row `source` of `distances`, without the all-pairs matrix.")
+      .def(
+          "distances_from_set",
+          [](const PatrolGraph& g, const std::vector<int>& sources) {
+            std::vector<double> d;
+            {
+              py::gil_scoped_release release;
+              d = g.distances_from_set(sources);
+            }
+            return Eigen::Map<const Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size()))
+                .eval();
+          },
+          py::arg("sources"),
+          "Shortest-path lengths [m] from the nearest of `sources` to every vertex (one search "
+          "from all of them, not cached).")
       .def_property_readonly("distances", &PatrolGraph::distances,
                              "All-pairs shortest-path lengths [m] (n x n, 8 n^2 bytes): built on "
                              "first use and kept; distances_from(source) gives one row.")

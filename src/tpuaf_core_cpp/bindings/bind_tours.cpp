@@ -4,6 +4,7 @@
 #include <pybind11/stl.h>
 
 #include <stdexcept>
+#include <string>
 
 #include "bindings.hpp"
 #include "tpuaf_core/tours.hpp"
@@ -12,10 +13,19 @@ namespace py = pybind11;
 
 namespace {
 
-tpuaf::TourSearch search_of(int starts, int kicks, std::uint64_t seed) {
+tpuaf::TourSearch search_of(int starts, int kicks, std::uint64_t seed,
+                            const std::string& metric = "auto") {
   if (starts < 1) throw py::value_error("starts must be >= 1, got " + std::to_string(starts));
   if (kicks < 0) throw py::value_error("kicks must be >= 0, got " + std::to_string(kicks));
-  return {starts, kicks, seed};
+  tpuaf::TourMetric kind = tpuaf::TourMetric::kAuto;
+  if (metric == "dense") {
+    kind = tpuaf::TourMetric::kDense;
+  } else if (metric == "sparse") {
+    kind = tpuaf::TourMetric::kSparse;
+  } else if (metric != "auto") {
+    throw py::value_error("metric must be 'auto', 'dense' or 'sparse', got '" + metric + "'");
+  }
+  return {starts, kicks, seed, kind};
 }
 
 }  // namespace
@@ -39,8 +49,8 @@ void tpuaf::bindings::bind_tours(py::module_& m) {
   m.def(
       "closed_walk",
       [](const PatrolGraph& graph, const std::vector<int>& vertices, int starts, int kicks,
-         std::uint64_t seed) {
-        const TourSearch search = search_of(starts, kicks, seed);
+         std::uint64_t seed, const std::string& metric) {
+        const TourSearch search = search_of(starts, kicks, seed, metric);
         ClosedWalk walk;
         try {
           py::gil_scoped_release release;
@@ -51,13 +61,16 @@ void tpuaf::bindings::bind_tours(py::module_& m) {
         return std::make_pair(walk.walk, walk.length_m);
       },
       py::arg("graph"), py::arg("vertices"), py::arg("starts") = 12, py::arg("kicks") = 30,
-      py::arg("seed") = 12345,
+      py::arg("seed") = 12345, py::arg("metric") = "auto",
       "Shortest closed walk found through `vertices` inside their induced subgraph: (walk "
-      "without the repeated first vertex, length [m]). ValueError when it is not connected.");
+      "without the repeated first vertex, length [m]). ValueError when it is not connected. "
+      "metric: 'dense' (the k x k matrix of shortest paths), 'sparse' (lengths searched on "
+      "demand) or 'auto' (sparse above DENSE_TOUR_MAX vertices).");
+  m.attr("DENSE_TOUR_MAX") = kDenseTourMax;
   m.def(
       "balanced_partition",
-      [](const PatrolGraph& graph, int k, int max_moves, int starts, int kicks,
-         std::uint64_t seed, const Progress& progress, bool tree_score) {
+      [](const PatrolGraph& graph, int k, int max_moves, int starts, int kicks, std::uint64_t seed,
+         const Progress& progress, bool tree_score) {
         if (k < 1) throw py::value_error("balanced_partition: k must be >= 1");
         return balanced_partition(graph, k, max_moves, search_of(starts, kicks, seed), progress,
                                   tree_score);

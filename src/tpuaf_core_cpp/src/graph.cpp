@@ -184,6 +184,11 @@ std::shared_ptr<const DistanceRow> PatrolGraph::row(int source) const {
   return made;
 }
 
+std::vector<double> PatrolGraph::distances_from_set(const std::vector<int>& sources) const {
+  for (int s : sources) check_vertex(s);
+  return dijkstra(arcs_, sources).distance;
+}
+
 double PatrolGraph::distance(int u, int v) const {
   check_vertex(u);
   check_vertex(v);

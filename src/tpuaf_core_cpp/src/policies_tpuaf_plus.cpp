@@ -11,22 +11,40 @@
 
 namespace tpuaf {
 
-const std::vector<int>& PlusRoute::positions(int from, int to) const {
-  const auto key = [](int a, int b) {
-    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) |
-           static_cast<std::uint32_t>(b);
-  };
-  if (at_vertex_.empty() && !walk.empty()) {
-    const std::size_t n = walk.size();
+PlusRoute::Indices PlusRoute::positions(int from, int to) const {
+  const std::size_t n = walk.size();
+  if (by_vertex_.empty() && n > 0) {
+    const int top = *std::max_element(walk.begin(), walk.end());
+    by_vertex_.assign(static_cast<std::size_t>(top) + 2, 0);
+    for (int v : walk) ++by_vertex_[static_cast<std::size_t>(v) + 1];
+    for (std::size_t v = 1; v < by_vertex_.size(); ++v) by_vertex_[v] += by_vertex_[v - 1];
+    at_.resize(n);
+    std::vector<int> fill(by_vertex_.begin(), by_vertex_.end() - 1);
     for (std::size_t i = 0; i < n; ++i) {
-      at_vertex_[key(walk[i], walk[i])].push_back(static_cast<int>(i));
-      on_step_[key(walk[i], walk[(i + 1) % n])].push_back(static_cast<int>(i));
+      at_[static_cast<std::size_t>(fill[static_cast<std::size_t>(walk[i])]++)] =
+          static_cast<int>(i);
+    }
+    steps_ = at_;
+    const auto next = [&](int i) { return walk[(static_cast<std::size_t>(i) + 1) % n]; };
+    for (std::size_t v = 0; v + 1 < by_vertex_.size(); ++v) {
+      std::stable_sort(steps_.begin() + by_vertex_[v], steps_.begin() + by_vertex_[v + 1],
+                       [&](int a, int b) { return next(a) < next(b); });
     }
   }
-  static const std::vector<int> kNone;
-  const auto& table = from == to ? at_vertex_ : on_step_;
-  const auto it = table.find(key(from, to));
-  return it == table.end() ? kNone : it->second;
+  const int* none = at_.data();
+  if (from < 0 || static_cast<std::size_t>(from) + 1 >= by_vertex_.size()) return {none, none};
+  const std::size_t lo = static_cast<std::size_t>(by_vertex_[static_cast<std::size_t>(from)]);
+  const std::size_t hi = static_cast<std::size_t>(by_vertex_[static_cast<std::size_t>(from) + 1]);
+  if (from == to) return {at_.data() + lo, at_.data() + hi};
+  const int* first = steps_.data() + lo;
+  while (first != steps_.data() + hi && walk[(static_cast<std::size_t>(*first) + 1) % n] != to) {
+    ++first;
+  }
+  const int* last = first;
+  while (last != steps_.data() + hi && walk[(static_cast<std::size_t>(*last) + 1) % n] == to) {
+    ++last;
+  }
+  return {first, last};
 }
 
 namespace {
@@ -42,6 +60,14 @@ TpuafPlusStrategy::TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusP
                                      PlanSource plans)
     : prototype_(knowledge), params_(std::move(params)), plans_(std::move(plans)) {
   prototype_.share_visit_results();  // the team hears the same visits: one Eq. 2 per visit
+}
+
+double TpuafPlusStrategy::distance(int u, int v) const {
+  const std::uint64_t key = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) |
+                            static_cast<std::uint32_t>(v);
+  KnownLength& slot = lengths_[static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> 50)];
+  if (slot.u != u || slot.v != v) slot = {u, v, graph_->distance(u, v)};
+  return slot.length_m;
 }
 
 TpuafPlusStrategy::Robot& TpuafPlusStrategy::state(int robot) {
@@ -164,7 +190,7 @@ int TpuafPlusStrategy::urgent_entry(const Robot& r, const PlusRoute& route, int 
   std::vector<double> idle(n), reach(n), worst(n);
   for (std::size_t i = 0; i < n; ++i) {
     idle[i] = now - last[route.walk[i]];
-    reach[i] = graph_->distance(vertex, route.walk[i]) / speed;
+    reach[i] = distance(vertex, route.walk[i]) / speed;
   }
   for (std::size_t k = 0; k < n; ++k) {
     double top = -kInf;
@@ -196,9 +222,8 @@ std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
     }
     if (info == nullptr) return {};
     starts.push_back(info->to);
-    late.push_back(
-        std::max(0.0, info->departure + graph_->distance(info->from, info->to) / speed - t_ref) *
-        speed);
+    late.push_back(std::max(0.0, info->departure + distance(info->from, info->to) / speed - t_ref) *
+                   speed);
   }
   const Eigen::VectorXd& last = r.knowledge.last_visit();
   std::vector<double> idle(static_cast<std::size_t>(last.size()));
@@ -290,9 +315,7 @@ void TpuafPlusStrategy::heard_from(Robot& r, int k, double sent) const {
 }
 
 void TpuafPlusStrategy::remember(Robot& r, int robot, const Heard& entry) {
-  auto& past = r.history[static_cast<std::size_t>(robot)];
-  past.push_back(entry);
-  if (past.size() > 4) past.pop_front();
+  r.history[static_cast<std::size_t>(robot)].push(entry);
 }
 
 void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s) const {
@@ -306,7 +329,7 @@ void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s
   const double drive_s = arrived_s - last->departure;
   if (!(drive_s > kEps)) return;
   double& pace = r.pace[static_cast<std::size_t>(k)];
-  pace = update_pace(pace, graph_->distance(last->from, vertex) / drive_s, params_.pace_weight,
+  pace = update_pace(pace, distance(last->from, vertex) / drive_s, params_.pace_weight,
                      params_.speed_mps);
 }
 
@@ -418,8 +441,7 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc, doubl
     // its latest message is from before it left its start slot: off my walk, or due at its
     // entry vertex in time, it left unheard (delay, loss)
     const int entry_vertex = route.walk[static_cast<std::size_t>(schedule[kk].first)];
-    const double to_entry_m =
-        graph_->distance(info.from, info.to) + graph_->distance(info.to, entry_vertex);
+    const double to_entry_m = distance(info.from, info.to) + distance(info.to, entry_vertex);
     const double due_s = info.departure + to_entry_m / speed;  // at its entry vertex
     if (chosen < 0 || due_s <= schedule[kk].second + kEps) return on_slot();
   }
@@ -563,11 +585,10 @@ int TpuafPlusStrategy::repair_hop(StrategyHost& host, int robot, int here, int t
   }
   std::sort(nbrs.begin(), nbrs.end());
   nbrs.erase(std::unique(nbrs.begin(), nbrs.end()), nbrs.end());
-  const double best = graph_->distance(here, target);
+  const double best = distance(here, target);
   std::vector<int> on_path;
   for (int w : nbrs) {
-    if (std::abs(graph_->edge_length(here, w) + graph_->distance(w, target) - best) <=
-        1e-6 * (1 + best)) {
+    if (std::abs(graph_->edge_length(here, w) + distance(w, target) - best) <= 1e-6 * (1 + best)) {
       on_path.push_back(w);
     }
   }
@@ -575,7 +596,7 @@ int TpuafPlusStrategy::repair_hop(StrategyHost& host, int robot, int here, int t
   if (on_path.empty()) {
     int pick = -1;
     for (int w : nbrs) {
-      if (pick < 0 || graph_->distance(w, target) < graph_->distance(pick, target)) pick = w;
+      if (pick < 0 || distance(w, target) < distance(pick, target)) pick = w;
     }
     return pick;
   }

@@ -15,6 +15,33 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 void DijkstraWorkspace::run(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
                             const std::vector<char>& allowed, int stop_at) {
+  search(
+      arcs, sources, tolerance, allowed, [stop_at](int v) { return v == stop_at; },
+      [](int) { return true; }, [](int) { return 0.0; });
+}
+
+void DijkstraWorkspace::run_until(const ArcLists& arcs, const std::vector<int>& sources,
+                                  double tolerance, const std::vector<char>& allowed,
+                                  const std::function<bool(int)>& stop,
+                                  const std::function<bool(int)>& expand,
+                                  const std::function<double(int)>& potential) {
+  const auto everywhere = [](int) { return true; };
+  const auto none = [](int) { return 0.0; };
+  if (expand && potential) {
+    search(arcs, sources, tolerance, allowed, stop, expand, potential);
+  } else if (expand) {
+    search(arcs, sources, tolerance, allowed, stop, expand, none);
+  } else if (potential) {
+    search(arcs, sources, tolerance, allowed, stop, everywhere, potential);
+  } else {
+    search(arcs, sources, tolerance, allowed, stop, everywhere, none);
+  }
+}
+
+template <class Stop, class Expand, class Potential>
+void DijkstraWorkspace::search(const ArcLists& arcs, const std::vector<int>& sources,
+                               double tolerance, const std::vector<char>& allowed, const Stop& stop,
+                               const Expand& expand, const Potential& potential) {
   const int n = static_cast<int>(arcs.size());
   if (!allowed.empty() && static_cast<int>(allowed.size()) != n) {
     throw std::invalid_argument("dijkstra: the allowed mask has " + std::to_string(allowed.size()) +
@@ -34,6 +61,7 @@ void DijkstraWorkspace::run(const ArcLists& arcs, const std::vector<int>& source
     settled_[v] = labelled_[v] = 0;
   }
   touched_.clear();
+  order_.clear();
   using Item = std::tuple<double, int, int>;  // distance, source index, vertex
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> queue;
   for (int k = 0; k < static_cast<int>(sources.size()); ++k) {
@@ -43,27 +71,29 @@ void DijkstraWorkspace::run(const ArcLists& arcs, const std::vector<int>& source
     if (distance_[s] > 0.0) {
       mark(s);
       distance_[s] = 0.0;
-      queue.emplace(0.0, k, s);
+      queue.emplace(0.0 + potential(s), k, s);
     }
   }
   while (!queue.empty()) {
-    const auto [d, k, u] = queue.top();
+    const auto [key, k, u] = queue.top();
     queue.pop();
     if (settled_[u]) continue;
     settled_[u] = 1;
     source_[u] = k;
-    if (u == stop_at) break;
+    order_.push_back(u);
+    if (stop(u)) break;
+    if (!expand(u)) continue;
     for (const Arc& arc : arcs[u]) {
       const int w = arc.to;
       if (w < 0 || w >= n)
         throw std::out_of_range("dijkstra: arc to unknown vertex " + std::to_string(w));
       if (settled_[w] || (!allowed.empty() && !allowed[w])) continue;
-      const double nd = d + arc.weight;
+      const double nd = distance_[u] + arc.weight;
       if (nd < distance_[w] + tolerance) {
         mark(w);
         distance_[w] = nd;
         parent_[w] = u;
-        queue.emplace(nd, k, w);
+        queue.emplace(nd + potential(w), k, w);
       }
     }
   }

@@ -222,10 +222,12 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, con
         t_dep[t] = reach[t] + alpha * (dep[x] - reach[t]);  // [m] of travel at v
       }
       // first visit [m at v] of every walk vertex: the first robot passing it
+      // (arc - entry_arc lies in (-L, L): py_mod adds L to a negative one, as fmod does)
       for (std::size_t i = 0; i < n; ++i) {
         double f = kInf;
         for (std::size_t t = 0; t < m; ++t) {
-          f = std::min(f, t_dep[t] + py_mod(route.arc[i] - entry_arc[t], L));
+          const double ahead = route.arc[i] - entry_arc[t];
+          f = std::min(f, t_dep[t] + (ahead < 0 ? ahead + L : ahead));
         }
         first[i] = f;
       }

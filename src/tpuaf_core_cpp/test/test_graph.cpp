@@ -119,6 +119,41 @@ TEST(Dijkstra, AllowedMaskAndEarlyStop) {
   EXPECT_EQ(stopped.source[2], -1);  // never settled
 }
 
+TEST(Dijkstra, PotentialSettlesFewerWithTheSameLengthsAndExpandStopsTheSearch) {
+  const int side = 9;  // a unit lattice, vertex r * side + c at (c, r)
+  ArcLists arcs(side * side);
+  for (int r = 0; r < side; ++r) {
+    for (int c = 0; c < side; ++c) {
+      const int v = r * side + c;
+      if (c + 1 < side) {
+        arcs[v].push_back({v + 1, 1.0});
+        arcs[v + 1].push_back({v, 1.0});
+      }
+      if (r + 1 < side) {
+        arcs[v].push_back({v + side, 1.0});
+        arcs[v + side].push_back({v, 1.0});
+      }
+    }
+  }
+  const int goal = 4 * side + 8;  // (8, 4), from (0, 4)
+  DijkstraWorkspace plain, guided;
+  plain.run(arcs, {4 * side}, 0.0, {}, goal);
+  guided.run_until(
+      arcs, {4 * side}, 0.0, {}, [&](int v) { return v == goal; }, nullptr,
+      [&](int v) { return std::hypot(v % side - 8.0, v / side - 4.0); });
+  EXPECT_DOUBLE_EQ(guided.distance(goal), 8.0);
+  EXPECT_DOUBLE_EQ(plain.distance(goal), 8.0);
+  EXPECT_LT(guided.settled_order().size(), plain.settled_order().size() / 2);
+  for (int v : guided.settled_order()) {  // every settled label a shortest length
+    EXPECT_DOUBLE_EQ(guided.distance(v), std::abs(v % side - 0.0) + std::abs(v / side - 4.0));
+  }
+  DijkstraWorkspace fenced;  // vertices at x >= 3 are settled but not left
+  fenced.run_until(
+      arcs, {0}, 0.0, {}, [](int) { return false; }, [&](int v) { return v % side < 3; });
+  for (int v : fenced.settled_order()) EXPECT_LE(v % side, 3);
+  EXPECT_EQ(fenced.settled_order().size(), static_cast<std::size_t>(4 * side));
+}
+
 TEST(Dijkstra, UnknownSourceIsRefused) { EXPECT_THROW(dijkstra(path4(), {9}), std::out_of_range); }
 
 }  // namespace

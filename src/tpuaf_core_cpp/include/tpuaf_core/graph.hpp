@@ -61,6 +61,9 @@ class PatrolGraph {
   double distance(int u, int v) const;
   // Lengths [m] from `source` to every vertex, kept in the graph's row cache.
   std::shared_ptr<const DistanceRow> row(int source) const;
+  // Lengths [m] from the nearest of `sources` to every vertex (one search from all of them;
+  // not cached): the distance of every vertex to a vertex set.
+  std::vector<double> distances_from_set(const std::vector<int>& sources) const;
   // All-pairs lengths [m] (n x n doubles, 8 n^2 B): built by the first call and kept, for
   // callers that need every pair (the baselines); others use row() or distance().
   const Eigen::MatrixXd& distances() const;

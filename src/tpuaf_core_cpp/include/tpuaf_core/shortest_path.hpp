@@ -4,6 +4,7 @@
 // and HPCC's weighted paths.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 namespace tpuaf {
@@ -33,6 +34,17 @@ class DijkstraWorkspace {
   // settled. A settled vertex's labels are final: those of a search without `stop_at`.
   void run(const ArcLists& arcs, const std::vector<int>& sources, double tolerance = 0.0,
            const std::vector<char>& allowed = {}, int stop_at = -1);
+  // The same search, stopped once `stop(v)` is true for a vertex v just settled; a settled
+  // vertex for which `expand` (when given) is false is not left (its arcs are not relaxed).
+  // `potential` (when given): vertices are settled in the order (distance + potential, ...)
+  // (A*); with a potential no larger than the length to the goal and consistent (p(u) <=
+  // length(u, w) + p(w) on every arc), every settled label is still a shortest length.
+  void run_until(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
+                 const std::vector<char>& allowed, const std::function<bool(int)>& stop,
+                 const std::function<bool(int)>& expand = nullptr,
+                 const std::function<double(int)>& potential = nullptr);
+  // Vertices the last search settled, in settling order.
+  const std::vector<int>& settled_order() const { return order_; }
   double distance(int v) const { return distance_[v]; }  // +inf: not reached
   int parent(int v) const { return parent_[v]; }
   int source(int v) const { return source_[v]; }
@@ -41,6 +53,10 @@ class DijkstraWorkspace {
   ShortestPathTree tree() const;
 
  private:
+  template <class Stop, class Expand, class Potential>
+  void search(const ArcLists& arcs, const std::vector<int>& sources, double tolerance,
+              const std::vector<char>& allowed, const Stop& stop, const Expand& expand,
+              const Potential& potential);
   void mark(int v) {
     if (!labelled_[v]) {
       labelled_[v] = 1;
@@ -51,6 +67,7 @@ class DijkstraWorkspace {
   std::vector<int> parent_, source_;
   std::vector<char> settled_, labelled_;
   std::vector<int> touched_;  // vertices the last search labelled
+  std::vector<int> order_;    // vertices the last search settled, in order
 };
 
 // One search into a fresh tree (DijkstraWorkspace::run, same arguments).

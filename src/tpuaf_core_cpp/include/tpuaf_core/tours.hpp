@@ -14,10 +14,20 @@
 
 namespace tpuaf {
 
+// Vertex subsets up to this size are toured on the k x k matrix of their shortest paths (8 k^2 B
+// of lengths, 4 k^2 B of parents); larger ones on lengths searched on demand (the same
+// candidate lists; other pairs by A*, bounded by what a move could gain, memoised; no k x k
+// matrix): the same search over the same lengths up to their last bits, with Or-opt moves made
+// in place. The effort (starts, kicks) is the caller's: tours._effort lowers it by size.
+constexpr int kDenseTourMax = 1000;  // vertices
+
+enum class TourMetric { kAuto, kDense, kSparse };  // kAuto: by size (kDenseTourMax)
+
 struct TourSearch {
   int starts = 12;             // nearest-neighbour starts (spread over the indices)
   int kicks = 30;              // double-bridge kicks of the best local optimum
   std::uint64_t seed = 12345;  // of the kicks
+  TourMetric metric = TourMetric::kAuto;
 };
 
 // Called now and then by long searches: (stage name, done, total). May throw to abort.

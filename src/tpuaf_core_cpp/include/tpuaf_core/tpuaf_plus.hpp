@@ -5,12 +5,12 @@
 // called only when a robot's view of the team changes. Times in seconds, lengths in metres.
 #pragma once
 
+#include <array>
 #include <cstdint>
-#include <deque>
 #include <functional>
+#include <initializer_list>
 #include <map>
 #include <memory>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -25,13 +25,23 @@ struct PlusRoute {
   double length = 0;        // [m] L
   std::vector<int> robots;  // robot indices on this walk, sorted
 
+  // Walk indices (a range of ints).
+  struct Indices {
+    const int* first;
+    const int* last;
+    const int* begin() const { return first; }
+    const int* end() const { return last; }
+  };
   // The walk indices i, ascending, where walk[i] == from (from == to) or where the walk steps
   // from -> to (walk[i] == from, walk[i + 1] == to, last -> first too); empty if none. Built on
-  // first use (O(walk)), then O(1): placing a mate costs its hits, not the walk's length.
-  const std::vector<int>& positions(int from, int to) const;
+  // first use (O(walk)), then O(hits of `from`): placing a mate costs its hits, not the walk's
+  // length.
+  Indices positions(int from, int to) const;
 
-  // positions()'s cache (public members keep PlusRoute an aggregate)
-  mutable std::unordered_map<std::uint64_t, std::vector<int>> at_vertex_, on_step_;
+  // positions()'s index (public members keep PlusRoute an aggregate): per vertex v, entries
+  // by_vertex_[v] .. by_vertex_[v + 1] of at_ (walk indices at v, ascending) and of steps_ (the
+  // same, ordered by the next vertex, then ascending)
+  mutable std::vector<int> by_vertex_, at_, steps_;
 };
 
 // A plan (tpuaf_plus.Plan): its walks, each robot's walk and the start schedule.
@@ -125,6 +135,27 @@ class TpuafPlusStrategy : public TeamStrategy {
     int from = -1, to = -1;
     double departure = 0, sent = 0;
   };
+  // The last 4 announcements of one robot, oldest first (in place: one per message heard).
+  class Recent {
+   public:
+    Recent() = default;
+    Recent(std::initializer_list<Heard> entries) {
+      for (const Heard& entry : entries) push(entry);
+    }
+    void push(const Heard& entry) {
+      if (size_ == items_.size()) {
+        std::copy(items_.begin() + 1, items_.end(), items_.begin());
+        --size_;
+      }
+      items_[size_++] = entry;
+    }
+    const Heard* begin() const { return items_.data(); }
+    const Heard* end() const { return items_.data() + size_; }
+
+   private:
+    std::array<Heard, 4> items_{};
+    std::size_t size_ = 0;
+  };
   struct Robot {
     explicit Robot(const TpuafKnowledge& k) : knowledge(k) {}
     TpuafKnowledge knowledge;
@@ -134,9 +165,9 @@ class TpuafPlusStrategy : public TeamStrategy {
     std::vector<char> has_heard;
     std::vector<double> mate_arc;  // last estimated arc [m] per mate
     std::vector<char> has_mate_arc;
-    std::vector<std::deque<Heard>> history;  // the last 4 announcements per robot
-    std::vector<double> pace;  // [m/s] measured pace along the walk per robot (me too)
-    double changed_at = 0;     // [s] when the team last changed
+    std::vector<Recent> history;  // the last 4 announcements per robot
+    std::vector<double> pace;     // [m/s] measured pace along the walk per robot (me too)
+    double changed_at = 0;        // [s] when the team last changed
     bool holding = false;
     double hold_until = 0;  // planned departure while dwelling [s]
     bool respacing = false;
@@ -171,6 +202,14 @@ class TpuafPlusStrategy : public TeamStrategy {
   int step(StrategyHost& host, int robot, bool waking);
   int repair_hop(StrategyHost& host, int robot, int here, int target);
 
+  // d(u, v) [m] on graph_, through a direct-mapped memo (every robot asks the same steps).
+  double distance(int u, int v) const;
+
+  struct KnownLength {
+    int u = -1, v = -1;
+    double length_m = 0;
+  };
+  mutable std::vector<KnownLength> lengths_ = std::vector<KnownLength>(1u << 14);
   TpuafKnowledge prototype_;
   TpuafPlusParams params_;
   PlanSource plans_;

@@ -163,7 +163,6 @@ def make_plan(patrol_map, team: tuple[int, ...], all_starts: tuple[int, ...], mo
 def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     graph = patrol_map.graph
     speed = float(patrol_map.settings.nominal_speed)
-    dist = np.asarray(graph.distances)
     m = len(team)
     cyc = tours.cyclic_tour(patrol_map)
     cyc_worst = tpuaf_core.walk_worst_idleness(graph, cyc.walk, m, speed)
@@ -210,11 +209,11 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     else:
         slots = [p for p, k in enumerate(part.robots_per_part) for _ in range(k)]
         if full:  # start: parts to robots so that every part is covered soon
-            assignment = _assign_start_parts(part, list(all_starts), dist)
+            assignment = _assign_start_parts(graph, part, list(all_starts))
         elif not all_starts:  # start vertices unknown: robot order
             assignment = [slots[i % len(slots)] for i in range(m)]
         else:  # survivors: from the full team's plan, so every survivor agrees
-            assignment = _assign_survivors(patrol_map, team, all_starts, part, slots, dist, mode)
+            assignment = _assign_survivors(patrol_map, team, all_starts, part, slots, mode)
         route_of = {r: assignment[i] for i, r in enumerate(team)}
         routes = tuple(
             _route(graph, t.walk, [r for r in team if route_of[r] == p])
@@ -229,14 +228,15 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     return Plan(kind, routes, route_of, float(worst), schedule)
 
 
-def _assign_start_parts(part, starts: list[int], dist) -> list[int]:
+def _assign_start_parts(graph, part, starts: list[int]) -> list[int]:
     """Part index per robot at the start: each part gets its `robots_per_part` robots, matched
     so that the longest (drive to the part + L_p / m_p) is short: the time [m at v] until the
-    part has been covered once (Hungarian on its 4th power: nearly a bottleneck matching)."""
+    part has been covered once (Hungarian on its 4th power: nearly a bottleneck matching).
+    Distances from one row per start vertex (no all-pairs matrix)."""
     slots = [p for p, m in enumerate(part.robots_per_part) for _ in range(m)]
-    d = np.asarray(dist)
     share = [part.tours[p].length / part.robots_per_part[p] for p in slots]
-    cost = np.array([[d[s, part.parts[p]].min() + share[j] for j, p in enumerate(slots)]
+    rows = {s: np.asarray(graph.distances_from(s)) for s in sorted(set(starts))}
+    cost = np.array([[rows[s][part.parts[p]].min() + share[j] for j, p in enumerate(slots)]
                      for s in starts])
     rows, cols = tpuaf_core.linear_sum_assignment((cost / max(float(cost.max()), _EPS)) ** 4)
     out = [0] * len(starts)
@@ -290,16 +290,19 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
     return Plan("partition", routes, route_of, float(worst), {})
 
 
-def _assign_survivors(patrol_map, team, all_starts, part, slots, dist, mode) -> list[int]:
+def _assign_survivors(patrol_map, team, all_starts, part, slots, mode) -> list[int]:
     """Part per survivor (in `team` order): least total distance from each survivor's route in
-    the full team's plan to the part (every survivor computes the same from the map alone)."""
+    the full team's plan to the part (every survivor computes the same from the map alone).
+    One search per part, from all its vertices (no all-pairs matrix)."""
+    graph = patrol_map.graph
     n_all = len(all_starts) if all_starts else max(team) + 1
     home = make_plan(patrol_map, tuple(range(n_all)), tuple(all_starts), mode)
+    to_part = [np.asarray(graph.distances_from_set(list(q))) for q in part.parts]
     cost = np.zeros((len(team), len(slots)))
     for i, r in enumerate(team):
         walk = list(home.routes[home.route_of[r]].walk) if r in home.route_of else [0]
         for j, p in enumerate(slots):
-            cost[i, j] = dist[np.ix_(walk, part.parts[p])].min()
+            cost[i, j] = to_part[p][walk].min()
     rows, cols = tpuaf_core.linear_sum_assignment(cost)
     out = [0] * len(team)
     for r, c in zip(rows, cols, strict=True):
