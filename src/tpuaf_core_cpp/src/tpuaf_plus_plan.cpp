@@ -13,6 +13,44 @@
 #include "tpuaf_core/tpuaf_plus.hpp"
 
 namespace tpuaf {
+
+// A walk's positions of a vertex or of a step (PlusRoute, tpuaf_plus.hpp).
+PlusRoute::Indices PlusRoute::positions(int from, int to) const {
+  const std::size_t n = walk.size();
+  if (by_vertex_.empty() && n > 0) {
+    const int top = *std::max_element(walk.begin(), walk.end());
+    by_vertex_.assign(static_cast<std::size_t>(top) + 2, 0);
+    for (int v : walk) ++by_vertex_[static_cast<std::size_t>(v) + 1];
+    for (std::size_t v = 1; v < by_vertex_.size(); ++v) by_vertex_[v] += by_vertex_[v - 1];
+    at_.resize(n);
+    std::vector<int> fill(by_vertex_.begin(), by_vertex_.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) {
+      at_[static_cast<std::size_t>(fill[static_cast<std::size_t>(walk[i])]++)] =
+          static_cast<int>(i);
+    }
+    steps_ = at_;
+    const auto next = [&](int i) { return walk[(static_cast<std::size_t>(i) + 1) % n]; };
+    for (std::size_t v = 0; v + 1 < by_vertex_.size(); ++v) {
+      std::stable_sort(steps_.begin() + by_vertex_[v], steps_.begin() + by_vertex_[v + 1],
+                       [&](int a, int b) { return next(a) < next(b); });
+    }
+  }
+  const int* none = at_.data();
+  if (from < 0 || static_cast<std::size_t>(from) + 1 >= by_vertex_.size()) return {none, none};
+  const std::size_t lo = static_cast<std::size_t>(by_vertex_[static_cast<std::size_t>(from)]);
+  const std::size_t hi = static_cast<std::size_t>(by_vertex_[static_cast<std::size_t>(from) + 1]);
+  if (from == to) return {at_.data() + lo, at_.data() + hi};
+  const int* first = steps_.data() + lo;
+  while (first != steps_.data() + hi && walk[(static_cast<std::size_t>(*first) + 1) % n] != to) {
+    ++first;
+  }
+  const int* last = first;
+  while (last != steps_.data() + hi && walk[(static_cast<std::size_t>(*last) + 1) % n] == to) {
+    ++last;
+  }
+  return {first, last};
+}
+
 namespace {
 
 constexpr double kEps = 1e-6;      // tpuaf_plus._EPS
