@@ -206,3 +206,26 @@ def test_events_trailing_the_poses_are_waited_for_with_hold(clean, monkeypatch):
         s = mon.summary()
         right = s["visits"] == clean["visits"] and not s.get("outages")
         assert right is same, (hold, s["visits"], s.get("outages"))
+
+
+@pytest.mark.parametrize("hold", [0.0, 10.0])
+def test_a_visit_stamped_before_the_end_and_delivered_late_is_counted_with_hold(hold):
+    """The live monitor's end waits (hold_s) for a heartbeat past the end from every robot ever
+    heard, dead ones too: a REACHED stamped 0.5 s before the end that a loaded machine delivers
+    after 5 s more of poses still counts; without the hold it is lost."""
+    mon = FleetMonitor(line_map(), 1, 20.0, lag_s=1.0, death_timeout_s=5.0,
+                       visit_source="reports", robot_names=NAMES[:1], hold_s=hold)
+    mon.on_event(0, START, 0, 0.0, -1, AGENT.format(0))
+    late = None
+    for k in range(int(26.0 / DT)):
+        t = round(k * DT, 6)
+        if k % 10 == 0 and t <= 19.0:  # heartbeats stop 1 s before the end: dead at the end
+            mon.on_event(0, HEARTBEAT, -1, t, -1, AGENT.format(0))
+        if t == 19.5:
+            late = (0, REACHED, 1, t, 0, AGENT.format(0))  # sent now, delivered at 25 s
+        if t == 25.0:
+            mon.on_event(*late)
+        mon.on_pose(0, t, 10.0 if t >= 19.5 else t / 2.0, 0.0)
+    mon.drain()
+    assert mon.finished
+    assert mon.summary()["visits"] == (2 if hold else 1)  # START and the late REACHED

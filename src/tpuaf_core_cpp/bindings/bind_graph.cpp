@@ -12,6 +12,7 @@ namespace py = pybind11;
 
 // Over 80 lines on purpose: one .def per bound member, in the order of the C++ header; split,
 // one class's binding would be scattered.
+// long: one pybind11 declaration per bound name, read top to bottom; no logic
 void tpuaf::bindings::bind_graph(py::module_& m) {
   py::class_<PatrolGraph>(m, "PatrolGraph",
                           "Patrol graph: vertex positions [m], undirected edges with lengths [m], "

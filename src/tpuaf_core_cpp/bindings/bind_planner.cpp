@@ -85,6 +85,7 @@ std::string plan_repr(const Plan& p) {
 
 // Over 80 lines on purpose: one .def per bound member, in the order of the C++ header; split,
 // one class's binding would be scattered.
+// long: one pybind11 declaration per bound name, read top to bottom; no logic
 void tpuaf::bindings::bind_planner(py::module_& m) {
   py::class_<CostmapSpec>(m, "CostmapSpec",
                           "Costmap inflation: cells closer than inscribed_radius_m [m] to an "

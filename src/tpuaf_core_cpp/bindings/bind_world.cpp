@@ -36,6 +36,7 @@ std::string laser_repr(const tpuaf::LaserSpec& l) {
 
 // Over 80 lines on purpose: one .def per bound member, in the order of the C++ header; split,
 // one class's binding would be scattered.
+// long: one pybind11 declaration per bound name, read top to bottom; no logic
 void tpuaf::bindings::bind_world(py::module_& m) {
   using tpuaf::LaserSpec;
   using tpuaf::RobotSpec;

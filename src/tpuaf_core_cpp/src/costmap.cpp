@@ -51,11 +51,8 @@ void edt_line(const double* f, int n, double* d, int* v, double* z) {
   }
 }
 
-}  // namespace
-
-Costmap::Costmap(const GridMask& occupied, double resolution_m, double origin_x_m,
-                 double origin_y_m, const CostmapSpec& spec, double planning_resolution_m)
-    : spec_(spec) {
+void check_inputs(const GridMask& occupied, double resolution_m, double origin_x_m,
+                  double origin_y_m, const CostmapSpec& spec, double planning_resolution_m) {
   if (occupied.rows() == 0 || occupied.cols() == 0)
     throw std::invalid_argument("Costmap: the occupancy grid is empty");
   if (!finite(resolution_m) || resolution_m <= 0)
@@ -73,28 +70,18 @@ Costmap::Costmap(const GridMask& occupied, double resolution_m, double origin_x_
     throw std::invalid_argument("Costmap: cost_weight must be >= 0");
   if (!finite(planning_resolution_m) || planning_resolution_m < 0)
     throw std::invalid_argument("Costmap: planning_resolution_m must be >= 0 (0: the map's)");
+}
 
-  mh_ = static_cast<int>(occupied.rows());
-  mw_ = static_cast<int>(occupied.cols());
-  mres_ = resolution_m;
-  ox_ = origin_x_m;
-  oy_ = origin_y_m;
-  k_ = std::max(1, static_cast<int>(std::lround(planning_resolution_m / resolution_m)));
-  res_ = k_ * mres_;
-  w_ = (mw_ + k_ - 1) / k_;
-  h_ = (mh_ + k_ - 1) / k_;
-
-  occ_.resize(static_cast<std::size_t>(mw_) * mh_);
-  for (int r = 0; r < mh_; ++r)
-    for (int c = 0; c < mw_; ++c) occ_[static_cast<std::size_t>(r) * mw_ + c] = occupied(r, c);
-
+// Squared distance [cells^2] from each cell of the grid padded by one occupied ring (the
+// outside of the map; (mh + 2) x (mw + 2), row-major) to the nearest occupied square's edge.
+std::vector<double> squared_gaps(const std::vector<std::uint8_t>& occ, int mw, int mh) {
   // Gap between squares = centre distance to the occupied cells dilated by one cell (3 x 3),
   // since min over |e| <= 1 of (d - e)^2 = max(|d| - 1, 0)^2 per axis. Padded by one occupied
   // ring: the outside of the map.
-  const int pw = mw_ + 2, ph = mh_ + 2;
+  const int pw = mw + 2, ph = mh + 2;
   auto padded_occ = [&](int pr, int pc) {
     if (pr <= 0 || pc <= 0 || pr >= ph - 1 || pc >= pw - 1) return true;
-    return occ_[static_cast<std::size_t>(pr - 1) * mw_ + (pc - 1)] != 0;
+    return occ[static_cast<std::size_t>(pr - 1) * mw + (pc - 1)] != 0;
   };
   std::vector<double> f(static_cast<std::size_t>(pw) * ph, kInf);
   for (int pr = 0; pr < ph; ++pr) {
@@ -120,6 +107,32 @@ Costmap::Costmap(const GridMask& occupied, double resolution_m, double origin_x_
     edt_line(row, pw, out.data(), v.data(), z.data());
     std::copy(out.begin(), out.begin() + pw, row);
   }
+  return f;
+}
+
+}  // namespace
+
+Costmap::Costmap(const GridMask& occupied, double resolution_m, double origin_x_m,
+                 double origin_y_m, const CostmapSpec& spec, double planning_resolution_m)
+    : spec_(spec) {
+  check_inputs(occupied, resolution_m, origin_x_m, origin_y_m, spec, planning_resolution_m);
+
+  mh_ = static_cast<int>(occupied.rows());
+  mw_ = static_cast<int>(occupied.cols());
+  mres_ = resolution_m;
+  ox_ = origin_x_m;
+  oy_ = origin_y_m;
+  k_ = std::max(1, static_cast<int>(std::lround(planning_resolution_m / resolution_m)));
+  res_ = k_ * mres_;
+  w_ = (mw_ + k_ - 1) / k_;
+  h_ = (mh_ + k_ - 1) / k_;
+
+  occ_.resize(static_cast<std::size_t>(mw_) * mh_);
+  for (int r = 0; r < mh_; ++r)
+    for (int c = 0; c < mw_; ++c) occ_[static_cast<std::size_t>(r) * mw_ + c] = occupied(r, c);
+
+  const int pw = mw_ + 2;
+  const std::vector<double> f = squared_gaps(occ_, mw_, mh_);
   dist_.resize(occ_.size());
   std::vector<float> fine_cost(occ_.size());
   std::vector<std::uint8_t> fine_lethal(occ_.size());

@@ -294,6 +294,137 @@ std::vector<int> robots_per_part(const std::vector<double>& lengths_m, int n_rob
   return m;
 }
 
+namespace {
+
+// A vertex's remoteness: its summed distance to every vertex (up to kDenseTourMax vertices: n
+// rows), or, on larger graphs, to kLandmarks vertices spread over the indices (kLandmarks rows).
+std::vector<double> remoteness(const PatrolGraph& graph) {
+  const int n = graph.num_vertices();
+  std::vector<double> sums(n, 0.0);
+  if (n <= kDenseTourMax) {
+    for (int v = 0; v < n; ++v) {  // summed in index order, as Eigen sums a matrix row
+      const std::shared_ptr<const DistanceRow> row = graph.row(v);
+      const std::vector<double>& d = row->distance;
+      double sum = d[0];
+      for (int t = 1; t < n; ++t) sum += d[t];
+      sums[v] = sum;
+    }
+  } else {
+    for (int l = 0; l < kLandmarks; ++l) {
+      const int landmark = static_cast<int>(static_cast<long long>(n) * l / kLandmarks);
+      const std::shared_ptr<const DistanceRow> row = graph.row(landmark);
+      for (int v = 0; v < n; ++v) sums[v] += row->distance[v];
+    }
+  }
+  return sums;
+}
+
+// k seeds by farthest-point seeding from `first`.
+std::vector<int> farthest_seeds(const PatrolGraph& graph, const ArcLists& arcs, int first, int k,
+                                DijkstraWorkspace& work) {
+  const int n = graph.num_vertices();
+  std::vector<int> seeds{first};
+  std::vector<double> nearest = graph.row(first)->distance;
+  while (static_cast<int>(seeds.size()) < k) {
+    const int far =
+        static_cast<int>(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
+    seeds.push_back(far);
+    if (n <= kDenseTourMax) {
+      const std::shared_ptr<const DistanceRow> from = graph.row(far);
+      for (int v = 0; v < n; ++v) nearest[v] = std::min(nearest[v], from->distance[v]);
+    } else {  // a search from `far` that leaves no vertex it does not bring nearer: O(its cell)
+      work.run_until(
+          arcs, {far}, 0.0, {}, [](int) { return false; },
+          [&](int v) { return work.distance(v) < nearest[v]; });
+      for (int v : work.settled_order()) nearest[v] = std::min(nearest[v], work.distance(v));
+    }
+  }
+  return seeds;
+}
+
+// Parts of a partition with their owners and costs, improved by single-vertex moves.
+struct Partition {
+  std::vector<std::vector<int>> parts;  // sorted vertex indices
+  std::vector<int> owner;               // part of each vertex
+  std::vector<double> costs;            // cost of each part [m]
+};
+
+// Part p without u stays connected (a search inside p from another vertex); mark: all 0, n long.
+bool connected_without(const PatrolGraph& graph, const Partition& part, int p, int u,
+                       std::vector<char>& mark) {
+  const std::vector<int>& vertices = part.parts[p];
+  if (vertices.size() <= 1) return false;
+  const int start = vertices[0] == u ? vertices[1] : vertices[0];
+  std::vector<int> stack{start}, touched{start};
+  mark[start] = 1;
+  while (!stack.empty()) {
+    const int x = stack.back();
+    stack.pop_back();
+    for (int w : graph.neighbours(x)) {
+      if (w != u && part.owner[w] == p && !mark[w]) {
+        mark[w] = 1;
+        touched.push_back(w);
+        stack.push_back(w);
+      }
+    }
+  }
+  for (int w : touched) mark[w] = 0;
+  return touched.size() == vertices.size() - 1;
+}
+
+// One move of a boundary vertex out of the costliest part that lowers the largest cost most;
+// false when no move lowers it.
+template <class Cost>
+bool move_one_vertex(const PatrolGraph& graph, Partition& part, Cost& cost,
+                     std::vector<char>& mark) {
+  std::vector<double>& costs = part.costs;
+  const int p = static_cast<int>(std::max_element(costs.begin(), costs.end()) - costs.begin());
+  double best_max = costs[p] - 1e-6;
+  int best_u = -1, best_q = -1;
+  double best_p = 0, best_qc = 0;
+  std::vector<int> best_without, best_with;
+  for (int u : part.parts[p]) {  // sorted
+    std::vector<int> qs;
+    for (int w : graph.neighbours(u)) {
+      if (part.owner[w] != p) qs.push_back(part.owner[w]);
+    }
+    if (qs.empty() || !connected_without(graph, part, p, u, mark)) continue;
+    std::sort(qs.begin(), qs.end());
+    qs.erase(std::unique(qs.begin(), qs.end()), qs.end());
+    std::vector<int> without;
+    without.reserve(part.parts[p].size() - 1);
+    for (int v : part.parts[p]) {
+      if (v != u) without.push_back(v);
+    }
+    const double new_p = cost(without);
+    if (new_p >= best_max) continue;  // the new max is at least this
+    for (int q : qs) {
+      std::vector<int> with = part.parts[q];
+      with.insert(std::upper_bound(with.begin(), with.end(), u), u);
+      const double new_q = cost(with);
+      const double new_max = std::max(new_p, new_q);
+      if (new_max < best_max) {
+        best_max = new_max;
+        best_u = u;
+        best_q = q;
+        best_p = new_p;
+        best_qc = new_q;
+        best_without = without;
+        best_with = std::move(with);
+      }
+    }
+  }
+  if (best_u < 0) return false;
+  part.parts[p] = std::move(best_without);
+  part.parts[best_q] = std::move(best_with);
+  part.owner[best_u] = best_q;
+  costs[p] = best_p;
+  costs[best_q] = best_qc;
+  return true;
+}
+
+}  // namespace
+
 std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k, int max_moves,
                                                  const TourSearch& part_search,
                                                  const Progress& progress, bool tree_score) {
@@ -316,28 +447,11 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
     cost_cache.emplace(part, c);
     return c;
   };
-  // first seeds: the most central vertex, the most remote one, and vertex 0; a vertex's
-  // remoteness is its summed distance to every vertex (up to kDenseTourMax vertices: n rows),
-  // or, on larger graphs, to kLandmarks vertices spread over the indices (kLandmarks rows)
-  std::vector<double> sums(n, 0.0);
-  if (n <= kDenseTourMax) {
-    for (int v = 0; v < n; ++v) {  // summed in index order, as Eigen sums a matrix row
-      const std::shared_ptr<const DistanceRow> row = graph.row(v);
-      const std::vector<double>& d = row->distance;
-      double sum = d[0];
-      for (int t = 1; t < n; ++t) sum += d[t];
-      sums[v] = sum;
-    }
-  } else {
-    for (int l = 0; l < kLandmarks; ++l) {
-      const int landmark = static_cast<int>(static_cast<long long>(n) * l / kLandmarks);
-      const std::shared_ptr<const DistanceRow> row = graph.row(landmark);
-      for (int v = 0; v < n; ++v) sums[v] += row->distance[v];
-    }
-  }
+  // first seeds: the most central vertex, the most remote one, and vertex 0 (large graphs: the
+  // most remote one only; each seeding costs its moves)
+  const std::vector<double> sums = remoteness(graph);
   const int remote = static_cast<int>(std::max_element(sums.begin(), sums.end()) - sums.begin());
   const int central = static_cast<int>(std::min_element(sums.begin(), sums.end()) - sums.begin());
-  // (large graphs: the most remote one only; each seeding costs its moves)
   std::vector<int> firsts =
       n <= kDenseTourMax ? std::vector<int>{remote, central, 0} : std::vector<int>{remote};
   std::sort(firsts.begin(), firsts.end());
@@ -348,106 +462,24 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
   std::vector<char> mark(n, 0);
   DijkstraWorkspace work;
   for (std::size_t f = 0; f < firsts.size(); ++f) {
-    std::vector<int> seeds{firsts[f]};
-    std::vector<double> nearest(n);
-    nearest = graph.row(firsts[f])->distance;
-    while (static_cast<int>(seeds.size()) < k) {  // farthest-point seeding
-      const int far =
-          static_cast<int>(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
-      seeds.push_back(far);
-      if (n <= kDenseTourMax) {
-        const std::shared_ptr<const DistanceRow> from = graph.row(far);
-        for (int v = 0; v < n; ++v) nearest[v] = std::min(nearest[v], from->distance[v]);
-      } else {  // a search from `far` that leaves no vertex it does not bring nearer: O(its cell)
-        work.run_until(
-            arcs, {far}, 0.0, {}, [](int) { return false; },
-            [&](int v) { return work.distance(v) < nearest[v]; });
-        for (int v : work.settled_order()) nearest[v] = std::min(nearest[v], work.distance(v));
-      }
-    }
-    std::vector<int> owner = dijkstra(arcs, seeds, kEps).source;
-    std::vector<std::vector<int>> parts(k);
-    for (int v = 0; v < n; ++v) parts[owner[v]].push_back(v);
-    std::vector<double> costs(k);
-    for (int p = 0; p < k; ++p) costs[p] = cost(parts[p]);
-
-    // part p without u stays connected (BFS inside p from another vertex)
-    auto connected_without = [&](int p, int u) {
-      const std::vector<int>& part = parts[p];
-      if (part.size() <= 1) return false;
-      const int start = part[0] == u ? part[1] : part[0];
-      std::vector<int> stack{start};
-      mark[start] = 1;
-      std::size_t seen = 1;
-      std::vector<int> touched{start};
-      while (!stack.empty()) {
-        const int x = stack.back();
-        stack.pop_back();
-        for (int w : graph.neighbours(x)) {
-          if (w != u && owner[w] == p && !mark[w]) {
-            mark[w] = 1;
-            touched.push_back(w);
-            stack.push_back(w);
-            ++seen;
-          }
-        }
-      }
-      for (int w : touched) mark[w] = 0;
-      return seen == part.size() - 1;
-    };
-
+    const std::vector<int> seeds = farthest_seeds(graph, arcs, firsts[f], k, work);
+    Partition part;
+    part.owner = dijkstra(arcs, seeds, kEps).source;
+    part.parts.resize(k);
+    for (int v = 0; v < n; ++v) part.parts[part.owner[v]].push_back(v);
+    part.costs.resize(k);
+    for (int p = 0; p < k; ++p) part.costs[p] = cost(part.parts[p]);
     for (int move = 0; move < max_moves; ++move) {
       if (progress) {
         progress("partition", static_cast<int>(f) * max_moves + move,
                  static_cast<int>(firsts.size()) * max_moves);
       }
-      const int p = static_cast<int>(std::max_element(costs.begin(), costs.end()) - costs.begin());
-      double best_max = costs[p] - 1e-6;
-      int best_u = -1, best_q = -1;
-      double best_p = 0, best_qc = 0;
-      std::vector<int> best_without, best_with;
-      for (int u : parts[p]) {  // sorted
-        std::vector<int> qs;
-        for (int w : graph.neighbours(u)) {
-          if (owner[w] != p) qs.push_back(owner[w]);
-        }
-        if (qs.empty() || !connected_without(p, u)) continue;
-        std::sort(qs.begin(), qs.end());
-        qs.erase(std::unique(qs.begin(), qs.end()), qs.end());
-        std::vector<int> without;
-        without.reserve(parts[p].size() - 1);
-        for (int v : parts[p]) {
-          if (v != u) without.push_back(v);
-        }
-        const double new_p = cost(without);
-        if (new_p >= best_max) continue;  // the new max is at least this
-        for (int q : qs) {
-          std::vector<int> with = parts[q];
-          with.insert(std::upper_bound(with.begin(), with.end(), u), u);
-          const double new_q = cost(with);
-          const double new_max = std::max(new_p, new_q);
-          if (new_max < best_max) {
-            best_max = new_max;
-            best_u = u;
-            best_q = q;
-            best_p = new_p;
-            best_qc = new_q;
-            best_without = without;
-            best_with = std::move(with);
-          }
-        }
-      }
-      if (best_u < 0) break;
-      parts[p] = std::move(best_without);
-      parts[best_q] = std::move(best_with);
-      owner[best_u] = best_q;
-      costs[p] = best_p;
-      costs[best_q] = best_qc;
+      if (!move_one_vertex(graph, part, cost, mark)) break;
     }
-    const double worst = *std::max_element(costs.begin(), costs.end());
+    const double worst = *std::max_element(part.costs.begin(), part.costs.end());
     if (worst < best_cost - kEps) {
       best_cost = worst;
-      best_parts = parts;
+      best_parts = part.parts;
     }
   }
   return best_parts;

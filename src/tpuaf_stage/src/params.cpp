@@ -64,7 +64,8 @@ std::map<std::string, XmlRpc::XmlRpcValue> private_params() {
   return out;
 }
 
-NodeParams parse_params(const std::map<std::string, XmlRpc::XmlRpcValue>& values) {
+// Every name a declared parameter (kParams), or a ParamError listing the valid ones.
+void check_names(const std::map<std::string, XmlRpc::XmlRpcValue>& values) {
   std::map<std::string, std::string> kinds;
   std::string valid;
   for (const auto& d : kParams) {
@@ -79,6 +80,45 @@ NodeParams parse_params(const std::map<std::string, XmlRpc::XmlRpcValue>& values
     throw ParamError(std::string(kNode) + ": unknown parameter(s) " + unknown +
                      " (valid: " + valid + ")");
   }
+}
+
+// The values' ranges and the rules between them, or a ParamError naming the first broken one.
+void check_ranges(const NodeParams& p) {
+  auto fail = [](const std::string& msg) { throw ParamError(std::string(kNode) + ": " + msg); };
+  if (p.world.empty()) fail("~world (path of the world YAML file) is required");
+  if (!(p.step > 0) || p.step < 1e-9) fail("~step must be > 0 s, got " + pyfloat(p.step));
+  if (p.real_time_factor < 0) {
+    fail("~real_time_factor must be >= 0 (0 = as fast as possible), got " +
+         pyfloat(p.real_time_factor));
+  }
+  if (!(p.clock_rate > 0 && p.clock_rate <= 1.0 / p.step + 1e-9)) {
+    fail("~clock_rate must be > 0 and <= 1/step = " + pyfloat(1.0 / p.step) + " Hz, got " +
+         pyfloat(p.clock_rate));
+  }
+  if (!(p.odom_rate > 0)) fail("~odom_rate must be > 0 Hz, got " + pyfloat(p.odom_rate));
+  if (!(p.cmd_vel_timeout > 0)) {
+    fail("~cmd_vel_timeout must be > 0 s, got " + pyfloat(p.cmd_vel_timeout));
+  }
+  if (!(p.lockstep_timeout > 0) || !(p.start_timeout >= 0)) {
+    fail("~lockstep_timeout must be > 0 s and ~start_timeout >= 0 s");
+  }
+  if (p.status_period < 0) fail("~status_period must be >= 0 s, got " + pyfloat(p.status_period));
+  for (const auto& [name, value] :
+       std::vector<std::pair<std::string, std::string>>{{"robot_prefix", p.robot_prefix},
+                                                        {"map_frame", p.map_frame},
+                                                        {"scan_topic", p.scan_topic}}) {
+    if (value.empty() || value[0] == '/' || value.find(' ') != std::string::npos) {
+      fail("~" + name + " must be a non-empty relative name, got '" + value + "'");
+    }
+  }
+  if (p.wall_clock && p.real_time_factor != 0 && p.real_time_factor != 1) {
+    fail("~wall_clock runs at real time: ~real_time_factor must be 0 or 1, got " +
+         pyfloat(p.real_time_factor));
+  }
+}
+
+NodeParams parse_params(const std::map<std::string, XmlRpc::XmlRpcValue>& values) {
+  check_names(values);
   NodeParams p;
   std::map<std::string, double*> doubles = {{"step", &p.step},
                                             {"clock_rate", &p.clock_rate},
@@ -127,37 +167,7 @@ NodeParams parse_params(const std::map<std::string, XmlRpc::XmlRpcValue>& values
       *strings[name] = static_cast<std::string>(v);
     }
   }
-  auto fail = [](const std::string& msg) { throw ParamError(std::string(kNode) + ": " + msg); };
-  if (p.world.empty()) fail("~world (path of the world YAML file) is required");
-  if (!(p.step > 0) || p.step < 1e-9) fail("~step must be > 0 s, got " + pyfloat(p.step));
-  if (p.real_time_factor < 0) {
-    fail("~real_time_factor must be >= 0 (0 = as fast as possible), got " +
-         pyfloat(p.real_time_factor));
-  }
-  if (!(p.clock_rate > 0 && p.clock_rate <= 1.0 / p.step + 1e-9)) {
-    fail("~clock_rate must be > 0 and <= 1/step = " + pyfloat(1.0 / p.step) + " Hz, got " +
-         pyfloat(p.clock_rate));
-  }
-  if (!(p.odom_rate > 0)) fail("~odom_rate must be > 0 Hz, got " + pyfloat(p.odom_rate));
-  if (!(p.cmd_vel_timeout > 0)) {
-    fail("~cmd_vel_timeout must be > 0 s, got " + pyfloat(p.cmd_vel_timeout));
-  }
-  if (!(p.lockstep_timeout > 0) || !(p.start_timeout >= 0)) {
-    fail("~lockstep_timeout must be > 0 s and ~start_timeout >= 0 s");
-  }
-  if (p.status_period < 0) fail("~status_period must be >= 0 s, got " + pyfloat(p.status_period));
-  for (const auto& [name, value] :
-       std::vector<std::pair<std::string, std::string>>{{"robot_prefix", p.robot_prefix},
-                                                        {"map_frame", p.map_frame},
-                                                        {"scan_topic", p.scan_topic}}) {
-    if (value.empty() || value[0] == '/' || value.find(' ') != std::string::npos) {
-      fail("~" + name + " must be a non-empty relative name, got '" + value + "'");
-    }
-  }
-  if (p.wall_clock && p.real_time_factor != 0 && p.real_time_factor != 1) {
-    fail("~wall_clock runs at real time: ~real_time_factor must be 0 or 1, got " +
-         pyfloat(p.real_time_factor));
-  }
+  check_ranges(p);
   return p;
 }
 

@@ -97,6 +97,46 @@ tpuaf::GridMask read_pgm(const std::string& file, int width, int height) {
   return occ;
 }
 
+// The robot's section: its limits and odometry noise.
+void read_robot(const std::string& path, const YAML::Node& doc, ResolvedWorld& w) {
+  const YAML::Node robot = doc["robot"];
+  check_keys(path, robot,
+             {"radius", "max_linear_speed", "max_angular_speed", "max_linear_accel",
+              "max_angular_accel", "odom_linear_noise", "odom_angular_noise", "base_link_z"},
+             "robot");
+  w.robot.radius_m = number(path, robot, "radius");
+  w.robot.max_linear_speed = number(path, robot, "max_linear_speed");
+  w.robot.max_angular_speed = number(path, robot, "max_angular_speed");
+  w.robot.max_linear_accel = number(path, robot, "max_linear_accel", true);
+  w.robot.max_angular_accel = number(path, robot, "max_angular_accel", true);
+  w.robot.odom_linear_noise = number(path, robot, "odom_linear_noise");
+  w.robot.odom_angular_noise = number(path, robot, "odom_angular_noise");
+  w.base_link_z = number(path, robot, "base_link_z");
+}
+
+// The laser's section: its beams, ranges, noise, rate and mounting.
+void read_laser(const std::string& path, const YAML::Node& doc, ResolvedWorld& w) {
+  const YAML::Node laser = doc["laser"];
+  check_keys(path, laser,
+             {"beams", "angle_min", "angle_increment", "range_min", "range_max", "noise_std",
+              "rate", "no_return_range", "x", "y", "z", "yaw"},
+             "laser");
+  w.laser.beams = static_cast<int>(integer(path, laser, "beams", 1));
+  w.laser.angle_min_rad = number(path, laser, "angle_min");
+  w.laser.angle_increment_rad = number(path, laser, "angle_increment");
+  w.laser.range_min_m = number(path, laser, "range_min");
+  w.laser.range_max_m = number(path, laser, "range_max");
+  w.laser.noise_std_m = number(path, laser, "noise_std");
+  w.laser.no_return_range = number(path, laser, "no_return_range", true);
+  w.laser.x_offset_m = number(path, laser, "x");
+  w.laser.y_offset_m = number(path, laser, "y");
+  w.laser.yaw_offset_rad = number(path, laser, "yaw");
+  w.laser_z = number(path, laser, "z");
+  w.laser_rate = number(path, laser, "rate");
+  if (!(w.laser_rate > 0))
+    throw WorldFileError(where(path, laser["rate"]) + ": 'rate' must be > 0 Hz");
+}
+
 }  // namespace
 
 bool is_resolved_world(const std::string& path) {
@@ -147,40 +187,8 @@ ResolvedWorld load_resolved_world(const std::string& path) {
   if (image.empty() || image[0] != '/') image = dirname(path) + "/" + image;
   w.occupied = read_pgm(image, width, height);
 
-  const YAML::Node robot = doc["robot"];
-  check_keys(path, robot,
-             {"radius", "max_linear_speed", "max_angular_speed", "max_linear_accel",
-              "max_angular_accel", "odom_linear_noise", "odom_angular_noise", "base_link_z"},
-             "robot");
-  w.robot.radius_m = number(path, robot, "radius");
-  w.robot.max_linear_speed = number(path, robot, "max_linear_speed");
-  w.robot.max_angular_speed = number(path, robot, "max_angular_speed");
-  w.robot.max_linear_accel = number(path, robot, "max_linear_accel", true);
-  w.robot.max_angular_accel = number(path, robot, "max_angular_accel", true);
-  w.robot.odom_linear_noise = number(path, robot, "odom_linear_noise");
-  w.robot.odom_angular_noise = number(path, robot, "odom_angular_noise");
-  w.base_link_z = number(path, robot, "base_link_z");
-
-  const YAML::Node laser = doc["laser"];
-  check_keys(path, laser,
-             {"beams", "angle_min", "angle_increment", "range_min", "range_max", "noise_std",
-              "rate", "no_return_range", "x", "y", "z", "yaw"},
-             "laser");
-  w.laser.beams = static_cast<int>(integer(path, laser, "beams", 1));
-  w.laser.angle_min_rad = number(path, laser, "angle_min");
-  w.laser.angle_increment_rad = number(path, laser, "angle_increment");
-  w.laser.range_min_m = number(path, laser, "range_min");
-  w.laser.range_max_m = number(path, laser, "range_max");
-  w.laser.noise_std_m = number(path, laser, "noise_std");
-  w.laser.no_return_range = number(path, laser, "no_return_range", true);
-  w.laser.x_offset_m = number(path, laser, "x");
-  w.laser.y_offset_m = number(path, laser, "y");
-  w.laser.yaw_offset_rad = number(path, laser, "yaw");
-  w.laser_z = number(path, laser, "z");
-  w.laser_rate = number(path, laser, "rate");
-  if (!(w.laser_rate > 0))
-    throw WorldFileError(where(path, laser["rate"]) + ": 'rate' must be > 0 Hz");
-
+  read_robot(path, doc, w);
+  read_laser(path, doc, w);
   const YAML::Node robots = doc["robots"];
   if (!robots.IsSequence() || robots.size() == 0) {
     throw WorldFileError(where(path, robots) + ": 'robots' must be a non-empty list of poses");

@@ -227,6 +227,7 @@ class FleetMonitor:
             beats = np.minimum(self._beat, self._seen)[self._alive]
             mark = float(beats.min()) if beats.size else math.inf
             limit = min(limit, max(mark, newest - self.hold_s))
+            limit = self._hold_the_end(limit, newest)
         if limit < self._oldest_group:
             return  # nothing old enough (most poses)
         for t in sorted(t for t in self._groups if t <= limit):
@@ -235,6 +236,21 @@ class FleetMonitor:
             if not self.finished:
                 self._process(t, group, count)
         self._oldest_group = min(self._groups, default=math.inf)
+
+    def _hold_the_end(self, limit: float, newest: float) -> float:
+        """Live: the run's end waits (up to hold_s) until every robot ever heard, dead ones
+        too, sent a heartbeat lag_s past the end, so a visit stamped just before the end that a
+        loaded machine delivers late is still counted."""
+        if self.start_time is None:
+            return limit
+        end = self.start_time + self.duration_s
+        if limit <= end:
+            return limit
+        heard = np.isfinite(self._beat)
+        mark = float(self._beat[heard].min()) if heard.any() else math.inf
+        if mark >= end + self.lag_s or newest - end >= self.hold_s:
+            return limit
+        return end
 
     def _process(self, t: float, group: np.ndarray, count: int) -> None:
         seen = ~np.isnan(group[:, 0])

@@ -308,11 +308,11 @@ class MonitorNode:
 
     def on_timer(self, _event=None):
         """The run's end passed and no pose came to close it (every robot silent, tf gone):
-        finish on the clock (1 Hz)."""
+        finish on the clock (1 Hz), after the end's hold for late visits (FleetMonitor)."""
         fm = self.fm
         if self.done or not fm.started:
             return
-        if rospy.get_time() < fm.start_time + fm.duration_s + fm.lag_s + 2.0:
+        if rospy.get_time() < fm.start_time + fm.duration_s + fm.lag_s + fm.hold_s + 2.0:
             return
         with self.lock:
             self.feed.close()
