@@ -163,7 +163,7 @@ class TeamRun:
         live = machine.liveness
         next_check = self.links.next_check_s
         now = self.now
-        due = min((next_check(robot, j, live.last_heard[j], j in live.lost, now)
+        due = min((next_check(robot, j, live.last_heard_s(j), live.is_lost(j), now)
                    for j in range(len(self.machines)) if j != robot), default=math.inf)
         self._liveness_token[robot] += 1
         if math.isfinite(due):
