@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tpuaf_core
 from tpuaf import topics
 from tpuaf.maps import load_map
@@ -186,3 +185,22 @@ def test_no_second_robot_state_machine_is_left():
     assert not re.search(r"self\.(goal|redirect|dwelling|wake_pending|alive|_current)\s*=",
                          machine)
     assert "def _reach" not in machine and "TeammateLiveness(" not in machine
+
+
+def test_the_heartbeat_feed_and_check_schedule_are_the_links_per_teammate_answers():
+    """HeartbeatLinks.feed / next_check_of (what the graph loop and TeamRun plan a robot's
+    liveness checks with) against last_arrival_s / next_check_s teammate by teammate."""
+    from tpuaf.team.liveness import TeammateLiveness, heartbeat_links
+
+    links = heartbeat_links(4, 300.0, 10.0, delay_s=0.5, loss=0.6, seed=2)
+    links.died(3, 40.0)
+    live = TeammateLiveness(4, 0, 10.0)
+    for now in (0.2, 30.0, 55.0, 120.0):
+        links.feed(live, now)
+        want = [links.last_arrival_s(0, j, now) for j in range(4)]
+        assert live.last_heard[1:] == want[1:]
+        due = min(links.next_check_s(0, j, live.last_heard_s(j), live.is_lost(j), now)
+                  for j in (1, 2, 3))
+        assert links.next_check_of(live, now) == due
+        live.check(max(now, due if np.isfinite(due) else now))
+    assert 3 in live.lost  # dead at 40 s: silent for good

@@ -175,5 +175,7 @@ void tpuaf::bindings::bind_robot_protocol(py::module_& m) {
       .def_property_readonly("leg_start_s", &P::leg_start_s)
       .def_property_readonly("visit_rule", &P::visit_rule,
                              py::return_value_policy::reference_internal)
-      .def_property_readonly("liveness", &P::liveness, py::return_value_policy::reference_internal);
+      .def_property_readonly(
+          "liveness", static_cast<const TeammateLiveness& (RobotProtocol::*)() const>(&P::liveness),
+          py::return_value_policy::reference_internal);
 }

@@ -95,26 +95,18 @@ bool GraphEngine::hear(int robot, int sender, double t) {
 }
 
 void GraphEngine::feed_heartbeats(int robot) {
-  for (int j = 0; j < config_.robots; ++j) {
-    const double t = links_->last_arrival_s(robot, j, now_);
-    if (t > -kInf) hear(robot, j, t);
-  }
+  back_.clear();
+  links_->feed(protocol_of(robot).liveness(), now_, &back_);
+  for (int j : back_) --lost_by_[static_cast<std::size_t>(j)];
 }
 
 void GraphEngine::plan_liveness(int robot) {
-  // TeamRun._plan_liveness: the earliest time any teammate's silence can reach the timeout, or
-  // one can be heard again; one pending check per robot.
+  // TeamRun._plan_liveness: one pending check per robot, when the first of its teammates'
+  // silences can end or one can be heard again.
   Robot& r = robots_[static_cast<std::size_t>(robot)];
-  const RobotProtocol& p = protocol_of(robot);
-  if (!p.alive()) return;
+  if (!protocol_of(robot).alive()) return;
   feed_heartbeats(robot);
-  const TeammateLiveness& live = p.liveness();
-  double due = kInf;
-  for (int j = 0; j < config_.robots; ++j) {
-    if (j == robot) continue;
-    const double t = links_->next_check_s(robot, j, live.last_heard(j), live.lost(j), now_);
-    if (t < due) due = t;
-  }
+  const double due = links_->next_check_s(protocol_of(robot).liveness(), now_);
   r.liveness = std::isfinite(due) ? push(py_max(due, now_), kLiveness, robot) : 0;
 }
 

@@ -178,7 +178,9 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
   std::vector<EngineFault> faults_;
   std::unique_ptr<HeartbeatLinks> links_;
   std::vector<Loss> losses_;
-  std::vector<int> lost_by_;  // per robot: how many teammates hold it for lost now
+  std::vector<int> lost_by_;
+  std::vector<int> back_;  // teammates heard again by a heartbeat feed  // per robot: how many
+                           // teammates hold it for lost now
 };
 
 }  // namespace tpuaf

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "tpuaf_core/perception.hpp"
+#include "tpuaf_core/teammate_liveness.hpp"
 #include "tpuaf_core/visit_rule.hpp"
 
 namespace tpuaf {
@@ -30,31 +31,6 @@ constexpr int kReached = 2;  // a visit (VisitRule)
 constexpr int kFailed = 3;   // the motion gave up on the goal
 constexpr int kDwell = 5;    // a goal ended without a visit
 }  // namespace robot_event
-
-// Silent-teammate detection of one robot (tpuaf.team.liveness): a teammate heard once and then
-// silent for timeout_s is lost (reported once); it is back when heard again.
-class TeammateLiveness {
- public:
-  TeammateLiveness(int robots, int me, double timeout_s);
-  // `robot` heard at run time t [s]; true when it had been lost (it is back). Nothing newer
-  // than the last time heard changes nothing.
-  bool heard(int robot, double t);
-  // Teammates silent for the timeout by run time now [s], not reported before (appended to
-  // `out`, in index order).
-  void check(double now, std::vector<int>& out);
-  double last_heard(int robot) const { return last_heard_[index(robot)]; }  // -inf: never
-  bool lost(int robot) const { return lost_[index(robot)] != 0; }
-  double timeout_s() const { return timeout_s_; }
-  int robots() const { return static_cast<int>(last_heard_.size()); }
-  int me() const { return me_; }
-
- private:
-  std::size_t index(int robot) const;
-  int me_;
-  double timeout_s_;
-  std::vector<double> last_heard_;  // [s] run time
-  std::vector<char> lost_;
-};
 
 // What a runtime provides to its robots' protocols (robot: the protocol's index; one driver may
 // serve the whole team).
@@ -145,6 +121,8 @@ class RobotProtocol {
   double leg_start_s() const { return leg_start_s_; }
   const VisitRule& visit_rule() const { return rule_; }
   const TeammateLiveness& liveness() const { return liveness_; }
+  // The liveness to feed with heartbeats (HeartbeatLinks::feed) while the robot is alive.
+  TeammateLiveness& liveness() { return liveness_; }
 
  private:
   void set_goal(int goal);
