@@ -204,3 +204,22 @@ def test_the_heartbeat_feed_and_check_schedule_are_the_links_per_teammate_answer
         assert links.next_check_of(live, now) == due
         live.check(max(now, due if np.isfinite(due) else now))
     assert 3 in live.lost  # dead at 40 s: silent for good
+
+
+def test_a_policy_error_reaches_the_caller_and_a_protocol_without_its_machine_refuses(grid):
+    machine, driver, policy, _ = _machine(grid, [])
+
+    def broken(ctx):
+        raise KeyError("boom")
+
+    policy.decide = broken
+    machine.start()
+    with pytest.raises(RuntimeError, match="strategy 'script_protocol' failed for robot 0.*boom"):
+        machine.decide()
+    protocol = machine.protocol
+    del machine
+    import gc
+
+    gc.collect()
+    with pytest.raises(RuntimeError, match="RobotMachine of this RobotProtocol is gone"):
+        protocol.decide()

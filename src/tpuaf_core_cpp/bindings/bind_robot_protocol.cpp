@@ -4,6 +4,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <stdexcept>
 #include <utility>
 
 #include "bindings.hpp"
@@ -16,10 +17,11 @@ namespace {
 
 // The RobotDriver of a Python RobotMachine: the motion and clock of `machine.driver` (the
 // tpuaf.robot.machine.RobotDriver protocol) and the policy hooks and events of the machine.
-// Borrowed handles: the machine owns the protocol (and keeps its driver), so it outlives it.
+// A weak reference: the machine owns the protocol (and keeps its driver); a protocol outliving its
+// machine refuses to call back (no reference cycle that the garbage collector cannot see).
 class PythonDriver : public RobotDriver {
  public:
-  explicit PythonDriver(py::handle machine) : machine_(machine) {}
+  explicit PythonDriver(py::handle machine) : machine_ref_(machine) {}
   double now() const override { return driver().attr("now").cast<double>(); }
   void position(int robot, double& x, double& y) const override {
     auto p = driver().attr("position_of")(robot).cast<std::pair<double, double>>();
@@ -27,7 +29,7 @@ class PythonDriver : public RobotDriver {
     y = p.second;
   }
   bool at_vertex(int /*robot*/, int vertex) const override {
-    return machine_.attr("at_vertex")(vertex).cast<bool>();
+    return machine().attr("at_vertex")(vertex).cast<bool>();
   }
   void schedule_wake(int robot, double time_s) override {
     driver().attr("schedule_wake")(robot, time_s);
@@ -39,24 +41,29 @@ class PythonDriver : public RobotDriver {
     driver().attr("dwell")(robot, vertex, duration_s);
   }
   void halt(int robot) override { driver().attr("halt")(robot); }
-  void policy_start(int /*robot*/) override { machine_.attr("_policy_start")(); }
+  void policy_start(int /*robot*/) override { machine().attr("_policy_start")(); }
   int policy_decide(int /*robot*/) override {
-    py::object goal = machine_.attr("_policy_decide")();
+    py::object goal = machine().attr("_policy_decide")();
     return goal.is_none() ? -1 : goal.cast<int>();
   }
   void policy_goal_failed(int /*robot*/, int vertex) override {
-    machine_.attr("_policy_goal_failed")(vertex);
+    machine().attr("_policy_goal_failed")(vertex);
   }
   void policy_teammate_lost(int /*robot*/, int teammate) override {
-    machine_.attr("_policy_teammate_lost")(teammate);
+    machine().attr("_policy_teammate_lost")(teammate);
   }
   void emit(int /*robot*/, int kind, int vertex, int from_vertex, double t) override {
-    machine_.attr("_emit_event")(kind, vertex, from_vertex, t);
+    machine().attr("_emit_event")(kind, vertex, from_vertex, t);
   }
 
  private:
-  py::object driver() const { return machine_.attr("driver"); }
-  py::handle machine_;
+  py::object machine() const {
+    py::object m = machine_ref_();
+    if (m.is_none()) throw std::runtime_error("the RobotMachine of this RobotProtocol is gone");
+    return m;
+  }
+  py::object driver() const { return machine().attr("driver"); }
+  py::weakref machine_ref_;
 };
 
 // A protocol with its Python driver (the driver is built first: a base before the protocol).
