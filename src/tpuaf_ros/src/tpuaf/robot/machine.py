@@ -15,8 +15,8 @@ callbacks (the driver's motion and clock, the policy's hooks, the events), and i
 
 A runtime ("driver") owns the clock, the transport and the motion. It calls `start`, `decide`,
 `on_vertex` (a vertex of the route was reached), `observe` (every position of the robot),
-`on_goal_failed`, `on_wake`, `on_message`, `die` and `stall`, and feeds the robot's liveness (`TeammateLiveness`, team/liveness.py):
-`hear(robot, t)` for every team message and heartbeat delivered, `check_liveness(now)` when a
+`on_goal_failed`, `on_wake`, `on_message`, `die` and `stall`, and feeds the robot's liveness
+(the protocol's `TeammateLiveness`): `hear(robot, t)` for every team message and heartbeat delivered, `check_liveness(now)` when a
 check is due (the ROS agent node: 4 Hz; graph and physics: when a silence can end, from
 `heartbeat_links`), which calls the policy's `on_teammate_lost` for a teammate silent for the
 timeout; the machine calls back the driver (`RobotDriver`) to move, dwell, halt,
