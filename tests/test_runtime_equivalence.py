@@ -32,8 +32,8 @@ CORE = REPO / "src" / "tpuaf_core_cpp"
 FINGERPRINTED = sorted(
     [p for p in (PKG / "policies").glob("*.py")]
     + [PKG / "maps" / "tours.py", PKG / "team" / "messages.py", PKG / "runtimes" / "graph.py"]
-    + [CORE / "src" / f for f in ("engine.cpp", "engine_faults.cpp", "recorder.cpp",
-                                  "heartbeats.cpp", "policies_tpuaf.cpp",
+    + [CORE / "src" / f for f in ("engine.cpp", "engine_faults.cpp", "robot_protocol.cpp",
+                                  "recorder.cpp", "heartbeats.cpp", "policies_tpuaf.cpp",
                                   "policies_tpuaf_plus.cpp", "visit_rule.cpp")])
 
 MAPS = {"grid": "grid", "cumberland": str(CUMBERLAND)}

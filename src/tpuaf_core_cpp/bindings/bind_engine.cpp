@@ -148,8 +148,24 @@ void wrap_heartbeats(py::module_& m) {
       .def("died", &HeartbeatLinks::died, py::arg("robot"), py::arg("t"))
       .def("last_arrival_s", &HeartbeatLinks::last_arrival_s, py::arg("recipient"),
            py::arg("sender"), py::arg("t"))
-      .def("next_check_s", &HeartbeatLinks::next_check_s, py::arg("recipient"), py::arg("sender"),
-           py::arg("last_heard"), py::arg("lost"), py::arg("now"))
+      .def("next_check_s",
+           py::overload_cast<int, int, double, bool, double>(&HeartbeatLinks::next_check_s),
+           py::arg("recipient"), py::arg("sender"), py::arg("last_heard"), py::arg("lost"),
+           py::arg("now"))
+      .def(
+          "feed",
+          [](HeartbeatLinks& h, TeammateLiveness& liveness, double now) {
+            std::vector<int> back;
+            h.feed(liveness, now, &back);
+            return back;
+          },
+          py::arg("liveness"), py::arg("now"),
+          "A live robot's liveness hears every teammate's last heartbeat by now [s]; returns "
+          "the teammates heard again after being lost.")
+      .def("next_check_of",
+           py::overload_cast<const TeammateLiveness&, double>(&HeartbeatLinks::next_check_s),
+           py::arg("liveness"), py::arg("now"),
+           "[s] the earliest time a check of `liveness` can find a change (inf: never).")
       .def_property_readonly("period_s", &HeartbeatLinks::period_s)
       .def_property_readonly("count", &HeartbeatLinks::count)
       .def("received", &HeartbeatLinks::received, py::arg("recipient"), py::arg("sender"))

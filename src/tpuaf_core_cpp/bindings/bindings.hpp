@@ -16,6 +16,7 @@ void bind_assignment(pybind11::module_& m);
 void bind_visit_rule(pybind11::module_& m);
 void bind_strategy(pybind11::module_& m);
 void bind_team_bus(pybind11::module_& m);
+void bind_robot_protocol(pybind11::module_& m);
 }  // namespace tpuaf::bindings
 
 namespace tpuaf {

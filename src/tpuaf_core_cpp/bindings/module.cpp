@@ -17,4 +17,5 @@ PYBIND11_MODULE(_core, m) {
   tpuaf::bindings::bind_tours(m);
   tpuaf::bindings::bind_assignment(m);
   tpuaf::bindings::bind_visit_rule(m);
+  tpuaf::bindings::bind_robot_protocol(m);
 }

@@ -34,15 +34,22 @@ GraphEngine::GraphEngine(const PatrolGraph& graph, Points positions, EngineConfi
   }
   if (!(config_.nominal_speed_mps > 0)) throw std::invalid_argument("nominal speed must be > 0");
   robots_.resize(static_cast<std::size_t>(n));
+  protocols_.reserve(static_cast<std::size_t>(n));
+  ProtocolConfig pc;
+  pc.robots = n;
+  pc.stay_s = config_.stay_s;
+  pc.retry_s = config_.retry_s;
+  pc.teammate_timeout_s = config_.teammate_timeout_s;
+  pc.visit_radius_m = config_.visit_radius_m;
   for (int i = 0; i < n; ++i) {
     Robot& r = robots_[static_cast<std::size_t>(i)];
     const int v = config_.start_vertices[static_cast<std::size_t>(i)];
     graph_.check_vertex(v);
-    r.current = r.start = v;
     r.p0x = positions_(v, 0);
     r.p0y = positions_(v, 1);
-    rules_.emplace_back(positions_, config_.visit_radius_m);
-    rules_.back().start(v, r.p0x, r.p0y);
+    pc.robot = i;
+    protocols_.emplace_back(static_cast<RobotDriver&>(*this), positions_, pc);
+    protocols_.back().place(v);
   }
   scratch_.resize(n, 2);
 }
@@ -53,6 +60,11 @@ const GraphEngine::Robot& GraphEngine::robot_at(int robot) const {
                             std::to_string(config_.robots) + ")");
   }
   return robots_[static_cast<std::size_t>(robot)];
+}
+
+const RobotProtocol& GraphEngine::protocol(int robot) const {
+  robot_at(robot);
+  return protocols_[static_cast<std::size_t>(robot)];
 }
 
 double GraphEngine::average_speed(int robot) const {
@@ -90,7 +102,7 @@ std::uint64_t GraphEngine::push(double time, int kind, int payload) {
 void GraphEngine::send(int robot, TeamMessage message) {
   const bool faults = !faults_.empty();
   if (faults) {
-    if (!robot_at(robot).alive) return;  // a dead robot sends nothing
+    if (!protocol(robot).alive()) return;  // a dead robot sends nothing
     // The destination announced (RobotMachine.send: on_announce), for the recovery metrics.
     int announced = message.announced;
     if (message.kind == TeamMessage::Kind::kIntention) {
@@ -120,15 +132,14 @@ void GraphEngine::free_message(std::int64_t id) {
 }
 
 void GraphEngine::wake_at(int robot, double time_s) {
-  Robot& r = const_cast<Robot&>(robot_at(robot));
-  push(py_max(time_s, now_), kWake, robot);
-  r.wake_pending = true;
+  robot_at(robot);
+  protocol_of(robot).wake_at(time_s);
 }
 
 void GraphEngine::change_goal(int robot, int vertex) {
-  Robot& r = const_cast<Robot&>(robot_at(robot));
+  robot_at(robot);
   graph_.check_vertex(vertex);
-  r.redirect = vertex;
+  protocol_of(robot).change_goal(vertex);
 }
 
 void GraphEngine::deliver_batch_by_robot() {
@@ -151,7 +162,7 @@ void GraphEngine::deliver_batch_by_robot() {
       }
       const TeamMessage& message = message_of(d);
       if (faults) {  // deliver_heard's steps (hear cannot bring a teammate back here)
-        if (!robots_[static_cast<std::size_t>(r)].alive) continue;
+        if (!protocols_[static_cast<std::size_t>(r)].alive()) continue;
         hear(r, message.robot, now_);
         bus_.count_delivered(1);
       }
@@ -175,7 +186,7 @@ void GraphEngine::deliver_heard() {
     const TeamMessage& message = message_of(d);
     const int sender = message.robot;
     d.for_each_recipient(config_.robots, [&](int r) {
-      if (!robots_[static_cast<std::size_t>(r)].alive) return;
+      if (!protocols_[static_cast<std::size_t>(r)].alive()) return;
       if (hear(r, sender, now_)) plan_liveness(r);
       strategy_->on_message(*this, r, message);
       bus_.count_delivered(1);
@@ -229,41 +240,48 @@ void GraphEngine::deliver_ready() {
   }
 }
 
-void GraphEngine::plan_route(Robot& r, int goal) {
+void GraphEngine::plan_route(Robot& r, int from, int goal) {
   r.route_k = 0;
-  if (goal == r.current) {
+  if (goal == from) {
     r.route.assign(1, goal);
   } else {
-    r.route = graph_.path(r.current, goal);
+    r.route = graph_.path(from, goal);
     r.route.erase(r.route.begin());
   }
 }
 
-void GraphEngine::decide(int robot) {
-  Robot& r = robots_[static_cast<std::size_t>(robot)];
-  if (!r.alive) return;
-  r.wake_pending = false;
+int GraphEngine::policy_decide(int robot) {
   const int goal = strategy_->decide(*this, robot);
-  r.redirect = -1;
-  if (goal < 0) {
-    r.goal = -1;
-    r.dwelling = false;
-    if (!r.wake_pending) wake_at(robot, now_ + config_.retry_s);
-    return;
-  }
-  graph_.check_vertex(goal);
-  r.goal = goal;
-  plan_route(r, goal);
-  // RobotMachine._set_goal: dwell on the goal it stands on, else drive there.
-  r.dwelling = goal == r.current && (!r.stalled || at_vertex(robot, goal));
-  if (r.dwelling) {
-    start_segment(robot);
-  } else {
-    drive(robot);
+  if (goal >= 0) graph_.check_vertex(goal);
+  return goal;
+}
+
+void GraphEngine::emit(int robot, int kind, int vertex, int /*from_vertex*/, double t) {
+  // The recorder's share of the protocol's events (GOAL and FAILED are not recorded here).
+  if (kind == robot_event::kReached || kind == robot_event::kStart) {
+    recorder_.record_visit(robot, vertex, t);
+  } else if (kind == robot_event::kDwell) {
+    recorder_.count_dwell(protocols_[static_cast<std::size_t>(robot)].last_dwell_s());
   }
 }
 
+void GraphEngine::drive(int robot, int from_vertex, int goal) {
+  plan_route(robots_[static_cast<std::size_t>(robot)], from_vertex, goal);
+  move(robot);
+}
+
+void GraphEngine::dwell(int robot, int vertex, double /*duration_s*/) {
+  // A one-vertex route: start_segment stands config_.stay_s (the protocol's stay) on it.
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  r.route.assign(1, vertex);
+  r.route_k = 0;
+  start_segment(robot);
+}
+
 bool GraphEngine::at_vertex(int robot, int vertex) const {
+  // A robot that can move stands exactly on its vertex between drives; a stalled one may have
+  // stopped anywhere.
+  if (!protocols_[static_cast<std::size_t>(robot)].stalled()) return true;
   double x, y;
   position(robot, now_, x, y);
   return std::hypot(x - positions_(vertex, 0), y - positions_(vertex, 1)) <=
@@ -284,9 +302,9 @@ int GraphEngine::nearest_vertex(double x, double y) const {
   return best;
 }
 
-void GraphEngine::drive(int robot) {
+void GraphEngine::move(int robot) {
   // A stalled robot cannot move; its navigator gives up later.
-  if (robots_[static_cast<std::size_t>(robot)].stalled) {
+  if (protocols_[static_cast<std::size_t>(robot)].stalled()) {
     give_up_later(robot);
   } else {
     start_segment(robot);
@@ -295,7 +313,8 @@ void GraphEngine::drive(int robot) {
 
 void GraphEngine::start_segment(int robot) {
   Robot& r = robots_[static_cast<std::size_t>(robot)];
-  const int here = r.current, next = r.route[r.route_k];
+  RobotProtocol& p = protocols_[static_cast<std::size_t>(robot)];
+  const int here = p.current_vertex(), next = r.route[r.route_k];
   const double x0 = positions_(here, 0), y0 = positions_(here, 1);
   const double x1 = positions_(next, 0), y1 = positions_(next, 1);
   double duration;
@@ -307,7 +326,7 @@ void GraphEngine::start_segment(int robot) {
     r.travelled_m += length;
     r.travel_time_s += duration;
   }
-  rules_[static_cast<std::size_t>(robot)].observe(x0, y0);  // straight: ends are the extremes
+  p.observe(x0, y0);  // straight: ends are the extremes
   r.t0 = now_;
   r.t1 = now_ + duration;
   r.p0x = x0;
@@ -318,34 +337,10 @@ void GraphEngine::start_segment(int robot) {
 }
 
 void GraphEngine::arrive(int robot) {
+  // A vertex of the route reached: the protocol says whether to go on (a pass-through vertex).
   Robot& r = robots_[static_cast<std::size_t>(robot)];
   const int vertex = r.route[r.route_k++];
-  r.current = vertex;
-  if (r.redirect >= 0 && r.goal >= 0) {
-    r.goal = r.redirect;
-    r.redirect = -1;
-    plan_route(r, r.goal);
-    if (vertex != r.goal) {
-      r.dwelling = false;
-      drive(robot);
-      return;
-    }
-  } else if (r.route_k < r.route.size()) {
-    start_segment(robot);  // pass-through vertex: not a visit
-    return;
-  }
-  const double stay_s = r.dwelling ? r.t1 - r.t0 : 0.0;
-  r.dwelling = false;
-  // VisitRule: a drive's end is a visit; a dwell (it never left) is counted apart.
-  double x, y;
-  position(robot, now_, x, y);
-  if (rules_[static_cast<std::size_t>(robot)].arrive(vertex, x, y)) {
-    recorder_.record_visit(robot, vertex, now_);
-  } else {
-    recorder_.count_dwell(stay_s);
-  }
-  r.goal = -1;
-  decide(robot);
+  if (protocol_of(robot).on_vertex(vertex, r.route_k >= r.route.size())) start_segment(robot);
 }
 
 void GraphEngine::record_positions(double t) {
@@ -364,12 +359,10 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
   for (std::size_t k = 0; k < faults_.size(); ++k) {
     push(faults_[k].time_s, kFault, static_cast<int>(k));
   }
-  for (int i = 0; i < n; ++i) strategy_->start(*this, i);
-  for (int i = 0; i < n; ++i)
-    recorder_.record_visit(i, robots_[static_cast<std::size_t>(i)].current, 0.0);
+  for (int i = 0; i < n; ++i) protocol_of(i).start();  // START (a visit), the policy's start
   deliver_ready();
   for (int i = 0; i < n; ++i) {
-    decide(i);
+    protocol_of(i).decide();
     deliver_ready();
   }
   if (links_) {
@@ -398,7 +391,7 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
     } else if (ev.kind == kArrive) {
       if (robots_[static_cast<std::size_t>(ev.payload)].pending == ev.seq) arrive(ev.payload);
     } else if (ev.kind == kWake) {
-      if (robots_[static_cast<std::size_t>(ev.payload)].goal < 0) decide(ev.payload);
+      protocol_of(ev.payload).on_wake();
     } else if (ev.kind == kFault) {
       inject(faults_[static_cast<std::size_t>(ev.payload)]);
     } else if (ev.kind == kGiveUp) {

@@ -126,4 +126,23 @@ double HeartbeatLinks::next_check_s(int recipient, int sender, double last_heard
   return at(end) + timeout_s_;
 }
 
+void HeartbeatLinks::feed(TeammateLiveness& liveness, double now, std::vector<int>* back) {
+  const int me = liveness.me();
+  for (int j = 0; j < n_; ++j) {
+    const double t = last_arrival_s(me, j, now);
+    if (t > -kInf && liveness.heard(j, t) && back != nullptr) back->push_back(j);
+  }
+}
+
+double HeartbeatLinks::next_check_s(const TeammateLiveness& liveness, double now) {
+  const int me = liveness.me();
+  double due = kInf;
+  for (int j = 0; j < n_; ++j) {
+    if (j == me) continue;
+    const double t = next_check_s(me, j, liveness.last_heard(j), liveness.lost(j), now);
+    if (t < due) due = t;
+  }
+  return due;
+}
+
 }  // namespace tpuaf

@@ -18,6 +18,7 @@
 #include "tpuaf_core/knowledge.hpp"
 #include "tpuaf_core/numpy_random.hpp"
 #include "tpuaf_core/recorder.hpp"
+#include "tpuaf_core/robot_protocol.hpp"
 #include "tpuaf_core/run_config.hpp"
 #include "tpuaf_core/strategies.hpp"
 #include "tpuaf_core/strategy.hpp"
@@ -27,7 +28,9 @@
 
 namespace tpuaf {
 
-class GraphEngine final : public StrategyHost {
+// The engine is the team's strategy host and the driver of every robot's RobotProtocol (the one
+// robot state machine, robot_protocol.hpp): it moves the robots, the protocol decides.
+class GraphEngine final : public StrategyHost, private RobotDriver {
  public:
   // graph: the patrol graph (kept by reference, must outlive the engine); positions: vertex
   // positions [m] used for motion; field: the ground-truth X field at its initial values;
@@ -41,8 +44,8 @@ class GraphEngine final : public StrategyHost {
   // loss). With faults every robot's liveness is fed and checked.
   void set_faults(std::vector<EngineFault> faults, std::vector<NumpyPcg64> heartbeat_rngs);
   bool has_faults() const { return !faults_.empty(); }
-  bool alive(int robot) const { return robot_at(robot).alive; }
-  bool stalled(int robot) const { return robot_at(robot).stalled; }
+  bool alive(int robot) const { return protocol(robot).alive(); }
+  bool stalled(int robot) const { return protocol(robot).stalled(); }
   // (run time [s], observer, lost teammate) of every liveness loss, in order.
   struct Loss {
     double time_s;
@@ -59,9 +62,9 @@ class GraphEngine final : public StrategyHost {
   const PatrolGraph& graph() const override { return graph_; }
   const Points& vertex_positions() const { return positions_; }
   const EngineConfig& config() const { return config_; }
-  int current_vertex(int robot) const override { return robot_at(robot).current; }
-  int start_vertex(int robot) const { return robot_at(robot).start; }
-  int goal(int robot) const { return robot_at(robot).goal; }
+  int current_vertex(int robot) const override { return protocol(robot).current_vertex(); }
+  int start_vertex(int robot) const { return protocol(robot).start_vertex(); }
+  int goal(int robot) const { return protocol(robot).goal(); }
   double travelled_m(int robot) const { return robot_at(robot).travelled_m; }
   double travel_time_s(int robot) const { return robot_at(robot).travel_time_s; }
   // Vel(i) of Eq. 6 [m/s]: measured once the robot drove 1 s, nominal before.
@@ -81,27 +84,21 @@ class GraphEngine final : public StrategyHost {
   GroundTruthRecorder& recorder() { return recorder_; }
   const TeamBusStats& bus_stats() const { return bus_.stats(); }
   long long events() const { return events_; }
-  const VisitRule& visit_rule(int robot) const {
-    robot_at(robot);
-    return rules_[static_cast<std::size_t>(robot)];
-  }
+  const VisitRule& visit_rule(int robot) const { return protocol(robot).visit_rule(); }
+  const RobotProtocol& protocol(int robot) const;
 
  private:
   // Event kinds, in the order ties resolve (tpuaf.runtimes.graph); a message in flight (the
   // bus's) is a kDeliver event at its due time.
   static constexpr int kArrive = 0, kWake = 1, kDeliver = 2, kFault = 3, kGiveUp = 4, kLiveness = 5;
+  // A robot's motion (its protocol state is in protocols_).
   struct Robot {
-    int current = 0, start = 0, goal = -1, redirect = -1;
-    std::vector<int> route;
+    std::vector<int> route;  // the vertices still to reach from route_k on
     std::size_t route_k = 0;
     double travelled_m = 0, travel_time_s = 0;
-    bool wake_pending = false;
-    bool alive = true, stalled = false, dwelling = false;
     double p0x = 0, p0y = 0, vx = 0, vy = 0, t0 = 0, t1 = 0;  // current straight segment
-    std::uint64_t pending = 0;       // seq of its one awaited ARRIVE or GIVE_UP (0: none)
-    std::uint64_t liveness = 0;      // seq of its one pending liveness check (0: none)
-    std::vector<double> last_heard;  // [s] per teammate (TeammateLiveness), runs with faults
-    std::vector<char> lost;          // per teammate: reported lost
+    std::uint64_t pending = 0;   // seq of its one awaited ARRIVE or GIVE_UP (0: none)
+    std::uint64_t liveness = 0;  // seq of its one pending liveness check (0: none)
   };
   struct Event {
     double time;
@@ -116,15 +113,15 @@ class GraphEngine final : public StrategyHost {
   };
 
   const Robot& robot_at(int robot) const;
+  RobotProtocol& protocol_of(int robot) { return protocols_[static_cast<std::size_t>(robot)]; }
   std::uint64_t push(double time, int kind, int payload);
   void deliver_ready();
   void deliver_heard();
-  void drive(int robot);
+  void move(int robot);  // along its route (a stalled robot gives up later)
   void give_up_later(int robot);
   void give_up(int robot);
   void freeze(int robot);
   void inject(const EngineFault& fault);
-  bool at_vertex(int robot, int vertex) const;
   int nearest_vertex(double x, double y) const;
   bool hear(int robot, int sender, double t);
   void feed_heartbeats(int robot);
@@ -135,10 +132,26 @@ class GraphEngine final : public StrategyHost {
     return messages_[static_cast<std::size_t>(d.message)];
   }
   void free_message(std::int64_t id);  // its message is delivered: the id is free
-  void decide(int robot);
-  void plan_route(Robot& r, int goal);
+  void plan_route(Robot& r, int from, int goal);
   void start_segment(int robot);
   void arrive(int robot);
+  // --- RobotDriver: what the robots' protocols ask of the loop ---
+  void position(int robot, double& x, double& y) const override { position(robot, now_, x, y); }
+  bool at_vertex(int robot, int vertex) const override;
+  void schedule_wake(int robot, double time_s) override { push(time_s, kWake, robot); }
+  void drive(int robot, int from_vertex, int goal) override;
+  void dwell(int robot, int vertex, double duration_s) override;
+  void halt(int /*robot*/) override {}  // it stands still: waiting or dead, it was stopped
+  void policy_start(int robot) override { strategy_->start(*this, robot); }
+  int policy_decide(int robot) override;
+  void policy_goal_failed(int robot, int vertex) override {
+    strategy_->on_goal_failed(*this, robot, vertex);
+  }
+  void policy_teammate_lost(int robot, int teammate) override {
+    strategy_->on_teammate_lost(*this, robot, teammate);
+  }
+  void emit(int robot, int kind, int vertex, int from_vertex, double t) override;
+
   void record_positions(double t);
   void positions(double t, Points& out) const;
 
@@ -149,7 +162,7 @@ class GraphEngine final : public StrategyHost {
   TeamBus bus_;
   TeamStrategy* strategy_ = nullptr;
   std::vector<Robot> robots_;
-  std::vector<VisitRule> rules_;  // one per robot: the one definition of a visit
+  std::vector<RobotProtocol> protocols_;  // one per robot: its state machine
   double now_ = 0;
   double last_positions_time_ = -1.0;
   std::priority_queue<Event, std::vector<Event>, std::greater<Event>> events_queue_;
@@ -162,12 +175,12 @@ class GraphEngine final : public StrategyHost {
   std::vector<BusDelivery> batch_;
   std::vector<std::size_t> batch_cursor_;
   Points scratch_;
-  std::vector<double> lost_scratch_;
   std::vector<EngineFault> faults_;
   std::unique_ptr<HeartbeatLinks> links_;
   std::vector<Loss> losses_;
-  std::vector<int> lost_now_;
-  std::vector<int> lost_by_;  // per robot: how many teammates hold it for lost now
+  std::vector<int> lost_by_;
+  std::vector<int> back_;  // teammates heard again by a heartbeat feed  // per robot: how many
+                           // teammates hold it for lost now
 };
 
 }  // namespace tpuaf

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "tpuaf_core/numpy_random.hpp"
+#include "tpuaf_core/teammate_liveness.hpp"
 
 namespace tpuaf {
 
@@ -23,6 +24,12 @@ class HeartbeatLinks {
   double last_arrival_s(int recipient, int sender, double t);
   // [s] the next time recipient's view of sender can change from heartbeats alone (+inf: never).
   double next_check_s(int recipient, int sender, double last_heard, bool lost, double now);
+  // A live robot's `liveness` hears the last heartbeat of every teammate that reached it by
+  // run time now [s]; the teammates heard again after being lost are appended to `back`.
+  void feed(TeammateLiveness& liveness, double now, std::vector<int>* back = nullptr);
+  // [s] the earliest time a check of `liveness` can find a change (a silence reaching the
+  // timeout, a lost teammate heard again), from heartbeats alone (+inf: never); after feed.
+  double next_check_s(const TeammateLiveness& liveness, double now);
   double period_s() const { return period_s_; }
   std::int64_t count() const { return count_; }  // heartbeats per sender over the run
   // Heartbeat indices `recipient` hears of `sender` (ascending), and the positions p among them

@@ -32,10 +32,6 @@ struct InterferenceRecord {
   int a, b;
 };
 
-struct BusStats {
-  long long sent = 0, delivered = 0, lost = 0;
-};
-
 // A silence of a robot (the monitor's outage): from start_s [s] until end_s [s] when it was
 // heard again; `ended` false: never heard again, a death.
 struct OutageRecord {

@@ -1,6 +1,10 @@
 """The robot state machine every runtime drives (graph, physics, agent; docs/RUNTIMES.md).
 
-`RobotMachine` is one robot's patrol protocol and the `RobotContext` its policy sees:
+The state machine is the C++ core's `tpuaf_core.RobotProtocol` (robot_protocol.cpp), the one the
+graph runtime's loop drives in C++. `RobotMachine` is its Python adapter for the physics runtime
+and the ROS agents: it forwards the driver's events to the protocol, answers the protocol's
+callbacks (the driver's motion and clock, the policy's hooks, the events), and is the
+`RobotContext` its policy sees:
 
     start --decide--> DRIVING(goal) --vertex passed--> DRIVING (same route, or a redirect)
                  |        |--goal vertex reached--> REACHED (a visit) or DWELL: decide again
@@ -11,8 +15,8 @@
 
 A runtime ("driver") owns the clock, the transport and the motion. It calls `start`, `decide`,
 `on_vertex` (a vertex of the route was reached), `observe` (every position of the robot),
-`on_goal_failed`, `on_wake`, `on_message`, `die` and `stall`, and feeds the robot's liveness (`TeammateLiveness`, team/liveness.py):
-`hear(robot, t)` for every team message and heartbeat delivered, `check_liveness(now)` when a
+`on_goal_failed`, `on_wake`, `on_message`, `die` and `stall`, and feeds the robot's liveness
+(the protocol's `TeammateLiveness`): `hear(robot, t)` for every team message and heartbeat delivered, `check_liveness(now)` when a
 check is due (the ROS agent node: 4 Hz; graph and physics: when a silence can end, from
 `heartbeat_links`), which calls the policy's `on_teammate_lost` for a teammate silent for the
 timeout; the machine calls back the driver (`RobotDriver`) to move, dwell, halt,
@@ -29,12 +33,13 @@ import math
 from collections.abc import Callable
 from typing import Any, Protocol
 
+import numpy as np
+
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import Policy, RobotContextBase
 from tpuaf.robot.learning import LearnedTravel
-from tpuaf.team.liveness import TeammateLiveness
 from tpuaf.team.messages import IdlenessEstimate, Intention, LaneClaim, Visit
-from tpuaf.topics import DWELL, FAILED, GOAL, REACHED, START
+from tpuaf.topics import DWELL, REACHED
 
 STAY_S = 1.0  # [s] a robot whose goal is its own vertex dwells this long (a DWELL, no visit)
 DEFAULT_RETRY_S = 1.0  # [s] a policy that waits without asking for a wake-up is asked again after
@@ -71,12 +76,15 @@ def announced_vertex(message: Any) -> int:
 
 
 class RobotMachine(RobotContextBase):
-    """One robot's protocol state and the RobotContext of its policy (see module docstring)."""
+    """One robot's protocol (tpuaf_core.RobotProtocol) and the RobotContext of its policy (see
+    the module docstring)."""
 
     def __init__(self, driver: RobotDriver, robot: int, n_robots: int, patrol_map: Any,
                  policy: Policy, rng, emit: Callable[[int, int, int, float], None] | None = None,
                  start_vertex: int | None = None,
                  teammate_timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s):
+        import tpuaf_core
+
         self.driver = driver
         self.robot = int(robot)
         self.n_robots = int(n_robots)
@@ -84,38 +92,58 @@ class RobotMachine(RobotContextBase):
         self.policy = policy
         self.rng = rng
         self.emit = emit or (lambda kind, vertex, from_vertex, t: None)
-        self.visit_rule = patrol_map.visit_rule()  # the one definition of a visit
         # Called with (vertex, t) for every destination announced in a team message sent.
         self.on_announce: Callable[[int, float], None] | None = None
-        self._start_vertex = -1
-        self._current = -1
+        if not teammate_timeout_s > 0:
+            raise ValueError(f"teammate timeout must be > 0 s, got {teammate_timeout_s}")
+        # The state machine; it holds the visit rule (the one definition of a visit) and the
+        # teammate liveness ([s] a teammate silent teammate_timeout_s is lost).
+        self.protocol = tpuaf_core.RobotProtocol(
+            self, np.asarray(patrol_map.positions, dtype=float), self.robot, self.n_robots,
+            STAY_S, DEFAULT_RETRY_S, float(teammate_timeout_s), float(patrol_map.visit_radius_m))
         self._start_position = (math.nan, math.nan)
         if start_vertex is not None:
             self.place(start_vertex)
-        self.goal: int | None = None
-        self.redirect: int | None = None  # a new goal asked for while driving
-        self.wake_pending = False
-        self.dwelling = False
-        self.started = False
-        self.alive = True
-        self.stalled = False
         # Vel(i) of Eq. 6 in the plan's units: plan metres of the legs driven to a visit over
         # their driving time [s] (the graph runtime's measure), so that the plan's lengths over
         # it give travel times whatever the lengths model (declared, planned or timed).
         self.travelled_m = 0.0
         self.travel_time_s = 0.0
-        self._leg: tuple[int, float] | None = None  # (from vertex, departure [s]) of a drive
-        self.visits = 0
-        self.dwells = 0  # goals ended without a visit (DWELL)
-        self.dwell_time_s = 0.0  # [s] standing in dwells
-        self._dwell_since = 0.0  # [s] run time the current dwell began
-        self.failures = 0
-        self.decisions = 0
-        # [s] a teammate silent this long is lost (the agent node's ~teammate_timeout)
-        self.liveness = TeammateLiveness(self.n_robots, self.robot, teammate_timeout_s)
         # The team's measured edge durations; the plan is re-timed on them (robot/learning.py).
         self.learned = LearnedTravel(patrol_map)
         self.lane_locks = None  # team.lane_locks.LaneLocks on maps with lanes (robot/lanes.py)
+
+    # --- the protocol's state ---
+    @property
+    def goal(self) -> int | None:
+        g = self.protocol.goal
+        return None if g < 0 else g
+
+    @property
+    def redirect(self) -> int | None:  # a new goal asked for while driving
+        g = self.protocol.redirect
+        return None if g < 0 else g
+
+    @property
+    def _current(self) -> int:
+        return self.protocol.current_vertex
+
+    @property
+    def _start_vertex(self) -> int:
+        return self.protocol.start_vertex
+
+    alive = property(lambda self: self.protocol.alive)
+    started = property(lambda self: self.protocol.started)
+    stalled = property(lambda self: self.protocol.stalled)
+    dwelling = property(lambda self: self.protocol.dwelling)
+    wake_pending = property(lambda self: self.protocol.wake_pending)
+    visits = property(lambda self: self.protocol.visits)
+    dwells = property(lambda self: self.protocol.dwells)  # goals ended without a visit (DWELL)
+    dwell_time_s = property(lambda self: self.protocol.dwell_time_s)  # [s] standing in dwells
+    failures = property(lambda self: self.protocol.failures)
+    decisions = property(lambda self: self.protocol.decisions)
+    visit_rule = property(lambda self: self.protocol.visit_rule)  # tpuaf_core.VisitRule
+    liveness = property(lambda self: self.protocol.liveness)  # tpuaf_core.TeammateLiveness
 
     def at_vertex(self, vertex: int) -> bool:
         """Is the robot within the map's goal tolerance [m] of `vertex` (it dwells there rather
@@ -130,7 +158,7 @@ class RobotMachine(RobotContextBase):
 
     def observe(self, x: float, y: float) -> None:
         """A position [m] of the robot (the driver's every pose): re-arms the visit rule."""
-        self.visit_rule.observe(float(x), float(y))
+        self.protocol.observe(float(x), float(y))
 
     # --- RobotContext -----------------------------------------------------------------------
     @property
@@ -152,118 +180,42 @@ class RobotMachine(RobotContextBase):
         self.driver.transmit(self.robot, message)
 
     def wake_at(self, time: float) -> None:
-        self.driver.schedule_wake(self.robot, max(float(time), self.driver.now))
-        self.wake_pending = True
+        self.protocol.wake_at(float(time))
 
     def change_goal(self, vertex: int) -> None:
         """Redirect while driving: at the next vertex passed, head to `vertex` instead (only
         that goal counts as a visit)."""
-        self.redirect = self.checked_vertex(vertex)
+        self.protocol.change_goal(self.checked_vertex(vertex))
 
-    # --- inputs from the driver --------------------------------------------------------------
+    # --- inputs from the driver, forwarded to the protocol ----------------------------------
     def place(self, vertex: int) -> None:
         """The robot stands at its start vertex (before `start`)."""
         v = self.checked_vertex(vertex)
-        self._start_vertex = self._current = v
+        self.protocol.place(v)
         p = self.patrol_map.positions[v]
         self._start_position = (float(p[0]), float(p[1]))
 
     def start(self) -> None:
         """START (the start vertex's first visit), then the policy's start hook; the driver
         calls `decide` next (after every robot of a team has started, where it can)."""
-        self.started = True
-        self.visit_rule.start(self._start_vertex, *self.position)
-        self.emit(START, self._start_vertex, -1, self.driver.now)
-        self.policy.start(self)
+        self.protocol.start()
 
     def decide(self) -> None:
         """Ask the policy for the next goal and head there (None: wait for a wake-up)."""
-        if not self.alive:
-            return
-        self.wake_pending = False
-        self.decisions += 1
-        retimed = self.learned.retimed_map(self.driver.now)
-        if retimed is not None:  # learned travel times: the policy plans on them from now on
-            self.patrol_map = retimed
-            self.policy.retime(self)
-        goal = self.call_decide(self.policy)
-        self.redirect = None
-        if goal is None:
-            self.goal = None
-            self.dwelling = False
-            self.driver.halt(self.robot)
-            if not self.wake_pending:
-                self.wake_at(self.driver.now + DEFAULT_RETRY_S)
-            return
-        self._set_goal(goal)
-
-    def _set_goal(self, goal: int) -> None:
-        self.goal = goal
-        here = self._current
-        self.emit(GOAL, goal, here, self.driver.now)
-        if goal == here and self.at_vertex(goal):
-            self.dwelling = True
-            self._dwell_since = self.driver.now
-            self.driver.dwell(self.robot, goal, STAY_S)
-        else:
-            self.dwelling = False
-            self._leg = (here, self.driver.now)
-            self.driver.drive(self.robot, here, goal)
+        self.protocol.decide()
 
     def on_wake(self) -> None:
         """A wake-up time requested with `wake_at` is due (ignored while the robot has a goal)."""
-        if self.alive and self.started and self.goal is None:
-            self.decide()
+        self.protocol.on_wake()
 
     def on_vertex(self, vertex: int, at_goal: bool) -> bool:
         """The robot reached `vertex` of its route (`at_goal`: the route's last one, or the
         end of a dwell). Returns True when the driver should go on along the same route."""
-        if not self.alive:
-            return False
-        self._current = vertex
-        if self.redirect is not None and self.goal is not None:
-            self.goal, self.redirect = self.redirect, None
-            if vertex != self.goal:
-                self.dwelling = False
-                self.emit(GOAL, self.goal, vertex, self.driver.now)
-                self.driver.drive(self.robot, vertex, self.goal)
-                return False
-        elif not at_goal:
-            return True  # a pass-through vertex: not a visit
-        self._reach(vertex)
-        return False
-
-    def _reach(self, vertex: int) -> None:
-        """The goal ends at `vertex`: a visit (REACHED) if the VisitRule says so, else DWELL."""
-        now = self.driver.now
-        if self._leg is not None and self._leg[0] != vertex:
-            self.travelled_m += self.patrol_map.graph.distance(self._leg[0], vertex)
-            self.travel_time_s += now - self._leg[1]
-        self._leg = None
-        if self.visit_rule.arrive(vertex, *self.position):
-            self.visits += 1
-            self.emit(REACHED, vertex, vertex, now)
-        else:
-            self.dwells += 1
-            if self.dwelling:
-                self.dwell_time_s += now - self._dwell_since
-            self.emit(DWELL, vertex, vertex, now)
-        self.dwelling = False
-        self.goal = None
-        self.decide()
+        return self.protocol.on_vertex(int(vertex), bool(at_goal))
 
     def on_goal_failed(self, vertex: int, nearest_vertex: int) -> None:
         """The motion gave up on the goal `vertex`; the robot is nearest to `nearest_vertex`."""
-        if not self.alive:
-            return
-        self.failures += 1
-        self._leg = None
-        self.emit(FAILED, vertex, self._current, self.driver.now)
-        self.goal = None
-        self.dwelling = False
-        self._current = int(nearest_vertex)
-        self.policy.on_goal_failed(vertex, self)
-        self.decide()
+        self.protocol.on_goal_failed(int(vertex), int(nearest_vertex))
 
     def on_message(self, message: Any) -> None:
         """A team message from another robot (never its own); lane claims go to the lane
@@ -272,7 +224,7 @@ class RobotMachine(RobotContextBase):
             if self.alive and self.lane_locks is not None:
                 self.lane_locks.on_claim(message)
             return
-        if self.alive and self.started:
+        if self.protocol.listening:
             self.learned.observe(message)
             self.policy.on_message(message, self)
 
@@ -280,36 +232,49 @@ class RobotMachine(RobotContextBase):
         """Teammate `robot` was heard (a team message or a heartbeat delivered) at run time t
         [s]. True when it had been reported lost (it is back; the policy is not told: it
         hears the teammate's next message)."""
-        return self.alive and self.liveness.heard(robot, t)
+        return self.protocol.hear(int(robot), float(t))
 
     def check_liveness(self, now: float) -> list[int]:
         """Teammates silent for the timeout by run time `now` [s], each reported once: the
         policy's `on_teammate_lost` is called for each (after the start)."""
-        if not self.alive:
-            return []
-        lost = self.liveness.check(now)
-        for robot in lost:
-            self.on_teammate_lost(robot)
-        return lost
+        return self.protocol.check_liveness(float(now))
 
     def on_teammate_lost(self, robot: int) -> None:
         """Teammate `robot` went silent for the liveness timeout (it may be dead)."""
-        if self.alive and self.started:
-            hook = getattr(self.policy, "on_teammate_lost", None)
-            if hook is not None:
-                hook(int(robot), self)
+        self.protocol.on_teammate_lost(int(robot))
 
     def die(self) -> None:
         """Death: no motion, no decisions, no messages from now on (teammates are not told)."""
-        if not self.alive:
-            return
-        self.alive = False
-        self.goal = None
-        self.redirect = None
-        self.dwelling = False
-        self.driver.halt(self.robot)
+        self.protocol.die()
 
     def stall(self) -> None:
         """The robot stops moving for good but keeps deciding and talking (the driver stops
         its motion; its navigator then gives up on goals it cannot reach)."""
-        self.stalled = True
+        self.protocol.stall()
+
+    # --- the protocol's callbacks (the driver's motion and clock are called directly) -------
+    def _policy_start(self) -> None:
+        self.policy.start(self)
+
+    def _policy_decide(self) -> int | None:
+        retimed = self.learned.retimed_map(self.driver.now)
+        if retimed is not None:  # learned travel times: the policy plans on them from now on
+            self.patrol_map = retimed
+            self.policy.retime(self)
+        return self.call_decide(self.policy)
+
+    def _policy_goal_failed(self, vertex: int) -> None:
+        self.policy.on_goal_failed(vertex, self)
+
+    def _policy_teammate_lost(self, robot: int) -> None:
+        hook = getattr(self.policy, "on_teammate_lost", None)
+        if hook is not None:
+            hook(int(robot), self)
+
+    def _emit_event(self, kind: int, vertex: int, from_vertex: int, t: float) -> None:
+        if kind == REACHED or kind == DWELL:  # a goal's end: its leg's plan metres and time
+            leg_from = self.protocol.leg_from
+            if leg_from >= 0 and leg_from != vertex:
+                self.travelled_m += self.patrol_map.graph.distance(leg_from, vertex)
+                self.travel_time_s += t - self.protocol.leg_start_s
+        self.emit(kind, vertex, from_vertex, t)

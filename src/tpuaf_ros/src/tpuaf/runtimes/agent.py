@@ -5,9 +5,9 @@ team messages of the other robots (`on_message`), what it hears of them for live
 every team message and heartbeat; `check_liveness` when due, which tells the policy of a
 teammate silent for `teammate_timeout_s`) and control ticks with laser points (`tick`, which
 returns the velocity command). The robot protocol is the shared `RobotMachine`
-(runtimes/robot.py): this class is its driver, with the run clock of the ticks, `publish_team`
-as transport and the `Navigator` (route + local controller) as motion. Times are seconds of run
-time (ROS time minus the run epoch).
+(robot/machine.py, over the core's `RobotProtocol`): this class is its driver, with the run
+clock of the ticks, `publish_team` as transport and the `Navigator` (route + local controller)
+as motion. Times are seconds of run time (ROS time minus the run epoch).
 
 Events for the monitor (`publish_event(kind, vertex, from_vertex, t)`, vertices as indices):
 START at the start (the start vertex's first visit), GOAL on every new goal, REACHED (a visit:

@@ -145,29 +145,20 @@ class TeamRun:
 
     def _feed_heartbeats(self, robot: int) -> None:
         """Robot `robot` hears the last heartbeat of every teammate that reached it by now."""
-        machine = self.machines[robot]
-        last_arrival = self.links.last_arrival_s
-        now = self.now
-        for j in range(len(self.machines)):
-            t = last_arrival(robot, j, now)
-            if t > -math.inf:
-                machine.hear(j, t)
+        self.links.feed(self.machines[robot].liveness, self.now)
 
     def _plan_liveness(self, robot: int) -> None:
         """Schedule robot `robot`'s next liveness check (the earliest time any teammate's
-        silence can reach the timeout, or one can be heard again)."""
+        silence can reach the timeout, or one can be heard again: HeartbeatLinks, as the
+        graph loop plans it)."""
         machine = self.machines[robot]
         if not machine.alive:
             return
         self._feed_heartbeats(robot)
-        live = machine.liveness
-        next_check = self.links.next_check_s
-        now = self.now
-        due = min((next_check(robot, j, live.last_heard[j], j in live.lost, now)
-                   for j in range(len(self.machines)) if j != robot), default=math.inf)
+        due = self.links.next_check_of(machine.liveness, self.now)
         self._liveness_token[robot] += 1
         if math.isfinite(due):
-            self._liveness_at(max(due, now), robot, self._liveness_token[robot])
+            self._liveness_at(max(due, self.now), robot, self._liveness_token[robot])
 
     def liveness_due(self, robot: int, token: int) -> None:
         """A planned liveness check of robot `robot` (stale when `token` is not its latest)."""

@@ -1,7 +1,7 @@
 """Liveness on a live clock (ROS-free): silent teammates, and inputs that stop advancing.
 
-`TeammateLiveness` tracks when each teammate was last heard (any team message or heartbeat, in
-seconds of run time). A teammate heard once and then silent for `timeout_s` is lost (reported
+`TeammateLiveness` (the C++ core's) tracks when each teammate was last heard (any team message
+or heartbeat, in seconds of run time). A teammate heard once and then silent for `timeout_s` is lost (reported
 once, so the policy drops its intentions: `Policy.on_teammate_lost`); it is back at its next
 message. Needs no monitor: every robot's `RobotMachine` holds its own, fed by its runtime.
 
@@ -28,44 +28,16 @@ from tpuaf.params import LIVENESS_DEFAULTS
 HEARTBEAT_PERIOD_S = LIVENESS_DEFAULTS.heartbeat_period_s  # [s] the agent node's ~heartbeat_period
 
 
-class TeammateLiveness:
-    """Silent-teammate detection for robot `me` of `n_robots` (see the module docstring)."""
+def TeammateLiveness(n_robots: int, me: int,  # noqa: N802 (it makes the core's class)
+                     timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s):
+    """Silent-teammate detection for robot `me` of `n_robots` (see the module docstring): the
+    core's `tpuaf_core.TeammateLiveness` (robot_protocol.cpp), the one every robot's protocol
+    holds (`heard(robot, t)`, `check(now)`, `lost`, `last_heard`, `silent_for(robot, now)`)."""
+    import tpuaf_core
 
-    def __init__(self, n_robots: int, me: int,
-                 timeout_s: float = LIVENESS_DEFAULTS.teammate_timeout_s):
-        if not timeout_s > 0:
-            raise ValueError(f"teammate timeout must be > 0 s, got {timeout_s}")
-        self.n_robots = int(n_robots)
-        self.me = int(me)
-        self.timeout_s = float(timeout_s)
-        self.last_heard = [-math.inf] * self.n_robots  # [s] run time
-        self.lost: set[int] = set()
-
-    def heard(self, robot: int, now: float) -> bool:
-        """`robot` was heard at run time `now` [s]; True when it had been lost (it is back).
-        Nothing newer than the last time heard changes nothing."""
-        if not 0 <= robot < self.n_robots or robot == self.me or now <= self.last_heard[robot]:
-            return False
-        self.last_heard[robot] = float(now)
-        if robot in self.lost:
-            self.lost.discard(robot)
-            return True
-        return False
-
-    def check(self, now: float) -> list[int]:
-        """Teammates silent for `timeout_s` by run time `now` [s], not reported before (each
-        is reported once)."""
-        out = []
-        timeout = self.timeout_s
-        for r, t in enumerate(self.last_heard):
-            # now >= t + timeout, computed as the runtimes compute the due time of a check
-            if r != self.me and r not in self.lost and math.isfinite(t) and now >= t + timeout:
-                self.lost.add(r)
-                out.append(r)
-        return out
-
-    def silent_for(self, robot: int, now: float) -> float:
-        return float(now) - self.last_heard[robot]
+    if not timeout_s > 0:
+        raise ValueError(f"teammate timeout must be > 0 s, got {timeout_s}")
+    return tpuaf_core.TeammateLiveness(int(n_robots), int(me), float(timeout_s))
 
 
 def heartbeat_streams(n_robots: int, seed: int, loss: float) -> list:

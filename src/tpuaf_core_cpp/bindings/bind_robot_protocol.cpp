@@ -1,0 +1,188 @@
+// RobotProtocol driven from Python (tpuaf.robot.machine.RobotMachine: the physics runtime and the
+// ROS agents), and TeammateLiveness; the graph runtime's loop drives the same protocol in C++.
+#include <pybind11/eigen.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <stdexcept>
+#include <utility>
+
+#include "bindings.hpp"
+#include "tpuaf_core/robot_protocol.hpp"
+
+namespace py = pybind11;
+using namespace tpuaf;
+
+namespace {
+
+// The RobotDriver of a Python RobotMachine: the motion and clock of `machine.driver` (the
+// tpuaf.robot.machine.RobotDriver protocol) and the policy hooks and events of the machine.
+// A weak reference: the machine owns the protocol (and keeps its driver); a protocol outliving its
+// machine refuses to call back (no reference cycle that the garbage collector cannot see).
+class PythonDriver : public RobotDriver {
+ public:
+  explicit PythonDriver(py::handle machine) : machine_ref_(machine) {}
+  double now() const override { return driver().attr("now").cast<double>(); }
+  void position(int robot, double& x, double& y) const override {
+    auto p = driver().attr("position_of")(robot).cast<std::pair<double, double>>();
+    x = p.first;
+    y = p.second;
+  }
+  bool at_vertex(int /*robot*/, int vertex) const override {
+    return machine().attr("at_vertex")(vertex).cast<bool>();
+  }
+  void schedule_wake(int robot, double time_s) override {
+    driver().attr("schedule_wake")(robot, time_s);
+  }
+  void drive(int robot, int from_vertex, int goal) override {
+    driver().attr("drive")(robot, from_vertex, goal);
+  }
+  void dwell(int robot, int vertex, double duration_s) override {
+    driver().attr("dwell")(robot, vertex, duration_s);
+  }
+  void halt(int robot) override { driver().attr("halt")(robot); }
+  void policy_start(int /*robot*/) override { machine().attr("_policy_start")(); }
+  int policy_decide(int /*robot*/) override {
+    py::object goal = machine().attr("_policy_decide")();
+    return goal.is_none() ? -1 : goal.cast<int>();
+  }
+  void policy_goal_failed(int /*robot*/, int vertex) override {
+    machine().attr("_policy_goal_failed")(vertex);
+  }
+  void policy_teammate_lost(int /*robot*/, int teammate) override {
+    machine().attr("_policy_teammate_lost")(teammate);
+  }
+  void emit(int /*robot*/, int kind, int vertex, int from_vertex, double t) override {
+    machine().attr("_emit_event")(kind, vertex, from_vertex, t);
+  }
+
+ private:
+  py::object machine() const {
+    py::object m = machine_ref_();
+    if (m.is_none()) throw std::runtime_error("the RobotMachine of this RobotProtocol is gone");
+    return m;
+  }
+  py::object driver() const { return machine().attr("driver"); }
+  py::weakref machine_ref_;
+};
+
+// A protocol with its Python driver (the driver is built first: a base before the protocol).
+struct DriverHolder {
+  explicit DriverHolder(py::handle machine) : python_driver(machine) {}
+  PythonDriver python_driver;
+};
+
+class PythonDrivenProtocol : private DriverHolder, public RobotProtocol {
+ public:
+  PythonDrivenProtocol(py::handle machine, const Points& positions, ProtocolConfig config)
+      : DriverHolder(machine), RobotProtocol(python_driver, positions, config) {}
+};
+
+void bind_liveness(py::module_& m) {
+  py::class_<TeammateLiveness>(m, "TeammateLiveness",
+                               "Silent-teammate detection of one robot (team/liveness.py): a "
+                               "teammate heard once, then silent for timeout_s [s], is lost.")
+      .def(py::init<int, int, double>(), py::arg("n_robots"), py::arg("me"), py::arg("timeout_s"))
+      .def("heard", &TeammateLiveness::heard, py::arg("robot"), py::arg("now"),
+           "Heard at run time now [s]; True when it had been lost (it is back).")
+      .def(
+          "check",
+          [](TeammateLiveness& l, double now) {
+            std::vector<int> out;
+            l.check(now, out);
+            return out;
+          },
+          py::arg("now"), "Teammates silent for the timeout by now [s], each reported once.")
+      .def("last_heard_s", &TeammateLiveness::last_heard, py::arg("robot"), "[s]; -inf: never.")
+      .def("is_lost", &TeammateLiveness::lost, py::arg("robot"))
+      .def(
+          "silent_for",
+          [](const TeammateLiveness& l, int robot, double now) {
+            return now - l.last_heard(robot);
+          },
+          py::arg("robot"), py::arg("now"))
+      .def_property_readonly("last_heard",
+                             [](const TeammateLiveness& l) {
+                               std::vector<double> out;
+                               for (int r = 0; r < l.robots(); ++r) out.push_back(l.last_heard(r));
+                               return out;
+                             })
+      .def_property_readonly("lost",
+                             [](const TeammateLiveness& l) {
+                               py::set out;
+                               for (int r = 0; r < l.robots(); ++r) {
+                                 if (l.lost(r)) out.add(py::int_(r));
+                               }
+                               return out;
+                             })
+      .def_property_readonly("timeout_s", &TeammateLiveness::timeout_s)
+      .def_property_readonly("n_robots", &TeammateLiveness::robots)
+      .def_property_readonly("me", &TeammateLiveness::me);
+}
+
+}  // namespace
+
+void tpuaf::bindings::bind_robot_protocol(py::module_& m) {
+  bind_liveness(m);
+  py::module_ events = m.def_submodule("robot_event", "What a robot's protocol emits.");
+  events.attr("START") = robot_event::kStart;
+  events.attr("GOAL") = robot_event::kGoal;
+  events.attr("REACHED") = robot_event::kReached;
+  events.attr("FAILED") = robot_event::kFailed;
+  events.attr("DWELL") = robot_event::kDwell;
+  using P = PythonDrivenProtocol;
+  py::class_<P>(m, "RobotProtocol",
+                "One robot's patrol protocol (robot_protocol.hpp), driven by a Python "
+                "RobotMachine: its `driver` moves the robot, its hooks run the policy.")
+      .def(py::init([](py::handle machine, const Points& positions, int robot, int robots,
+                       double stay_s, double retry_s, double teammate_timeout_s,
+                       double visit_radius_m) {
+             ProtocolConfig c;
+             c.robot = robot;
+             c.robots = robots;
+             c.stay_s = stay_s;
+             c.retry_s = retry_s;
+             c.teammate_timeout_s = teammate_timeout_s;
+             c.visit_radius_m = visit_radius_m;
+             return new P(machine, positions, c);
+           }),
+           py::arg("machine"), py::arg("positions"), py::arg("robot"), py::arg("robots"),
+           py::arg("stay_s"), py::arg("retry_s"), py::arg("teammate_timeout_s"),
+           py::arg("visit_radius_m"))
+      .def("place", &P::place, py::arg("vertex"))
+      .def("start", &P::start)
+      .def("decide", &P::decide)
+      .def("on_wake", &P::on_wake)
+      .def("on_vertex", &P::on_vertex, py::arg("vertex"), py::arg("at_goal"))
+      .def("on_goal_failed", &P::on_goal_failed, py::arg("vertex"), py::arg("nearest_vertex"))
+      .def("observe", &P::observe, py::arg("x"), py::arg("y"))
+      .def("hear", &P::hear, py::arg("robot"), py::arg("t"))
+      .def("check_liveness", &P::check_liveness, py::arg("now"))
+      .def("on_teammate_lost", &P::on_teammate_lost, py::arg("robot"))
+      .def("die", &P::die)
+      .def("stall", &P::stall)
+      .def("wake_at", &P::wake_at, py::arg("time_s"))
+      .def("change_goal", &P::change_goal, py::arg("vertex"))
+      .def_property_readonly("current_vertex", &P::current_vertex)
+      .def_property_readonly("start_vertex", &P::start_vertex)
+      .def_property_readonly("goal", &P::goal)
+      .def_property_readonly("redirect", &P::redirect)
+      .def_property_readonly("alive", &P::alive)
+      .def_property_readonly("started", &P::started)
+      .def_property_readonly("stalled", &P::stalled)
+      .def_property_readonly("dwelling", &P::dwelling)
+      .def_property_readonly("wake_pending", &P::wake_pending)
+      .def_property_readonly("listening", &P::listening)
+      .def_property_readonly("visits", &P::visits)
+      .def_property_readonly("dwells", &P::dwells)
+      .def_property_readonly("failures", &P::failures)
+      .def_property_readonly("decisions", &P::decisions)
+      .def_property_readonly("dwell_time_s", &P::dwell_time_s)
+      .def_property_readonly("leg_from", &P::leg_from)
+      .def_property_readonly("leg_start_s", &P::leg_start_s)
+      .def_property_readonly("visit_rule", &P::visit_rule,
+                             py::return_value_policy::reference_internal)
+      .def_property_readonly(
+          "liveness", static_cast<const TeammateLiveness& (RobotProtocol::*)() const>(&P::liveness),
+          py::return_value_policy::reference_internal);
+}
