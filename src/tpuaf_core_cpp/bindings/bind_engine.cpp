@@ -272,6 +272,7 @@ void wrap_strategies(py::module_& m) {
 // GraphEngine: construction, strategy, the run, the robots and the bus (the recorder: below).
 // Over 80 lines on purpose: one .def per bound member, in the order of the C++ header; split,
 // one class's binding would be scattered.
+// long: one pybind11 declaration per bound name, read top to bottom; no logic
 py::class_<GraphEngine> wrap_engine(py::module_& m) {
   py::class_<GraphEngine> engine(
       m, "GraphEngine", "Event loop of the graph runtime (tpuaf.runtimes.native drives it).");

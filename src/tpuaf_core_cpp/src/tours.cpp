@@ -423,6 +423,95 @@ bool move_one_vertex(const PatrolGraph& graph, Partition& part, Cost& cost,
   return true;
 }
 
+// Spanning-tree scoring (large parts): a part's minimum spanning tree with, for each vertex
+// that is a leaf of it, the length of its one tree edge [m] (NaN: not a leaf).
+struct LeafTree {
+  double length = 0.0;         // [m] the tree's length
+  std::vector<double> leaf_m;  // per vertex of the part, in its order
+};
+
+LeafTree leaf_tree(const PatrolGraph& graph, const std::vector<int>& part) {
+  std::vector<std::pair<double, std::pair<int, int>>> edges;
+  for (int a = 0; a < static_cast<int>(part.size()); ++a) {
+    for (int w : graph.neighbours(part[a])) {
+      if (w <= part[a] || !std::binary_search(part.begin(), part.end(), w)) continue;
+      const int b = static_cast<int>(std::lower_bound(part.begin(), part.end(), w) - part.begin());
+      edges.push_back({graph.edge_length(part[a], w), {a, b}});
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  std::vector<int> root(part.size()), degree(part.size(), 0);
+  std::iota(root.begin(), root.end(), 0);
+  auto find = [&](int v) {
+    while (root[v] != v) v = root[v] = root[root[v]];
+    return v;
+  };
+  LeafTree tree;
+  tree.leaf_m.assign(part.size(), std::numeric_limits<double>::quiet_NaN());
+  std::vector<double> last_m(part.size(), 0.0);
+  for (const auto& [length, ends] : edges) {
+    const int a = find(ends.first), b = find(ends.second);
+    if (a == b) continue;
+    root[a] = b;
+    tree.length += length;
+    for (int v : {ends.first, ends.second}) {
+      ++degree[v];
+      last_m[v] = length;
+    }
+  }
+  for (std::size_t v = 0; v < part.size(); ++v) {
+    if (degree[v] == 1) tree.leaf_m[v] = last_m[v];
+  }
+  return tree;
+}
+
+// The tree-scored move: only leaves of the costliest part's tree move (the part stays
+// connected and its new length is exact: minus the leaf's edge); a receiving part is scored
+// by its length plus the shortest edge to the leaf (an upper bound), and the chosen move is
+// then scored exactly. O(part) per move instead of a tree per boundary vertex; false when no
+// leaf move lowers the largest length.
+template <class Cost>
+bool move_one_leaf(const PatrolGraph& graph, Partition& part, Cost& cost) {
+  std::vector<double>& costs = part.costs;
+  const int p = static_cast<int>(std::max_element(costs.begin(), costs.end()) - costs.begin());
+  const std::vector<int>& vertices = part.parts[p];
+  if (vertices.size() <= 1) return false;
+  const LeafTree tree = leaf_tree(graph, vertices);
+  double best_max = costs[p] - 1e-6;
+  int best_u = -1, best_q = -1;
+  for (std::size_t a = 0; a < vertices.size(); ++a) {
+    if (std::isnan(tree.leaf_m[a])) continue;
+    const int u = vertices[a];
+    const double new_p = tree.length - tree.leaf_m[a];
+    if (new_p >= best_max) continue;
+    std::map<int, double> reach;  // part -> shortest edge from u [m]
+    for (int w : graph.neighbours(u)) {
+      const int q = part.owner[w];
+      if (q == p) continue;
+      const double d = graph.edge_length(u, w);
+      auto it = reach.find(q);
+      if (it == reach.end() || d < it->second) reach[q] = d;
+    }
+    for (const auto& [q, d] : reach) {
+      const double new_max = std::max(new_p, costs[q] + d);
+      if (new_max < best_max) {
+        best_max = new_max;
+        best_u = u;
+        best_q = q;
+      }
+    }
+  }
+  if (best_u < 0) return false;
+  std::vector<int>& from = part.parts[p];
+  from.erase(std::lower_bound(from.begin(), from.end(), best_u));
+  std::vector<int>& to = part.parts[best_q];
+  to.insert(std::upper_bound(to.begin(), to.end(), best_u), best_u);
+  part.owner[best_u] = best_q;
+  costs[p] = cost(from);
+  costs[best_q] = cost(to);
+  return true;
+}
+
 }  // namespace
 
 std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k, int max_moves,
@@ -438,12 +527,12 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
       if (w != v) arcs[v].push_back({w, graph.edge_length(v, w)});
     }
   }
-  std::map<std::vector<int>, double> cost_cache;
+  std::map<std::vector<int>, double> cost_cache;  // walk scores (small parts) only
   auto cost = [&](const std::vector<int>& part) {
+    if (tree_score) return spanning_tree_length(graph, part);  // two per move: not kept
     auto it = cost_cache.find(part);
     if (it != cost_cache.end()) return it->second;
-    const double c = tree_score ? spanning_tree_length(graph, part)
-                                : closed_walk_length(graph, part, part_search);
+    const double c = closed_walk_length(graph, part, part_search);
     cost_cache.emplace(part, c);
     return c;
   };
@@ -474,7 +563,10 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
         progress("partition", static_cast<int>(f) * max_moves + move,
                  static_cast<int>(firsts.size()) * max_moves);
       }
-      if (!move_one_vertex(graph, part, cost, mark)) break;
+      // tree scores: a leaf move when one helps, else any vertex's (exact, slower)
+      const bool moved = (tree_score && move_one_leaf(graph, part, cost)) ||
+                         move_one_vertex(graph, part, cost, mark);
+      if (!moved) break;
     }
     const double worst = *std::max_element(part.costs.begin(), part.costs.end());
     if (worst < best_cost - kEps) {

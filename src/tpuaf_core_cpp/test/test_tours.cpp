@@ -133,6 +133,23 @@ TEST(Tours, LatticePartsAreConnectedAndCoverEveryVertexOnce) {
   EXPECT_LE(longest - shortest, 6.0);
 }
 
+TEST(Tours, SpanningTreeScoredLatticePartsAreConnectedAndBalanced) {
+  // the large-part search moves only leaves of the costliest part's tree: parts stay connected
+  const PatrolGraph g = lattice(20, 20);
+  const auto parts = balanced_partition(g, 4, 400, {3, 4, 12345}, nullptr, true);
+  ASSERT_EQ(parts.size(), 4u);
+  std::vector<int> count(400, 0);
+  std::size_t largest = 0, smallest = 400;
+  for (const auto& part : parts) {
+    for (int v : part) ++count[v];
+    closed_walk(g, part);  // throws if not connected
+    largest = std::max(largest, part.size());
+    smallest = std::min(smallest, part.size());
+  }
+  for (int c : count) EXPECT_EQ(c, 1);
+  EXPECT_LE(largest - smallest, 10u);  // 100 each at best; trees of unit edges: size - 1 m
+}
+
 TEST(Tours, MorePartsThanVerticesGiveOneVertexEach) {
   const PatrolGraph g = path_graph(3);
   const auto parts = balanced_partition(g, 5, 10);
