@@ -5,6 +5,7 @@
 #include <geometry_msgs/TwistStamped.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <std_msgs/Int64MultiArray.h>
 #include <std_srvs/Empty.h>
 #include <topic_tools/shape_shifter.h>
 
@@ -140,13 +141,14 @@ class StageNode {
 
   Publishers pubs_;
   Lockstep lockstep_;
-  std::vector<ros::Subscriber> cmd_sub_;
+  std::vector<ros::Subscriber> cmd_sub_, team_sub_;
   ros::Subscriber start_sub_;
   ros::ServiceServer reset_srv_;
 };
 
 // Inputs, per robot in its namespace: cmd_vel (geometry_msgs/Twist) and, in lock-step,
-// cmd_vel_stamped (geometry_msgs/TwistStamped, the answer to the odom tick of its stamp). Global:
+// cmd_vel_stamped (geometry_msgs/TwistStamped, the answer to the odom tick of its stamp) and, with
+// ~lockstep_team, lockstep_team (std_msgs/Int64MultiArray, its team message counts). Global:
 // /fleet/start (tpuaf_ros/RunStart or std_msgs/Float64, run start for ~stall), service reset_positions (std_srvs/Empty).
 void StageNode::subscribe() {
   ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
@@ -160,8 +162,17 @@ void StageNode::subscribe() {
           ns_[i] + "/cmd_vel_stamped", 10,
           [this, i](const geometry_msgs::TwistStamped::ConstPtr& m) { on_cmd_stamped(i, m); },
           ros::VoidConstPtr(), hints));
+      if (p_.lockstep_team) {
+        team_sub_.push_back(nh_.subscribe<std_msgs::Int64MultiArray>(
+            ns_[i] + "/lockstep_team", 100,
+            [this, i](const std_msgs::Int64MultiArray::ConstPtr& m) {
+              lockstep_.on_team_counts(i, m->data);
+            },
+            ros::VoidConstPtr(), hints));
+      }
     }
   }
+  if (p_.lockstep && p_.lockstep_team) lockstep_.enable_team();
   if (!stalls_.empty()) start_sub_ = nh_.subscribe(kStartTopic, 1, &StageNode::on_start, this);
   reset_srv_ = nh_.advertiseService("reset_positions", &StageNode::on_reset, this);
 }

@@ -27,6 +27,9 @@ CMD_VEL = "cmd_vel"  # geometry_msgs/Twist (hardware, teleop, rehearsal)
 # geometry_msgs/TwistStamped: lock-step answer of an agent; header.stamp = the stamp of the odom
 # tick it answers (the simulator advances once every live agent has answered the latest tick).
 CMD_VEL_STAMPED = "cmd_vel_stamped"
+# std_msgs/Int64MultiArray: an agent's team message counts in lock-step (tpuaf.team.lockstep):
+# [stamp of the tick answered last in ns, team messages sent, received from robot 0..n-1].
+LOCKSTEP_TEAM = "lockstep_team"
 ODOM = "odom"
 GROUND_TRUTH = "base_pose_ground_truth"
 SCAN = "base_scan"

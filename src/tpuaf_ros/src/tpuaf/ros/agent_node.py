@@ -21,6 +21,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rospy.numpy_msg import numpy_msg
 from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Int64MultiArray
 from tf2_msgs.msg import TFMessage
 
 from tpuaf import topics
@@ -32,7 +33,7 @@ from tpuaf.navigation.travel_time import timed_map
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, publish, run_node, yaw_of
+from tpuaf.ros.node import fatal, private_params, publish, run_node, sender_of, yaw_of
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.agent_setup import (
     agent_controller,
@@ -43,9 +44,12 @@ from tpuaf.runtimes.agent_setup import (
 from tpuaf.team.epoch import ADOPTED, INVALID, KEPT, RunEpoch
 from tpuaf.team.inbox import InboxConfig, TeamInbox
 from tpuaf.team.liveness import InputWatchdog
+from tpuaf.team.lockstep import LockstepTeam
 from tpuaf_ros.msg import AgentEvent, RunStart
 
 NODE = "patrol_agent"
+# lock-step: the order of one sender's messages of one stamp (team topics, then its events)
+TOPIC_RANK = {name: k for k, name in enumerate(topics.TEAM_TOPICS)}
 WARN_PERIOD_S = 5.0  # [s wall] throttle of repeated warnings
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
 
@@ -84,7 +88,9 @@ class AgentNode:
         self.conv = convert.Converter(patrol_map, prefix=prefix, epoch=self.epoch or 0.0)
         self.names = [f"{prefix}{i}" for i in range(p.robots)]
         self.inbox = TeamInbox(p.robots, patrol_map.num_vertices, p.robot_index, InboxConfig(
-            skew_warn_s=p.skew_warn, max_skew_s=p.max_skew, correct_skew=not sim))
+            skew_warn_s=p.skew_warn, max_skew_s=p.max_skew, correct_skew=not sim), self.names)
+        self.team_ticks = LockstepTeam(p.robots, p.robot_index) if p.lockstep else None
+        self._answered_ns = 0  # lock-step: stamp [ns] of the tick answered last
         pose_input = "tf " + p.map_frame if p.localization == "tf" else p.localization
         # amcl_pose comes on change only: a robot at rest would look stale.
         watched = ("scan", "clock") if p.localization == "amcl" else ("pose", "scan", "clock")
@@ -92,7 +98,6 @@ class AgentNode:
         self.pose_input = pose_input
         self.halted = True  # until pose, scan and clock are fresh
         self._warned = {}  # key -> wall time of the last warning
-
 
     def _publishers(self, p: AgentParams) -> None:
         """Velocity (or stamped velocity in lock-step), events, the run start, team messages."""
@@ -104,6 +109,8 @@ class AgentNode:
                                            tcp_nodelay=True)
             self.cmd = TwistStamped()
             self.twist = self.cmd.twist
+            self.counts_pub = rospy.Publisher(topics.LOCKSTEP_TEAM, Int64MultiArray,
+                                              queue_size=None, tcp_nodelay=True)
         else:
             self.cmd = self.twist = Twist()
             if self.drives:
@@ -159,7 +166,6 @@ class AgentNode:
         if p.initial_pose and p.localization in ("tf", "amcl"):
             self._send_initial_pose(p.initial_pose)
 
-
     def _subscribers(self, p: AgentParams) -> None:
         """Team messages, events, the run start, the scan, /tf_static and the pose source."""
         ns = rospy.get_namespace().strip("/")
@@ -202,7 +208,19 @@ class AgentNode:
 
     # --- outputs ---
     def publish_team(self, message):
+        if self.team_ticks is not None:
+            self.team_ticks.on_sent()
         publish(self.team_pub[type(message)], self.conv.to_ros(message))
+
+    def answer(self, stamp):
+        """Lock-step: answer the tick of `stamp` (the command), then the team counts."""
+        self.cmd.header.stamp = stamp
+        publish(self.cmd_pub, self.cmd)
+        self._answered_ns = stamp.to_nsec()
+        self.publish_counts()
+
+    def publish_counts(self):  # lock-step: the team barrier's data (tpuaf.team.lockstep)
+        publish(self.counts_pub, Int64MultiArray(data=self.team_ticks.counts(self._answered_ns)))
 
     def publish_event(self, kind, vertex, from_vertex, t):
         e = self.event
@@ -214,12 +232,13 @@ class AgentNode:
 
     def stop_robot(self, stamp=None):
         self.twist.linear.x = self.twist.angular.z = 0.0
+        if not self.drives:
+            return
         if self.lockstep:
-            if stamp is None:
-                return  # lock-step answers ticks only
-            self.cmd.header.stamp = stamp
-        if self.drives:
-            publish(self.cmd_pub, self.cmd)
+            if stamp is not None:  # lock-step answers ticks only
+                self.answer(stamp)
+            return
+        publish(self.cmd_pub, self.cmd)
 
     def _send_initial_pose(self, pose):
         """Tell the localiser (amcl: `initialpose`) where the robot starts."""
@@ -289,22 +308,54 @@ class AgentNode:
             return  # our own broadcast
         if self.epoch is None:
             return
-        now = self.ros_now() - self.epoch
+        with self.lock:
+            why = self.inbox.sender_problem(r, sender_of(msg))
+            if why is not None:
+                self.warn(("bad", r, "sender"), f"ignored a team message from {msg.robot!r}: {why}")
+                return
+            if self.team_ticks is None:
+                now = self.ros_now() - self.epoch
+                self.handle_team(msg, now, now)
+                return
+            self.team_ticks.on_received(r)  # counted for the barrier, handled at the next tick
+            self.team_ticks.put(self.conv.time(msg), r, TOPIC_RANK.get(type(msg).__name__, -1),
+                                msg)
+            self.publish_counts()
+
+    def handle_team(self, msg, now, heard):
+        """A team message at run time `now` [s], its sender heard at `heard` [s] (lock held)."""
+        r = msg.robot_index
         try:
             message = self.conv.from_ros(msg)
         except convert.MalformedMessage as err:
+            self.inbox.reject("malformed")
             self.warn(("bad", r, _shape(str(err))),
                       f"ignored a team message from {msg.robot!r}: {err}")
             return
-        with self.lock:
-            message, why = self.inbox.accept(message, now)
-            if message is None:
-                self.warn(("bad", r, _shape(why)),
-                          f"ignored a team message from {msg.robot!r}: {why}")
-                return
-            if self.runtime.hear(r, now):
+        message, why = self.inbox.accept(message, now)
+        if message is None:
+            self.warn(("bad", r, _shape(why)), f"ignored a team message from {msg.robot!r}: {why}")
+            return
+        if self.runtime.hear(r, heard):
+            rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
+        self.runtime.on_message(message)
+
+    def handle_due(self, t):
+        """Lock-step, before the tick at run time t [s]: the teammates' messages and events
+        stamped before it, in one order (tpuaf.team.lockstep), then the liveness check."""
+        self.runtime.advance(t)
+        for stamp, r, msg in self.team_ticks.due(t):
+            if msg is not None:
+                self.handle_team(msg, t, stamp)
+            elif self.runtime.hear(r, stamp):
                 rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
-            self.runtime.on_message(message)
+        self.check_liveness(t)
+
+    def check_liveness(self, now):  # teammates silent for the timeout: the policy is told
+        for r in self.runtime.check_liveness(now):
+            silent = self.liveness.silent_for(r, now)
+            rospy.logwarn(f"{self.name}: teammate {self.names[r]} silent for {silent:.1f} s: "
+                          "lost, its intentions dropped")
 
     def on_event(self, msg):
         r = msg.robot_index
@@ -312,6 +363,10 @@ class AgentNode:
             return
         now = self.ros_now() - self.epoch
         with self.lock:
+            if self.team_ticks is not None:  # heard at its stamp, at the next tick
+                if self.inbox.sender_problem(r, sender_of(msg)) is None:
+                    self.team_ticks.put(convert.stamp_s(msg) - self.epoch, r, 99, None)
+                return
             if msg.event == topics.HEARTBEAT:  # stamped "now" (a GOAL may be post-dated)
                 self.inbox.observe(r, convert.stamp_s(msg) - self.epoch, now)
             if self.runtime.hear(r, now):
@@ -424,6 +479,10 @@ class AgentNode:
         if self.epoch is None:
             self.stop_robot(stamp)
             return
+        if t is None:
+            t = self.run_time(stamp.to_sec())
+        if self.team_ticks is not None:
+            self.handle_due(t)
         if self.halted:
             stale, _ = self.inputs.check(time.monotonic())
             if stale:
@@ -440,14 +499,15 @@ class AgentNode:
                                    s.range_max), mount, self.p.scan_beams, self.points_within_m)
             self.points = pts
             self.points_pose = self.runtime.pose  # as the physics runtime: motion-compensated
-        v, w = self.runtime.tick(self.run_time(stamp.to_sec()) if t is None else t, self.points,
+        v, w = self.runtime.tick(t, self.points,
                                  self.points_pose if self.points is not None else None)
         if not self.drives:
             return
         self.twist.linear.x, self.twist.angular.z = v, w
         if self.lockstep:
-            self.cmd.header.stamp = stamp
-        publish(self.cmd_pub, self.cmd)
+            self.answer(stamp)
+        else:
+            publish(self.cmd_pub, self.cmd)
 
     # --- supervision (own thread, wall clock) ---
     def halt(self, stale):
@@ -507,11 +567,8 @@ class AgentNode:
                 continue
             now = t - self.epoch
             with self.lock:
-                lost = self.runtime.check_liveness(now)  # the policy is told
-                for r in lost:
-                    rospy.logwarn(f"{self.name}: teammate {self.names[r]} silent for "
-                                  f"{self.liveness.silent_for(r, now):.1f} s: lost, its "
-                                  "intentions dropped")
+                if self.team_ticks is None:  # lock-step: at the ticks (handle_due)
+                    self.check_liveness(now)
                 skewed = {r: o for r, o in self.inbox.skewed().items()
                           if r not in self.liveness.lost}
             for r, offset in skewed.items():

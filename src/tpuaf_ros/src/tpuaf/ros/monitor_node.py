@@ -35,7 +35,7 @@ from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from tpuaf.params import MonitorParams, NodeParamError, parse_monitor
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, publish, run_node
+from tpuaf.ros.node import fatal, private_params, publish, run_node, sender_of
 from tpuaf.team import messages
 from tpuaf.team.epoch import INVALID, KEPT, SAME_START_S, RunEpoch
 from tpuaf.topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
@@ -46,10 +46,6 @@ NODE = "monitor"
 POSE_QUEUE = 1000
 
 
-def sender_of(msg):
-    """The node that published `msg` (its caller id), '' when rospy does not say."""
-    return getattr(msg, "_connection_header", None) and msg._connection_header.get(
-        "callerid", "") or ""
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
 
 

@@ -42,6 +42,13 @@ def fatal(err: BaseException | str) -> int:
     return 2
 
 
+def sender_of(msg) -> str:
+    """The node that published `msg` (its caller id, from rospy's connection header), '' when
+    rospy does not say."""
+    return getattr(msg, "_connection_header", None) and msg._connection_header.get(
+        "callerid", "") or ""
+
+
 def publish(pub, msg) -> None:
     """pub.publish(msg); once the node shuts down (Ctrl-C while a callback or thread still
     runs) a publish to the closed topic is dropped quietly, not a traceback."""
