@@ -37,6 +37,8 @@ const ParamDoc kParams[] = {
      "[s of wall time] per tick; a silent agent is unresponsive"},
     {"lockstep_team", "bool", "false",
      "lock-step: also wait until the team messages sent before the tick reached every agent"},
+    {"start_hold", "double", "0",
+     "[s of sim time] lock-step: time stands here until every agent has the run start; 0 = no"},
     {"start_timeout", "double", "60", "[s of wall time] lock-step: wait for every agent at start"},
     {"wall_clock", "bool", "false", "rehearsal: real-time pace, wall-clock stamps, no /clock"},
     {"stall", "string", "''", "faults: \"R@T,R@T\": robot R stops moving at run time T [s]"},
@@ -89,7 +91,8 @@ NodeParams parse_params(const std::map<std::string, XmlRpc::XmlRpcValue>& values
                                             {"cmd_vel_timeout", &p.cmd_vel_timeout},
                                             {"status_period", &p.status_period},
                                             {"lockstep_timeout", &p.lockstep_timeout},
-                                            {"start_timeout", &p.start_timeout}};
+                                            {"start_timeout", &p.start_timeout},
+                                            {"start_hold", &p.start_hold}};
   std::map<std::string, bool*> bools = {{"publish_map_tf", &p.publish_map_tf},
                                         {"lockstep", &p.lockstep},
                                         {"lockstep_team", &p.lockstep_team},
@@ -145,6 +148,7 @@ NodeParams parse_params(const std::map<std::string, XmlRpc::XmlRpcValue>& values
   if (!(p.cmd_vel_timeout > 0)) {
     fail("~cmd_vel_timeout must be > 0 s, got " + pyfloat(p.cmd_vel_timeout));
   }
+  if (!(p.start_hold >= 0)) fail("~start_hold must be >= 0 s");
   if (!(p.lockstep_timeout > 0) || !(p.start_timeout >= 0)) {
     fail("~lockstep_timeout must be > 0 s and ~start_timeout >= 0 s");
   }
@@ -176,7 +180,7 @@ std::string params_summary(const NodeParams& p) {
     << ", 'publish_map_tf': " << b(p.publish_map_tf) << ", 'scan_topic': " << s(p.scan_topic)
     << ", 'status_period': " << pyfloat(p.status_period) << ", 'lockstep': " << b(p.lockstep)
     << ", 'lockstep_timeout': " << pyfloat(p.lockstep_timeout)
-    << ", 'lockstep_team': " << b(p.lockstep_team)
+    << ", 'lockstep_team': " << b(p.lockstep_team) << ", 'start_hold': " << pyfloat(p.start_hold)
     << ", 'start_timeout': " << pyfloat(p.start_timeout) << ", 'wall_clock': " << b(p.wall_clock)
     << ", 'stall': " << s(p.stall) << ", 'summary_file': " << s(p.summary_file) << "}";
   return o.str();

@@ -43,6 +43,8 @@ class Lockstep {
   void wait_answers(const ros::Time& tick);
 
   bool unresponsive(int i) const { return unresponsive_[i]; }
+  // Robot i's agent publishes its answers (it is not gone).
+  bool has_agent(int i) const { return cmd_stamped_sub_[i].getNumPublishers() > 0; }
   int num_unresponsive() const;
   const std::vector<int>& unresponsive_count() const { return unresponsive_count_; }  // events
   const std::vector<std::int64_t>& answers() const { return answers_; }  // answers received

@@ -117,33 +117,46 @@ class MonitorNode:
                 return  # refused (tpuaf.measure.traffic): counted, reported
             if 0 <= r < len(self.ready):
                 self.ready[r] = True
-            if (self.p.announce_start and not self.announced and all(self.ready)
-                    and self.recorder_ready()):
-                # Let every subscriber (agents, recorder) finish connecting before the start.
-                if self.ready_wall is None:
-                    self.ready_wall = time.monotonic()
-                waited = time.monotonic() - self.ready_wall
-                if waited < self.p.start_wall_delay:
-                    return
-                if not self.agents_listening():
-                    if waited < self.p.start_connect_timeout:
-                        return
-                    rospy.logwarn(f"{NODE}: not every agent is connected to {START_TOPIC} after "
-                                  f"{waited:.0f} s; announcing the start anyway (a late agent "
-                                  "starts when the latched start reaches it)")
-                # Never in the past of the clock nor of the poses already seen: the event that
-                # made every agent ready may be stamped seconds of a fast lock-step clock ago;
-                # a start already past reached the agents late, and each began the run when it
-                # heard it (10-16 s after it, differently in every run: issue 33 item 7).
-                start = max(convert.stamp_s(msg), self.fm.now,
-                            rospy.get_time()) + self.p.start_delay
-                self.fm.start_after = start
-                self.run_start.offer(start, rospy.get_name())
-                publish(self.start_pub, convert.run_start_message(start, rospy.get_name(),
-                                                                 self.names))
-                self.announced = True
-                rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
-                              f"{start:.2f} s for {self.p.duration:g} s")
+            self.announce_when_ready(convert.stamp_s(msg))
+
+    def watch_start(self):
+        """Wall clock, 5 Hz, until the start is announced: a lock-step simulator holds its clock
+        until the start (tpuaf_stage ~start_hold), and then no event comes to announce it."""
+        while not rospy.is_shutdown() and not self.announced:
+            time.sleep(0.2)
+            with self.lock:
+                self.announce_when_ready(-math.inf)
+
+    def announce_when_ready(self, stamp):
+        """Announce the run start once every agent is ready (an event heard), the recorder
+        too, and every agent listens (lock held)."""
+        if not (self.p.announce_start and not self.announced and all(self.ready)
+                and self.recorder_ready()):
+            return
+        # Let every subscriber (agents, recorder) finish connecting before the start.
+        if self.ready_wall is None:
+            self.ready_wall = time.monotonic()
+        waited = time.monotonic() - self.ready_wall
+        if waited < self.p.start_wall_delay:
+            return
+        if not self.agents_listening():
+            if waited < self.p.start_connect_timeout:
+                return
+            rospy.logwarn(f"{NODE}: not every agent is connected to {START_TOPIC} after "
+                          f"{waited:.0f} s; announcing the start anyway (a late agent "
+                          "starts when the latched start reaches it)")
+        # Never in the past of the clock nor of the poses already seen: the event that
+        # made every agent ready may be stamped seconds of a fast lock-step clock ago;
+        # a start already past reached the agents late, and each began the run when it
+        # heard it (10-16 s after it, differently in every run: issue 33 item 7).
+        start = max(stamp, self.fm.now, rospy.get_time()) + self.p.start_delay
+        self.fm.start_after = start
+        self.run_start.offer(start, rospy.get_name())
+        publish(self.start_pub, convert.run_start_message(start, rospy.get_name(),
+                                                         self.names))
+        self.announced = True
+        rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
+                      f"{start:.2f} s for {self.p.duration:g} s")
 
     def on_intention(self, msg):
         v = self.patrol_map.lookup_index(msg.vertex)
@@ -336,6 +349,8 @@ def main():
         return fatal(err)
     rospy.on_shutdown(lambda: node.finish(interrupted=True))
     rospy.Timer(rospy.Duration(1.0), node.on_timer)
+    if p.announce_start:
+        threading.Thread(target=node.watch_start, daemon=True).start()
     rospy.spin()
     return 0
 
