@@ -21,6 +21,9 @@ EVENTS_TOPIC = "/fleet/agent_events"  # tpuaf_ros/AgentEvent of every agent
 METRICS_TOPIC = "/fleet/metrics"  # tpuaf_ros/LiveMetrics of the monitor (1 Hz)
 START_TOPIC = "/fleet/start"  # std_msgs/Float64, latched: ROS time [s] of the run start
 CLOCK_TOPIC = "/clock"
+# std_msgs/String, latched per agent: JSON {"robot": index, "by_reason": {reason: count}} of the
+# team messages and events its inbox refused (tpuaf.team.inbox); the monitor's summary
+REJECTIONS_TOPIC = "/fleet/agent_rejections"
 
 # Per robot (relative).
 CMD_VEL = "cmd_vel"  # geometry_msgs/Twist (hardware, teleop, rehearsal)

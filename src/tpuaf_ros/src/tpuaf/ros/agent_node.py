@@ -21,7 +21,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rospy.numpy_msg import numpy_msg
 from sensor_msgs.msg import LaserScan
-from std_msgs.msg import Int64MultiArray
+from std_msgs.msg import Int64MultiArray, String
 from tf2_msgs.msg import TFMessage
 
 from tpuaf import topics
@@ -33,7 +33,15 @@ from tpuaf.navigation.travel_time import timed_map
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, publish, run_node, sender_of, yaw_of
+from tpuaf.ros.node import (
+    fatal,
+    private_params,
+    publish,
+    run_node,
+    send_initial_pose,
+    sender_of,
+    yaw_of,
+)
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.agent_setup import (
     agent_controller,
@@ -92,9 +100,8 @@ class AgentNode:
         self.team_ticks = LockstepTeam(p.robots, p.robot_index) if p.lockstep else None
         self._answered_ns = 0  # lock-step: stamp [ns] of the tick answered last
         pose_input = "tf " + p.map_frame if p.localization == "tf" else p.localization
-        # amcl_pose comes on change only: a robot at rest would look stale.
         watched = ("scan", "clock") if p.localization == "amcl" else ("pose", "scan", "clock")
-        self.inputs = InputWatchdog(watched, p.input_timeout)
+        self.inputs = InputWatchdog(watched, p.input_timeout)  # amcl_pose: on change only
         self.pose_input = pose_input
         self.halted = True  # until pose, scan and clock are fresh
         self._warned = {}  # key -> wall time of the last warning
@@ -117,6 +124,8 @@ class AgentNode:
                 self.cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=None,
                                                tcp_nodelay=True)
         self.event_pub = rospy.Publisher(topics.EVENTS_TOPIC, AgentEvent, queue_size=None)
+        self.rejections_pub = rospy.Publisher(topics.REJECTIONS_TOPIC, String, queue_size=1,
+                                              latch=True)
         # The run start the team agreed on, re-latched by every agent that knows it.
         self.run_start = RunEpoch()
         self.start_pub = rospy.Publisher(topics.START_TOPIC, RunStart, queue_size=1, latch=True)
@@ -164,7 +173,7 @@ class AgentNode:
         self._stride = 1
         self.origin = odom_origin(p, patrol_map)  # odom frame in the map frame
         if p.initial_pose and p.localization in ("tf", "amcl"):
-            self._send_initial_pose(p.initial_pose)
+            self._initial_pose_pub = send_initial_pose(p.initial_pose, p.map_frame)
 
     def _subscribers(self, p: AgentParams) -> None:
         """Team messages, events, the run start, the scan, /tf_static and the pose source."""
@@ -239,20 +248,6 @@ class AgentNode:
                 self.answer(stamp)
             return
         publish(self.cmd_pub, self.cmd)
-
-    def _send_initial_pose(self, pose):
-        """Tell the localiser (amcl: `initialpose`) where the robot starts."""
-        pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
-        msg = PoseWithCovarianceStamped()
-        msg.header.frame_id = self.p.map_frame
-        msg.header.stamp = rospy.Time.now()
-        x, y, yaw = (float(v) for v in pose)
-        msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
-        msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
-        msg.pose.covariance[0] = msg.pose.covariance[7] = 0.25 ** 2
-        msg.pose.covariance[35] = 0.2 ** 2
-        publish(pub, msg)
-        self._initial_pose_pub = pub
 
     def warn(self, key, text, period=WARN_PERIOD_S):
         now = time.monotonic()
@@ -363,9 +358,10 @@ class AgentNode:
             return
         now = self.ros_now() - self.epoch
         with self.lock:
+            if self.inbox.sender_problem(r, sender_of(msg)) is not None:
+                return  # another node as robot r (counted)
             if self.team_ticks is not None:  # heard at its stamp, at the next tick
-                if self.inbox.sender_problem(r, sender_of(msg)) is None:
-                    self.team_ticks.put(convert.stamp_s(msg) - self.epoch, r, 99, None)
+                self.team_ticks.put(convert.stamp_s(msg) - self.epoch, r, 99, None)
                 return
             if msg.event == topics.HEARTBEAT:  # stamped "now" (a GOAL may be post-dated)
                 self.inbox.observe(r, convert.stamp_s(msg) - self.epoch, now)
@@ -524,7 +520,7 @@ class AgentNode:
     def supervise(self):
         """Input watchdog, run start, teammate liveness and skew warnings at 4 Hz of wall time."""
         period = 0.25
-        last_clock = None
+        last_clock, told = None, 0  # told: refusals published
         next_beat = 0.0
         while not rospy.is_shutdown():
             time.sleep(period)
@@ -571,6 +567,10 @@ class AgentNode:
                     self.check_liveness(now)
                 skewed = {r: o for r, o in self.inbox.skewed().items()
                           if r not in self.liveness.lost}
+                if self.inbox.rejected != told:  # for the monitor's summary
+                    told = self.inbox.rejected
+                    publish(self.rejections_pub, convert.rejections_message(
+                        self.p.robot_index, self.inbox.rejections))
             for r, offset in skewed.items():
                 self.warn(("skew", r), f"clock of {self.names[r]} is {offset:+.2f} s off ours "
                           f"(from its message stamps; > {self.p.skew_warn:g} s): sync the "

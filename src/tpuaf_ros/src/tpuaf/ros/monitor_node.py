@@ -27,6 +27,7 @@ import rospy
 import yaml
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
+from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from tpuaf.errors import TpuafError
@@ -38,7 +39,14 @@ from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, publish, run_node, sender_of
 from tpuaf.team import messages
 from tpuaf.team.epoch import INVALID, KEPT, SAME_START_S, RunEpoch
-from tpuaf.topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
+from tpuaf.topics import (
+    AMCL_POSE,
+    GROUND_TRUTH,
+    ODOM,
+    REJECTIONS_TOPIC,
+    START_TOPIC,
+    team_topic,
+)
 from tpuaf_ros.msg import AgentEvent, Intention, LiveMetrics, RunStart
 
 NODE = "monitor"
@@ -93,6 +101,9 @@ class MonitorNode:
                          self.on_intention, queue_size=500)
         # followed (~announce_start false), else watched: a start not ours is counted
         rospy.Subscriber(START_TOPIC, RunStart, self.on_start, queue_size=10)
+        # what the agents refused of their team traffic (summary `rejected_by_agents`)
+        self.agent_rejections: dict[int, dict[str, int]] = {}
+        rospy.Subscriber(REJECTIONS_TOPIC, String, self.on_rejections, queue_size=50)
         # Poses at their own stamps (all but ground truth) are grouped on ticks.
         self.feed = MonitorFeed(self.fm, grouped=p.pose_source != "ground_truth")
         if p.pose_source == "tf":
@@ -157,6 +168,23 @@ class MonitorNode:
         self.announced = True
         rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
                       f"{start:.2f} s for {self.p.duration:g} s")
+
+    def on_rejections(self, msg):
+        """An agent's refusal counts, from that robot's own node only (SenderCheck)."""
+        parsed = convert.parse_rejections(msg.data)
+        with self.lock:
+            if parsed is not None and 0 <= parsed[0] < self.p.robots and (
+                    self.fm.traffic.senders.ok(parsed[0], sender_of(msg) or "?")):
+                self.agent_rejections[parsed[0]] = parsed[1]
+
+    def agents_refused(self) -> dict:
+        """summary `rejected_by_agents`: total, by reason, by robot (the robot that refused)."""
+        by_reason: dict[str, int] = {}
+        for counts in list(self.agent_rejections.values()):
+            for reason, k in counts.items():
+                by_reason[reason] = by_reason.get(reason, 0) + k
+        return {"total": sum(by_reason.values()), "by_reason": dict(sorted(by_reason.items())),
+                "by_robot": [{"robot": r, **c} for r, c in sorted(dict(self.agent_rejections).items())]}
 
     def on_intention(self, msg):
         v = self.patrol_map.lookup_index(msg.vertex)
@@ -281,6 +309,7 @@ class MonitorNode:
                 self.feed.close()  # up to the last poses (the monitor runs lag_s behind)
         if self.fm.started:
             summary = self.fm.summary()
+            summary["rejected_by_agents"] = self.agents_refused()  # (finish may hold the lock)
             self.write_results(summary, interrupted)
             self.publish_metrics(finished=not interrupted)
             rospy.loginfo(f"{NODE}: run {'interrupted' if interrupted else 'finished'}: "
