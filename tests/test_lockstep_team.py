@@ -90,3 +90,14 @@ def test_one_sender_rule_for_agents_and_monitor():
     for k, ((r, s), ok) in enumerate(zip(calls, expected, strict=True)):
         assert (guard.check(r, GOAL, 1, 0, 10.0 + k, float("nan"), s) != "sender") == ok
         assert (inbox.sender_problem(r, s) is None) == ok
+
+
+def test_a_message_stamped_far_ahead_is_refused_at_once():
+    """It would never be due (the clock check of the inbox, at receipt in lock-step)."""
+    team = LockstepTeam(3, 0, max_ahead_s=30.0)
+    assert team.put(1000.0, 1, 0, "before any tick")  # no clock yet: queued
+    team.due(10.0)
+    assert not team.put(40.2, 1, 0, "30.2 s ahead")
+    assert not team.put(float("nan"), 1, 0, "no time")
+    assert team.put(39.9, 1, 0, "29.9 s ahead")
+    assert len(team) == 2

@@ -97,7 +97,7 @@ class AgentNode:
         self.names = [f"{prefix}{i}" for i in range(p.robots)]
         self.inbox = TeamInbox(p.robots, patrol_map.num_vertices, p.robot_index, InboxConfig(
             skew_warn_s=p.skew_warn, max_skew_s=p.max_skew, correct_skew=not sim), self.names)
-        self.team_ticks = LockstepTeam(p.robots, p.robot_index) if p.lockstep else None
+        self.team_ticks = LockstepTeam(p.robots, p.robot_index, p.max_skew) if p.lockstep else None
         self._answered_ns = 0  # lock-step: stamp [ns] of the tick answered last
         pose_input = "tf " + p.map_frame if p.localization == "tf" else p.localization
         watched = ("scan", "clock") if p.localization == "amcl" else ("pose", "scan", "clock")
@@ -299,10 +299,8 @@ class AgentNode:
 
     def on_team(self, msg):
         r = msg.robot_index
-        if r == self.p.robot_index:
-            return  # our own broadcast
-        if self.epoch is None:
-            return
+        if r == self.p.robot_index or self.epoch is None:
+            return  # our own broadcast, or no clock yet
         with self.lock:
             why = self.inbox.sender_problem(r, sender_of(msg))
             if why is not None:
@@ -313,8 +311,9 @@ class AgentNode:
                 self.handle_team(msg, now, now)
                 return
             self.team_ticks.on_received(r)  # counted for the barrier, handled at the next tick
-            self.team_ticks.put(self.conv.time(msg), r, TOPIC_RANK.get(type(msg).__name__, -1),
-                                msg)
+            rank = TOPIC_RANK.get(type(msg).__name__, -1)
+            if not self.team_ticks.put(self.conv.time(msg), r, rank, msg):  # far ahead
+                self.inbox.reject("clock")
             self.publish_counts()
 
     def handle_team(self, msg, now, heard):
@@ -361,7 +360,8 @@ class AgentNode:
             if self.inbox.sender_problem(r, sender_of(msg)) is not None:
                 return  # another node as robot r (counted)
             if self.team_ticks is not None:  # heard at its stamp, at the next tick
-                self.team_ticks.put(convert.stamp_s(msg) - self.epoch, r, 99, None)
+                if not self.team_ticks.put(convert.stamp_s(msg) - self.epoch, r, 99, None):
+                    self.inbox.reject("clock")
                 return
             if msg.event == topics.HEARTBEAT:  # stamped "now" (a GOAL may be post-dated)
                 self.inbox.observe(r, convert.stamp_s(msg) - self.epoch, now)

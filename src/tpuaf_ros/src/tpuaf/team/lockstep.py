@@ -21,11 +21,15 @@ TIME_EPS_S = 1e-6  # [s] stamps go through ROS Time (ns): equal ticks compare eq
 
 
 class LockstepTeam:
-    """Counts and the queue of team messages of robot `me` in a team of `n_robots`."""
+    """Counts and the queue of team messages of robot `me` in a team of `n_robots`; a message
+    stamped more than `max_ahead_s` [s] after the last tick handled is refused at once (it would
+    wait in the queue for ever: the clock check, tpuaf.team.inbox.clock_problem)."""
 
-    def __init__(self, n_robots: int, me: int):
+    def __init__(self, n_robots: int, me: int, max_ahead_s: float = float("inf")):
         self.n_robots = int(n_robots)
         self.me = int(me)
+        self.max_ahead_s = float(max_ahead_s)
+        self._tick: float | None = None  # run time [s] of the last tick handled
         self.sent = 0  # team messages published
         self.received = [0] * self.n_robots  # from each teammate's own node
         self._queue: list = []  # heap of (stamp [s], sender, topic, arrival, item)
@@ -39,15 +43,21 @@ class LockstepTeam:
         if 0 <= robot < self.n_robots:
             self.received[robot] += 1
 
-    def put(self, stamp_s: float, robot: int, topic: int, item: Any) -> None:
+    def put(self, stamp_s: float, robot: int, topic: int, item: Any) -> bool:
         """Queue `item` (a team message or a heartbeat) stamped `stamp_s` [s of run time] from
-        `robot`; `topic`: its topic's rank (the order of messages of one sender and stamp)."""
+        `robot`; `topic`: its topic's rank (the order of messages of one sender and stamp).
+        False (not queued): stamped too far ahead of the last tick, or not a finite time."""
+        if not stamp_s == stamp_s or (self._tick is not None
+                                      and not stamp_s <= self._tick + self.max_ahead_s):
+            return False
         self._arrivals += 1
         heapq.heappush(self._queue, (float(stamp_s), int(robot), int(topic), self._arrivals,
                                      item))
+        return True
 
     def due(self, t: float) -> list[tuple[float, int, Any]]:
         """(stamp, sender, item) of every queued message stamped before run time t [s], in order."""
+        self._tick = float(t)
         out = []
         while self._queue and self._queue[0][0] < t - TIME_EPS_S:
             stamp, robot, _, _, item = heapq.heappop(self._queue)
