@@ -153,7 +153,8 @@ class StageNode {
 // Inputs, per robot in its namespace: cmd_vel (geometry_msgs/Twist) and, in lock-step,
 // cmd_vel_stamped (geometry_msgs/TwistStamped, the answer to the odom tick of its stamp) and, with
 // ~lockstep_team, lockstep_team (std_msgs/Int64MultiArray, its team message counts). Global:
-// /fleet/start (tpuaf_ros/RunStart or std_msgs/Float64, run start for ~stall), service reset_positions (std_srvs/Empty).
+// /fleet/start (tpuaf_ros/RunStart or std_msgs/Float64, run start for ~stall), service
+// reset_positions (std_srvs/Empty).
 void StageNode::subscribe() {
   ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   for (int i = 0; i < n_; ++i) {
