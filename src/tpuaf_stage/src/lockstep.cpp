@@ -139,6 +139,7 @@ void Lockstep::wait_answers(const ros::Time& tick) {
   const double t0 = wall_now();
   double last_resend = t0;
   std::vector<bool> pending(n_), waited(n_);
+  bool first = true;  // ticks without an agent are counted once per tick
   while (true) {
     hooks_.serve(0.0);
     bool any = false, any_new = false;
@@ -154,10 +155,11 @@ void Lockstep::wait_answers(const ros::Time& tick) {
       }
       waited[i] = live && !unresponsive_[i];
       pending[i] = waited[i] && answered_[i] < tick;
-      unwaited_ticks_[i] += !live;
+      unwaited_ticks_[i] += first && !live;
       any |= pending[i];
       any_new |= pending[i] && !ever_answered_[i];
     }
+    first = false;
     if (!ros::ok()) return;
     const double now = wall_now();
     if (!any) {
