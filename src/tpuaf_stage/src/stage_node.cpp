@@ -117,7 +117,7 @@ class StageNode {
   void publish_state(const std::vector<bool>* only = nullptr) {
     pubs_.state(world_, stamp(), only);
   }
-  void publish_scans() { pubs_.scans(world_, stamp()); }
+  void publish_scans() { pubs_.scans(world_, stamp(), p_.lockstep); }
   void event(const std::string& kind, int i, const std::string& detail);
   void serve(double timeout_s) {
     ros::getGlobalCallbackQueue()->callAvailable(ros::WallDuration(std::max(0.0, timeout_s)));
