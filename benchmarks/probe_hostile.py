@@ -7,7 +7,9 @@ benchmarks/results/hostile.md.
 
     .venv/bin/python benchmarks/probe_hostile.py [--quick] [--jobs 2] [--out FILE]
 
---quick runs every 10th case (a smoke test). Children start with SIGINT, SIGTERM and SIGHUP
+--quick runs every 10th case (a smoke test). `--team` runs only the hostile team traffic
+classes of issue 33 against lock-step fleets (benchmarks/hostile_team.py), in their own section
+of the results file. Children start with SIGINT, SIGTERM and SIGHUP
 at their defaults (a background job inherits SIGINT ignored, `nohup` SIGHUP) and in their own
 session; each gets RLIMIT_AS of 8 GB so
 that a regression cannot take the machine's memory.
@@ -639,7 +641,15 @@ def main() -> int:
     parser.add_argument("--jobs", type=int, default=2, help="cases at once")
     parser.add_argument("--only", default=None, help="only classes containing this text")
     parser.add_argument("--out", default="hostile.md", help="results file (benchmarks/results)")
+    parser.add_argument("--team", action="store_true", help="only the hostile team traffic "
+                        "against a lock-step fleet (issue 33; its section of the results file)")
     args = parser.parse_args()
+    if args.team:
+        import hostile_team
+
+        with tempfile.TemporaryDirectory(prefix="probe-team-") as tmp:
+            hostile_team.main(REPO / "benchmarks" / "results" / args.out, Path(tmp))
+        return 0
     todo = cases()
     if args.only:
         todo = [c for c in todo if args.only in c.klass]
@@ -659,7 +669,12 @@ def main() -> int:
                 results.append(r)
     finally:
         subprocess.run(["rm", "-rf", str(scratch)], check=False)
-    write(args.out, report(results, time.monotonic() - start))
+    text = report(results, time.monotonic() - start)
+    previous = REPO / "benchmarks" / "results" / args.out
+    mark = "<!-- team traffic: benchmarks/hostile_team.py -->"  # (its section is kept)
+    if previous.is_file() and mark in previous.read_text():
+        text += "\n" + mark + previous.read_text().split(mark, 1)[1]
+    write(args.out, text)
     return 0
 
 

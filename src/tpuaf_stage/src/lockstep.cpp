@@ -2,6 +2,7 @@
 // agents, and the waits at start and after each tick (tpuaf_stage/lockstep.hpp).
 #include "tpuaf_stage/lockstep.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include "tpuaf_stage/json_text.hpp"
@@ -27,6 +28,64 @@ Lockstep::Lockstep(std::vector<std::string> ns, double lockstep_timeout_s, doubl
   unresponsive_count_.assign(n_, 0);
   unwaited_ticks_.assign(n_, 0);
   answers_.assign(n_, 0);
+  team_seen_.assign(n_, false);
+  team_tick_.assign(n_, ros::Time(0));
+  team_sent_.assign(n_, 0);
+  team_lost_.assign(n_, 0);
+  team_received_.assign(n_, std::vector<std::int64_t>(n_, 0));
+  team_forgiven_.assign(n_, std::vector<std::int64_t>(n_, 0));
+}
+
+// data: [stamp of the tick answered last, ns; team messages sent; received from robot 0..n-1].
+// The first counts of an agent's process (new, back after it left, or counts that went down: a
+// restart) start its account: what its teammates sent before it is not waited for.
+void Lockstep::on_team_counts(int i, const std::vector<std::int64_t>& data) {
+  if (static_cast<int>(data.size()) != n_ + 2 || data[0] < 0) return;
+  ros::Time tick;
+  tick.fromNSec(static_cast<std::uint64_t>(data[0]));
+  const bool fresh = !team_seen_[i] || data[1] < team_sent_[i];
+  if (tick > team_tick_[i] || fresh) team_tick_[i] = tick;
+  team_sent_[i] = data[1];
+  for (int k = 0; k < n_; ++k) {
+    team_received_[i][k] = data[k + 2];
+    if (fresh) team_forgiven_[i][k] = std::max<std::int64_t>(0, team_sent_[k] - data[k + 2]);
+  }
+  team_seen_[i] = true;
+}
+
+// A receiver is waited for while it is live and its counts of tick have not come, or while it
+// has received fewer messages from a live teammate than that teammate has sent (minus those
+// given up on). Returns the first such receiver's namespace and what it misses.
+std::string Lockstep::team_missing(const ros::Time& tick, const std::vector<bool>& live) const {
+  for (int j = 0; j < n_; ++j) {
+    if (!live[j] || !team_seen_[j]) continue;
+    if (team_tick_[j] < tick) return ns_[j] + " (no team counts of the tick yet)";
+    for (int i = 0; i < n_; ++i) {
+      if (i == j || !live[i] || !team_seen_[i]) continue;
+      const std::int64_t short_by = team_sent_[i] - team_received_[j][i] - team_forgiven_[j][i];
+      if (short_by > 0) return ns_[j] + " (" + std::to_string(short_by) + " of " + ns_[i] + ")";
+    }
+  }
+  return "";
+}
+
+// After ~lockstep_timeout: the messages still missing are lost (not waited for again).
+void Lockstep::team_give_up(const ros::Time& tick, const std::vector<bool>& live) {
+  for (int j = 0; j < n_; ++j) {
+    if (!live[j] || !team_seen_[j] || team_tick_[j] < tick) continue;
+    for (int i = 0; i < n_; ++i) {
+      if (i == j || !live[i] || !team_seen_[i]) continue;
+      const std::int64_t short_by = team_sent_[i] - team_received_[j][i] - team_forgiven_[j][i];
+      if (short_by <= 0) continue;
+      team_forgiven_[j][i] += short_by;
+      team_lost_[j] += short_by;
+      hooks_.event("team_lost", j,
+                   std::to_string(short_by) + " team message(s) of " + ns_[i] +
+                       " not received within " + pyfloat(lockstep_timeout_s_) +
+                       " s of wall time after the tick at " + pyfloat(tick.toSec()) +
+                       " s; not waited for");
+    }
+  }
 }
 
 void Lockstep::on_answer(int i, const ros::Time& stamp) {
@@ -73,11 +132,14 @@ void Lockstep::start_gate() {
 // An agent with no cmd_vel_stamped publisher left is gone (not waited for); one silent for
 // ~lockstep_timeout is unresponsive (its robot stops; waited for again once it answers). An agent
 // that never answered yet gets ~start_timeout and the tick again every 0.5 s (its subscription may
-// have connected after the tick was sent).
+// have connected after the tick was sent). With the team barrier, then until every team message
+// sent before the answers has reached every live teammate (at most ~lockstep_timeout in all):
+// the agents handle the messages of a tick at the next one, all of them, whatever the threads do.
 void Lockstep::wait_answers(const ros::Time& tick) {
   const double t0 = wall_now();
   double last_resend = t0;
-  std::vector<bool> pending(n_);
+  std::vector<bool> pending(n_), waited(n_);
+  bool first = true;  // ticks without an agent are counted once per tick
   while (true) {
     hooks_.serve(0.0);
     bool any = false, any_new = false;
@@ -85,18 +147,30 @@ void Lockstep::wait_answers(const ros::Time& tick) {
       const bool live = cmd_stamped_sub_[i].getNumPublishers() > 0;
       if (!live && ever_answered_[i] && !gone_[i]) {
         gone_[i] = true;
+        team_seen_[i] = false;  // a new process starts a new account
         hooks_.event("gone", i, "its agent left (no cmd_vel_stamped publisher); not waited for");
       } else if (live && gone_[i]) {
         gone_[i] = false;
         hooks_.event("back", i, "its agent is back");
       }
-      pending[i] = live && !unresponsive_[i] && answered_[i] < tick;
-      unwaited_ticks_[i] += !live;
+      waited[i] = live && !unresponsive_[i];
+      pending[i] = waited[i] && answered_[i] < tick;
+      unwaited_ticks_[i] += first && !live;
       any |= pending[i];
       any_new |= pending[i] && !ever_answered_[i];
     }
-    if (!any || !ros::ok()) return;
+    first = false;
+    if (!ros::ok()) return;
     const double now = wall_now();
+    if (!any) {
+      if (!team_ || team_missing(tick, waited).empty()) return;
+      if (now - t0 > lockstep_timeout_s_) {
+        team_give_up(tick, waited);
+        return;
+      }
+      hooks_.serve(0.002);
+      continue;
+    }
     if (any_new && now - last_resend > 0.5 && now - t0 < start_timeout_s_) {
       std::vector<bool> fresh(n_);
       for (int i = 0; i < n_; ++i) fresh[i] = pending[i] && !ever_answered_[i];

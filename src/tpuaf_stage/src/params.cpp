@@ -35,6 +35,10 @@ const ParamDoc kParams[] = {
     {"lockstep", "bool", "false", "step on only once every live agent answered the odom tick"},
     {"lockstep_timeout", "double", "1",
      "[s of wall time] per tick; a silent agent is unresponsive"},
+    {"lockstep_team", "bool", "false",
+     "lock-step: also wait until the team messages sent before the tick reached every agent"},
+    {"start_hold", "double", "0",
+     "[s of sim time] lock-step: time stands here until every agent has the run start; 0 = no"},
     {"start_timeout", "double", "60", "[s of wall time] lock-step: wait for every agent at start"},
     {"wall_clock", "bool", "false", "rehearsal: real-time pace, wall-clock stamps, no /clock"},
     {"stall", "string", "''", "faults: \"R@T,R@T\": robot R stops moving at run time T [s]"},
@@ -99,6 +103,7 @@ void check_ranges(const NodeParams& p) {
   if (!(p.cmd_vel_timeout > 0)) {
     fail("~cmd_vel_timeout must be > 0 s, got " + pyfloat(p.cmd_vel_timeout));
   }
+  if (!(p.start_hold >= 0)) fail("~start_hold must be >= 0 s");
   if (!(p.lockstep_timeout > 0) || !(p.start_timeout >= 0)) {
     fail("~lockstep_timeout must be > 0 s and ~start_timeout >= 0 s");
   }
@@ -127,9 +132,11 @@ NodeParams parse_params(const std::map<std::string, XmlRpc::XmlRpcValue>& values
                                             {"cmd_vel_timeout", &p.cmd_vel_timeout},
                                             {"status_period", &p.status_period},
                                             {"lockstep_timeout", &p.lockstep_timeout},
-                                            {"start_timeout", &p.start_timeout}};
+                                            {"start_timeout", &p.start_timeout},
+                                            {"start_hold", &p.start_hold}};
   std::map<std::string, bool*> bools = {{"publish_map_tf", &p.publish_map_tf},
                                         {"lockstep", &p.lockstep},
+                                        {"lockstep_team", &p.lockstep_team},
                                         {"wall_clock", &p.wall_clock}};
   std::map<std::string, std::string*> strings = {
       {"world", &p.world},         {"robot_prefix", &p.robot_prefix},
@@ -183,6 +190,7 @@ std::string params_summary(const NodeParams& p) {
     << ", 'publish_map_tf': " << b(p.publish_map_tf) << ", 'scan_topic': " << s(p.scan_topic)
     << ", 'status_period': " << pyfloat(p.status_period) << ", 'lockstep': " << b(p.lockstep)
     << ", 'lockstep_timeout': " << pyfloat(p.lockstep_timeout)
+    << ", 'lockstep_team': " << b(p.lockstep_team) << ", 'start_hold': " << pyfloat(p.start_hold)
     << ", 'start_timeout': " << pyfloat(p.start_timeout) << ", 'wall_clock': " << b(p.wall_clock)
     << ", 'stall': " << s(p.stall) << ", 'summary_file': " << s(p.summary_file) << "}";
   return o.str();

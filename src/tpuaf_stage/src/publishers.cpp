@@ -159,13 +159,14 @@ void Publishers::state(const tpuaf::World& world, const ros::Time& now,
   tf_pub_.publish(tf_msg_);
 }
 
-void Publishers::scans(tpuaf::World& world, const ros::Time& now) {
+void Publishers::scans(tpuaf::World& world, const ros::Time& now, bool every) {
   for (int i = 0; i < n_; ++i) {
-    if (scan_pub_[i].getNumSubscribers() == 0) continue;
+    const bool heard = scan_pub_[i].getNumSubscribers() > 0;
+    if (!heard && !every) continue;
     sensor_msgs::LaserScan& m = scan_msg_[i];
     m.header.stamp = now;
     world.scan(i, m.ranges.data());
-    scan_pub_[i].publish(m);
+    if (heard) scan_pub_[i].publish(m);
   }
 }
 

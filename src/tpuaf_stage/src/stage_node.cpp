@@ -5,6 +5,7 @@
 #include <geometry_msgs/TwistStamped.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <std_msgs/Int64MultiArray.h>
 #include <std_srvs/Empty.h>
 #include <topic_tools/shape_shifter.h>
 
@@ -78,6 +79,7 @@ class StageNode {
         commands_(n_, {0.0, 0.0}),
         last_command_(n_, -std::numeric_limits<double>::infinity()),
         stalled_fault_(n_, false),
+        start_latched_(n_, false),
         pubs_(nh_, p, rw, ns_),
         lockstep_(ns_, p.lockstep_timeout, p.start_timeout,
                   {[this](double timeout_s) { serve(timeout_s); }, [this] { publish_clock(); },
@@ -107,14 +109,15 @@ class StageNode {
   void on_cmd(int i, const geometry_msgs::Twist::ConstPtr& msg);
   void on_cmd_stamped(int i, const geometry_msgs::TwistStamped::ConstPtr& msg);
   bool on_reset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
-  void on_start(const topic_tools::ShapeShifter::ConstPtr& msg);
+  void on_start(const ros::MessageEvent<topic_tools::ShapeShifter const>& event);
+  void hold_for_start();
 
   void advance();
   void publish_clock() { pubs_.clock(stamp()); }
   void publish_state(const std::vector<bool>* only = nullptr) {
     pubs_.state(world_, stamp(), only);
   }
-  void publish_scans() { pubs_.scans(world_, stamp()); }
+  void publish_scans() { pubs_.scans(world_, stamp(), p_.lockstep); }
   void event(const std::string& kind, int i, const std::string& detail);
   void serve(double timeout_s) {
     ros::getGlobalCallbackQueue()->callAvailable(ros::WallDuration(std::max(0.0, timeout_s)));
@@ -129,25 +132,29 @@ class StageNode {
   std::int64_t step_ns_ = 0, steps_ = 0;
   Schedule clock_, odom_, scan_;
   ros::Time wall_epoch_;
-  double run_start_ = -1.0;  // [s of ROS time] /fleet/start, for ~stall
+  double run_start_ = -1.0;  // [s of ROS time] /fleet/start, for ~stall and ~start_hold
+  bool held_ = false;        // ~start_hold done
   std::vector<std::pair<int, double>> stalls_;
 
   std::vector<std::array<double, 2>> commands_;
   std::vector<double> last_command_;  // [s of sim time]
   std::vector<bool> stalled_fault_;
+  std::vector<bool> start_latched_;  // ~start_hold: the robot's agent re-latched the start
   std::vector<std::string> events_json_;
   int stale_ = 0;
 
   Publishers pubs_;
   Lockstep lockstep_;
-  std::vector<ros::Subscriber> cmd_sub_;
+  std::vector<ros::Subscriber> cmd_sub_, team_sub_;
   ros::Subscriber start_sub_;
   ros::ServiceServer reset_srv_;
 };
 
 // Inputs, per robot in its namespace: cmd_vel (geometry_msgs/Twist) and, in lock-step,
-// cmd_vel_stamped (geometry_msgs/TwistStamped, the answer to the odom tick of its stamp). Global:
-// /fleet/start (tpuaf_ros/RunStart or std_msgs/Float64, run start for ~stall), service reset_positions (std_srvs/Empty).
+// cmd_vel_stamped (geometry_msgs/TwistStamped, the answer to the odom tick of its stamp) and, with
+// ~lockstep_team, lockstep_team (std_msgs/Int64MultiArray, its team message counts). Global:
+// /fleet/start (tpuaf_ros/RunStart or std_msgs/Float64, run start for ~stall), service
+// reset_positions (std_srvs/Empty).
 void StageNode::subscribe() {
   ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
   for (int i = 0; i < n_; ++i) {
@@ -160,17 +167,54 @@ void StageNode::subscribe() {
           ns_[i] + "/cmd_vel_stamped", 10,
           [this, i](const geometry_msgs::TwistStamped::ConstPtr& m) { on_cmd_stamped(i, m); },
           ros::VoidConstPtr(), hints));
+      if (p_.lockstep_team) {
+        team_sub_.push_back(nh_.subscribe<std_msgs::Int64MultiArray>(
+            ns_[i] + "/lockstep_team", 100,
+            [this, i](const std_msgs::Int64MultiArray::ConstPtr& m) {
+              lockstep_.on_team_counts(i, m->data);
+            },
+            ros::VoidConstPtr(), hints));
+      }
     }
   }
-  if (!stalls_.empty()) start_sub_ = nh_.subscribe(kStartTopic, 1, &StageNode::on_start, this);
+  if (p_.lockstep && p_.lockstep_team) lockstep_.enable_team();
+  if (!stalls_.empty() || (p_.lockstep && p_.start_hold > 0))
+    start_sub_ = nh_.subscribe(kStartTopic, 10, &StageNode::on_start, this);
   reset_srv_ = nh_.advertiseService("reset_positions", &StageNode::on_reset, this);
 }
 
-// The earliest start heard: every agent re-latches the team's epoch.
-void StageNode::on_start(const topic_tools::ShapeShifter::ConstPtr& msg) {
-  const double start = run_start_epoch(*msg);
-  if (std::isfinite(start) && start >= 0 && (run_start_ < 0 || start < run_start_))
-    run_start_ = start;
+// The earliest start heard: every agent re-latches the team's epoch (the robots whose agent did
+// are marked: ~start_hold waits for them).
+void StageNode::on_start(const ros::MessageEvent<topic_tools::ShapeShifter const>& event) {
+  const double start = run_start_epoch(*event.getMessage());
+  if (!(std::isfinite(start) && start >= 0)) return;
+  if (run_start_ < 0 || start < run_start_) run_start_ = start;
+  const std::string node = event.getPublisherName() + "/";
+  for (int i = 0; i < n_; ++i) {
+    if (node.rfind("/" + ns_[i] + "/", 0) == 0) start_latched_[i] = true;
+  }
+}
+
+// Lock-step, ~start_hold: simulated time stands at the hold (after the tick's answers) until a
+// run start was announced and every agent with a lock-step publisher has re-latched it (it will
+// begin at the start, whatever the wall clock did meanwhile), at most ~start_timeout. The start
+// is then the same in every run: the monitor announces it start_delay after the clock's present.
+void StageNode::hold_for_start() {
+  const double deadline = wall_now() + p_.start_timeout;
+  ROS_INFO("lockstep: time stands at %s s until every agent has the run start",
+           pyfloat(sim_time()).c_str());
+  while (ros::ok()) {
+    bool all = run_start_ >= 0;
+    for (int i = 0; i < n_ && all; ++i) all = start_latched_[i] || !lockstep_.has_agent(i);
+    if (all) return;
+    if (wall_now() > deadline) {
+      ROS_WARN("lockstep: going on without the run start of every agent after %s s",
+               pyfloat(p_.start_timeout).c_str());
+      return;
+    }
+    publish_clock();
+    serve(0.1);
+  }
 }
 
 void StageNode::on_cmd(int i, const geometry_msgs::Twist::ConstPtr& msg) {
@@ -280,6 +324,10 @@ void StageNode::spin() {
     if (odom_.due(steps_)) {
       publish_state();
       if (p_.lockstep) lockstep_.wait_answers(stamp());
+      if (p_.lockstep && p_.start_hold > 0 && !held_ && sim_time() >= p_.start_hold - 1e-9) {
+        held_ = true;
+        hold_for_start();
+      }
     }
     if (rtf > 0) {
       const double delay = (sim_time() - sim0) / rtf - (wall_now() - wall0);

@@ -21,12 +21,18 @@ EVENTS_TOPIC = "/fleet/agent_events"  # tpuaf_ros/AgentEvent of every agent
 METRICS_TOPIC = "/fleet/metrics"  # tpuaf_ros/LiveMetrics of the monitor (1 Hz)
 START_TOPIC = "/fleet/start"  # std_msgs/Float64, latched: ROS time [s] of the run start
 CLOCK_TOPIC = "/clock"
+# std_msgs/String, latched per agent: JSON {"robot": index, "by_reason": {reason: count}} of the
+# team messages and events its inbox refused (tpuaf.team.inbox); the monitor's summary
+REJECTIONS_TOPIC = "/fleet/agent_rejections"
 
 # Per robot (relative).
 CMD_VEL = "cmd_vel"  # geometry_msgs/Twist (hardware, teleop, rehearsal)
 # geometry_msgs/TwistStamped: lock-step answer of an agent; header.stamp = the stamp of the odom
 # tick it answers (the simulator advances once every live agent has answered the latest tick).
 CMD_VEL_STAMPED = "cmd_vel_stamped"
+# std_msgs/Int64MultiArray: an agent's team message counts in lock-step (tpuaf.team.lockstep):
+# [stamp of the tick answered last in ns, team messages sent, received from robot 0..n-1].
+LOCKSTEP_TEAM = "lockstep_team"
 ODOM = "odom"
 GROUND_TRUTH = "base_pose_ground_truth"
 SCAN = "base_scan"

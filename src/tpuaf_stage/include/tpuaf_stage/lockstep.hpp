@@ -33,15 +33,23 @@ class Lockstep {
   void add_subscriber(ros::Subscriber sub) { cmd_stamped_sub_.push_back(std::move(sub)); }
   // Robot i answered the tick of stamp; an unresponsive robot is waited for again.
   void on_answer(int i, const ros::Time& stamp);
+  // The team barrier (~lockstep_team): agent i's team message counts (lockstep_team topic,
+  // std_msgs/Int64MultiArray [tick stamp in ns, messages sent, received from robot 0..n-1]).
+  void enable_team() { team_ = true; }
+  void on_team_counts(int i, const std::vector<std::int64_t>& data);
   // Until every robot's cmd_vel_stamped has a publisher (at most ~start_timeout).
   void start_gate();
   // After the odom tick at stamp tick: until every live agent has answered it.
   void wait_answers(const ros::Time& tick);
 
   bool unresponsive(int i) const { return unresponsive_[i]; }
+  // Robot i's agent publishes its answers (it is not gone).
+  bool has_agent(int i) const { return cmd_stamped_sub_[i].getNumPublishers() > 0; }
   int num_unresponsive() const;
   const std::vector<int>& unresponsive_count() const { return unresponsive_count_; }  // events
   const std::vector<std::int64_t>& answers() const { return answers_; }  // answers received
+  // Team messages given up on (never delivered within ~lockstep_timeout), per receiving robot.
+  const std::vector<std::int64_t>& team_lost() const { return team_lost_; }
   // Ticks without an agent to wait for, per robot.
   const std::vector<std::int64_t>& unwaited_ticks() const { return unwaited_ticks_; }
 
@@ -57,6 +65,16 @@ class Lockstep {
   std::vector<int> unresponsive_count_;
   std::vector<std::int64_t> unwaited_ticks_;
   std::vector<std::int64_t> answers_;
+
+  // Team barrier: each agent's latest counts and the messages given up on per (receiver, sender).
+  bool team_ = false;
+  std::vector<bool> team_seen_;
+  std::vector<ros::Time> team_tick_;
+  std::vector<std::int64_t> team_sent_, team_lost_;
+  std::vector<std::vector<std::int64_t>> team_received_, team_forgiven_;
+  // Receivers still missing team messages (or their counts for tick); empty: none.
+  std::string team_missing(const ros::Time& tick, const std::vector<bool>& live) const;
+  void team_give_up(const ros::Time& tick, const std::vector<bool>& live);
 };
 
 }  // namespace tpuaf_stage

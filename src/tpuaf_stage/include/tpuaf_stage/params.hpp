@@ -34,6 +34,8 @@ struct NodeParams {
   double status_period = 10.0;           // [s of wall time] between status log lines; 0 = none
   bool lockstep = false;          // step on only once every live agent answered the odom tick
   double lockstep_timeout = 1.0;  // [s of wall time] per tick; a silent agent is unresponsive
+  bool lockstep_team = false;     // lock-step: also wait until every team message is delivered
+  double start_hold = 0.0;        // [s of sim time] lock-step: time stands here until the run start
   double start_timeout = 60.0;    // [s of wall time] lock-step: wait for every agent at start
   bool wall_clock = false;        // rehearsal: real-time pace, wall-clock stamps, no /clock
   std::string stall = "";         // faults: "R@T,R@T": robot R stops moving at run time T [s]

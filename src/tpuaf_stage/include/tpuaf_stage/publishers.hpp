@@ -49,8 +49,10 @@ class Publishers {
   // robots alone (a lock-step tick re-sent).
   void state(const tpuaf::World& world, const ros::Time& now,
              const std::vector<bool>* only = nullptr);
-  void scans(tpuaf::World& world, const ros::Time& now);  // lasers with subscribers
-  void event(const std::string& json);                    // one /fleet/sim_events document
+  // Lasers with subscribers; `every` computes the others too (published to nobody): the
+  // laser noise is one stream, so lock-step runs see the same noise whenever agents subscribe.
+  void scans(tpuaf::World& world, const ros::Time& now, bool every = false);
+  void event(const std::string& json);  // one /fleet/sim_events document
 
  private:
   int n_;

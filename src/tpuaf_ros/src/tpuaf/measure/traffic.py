@@ -8,7 +8,8 @@ master can publish as any robot. `TrafficGuard.check` refuses an agent event
 - `vertex`: a START, GOAL, REACHED or DWELL naming no vertex of the map;
 - `sender`: published by another node than the robot's (the publisher's caller id, from the
   connection header, live and in a bag): a node in a robot's namespace (/robot_1/...) speaks
-  for that robot only; outside every namespace the first node heard for a robot is its sender;
+  for that robot only; outside every namespace the first node heard for a robot is its sender
+  (tpuaf.team.inbox.SenderCheck, the agents' rule for team messages too);
 - `clock`: stamped more than `max_skew_s` after its receipt (the live node's clock, a bag's
   record time; else the newest pose), or more than MAX_PAST_S before it;
 - `duplicate`: the same event (kind, vertices, stamp) of the same robot again (a bag written
@@ -27,7 +28,7 @@ from __future__ import annotations
 import math
 from collections import deque
 
-from tpuaf.team.inbox import InboxConfig, RateLimit, clock_problem
+from tpuaf.team.inbox import InboxConfig, RateLimit, SenderCheck, clock_problem
 from tpuaf.topics import DWELL, GOAL, REACHED, START
 
 REASONS = ("unknown_robot", "vertex", "sender", "clock", "duplicate", "rate", "implausible", "start")
@@ -48,9 +49,7 @@ class TrafficGuard:
         self.n = int(n_robots)
         self.n_vertices = int(n_vertices)
         self.config = config or InboxConfig()
-        # "/robot_1/": the namespace of each robot's nodes (None: names unknown)
-        self.spaces = [f"/{name.strip('/')}/" for name in names] if names else None
-        self._sender: list[str | None] = [None] * self.n  # bound sender of each robot
+        self.senders = SenderCheck(self.n, names)
         self._recent = [(deque(), set()) for _ in range(self.n)]  # duplicate memory
         self.rate = RateLimit(self.config.rate_per_s, self.config.burst)
         self.counts: dict[tuple[int, str], int] = {}  # (robot or -1, reason) -> refusals
@@ -69,7 +68,7 @@ class TrafficGuard:
             return self.count(robot, "unknown_robot")
         if kind in NEEDS_VERTEX and not 0 <= vertex < self.n_vertices:
             return self.count(robot, "vertex")
-        if sender and not self._sender_ok(robot, sender):
+        if sender and not self.senders.ok(robot, sender):
             return self.count(robot, "sender")
         if math.isfinite(clock) and clock_problem(t, clock, self.config.max_skew_s,
                                                   MAX_PAST_S):
@@ -92,19 +91,6 @@ class TrafficGuard:
             seen.discard(order.popleft())
         self.accepted += 1
         return None
-
-    def _sender_ok(self, robot: int, sender: str) -> bool:
-        node = sender if sender.endswith("/") else sender + "/"
-        if self.spaces is not None:
-            owner = next((r for r, space in enumerate(self.spaces) if node.startswith(space)),
-                         None)
-            if owner is not None:
-                if owner == robot:
-                    self._sender[robot] = sender  # the robot's own node (re)binds
-                return owner == robot
-        if self._sender[robot] is None:
-            self._sender[robot] = sender
-        return self._sender[robot] == sender
 
     # -- outputs ----------------------------------------------------------------------------
 

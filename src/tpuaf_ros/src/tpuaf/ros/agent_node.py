@@ -21,6 +21,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 from rospy.numpy_msg import numpy_msg
 from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Int64MultiArray, String
 from tf2_msgs.msg import TFMessage
 
 from tpuaf import topics
@@ -32,7 +33,15 @@ from tpuaf.navigation.travel_time import timed_map
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, publish, run_node, yaw_of
+from tpuaf.ros.node import (
+    fatal,
+    private_params,
+    publish,
+    run_node,
+    send_initial_pose,
+    sender_of,
+    yaw_of,
+)
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.agent_setup import (
     agent_controller,
@@ -43,9 +52,12 @@ from tpuaf.runtimes.agent_setup import (
 from tpuaf.team.epoch import ADOPTED, INVALID, KEPT, RunEpoch
 from tpuaf.team.inbox import InboxConfig, TeamInbox
 from tpuaf.team.liveness import InputWatchdog
+from tpuaf.team.lockstep import LockstepTeam
 from tpuaf_ros.msg import AgentEvent, RunStart
 
 NODE = "patrol_agent"
+# lock-step: the order of one sender's messages of one stamp (team topics, then its events)
+TOPIC_RANK = {name: k for k, name in enumerate(topics.TEAM_TOPICS)}
 WARN_PERIOD_S = 5.0  # [s wall] throttle of repeated warnings
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
 
@@ -84,15 +96,15 @@ class AgentNode:
         self.conv = convert.Converter(patrol_map, prefix=prefix, epoch=self.epoch or 0.0)
         self.names = [f"{prefix}{i}" for i in range(p.robots)]
         self.inbox = TeamInbox(p.robots, patrol_map.num_vertices, p.robot_index, InboxConfig(
-            skew_warn_s=p.skew_warn, max_skew_s=p.max_skew, correct_skew=not sim))
+            skew_warn_s=p.skew_warn, max_skew_s=p.max_skew, correct_skew=not sim), self.names)
+        self.team_ticks = LockstepTeam(p.robots, p.robot_index, p.max_skew) if p.lockstep else None
+        self._answered_ns = 0  # lock-step: stamp [ns] of the tick answered last
         pose_input = "tf " + p.map_frame if p.localization == "tf" else p.localization
-        # amcl_pose comes on change only: a robot at rest would look stale.
         watched = ("scan", "clock") if p.localization == "amcl" else ("pose", "scan", "clock")
-        self.inputs = InputWatchdog(watched, p.input_timeout)
+        self.inputs = InputWatchdog(watched, p.input_timeout)  # amcl_pose: on change only
         self.pose_input = pose_input
         self.halted = True  # until pose, scan and clock are fresh
         self._warned = {}  # key -> wall time of the last warning
-
 
     def _publishers(self, p: AgentParams) -> None:
         """Velocity (or stamped velocity in lock-step), events, the run start, team messages."""
@@ -104,12 +116,16 @@ class AgentNode:
                                            tcp_nodelay=True)
             self.cmd = TwistStamped()
             self.twist = self.cmd.twist
+            self.counts_pub = rospy.Publisher(topics.LOCKSTEP_TEAM, Int64MultiArray,
+                                              queue_size=None, tcp_nodelay=True)
         else:
             self.cmd = self.twist = Twist()
             if self.drives:
                 self.cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=None,
                                                tcp_nodelay=True)
         self.event_pub = rospy.Publisher(topics.EVENTS_TOPIC, AgentEvent, queue_size=None)
+        self.rejections_pub = rospy.Publisher(topics.REJECTIONS_TOPIC, String, queue_size=1,
+                                              latch=True)
         # The run start the team agreed on, re-latched by every agent that knows it.
         self.run_start = RunEpoch()
         self.start_pub = rospy.Publisher(topics.START_TOPIC, RunStart, queue_size=1, latch=True)
@@ -157,8 +173,7 @@ class AgentNode:
         self._stride = 1
         self.origin = odom_origin(p, patrol_map)  # odom frame in the map frame
         if p.initial_pose and p.localization in ("tf", "amcl"):
-            self._send_initial_pose(p.initial_pose)
-
+            self._initial_pose_pub = send_initial_pose(p.initial_pose, p.map_frame)
 
     def _subscribers(self, p: AgentParams) -> None:
         """Team messages, events, the run start, the scan, /tf_static and the pose source."""
@@ -202,7 +217,19 @@ class AgentNode:
 
     # --- outputs ---
     def publish_team(self, message):
+        if self.team_ticks is not None:
+            self.team_ticks.on_sent()
         publish(self.team_pub[type(message)], self.conv.to_ros(message))
+
+    def answer(self, stamp):
+        """Lock-step: answer the tick of `stamp` (the command), then the team counts."""
+        self.cmd.header.stamp = stamp
+        publish(self.cmd_pub, self.cmd)
+        self._answered_ns = stamp.to_nsec()
+        self.publish_counts()
+
+    def publish_counts(self):  # lock-step: the team barrier's data (tpuaf.team.lockstep)
+        publish(self.counts_pub, Int64MultiArray(data=self.team_ticks.counts(self._answered_ns)))
 
     def publish_event(self, kind, vertex, from_vertex, t):
         e = self.event
@@ -214,26 +241,13 @@ class AgentNode:
 
     def stop_robot(self, stamp=None):
         self.twist.linear.x = self.twist.angular.z = 0.0
+        if not self.drives:
+            return
         if self.lockstep:
-            if stamp is None:
-                return  # lock-step answers ticks only
-            self.cmd.header.stamp = stamp
-        if self.drives:
-            publish(self.cmd_pub, self.cmd)
-
-    def _send_initial_pose(self, pose):
-        """Tell the localiser (amcl: `initialpose`) where the robot starts."""
-        pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
-        msg = PoseWithCovarianceStamped()
-        msg.header.frame_id = self.p.map_frame
-        msg.header.stamp = rospy.Time.now()
-        x, y, yaw = (float(v) for v in pose)
-        msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
-        msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
-        msg.pose.covariance[0] = msg.pose.covariance[7] = 0.25 ** 2
-        msg.pose.covariance[35] = 0.2 ** 2
-        publish(pub, msg)
-        self._initial_pose_pub = pub
+            if stamp is not None:  # lock-step answers ticks only
+                self.answer(stamp)
+            return
+        publish(self.cmd_pub, self.cmd)
 
     def warn(self, key, text, period=WARN_PERIOD_S):
         now = time.monotonic()
@@ -285,26 +299,57 @@ class AgentNode:
 
     def on_team(self, msg):
         r = msg.robot_index
-        if r == self.p.robot_index:
-            return  # our own broadcast
-        if self.epoch is None:
-            return
-        now = self.ros_now() - self.epoch
+        if r == self.p.robot_index or self.epoch is None:
+            return  # our own broadcast, or no clock yet
+        with self.lock:
+            why = self.inbox.sender_problem(r, sender_of(msg))
+            if why is not None:
+                self.warn(("bad", r, "sender"), f"ignored a team message from {msg.robot!r}: {why}")
+                return
+            if self.team_ticks is None:
+                now = self.ros_now() - self.epoch
+                self.handle_team(msg, now, now)
+                return
+            self.team_ticks.on_received(r)  # counted for the barrier, handled at the next tick
+            rank = TOPIC_RANK.get(type(msg).__name__, -1)
+            if not self.team_ticks.put(self.conv.time(msg), r, rank, msg):  # far ahead
+                self.inbox.reject("clock")
+            self.publish_counts()
+
+    def handle_team(self, msg, now, heard):
+        """A team message at run time `now` [s], its sender heard at `heard` [s] (lock held)."""
+        r = msg.robot_index
         try:
             message = self.conv.from_ros(msg)
         except convert.MalformedMessage as err:
+            self.inbox.reject("malformed")
             self.warn(("bad", r, _shape(str(err))),
                       f"ignored a team message from {msg.robot!r}: {err}")
             return
-        with self.lock:
-            message, why = self.inbox.accept(message, now)
-            if message is None:
-                self.warn(("bad", r, _shape(why)),
-                          f"ignored a team message from {msg.robot!r}: {why}")
-                return
-            if self.runtime.hear(r, now):
+        message, why = self.inbox.accept(message, now)
+        if message is None:
+            self.warn(("bad", r, _shape(why)), f"ignored a team message from {msg.robot!r}: {why}")
+            return
+        if self.runtime.hear(r, heard):
+            rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
+        self.runtime.on_message(message)
+
+    def handle_due(self, t):
+        """Lock-step, before the tick at run time t [s]: the teammates' messages and events
+        stamped before it, in one order (tpuaf.team.lockstep), then the liveness check."""
+        self.runtime.advance(t)
+        for stamp, r, msg in self.team_ticks.due(t):
+            if msg is not None:
+                self.handle_team(msg, t, stamp)
+            elif self.runtime.hear(r, stamp):
                 rospy.loginfo(f"{self.name}: teammate {self.names[r]} heard again")
-            self.runtime.on_message(message)
+        self.check_liveness(t)
+
+    def check_liveness(self, now):  # teammates silent for the timeout: the policy is told
+        for r in self.runtime.check_liveness(now):
+            silent = self.liveness.silent_for(r, now)
+            rospy.logwarn(f"{self.name}: teammate {self.names[r]} silent for {silent:.1f} s: "
+                          "lost, its intentions dropped")
 
     def on_event(self, msg):
         r = msg.robot_index
@@ -312,6 +357,12 @@ class AgentNode:
             return
         now = self.ros_now() - self.epoch
         with self.lock:
+            if self.inbox.sender_problem(r, sender_of(msg)) is not None:
+                return  # another node as robot r (counted)
+            if self.team_ticks is not None:  # heard at its stamp, at the next tick
+                if not self.team_ticks.put(convert.stamp_s(msg) - self.epoch, r, 99, None):
+                    self.inbox.reject("clock")
+                return
             if msg.event == topics.HEARTBEAT:  # stamped "now" (a GOAL may be post-dated)
                 self.inbox.observe(r, convert.stamp_s(msg) - self.epoch, now)
             if self.runtime.hear(r, now):
@@ -424,8 +475,12 @@ class AgentNode:
         if self.epoch is None:
             self.stop_robot(stamp)
             return
-        if self.halted:
-            stale, _ = self.inputs.check(time.monotonic())
+        if t is None:
+            t = self.run_time(stamp.to_sec())
+        if self.team_ticks is not None:
+            self.handle_due(t)
+        if self.halted:  # lock-step: the simulator waits for us; time standing still is no fault
+            stale = () if self.lockstep else self.inputs.check(time.monotonic())[0]
             if stale:
                 self.stop_robot(stamp)
                 return
@@ -440,14 +495,15 @@ class AgentNode:
                                    s.range_max), mount, self.p.scan_beams, self.points_within_m)
             self.points = pts
             self.points_pose = self.runtime.pose  # as the physics runtime: motion-compensated
-        v, w = self.runtime.tick(self.run_time(stamp.to_sec()) if t is None else t, self.points,
+        v, w = self.runtime.tick(t, self.points,
                                  self.points_pose if self.points is not None else None)
         if not self.drives:
             return
         self.twist.linear.x, self.twist.angular.z = v, w
         if self.lockstep:
-            self.cmd.header.stamp = stamp
-        publish(self.cmd_pub, self.cmd)
+            self.answer(stamp)
+        else:
+            publish(self.cmd_pub, self.cmd)
 
     # --- supervision (own thread, wall clock) ---
     def halt(self, stale):
@@ -464,7 +520,7 @@ class AgentNode:
     def supervise(self):
         """Input watchdog, run start, teammate liveness and skew warnings at 4 Hz of wall time."""
         period = 0.25
-        last_clock = None
+        last_clock, told = None, 0  # told: refusals published
         next_beat = 0.0
         while not rospy.is_shutdown():
             time.sleep(period)
@@ -476,7 +532,7 @@ class AgentNode:
             if last_clock is None or t > last_clock:
                 self.inputs.fed("clock", t, wall)
                 last_clock = t
-            stale, changed = self.inputs.check(wall)
+            stale, changed = ((), False) if self.lockstep else self.inputs.check(wall)
             with self.lock:
                 if stale and (changed or not self.halted):
                     self.halt(stale)
@@ -507,13 +563,14 @@ class AgentNode:
                 continue
             now = t - self.epoch
             with self.lock:
-                lost = self.runtime.check_liveness(now)  # the policy is told
-                for r in lost:
-                    rospy.logwarn(f"{self.name}: teammate {self.names[r]} silent for "
-                                  f"{self.liveness.silent_for(r, now):.1f} s: lost, its "
-                                  "intentions dropped")
+                if self.team_ticks is None:  # lock-step: at the ticks (handle_due)
+                    self.check_liveness(now)
                 skewed = {r: o for r, o in self.inbox.skewed().items()
                           if r not in self.liveness.lost}
+                if self.inbox.rejected != told:  # for the monitor's summary
+                    told = self.inbox.rejected
+                    publish(self.rejections_pub, convert.rejections_message(
+                        self.p.robot_index, self.inbox.rejections))
             for r, offset in skewed.items():
                 self.warn(("skew", r), f"clock of {self.names[r]} is {offset:+.2f} s off ours "
                           f"(from its message stamps; > {self.p.skew_warn:g} s): sync the "

@@ -57,6 +57,28 @@ def run_start_message(epoch_s: float, announcer: str, team: list[str]):
     return out
 
 
+def rejections_message(robot: int, by_reason: dict[str, int]):
+    """std_msgs/String of an agent's refusal counts (tpuaf.topics.REJECTIONS_TOPIC)."""
+    import json
+
+    from std_msgs.msg import String
+
+    return String(data=json.dumps({"robot": int(robot), "by_reason": dict(by_reason)}))
+
+
+def parse_rejections(text: str) -> tuple[int, dict[str, int]] | None:
+    """(robot, {reason: count}) of a rejections_message text; None when it is not one."""
+    import json
+
+    try:
+        data = json.loads(text)
+        robot = int(data["robot"])
+        counts = {str(k): int(v) for k, v in data["by_reason"].items()}
+    except (ValueError, TypeError, KeyError, AttributeError):
+        return None
+    return (robot, counts) if all(v >= 0 for v in counts.values()) else None
+
+
 class Converter:
     """Converts team messages for one map and robot naming (`prefix` + index)."""
 

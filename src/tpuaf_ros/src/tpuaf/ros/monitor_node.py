@@ -27,6 +27,7 @@ import rospy
 import yaml
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
+from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from tpuaf.errors import TpuafError
@@ -35,10 +36,17 @@ from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from tpuaf.params import MonitorParams, NodeParamError, parse_monitor
 from tpuaf.ros import convert
-from tpuaf.ros.node import fatal, private_params, publish, run_node
+from tpuaf.ros.node import fatal, private_params, publish, run_node, sender_of
 from tpuaf.team import messages
 from tpuaf.team.epoch import INVALID, KEPT, SAME_START_S, RunEpoch
-from tpuaf.topics import AMCL_POSE, GROUND_TRUTH, ODOM, START_TOPIC, team_topic
+from tpuaf.topics import (
+    AMCL_POSE,
+    GROUND_TRUTH,
+    ODOM,
+    REJECTIONS_TOPIC,
+    START_TOPIC,
+    team_topic,
+)
 from tpuaf_ros.msg import AgentEvent, Intention, LiveMetrics, RunStart
 
 NODE = "monitor"
@@ -46,10 +54,6 @@ NODE = "monitor"
 POSE_QUEUE = 1000
 
 
-def sender_of(msg):
-    """The node that published `msg` (its caller id), '' when rospy does not say."""
-    return getattr(msg, "_connection_header", None) and msg._connection_header.get(
-        "callerid", "") or ""
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
 
 
@@ -97,6 +101,9 @@ class MonitorNode:
                          self.on_intention, queue_size=500)
         # followed (~announce_start false), else watched: a start not ours is counted
         rospy.Subscriber(START_TOPIC, RunStart, self.on_start, queue_size=10)
+        # what the agents refused of their team traffic (summary `rejected_by_agents`)
+        self.agent_rejections: dict[int, dict[str, int]] = {}
+        rospy.Subscriber(REJECTIONS_TOPIC, String, self.on_rejections, queue_size=50)
         # Poses at their own stamps (all but ground truth) are grouped on ticks.
         self.feed = MonitorFeed(self.fm, grouped=p.pose_source != "ground_truth")
         if p.pose_source == "tf":
@@ -121,33 +128,63 @@ class MonitorNode:
                 return  # refused (tpuaf.measure.traffic): counted, reported
             if 0 <= r < len(self.ready):
                 self.ready[r] = True
-            if (self.p.announce_start and not self.announced and all(self.ready)
-                    and self.recorder_ready()):
-                # Let every subscriber (agents, recorder) finish connecting before the start.
-                if self.ready_wall is None:
-                    self.ready_wall = time.monotonic()
-                waited = time.monotonic() - self.ready_wall
-                if waited < self.p.start_wall_delay:
-                    return
-                if not self.agents_listening():
-                    if waited < self.p.start_connect_timeout:
-                        return
-                    rospy.logwarn(f"{NODE}: not every agent is connected to {START_TOPIC} after "
-                                  f"{waited:.0f} s; announcing the start anyway (a late agent "
-                                  "starts when the latched start reaches it)")
-                # Never in the past of the clock nor of the poses already seen: the event that
-                # made every agent ready may be stamped seconds of a fast lock-step clock ago;
-                # a start already past reached the agents late, and each began the run when it
-                # heard it (10-16 s after it, differently in every run: issue 33 item 7).
-                start = max(convert.stamp_s(msg), self.fm.now,
-                            rospy.get_time()) + self.p.start_delay
-                self.fm.start_after = start
-                self.run_start.offer(start, rospy.get_name())
-                publish(self.start_pub, convert.run_start_message(start, rospy.get_name(),
-                                                                 self.names))
-                self.announced = True
-                rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
-                              f"{start:.2f} s for {self.p.duration:g} s")
+            self.announce_when_ready(convert.stamp_s(msg))
+
+    def watch_start(self):
+        """Wall clock, 5 Hz, until the start is announced: a lock-step simulator holds its clock
+        until the start (tpuaf_stage ~start_hold), and then no event comes to announce it."""
+        while not rospy.is_shutdown() and not self.announced:
+            time.sleep(0.2)
+            with self.lock:
+                self.announce_when_ready(-math.inf)
+
+    def announce_when_ready(self, stamp):
+        """Announce the run start once every agent is ready (an event heard), the recorder
+        too, and every agent listens (lock held)."""
+        if not (self.p.announce_start and not self.announced and all(self.ready)
+                and self.recorder_ready()):
+            return
+        # Let every subscriber (agents, recorder) finish connecting before the start.
+        if self.ready_wall is None:
+            self.ready_wall = time.monotonic()
+        waited = time.monotonic() - self.ready_wall
+        if waited < self.p.start_wall_delay:
+            return
+        if not self.agents_listening():
+            if waited < self.p.start_connect_timeout:
+                return
+            rospy.logwarn(f"{NODE}: not every agent is connected to {START_TOPIC} after "
+                          f"{waited:.0f} s; announcing the start anyway (a late agent "
+                          "starts when the latched start reaches it)")
+        # Never in the past of the clock nor of the poses already seen: the event that
+        # made every agent ready may be stamped seconds of a fast lock-step clock ago;
+        # a start already past reached the agents late, and each began the run when it
+        # heard it (10-16 s after it, differently in every run: issue 33 item 7).
+        start = max(stamp, self.fm.now, rospy.get_time()) + self.p.start_delay
+        self.fm.start_after = start
+        self.run_start.offer(start, rospy.get_name())
+        publish(self.start_pub, convert.run_start_message(start, rospy.get_name(),
+                                                         self.names))
+        self.announced = True
+        rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
+                      f"{start:.2f} s for {self.p.duration:g} s")
+
+    def on_rejections(self, msg):
+        """An agent's refusal counts, from that robot's own node only (SenderCheck)."""
+        parsed = convert.parse_rejections(msg.data)
+        with self.lock:
+            if parsed is not None and 0 <= parsed[0] < self.p.robots and (
+                    self.fm.traffic.senders.ok(parsed[0], sender_of(msg) or "?")):
+                self.agent_rejections[parsed[0]] = parsed[1]
+
+    def agents_refused(self) -> dict:
+        """summary `rejected_by_agents`: total, by reason, by robot (the robot that refused)."""
+        by_reason: dict[str, int] = {}
+        for counts in list(self.agent_rejections.values()):
+            for reason, k in counts.items():
+                by_reason[reason] = by_reason.get(reason, 0) + k
+        return {"total": sum(by_reason.values()), "by_reason": dict(sorted(by_reason.items())),
+                "by_robot": [{"robot": r, **c} for r, c in sorted(dict(self.agent_rejections).items())]}
 
     def on_intention(self, msg):
         v = self.patrol_map.lookup_index(msg.vertex)
@@ -272,6 +309,7 @@ class MonitorNode:
                 self.feed.close()  # up to the last poses (the monitor runs lag_s behind)
         if self.fm.started:
             summary = self.fm.summary()
+            summary["rejected_by_agents"] = self.agents_refused()  # (finish may hold the lock)
             self.write_results(summary, interrupted)
             self.publish_metrics(finished=not interrupted)
             rospy.loginfo(f"{NODE}: run {'interrupted' if interrupted else 'finished'}: "
@@ -340,6 +378,8 @@ def main():
         return fatal(err)
     rospy.on_shutdown(lambda: node.finish(interrupted=True))
     rospy.Timer(rospy.Duration(1.0), node.on_timer)
+    if p.announce_start:
+        threading.Thread(target=node.watch_start, daemon=True).start()
     rospy.spin()
     return 0
 

@@ -42,6 +42,32 @@ def fatal(err: BaseException | str) -> int:
     return 2
 
 
+def sender_of(msg) -> str:
+    """The node that published `msg` (its caller id, from rospy's connection header), '' when
+    rospy does not say."""
+    return getattr(msg, "_connection_header", None) and msg._connection_header.get(
+        "callerid", "") or ""
+
+
+def send_initial_pose(pose, map_frame: str):
+    """Tell the localiser (amcl: `initialpose`, latched) where the robot starts: pose (x [m],
+    y [m], yaw [rad]) in `map_frame`. Returns the publisher (keep it: the latch lives with it)."""
+    import rospy
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+
+    pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
+    msg = PoseWithCovarianceStamped()
+    msg.header.frame_id = map_frame
+    msg.header.stamp = rospy.Time.now()
+    x, y, yaw = (float(v) for v in pose)
+    msg.pose.pose.position.x, msg.pose.pose.position.y = x, y
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    msg.pose.covariance[0] = msg.pose.covariance[7] = 0.25 ** 2
+    msg.pose.covariance[35] = 0.2 ** 2
+    publish(pub, msg)
+    return pub
+
+
 def publish(pub, msg) -> None:
     """pub.publish(msg); once the node shuts down (Ctrl-C while a callback or thread still
     runs) a publish to the closed topic is dropped quietly, not a traceback."""

@@ -168,6 +168,11 @@ class AgentRuntime:
         self._pose = (float(x), float(y), float(th))
         self.machine.observe(x, y)
 
+    def advance(self, t: float) -> None:
+        """The clock moves on to run time t [s] (as the tick does): what is handled before the
+        tick (team messages in lock-step, tpuaf.team.lockstep) happens at its time."""
+        self._now = max(self._now, float(t))
+
     def on_message(self, message: Any) -> None:
         """A team message from another robot (the node filters out our own). A malformed one
         (unknown sender or vertex, NaN time: messages.well_formed) is dropped and counted."""

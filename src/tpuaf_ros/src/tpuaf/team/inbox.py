@@ -72,6 +72,33 @@ class RateLimit:
         return ok
 
 
+class SenderCheck:
+    """Which ROS node may speak for each robot (ROS 1 has no authentication; the publisher's
+    caller id comes in the connection header, live and in a bag): a node in a robot's namespace
+    (`/robot_1/...`) speaks for that robot only and (re)binds it; outside every robot namespace,
+    the first node heard for a robot is its sender (a relay, a bag of unknown names). The one
+    sender rule of the agents (TeamInbox) and the monitor (tpuaf.measure.traffic)."""
+
+    def __init__(self, n_robots: int, names: list[str] | None = None):
+        # "/robot_1/": the namespace of each robot's nodes (None: names unknown)
+        self.spaces = [f"/{name.strip('/')}/" for name in names] if names else None
+        self._sender: list[str | None] = [None] * int(n_robots)  # bound sender of each robot
+
+    def ok(self, robot: int, sender: str) -> bool:
+        """May node `sender` speak for `robot` (0 <= robot < n)?"""
+        node = sender if sender.endswith("/") else sender + "/"
+        if self.spaces is not None:
+            owner = next((r for r, space in enumerate(self.spaces) if node.startswith(space)),
+                         None)
+            if owner is not None:
+                if owner == robot:
+                    self._sender[robot] = sender  # the robot's own node (re)binds
+                return owner == robot
+        if self._sender[robot] is None:
+            self._sender[robot] = sender
+        return self._sender[robot] == sender
+
+
 class SkewEstimator:
     """Median lead (message time - receipt time [s]) of each robot over the last `window`."""
 
@@ -102,14 +129,29 @@ class TeamInbox:
     `n_vertices` vertices; see the module docstring."""
 
     def __init__(self, n_robots: int, n_vertices: int, me: int,
-                 config: InboxConfig | None = None):
+                 config: InboxConfig | None = None, names: list[str] | None = None):
         self.n_robots = int(n_robots)
         self.n_vertices = int(n_vertices)
         self.me = int(me)
         self.config = config or InboxConfig()
         self.skew = SkewEstimator(self.config.window)
         self.rate = RateLimit(self.config.rate_per_s, self.config.burst)
+        self.senders = SenderCheck(self.n_robots, names)
         self.rejected = 0
+        self.rejections: dict[str, int] = {}  # reason (tpuaf.measure.traffic.REASONS) -> count
+
+    def reject(self, reason: str) -> None:
+        """Count a refusal (`reason`: sender, malformed, unknown_robot, clock, rate)."""
+        self.rejected += 1
+        self.rejections[reason] = self.rejections.get(reason, 0) + 1
+
+    def sender_problem(self, robot: int, sender: str | None) -> str | None:
+        """Why node `sender` may not speak for `robot` (counted), or None (SenderCheck; no
+        caller id known: None)."""
+        if not sender or not 0 <= robot < self.n_robots or self.senders.ok(robot, sender):
+            return None
+        self.reject("sender")
+        return f"published by node {sender}, not by robot {robot}'s"
 
     # -- checks ---------------------------------------------------------------------------
 
@@ -117,18 +159,22 @@ class TeamInbox:
         """Why `msg` cannot be true at our time `now` [s], or None. Does not learn the skew.
         Structure (ids, vertices, finite values): messages.problem; here: our own index and
         the clock (times too far from ours)."""
+        return self._problem(msg, now)[1]
+
+    def _problem(self, msg: Any, now: float) -> tuple[str, str | None]:
+        """(counted reason, why) of problem()."""
         why = m.problem(msg, self.n_robots, self.n_vertices)
         if why is not None:
-            return why
+            return "malformed", why
         if msg.robot == self.me:
-            return f"robot index {msg.robot} is ours"
+            return "unknown_robot", f"robot index {msg.robot} is ours"
         t = msg.time
         why = clock_problem(t, now, self.config.max_skew_s)
         if why is not None:
-            return why
+            return "clock", why
         if type(msg) is m.Intention and abs(msg.expected_arrival - t) > self.config.max_horizon_s:
-            return f"expected arrival {msg.expected_arrival - t:+.1f} s after sending"
-        return None
+            return "clock", f"expected arrival {msg.expected_arrival - t:+.1f} s after sending"
+        return "", None
 
     # -- intake ---------------------------------------------------------------------------
 
@@ -141,13 +187,13 @@ class TeamInbox:
 
     def accept(self, msg: Any, now: float) -> tuple[Any | None, str | None]:
         """(message on our clock, None) or (None, the reason it is refused)."""
-        why = self.problem(msg, now)
+        reason, why = self._problem(msg, now)
         # the rate on the sender's stamps (within max_skew_s of ours): receipts come in bursts
         if why is None and not self.rate.allow(msg.robot, msg.time):
-            why = (f"robot {msg.robot} sends beyond {self.config.rate_per_s:g} messages/s "
-                   f"(after a burst of {self.config.burst})")
+            reason, why = "rate", (f"robot {msg.robot} sends beyond {self.config.rate_per_s:g} "
+                                   f"messages/s (after a burst of {self.config.burst})")
         if why is not None:
-            self.rejected += 1
+            self.reject(reason)
             return None, why
         r = msg.robot
         self.skew.add(r, msg.time - now)
