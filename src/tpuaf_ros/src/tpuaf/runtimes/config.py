@@ -156,6 +156,9 @@ class PhysicsConfig(RunConfig):
     control_period_s: float = CONTROL_PERIOD_S
     planner: bool = True  # navigator on planned paths (False: straight edges, as before)
     lanes: bool = False  # lane locks where the map is one robot wide (docs/LANES.md; opt-in)
+    # with lanes: the lanes on cycles driven one way (navigation/one_way.py), only the others
+    # (bridges) locked
+    one_way: bool = False
 
     def validate(self) -> None:
         if self.robot is None:
@@ -165,6 +168,8 @@ class PhysicsConfig(RunConfig):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"{name} must be a finite number > 0 s, got {value!r}")
+        if self.one_way and not self.lanes:
+            raise ConfigError("one_way needs lanes (one-way lanes are a mode of the lane layer)")
         ratio = self.control_period_s / self.physics_step_s
         if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
             raise ConfigError(f"control_period_s ({self.control_period_s:g}) must be a whole "
