@@ -74,6 +74,14 @@ class LaneGate:
                 self.route.waypoints.insert(self.route._k, u)
         return Command(v, w, Status.DRIVING)
 
+    def _following(self, ahead: np.ndarray) -> bool:
+        """Is what holds us ahead (map-frame points [m]) a robot in the one-way lane we drive
+        (docs/LANES.md, section 2b)? Then the robot waits behind it."""
+        if self.lanes is None or self.route is None or self.route.done:
+            return False
+        prev, nxt, _ = around(self.route)
+        return self.lanes.follows(prev, nxt, ahead)
+
     def _waiting_point(self, pose: tuple[float, float, float], u: int, nxt: int,
                        obstacles) -> list[tuple[float, float]]:
         """The corners to a refuge near u off the way of a robot that comes out of the lane

@@ -30,6 +30,7 @@ class LaneAccess:
         # the lanes entered holding a lock (None: every lane)
         self.locked = (frozenset(lane.index for lane in lane_map.lanes) if locked is None
                        else frozenset(locked))
+        self.one_way = len(self.locked) < len(lane_map.lanes)  # some lanes driven one way
 
     def locked_lane(self, u: int, v: int) -> int:
         """The locked lane of the edge u-v, -1 when none (wide, or a one-way lane)."""
@@ -66,6 +67,15 @@ class LaneAccess:
             if not claim.held:
                 return True
         return False
+
+    def follows(self, u: int | None, v: int, points) -> bool:
+        """On the leg u -> v of a one-way lane, is what holds us (map-frame points (k, 2) [m])
+        inside that lane, i.e. a robot ahead driving the same way (wait behind it: no way
+        round, no giving way)?"""
+        lane = -1 if u is None else self.lane_map.lane_of(u, v)
+        if lane < 0 or lane in self.locked:
+            return False
+        return bool((self.lane_map.lane_at(points) == lane).any())
 
     def allowed(self, points) -> np.ndarray:
         """Mask of map-frame points (k, 2) [m] outside every lane but the one held."""
