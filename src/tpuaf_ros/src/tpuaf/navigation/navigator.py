@@ -218,6 +218,7 @@ class Navigator(LaneGate):
         anchor = self._blocked_at
         if anchor is None or math.hypot(x - anchor[0], y - anchor[1]) > HELD_M:
             self._blocked_at, self._blocked_since = (x, y), t
+            self._follow_since = None  # moving again: a new wait behind a robot starts anew
             return
         if t - self._blocked_since < self.yield_after_s:
             return
@@ -237,7 +238,7 @@ class Navigator(LaneGate):
         if self._near_goal(pose):  # another robot stands on our goal: end the route short
             self._short = True
             return
-        if self._following(ahead):  # behind a robot in a one-way lane: wait, not stuck
+        if self._following(t, pose, ahead):  # behind a robot in a one-way lane: wait, not stuck
             self.controller.restart_progress(t)
             return
         self.yields += 1
