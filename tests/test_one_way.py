@@ -187,3 +187,38 @@ def test_tpuaf_maps_prints_and_draws_the_orientation(tmp_path, capsys):
                                                                    (0, 3)}
     assert any("one-way" in line for line in summary["one_way"]["text"])
     assert (tmp_path / "ring.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_one_way_changes_nothing_on_a_map_without_lanes():
+    """The grid map (wide corridors) has no lanes: the run with one-way lanes on is the run
+    without the lane layer, figure for figure."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    def summary(**lanes):
+        run = PhysicsRun(PhysicsConfig(map="grid", strategy="tpuaf", robots=2, seed=3,
+                                       duration_s=60.0, **lanes))
+        out = run.run()
+        assert not run.agents[0].machine.patrol_map.one_way
+        return {k: v for k, v in out.items() if isinstance(v, int | float)}
+
+    assert summary(lanes=True, one_way=True) == summary()
+
+
+def test_a_robot_follows_only_in_one_way_lanes_along_their_leg():
+    from tpuaf.navigation.lanes import find_lanes
+    from tpuaf.navigation.planner import PathPlanner
+    from tpuaf.robot.lanes import LaneAccess
+    from tpuaf.team.lane_locks import LaneLocks
+
+    pm = load_map("lab")
+    lanes = find_lanes(PathPlanner(pm, 0.105), pm)
+    locks = LaneLocks(0, lambda claim: None, lambda robot: False)
+    middle_aisle = [(1.5, 1.3)]  # inside lane 3 (the aisle 5-6-7-8-9)
+    one_way = LaneAccess(lanes, locks, locked=frozenset())
+    assert one_way.one_way and one_way.follows(9, 8, middle_aisle)
+    assert not one_way.follows(4, 9, middle_aisle)  # the blocker is in another lane
+    assert not one_way.follows(None, 8, middle_aisle)
+    assert one_way.may_start(9, 8, 0.0) and locks.mine.lane < 0  # no lock asked
+    all_locked = LaneAccess(lanes, LaneLocks(1, lambda claim: None, lambda robot: False))
+    assert not all_locked.one_way and not all_locked.follows(9, 8, middle_aisle)
