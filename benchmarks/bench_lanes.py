@@ -1,10 +1,13 @@
-"""What the lane layer changes: lab, TurtleBot3 Burgers, physics runtime, N = 1-4, lanes on / off.
+"""What the lane layer changes: lab, TurtleBot3 Burgers, physics runtime, N = 1-4, three modes.
 
-For TPUAF and tpuaf_plus, the same seeds with and without lane locks (docs/LANES.md): the time
-means of instantaneous idleness I_ins and of uncertainty X, visits, goal failures, give-ways
-and lane waits (count, seconds), medians over the seeds.
+For TPUAF and tpuaf_plus, the same seeds with lanes off, with lane locks on every lane, and
+with one-way lanes (lanes on cycles driven one way, the others locked; docs/LANES.md): the
+time means of instantaneous idleness I_ins and of uncertainty X, visits, goal failures,
+give-ways and lane waits (count, seconds), medians over the seeds; and each run's fewest
+visits of one robot in the last quarter of the run (0: a robot stopped visiting).
 
     .venv/bin/python benchmarks/bench_lanes.py [--duration 600] [--seeds 2] [--workers 2]
+        [--modes off,locks,one_way] [--strategies tpuaf,tpuaf_plus] [--teams 1,2,3,4]
 
 Writes benchmarks/results/lanes.md.
 """
@@ -12,6 +15,7 @@ Writes benchmarks/results/lanes.md.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
 import sys
@@ -24,21 +28,36 @@ from common import header, write  # noqa: E402
 
 STRATEGIES = ("tpuaf", "tpuaf_plus")
 TEAMS = (1, 2, 3, 4)
-KEYS = ("ins", "x", "visits", "failures", "give_ways", "waits", "wait_s")
+MODES = ("off", "locks", "one_way")  # PhysicsConfig (lanes, one_way) of each
+SETTINGS = {"off": (False, False), "locks": (True, False), "one_way": (True, True)}
+KEYS = ("ins", "x", "visits", "failures", "give_ways", "waits", "wait_s", "late_min")
 
 
-def one(case: tuple[str, int, int, float, bool]) -> tuple[tuple, dict]:
+def one(case: tuple[str, int, int, float, str]) -> tuple[tuple, dict]:
     from tpuaf.runtimes.config import PhysicsConfig
     from tpuaf.runtimes.physics import PhysicsRun
+    from tpuaf.topics import REACHED
 
-    strategy, n, seed, duration, lanes = case
+    strategy, n, seed, duration, mode = case
+    lanes, one_way = SETTINGS[mode]
+    late: dict[int, int] = dict.fromkeys(range(n), 0)  # visits per robot in the last quarter
     run = PhysicsRun(PhysicsConfig(map="lab", strategy=strategy, robots=n, duration_s=duration,
-                                   seed=seed, robot="burger", lanes=lanes))
+                                   seed=seed, robot="burger", lanes=lanes, one_way=one_way))
+    for i in range(n):
+        listener = run.agents[i]._publish_event
+
+        def counting(kind, vertex, from_vertex, t, i=i, listener=listener):
+            if kind == REACHED and t >= 0.75 * duration:
+                late[i] += 1
+            listener(kind, vertex, from_vertex, t)
+
+        run.agents[i]._publish_event = counting
     s = run.run()
     return case, {"ins": s["idleness_ins_mean_s"], "x": s["uncertainty_mean"],
                   "visits": s["visits"], "failures": s.get("goal_failures", 0),
                   "give_ways": sum(a.navigator.give_ways for a in run.agents),
-                  "waits": s.get("lane_waits", 0), "wait_s": s.get("lane_wait_s", 0.0)}
+                  "waits": s.get("lane_waits", 0), "wait_s": s.get("lane_wait_s", 0.0),
+                  "late_min": min(late.values())}
 
 
 def main() -> int:
@@ -46,44 +65,71 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--modes", default=",".join(MODES))
+    ap.add_argument("--strategies", default=",".join(STRATEGIES))
+    ap.add_argument("--teams", default=",".join(map(str, TEAMS)))
+    ap.add_argument("--out", default="lanes", help="results file stem (benchmarks/results/)")
     args = ap.parse_args()
+    modes = args.modes.split(",")
+    strategies = args.strategies.split(",")
+    teams = [int(n) for n in args.teams.split(",")]
+    if not set(modes) <= set(MODES) or not set(strategies) <= set(STRATEGIES):
+        print(f"--modes from {','.join(MODES)}, --strategies from {','.join(STRATEGIES)}",
+              file=sys.stderr)
+        return 2
     seeds = range(1, args.seeds + 1)
-    cases = [(s, n, seed, args.duration, lanes) for s in STRATEGIES for n in TEAMS
-             for seed in seeds for lanes in (False, True)]
+    from tpuaf.runtimes.config import UNDIRECTED_TOUR_STRATEGIES
+
+    def runs(s, mode):  # one-way lanes refuse strategies with a two-way tour search
+        return not (mode == "one_way" and s in UNDIRECTED_TOUR_STRATEGIES)
+
+    cases = [(s, n, seed, args.duration, mode) for s in strategies for n in teams
+             for seed in seeds for mode in modes if runs(s, mode)]
     start = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
         results = dict(pool.map(one, cases))
     wall = time.perf_counter() - start
 
-    def med(s, n, lanes, key):
-        return statistics.median(results[(s, n, seed, args.duration, lanes)][key]
+    def med(s, n, mode, key):
+        return statistics.median(results[(s, n, seed, args.duration, mode)][key]
                                  for seed in seeds)
 
-    lines = [header("Lanes on the lab: physics, Burgers, N = 1-4, lane locks off / on"),
+    command = (f"`.venv/bin/python benchmarks/bench_lanes.py --duration {args.duration:g} "
+               f"--seeds {args.seeds} --modes {args.modes} --strategies {args.strategies} "
+               f"--teams {args.teams}`")
+    lines = [header("Lanes on the lab: physics, Burgers, lanes off / locks / one-way"),
              f"{args.duration:g} s per run, seeds 1-{args.seeds}, medians; wall {wall:.0f} s "
              f"with {args.workers} workers, load average {os.getloadavg()[0]:.1f}. Runs: "
-             "`tpuaf run --runtime physics --map lab --robot burger` (PhysicsConfig.lanes "
-             "off / on). Command: `.venv/bin/python benchmarks/bench_lanes.py "
-             f"--duration {args.duration:g} --seeds {args.seeds}`.\n",
+             "`tpuaf run --runtime physics --map lab --robot burger` (PhysicsConfig lanes, "
+             f"one_way). Command: {command}. Last-quarter visits: the fewest visits of one "
+             "robot in the run's last quarter, lowest over the seeds (0: a robot stopped).\n",
              "| strategy | N | lanes | I_ins [s] | X | visits | goal failures | give-ways | "
-             "lane waits | lane wait [s] |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
-    for s in STRATEGIES:
-        for n in TEAMS:
-            for lanes in (False, True):
-                v = {k: med(s, n, lanes, k) for k in KEYS}
-                lines.append(f"| {s} | {n} | {'on' if lanes else 'off'} | {v['ins']:.1f} | "
-                             f"{v['x']:.3f} | {v['visits']:.0f} | {v['failures']:.0f} | "
-                             f"{v['give_ways']:.0f} | {v['waits']:.0f} | {v['wait_s']:.0f} |")
+             "lane waits | lane wait [s] | last-quarter visits (min robot) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for s in strategies:
+        for n in teams:
+            for mode in (m for m in modes if runs(s, m)):
+                v = {k: med(s, n, mode, k) for k in KEYS}
+                low = min(results[(s, n, seed, args.duration, mode)]["late_min"]
+                          for seed in seeds)
+                lines.append(f"| {s} | {n} | {mode} | {v['ins']:.1f} | {v['x']:.3f} | "
+                             f"{v['visits']:.0f} | {v['failures']:.0f} | {v['give_ways']:.0f} | "
+                             f"{v['waits']:.0f} | {v['wait_s']:.0f} | {low} |")
     verdicts = []
-    for s in STRATEGIES:
-        for lanes in (False, True):
-            ins = [med(s, n, lanes, "ins") for n in TEAMS]
-            falls = all(b < a for a, b in zip(ins, ins[1:], strict=False))
-            verdicts.append(f"- {s}, lanes {'on' if lanes else 'off'}: I_ins falls at every "
-                            f"step of N: **{'yes' if falls else 'no'}** ("
-                            + " -> ".join(f"{v:.1f}" for v in ins) + " s).")
-    write("lanes.md", "\n".join(lines) + "\n\n" + "\n".join(verdicts) + "\n")
+    for s in strategies:
+        for mode in (m for m in modes if runs(s, m)):
+            for key, name, unit in (("ins", "I_ins", " s"), ("x", "X", "")):
+                row = [med(s, n, mode, key) for n in teams]
+                falls = all(b < a for a, b in zip(row, row[1:], strict=False))
+                verdicts.append(f"- {s}, lanes {mode}: {name} falls at every step of N: "
+                                f"**{'yes' if falls else 'no'}** ("
+                                + " -> ".join(f"{v:.3g}" for v in row) + f"{unit}).")
+    text = "\n".join(lines) + "\n\n" + "\n".join(verdicts) + "\n"
+    write(f"{args.out}.md", text)
+    (Path(__file__).resolve().parent / "results" / f"{args.out}.json").write_text(json.dumps(
+        {"command": command, "duration_s": args.duration, "seeds": list(seeds),
+         "runs": [{"strategy": c[0], "robots": c[1], "seed": c[2], "mode": c[4], **r}
+                  for c, r in results.items()]}, indent=1) + "\n")
     return 0
 
 

@@ -18,7 +18,8 @@ void tpuaf::bindings::bind_graph(py::module_& m) {
                           "Patrol graph: vertex positions [m], undirected edges with lengths [m], "
                           "shortest paths searched on demand (rows cached).")
       .def(py::init([](const Points& positions, const std::vector<py::tuple>& edges,
-                       std::vector<std::int64_t> ids) {
+                       std::vector<std::int64_t> ids,
+                       const std::vector<std::pair<int, int>>& one_way) {
              std::vector<Edge> parsed;
              parsed.reserve(edges.size());
              for (const py::tuple& t : edges) {
@@ -30,11 +31,17 @@ void tpuaf::bindings::bind_graph(py::module_& m) {
                parsed.push_back({t[0].cast<int>(), t[1].cast<int>(), length});
              }
              py::gil_scoped_release release;
-             return PatrolGraph(positions, parsed, std::move(ids));
+             return PatrolGraph(positions, parsed, std::move(ids), one_way);
            }),
            py::arg("positions"), py::arg("edges"), py::arg("ids") = std::vector<std::int64_t>{},
+           py::arg("one_way") = std::vector<std::pair<int, int>>{},
            "positions: n x 2 [m]; edges: (u, v) or (u, v, length_m) by vertex index, length "
-           "defaults to the Euclidean distance; ids: names used in error messages.")
+           "defaults to the Euclidean distance; ids: names used in error messages; one_way: "
+           "arcs (u, v) of edges driven only from u to v (paths, distances and neighbours "
+           "follow them; the graph must stay strongly connected).")
+      .def_property_readonly(
+          "one_way", &PatrolGraph::one_way,
+          "The one-way arcs (u, v) by vertex index; empty: every edge both ways.")
       .def_property_readonly("num_vertices", &PatrolGraph::num_vertices)
       .def_property_readonly("num_edges", &PatrolGraph::num_edges)
       .def_property_readonly("positions", &PatrolGraph::positions)

@@ -84,7 +84,8 @@ void PatrolGraph::add_edge(const Edge& raw) {
 }
 
 PatrolGraph::PatrolGraph(const Points& positions, const std::vector<Edge>& edges,
-                         std::vector<std::int64_t> ids)
+                         std::vector<std::int64_t> ids,
+                         const std::vector<std::pair<int, int>>& one_way)
     : positions_(positions), ids_(std::move(ids)) {
   const int n = num_vertices();
   if (n == 0) throw std::invalid_argument("patrol graph has no vertices");
@@ -112,6 +113,8 @@ PatrolGraph::PatrolGraph(const Points& positions, const std::vector<Edge>& edges
       arcs_[u].push_back({adjacency_[u][k], adjacency_length_[u][k]});
     }
   }
+  out_ = adjacency_;
+  if (!one_way.empty()) orient(one_way);
   cache_ = std::make_shared<PathCache>();
   cache_->capacity = std::max<std::size_t>(
       8, kRowCacheBytes / (static_cast<std::size_t>(n) * (sizeof(double) + sizeof(int))));
@@ -135,7 +138,48 @@ PatrolGraph::PatrolGraph(const Points& positions, const std::vector<Edge>& edges
 
 const std::vector<int>& PatrolGraph::neighbours(int v) const {
   check_vertex(v);
-  return adjacency_[v];
+  return out_[v];
+}
+
+void PatrolGraph::orient(const std::vector<std::pair<int, int>>& one_way) {
+  const int n = num_vertices();
+  for (const auto& [u, v] : one_way) {
+    if (u < 0 || u >= n || v < 0 || v >= n || !has_edge(u, v)) {
+      throw std::invalid_argument("one-way arc " + vertex_name(u) + " -> " + vertex_name(v) +
+                                  " is not an edge");
+    }
+    auto& back = arcs_[v];  // drop the arc v -> u
+    back.erase(
+        std::remove_if(back.begin(), back.end(), [u = u](const Arc& a) { return a.to == u; }),
+        back.end());
+    auto& out = out_[v];
+    out.erase(std::remove(out.begin(), out.end(), u), out.end());
+    one_way_.push_back({u, v});
+  }
+  // Strongly connected: every vertex reaches vertex 0 (the constructor checks the converse).
+  std::vector<std::vector<int>> into(static_cast<std::size_t>(n));
+  for (int u = 0; u < n; ++u) {
+    for (int w : out_[u]) into[w].push_back(u);
+  }
+  std::vector<char> seen(static_cast<std::size_t>(n), 0);
+  std::vector<int> stack{0};
+  seen[0] = 1;
+  while (!stack.empty()) {
+    const int x = stack.back();
+    stack.pop_back();
+    for (int w : into[x]) {
+      if (!seen[w]) {
+        seen[w] = 1;
+        stack.push_back(w);
+      }
+    }
+  }
+  for (int t = 0; t < n; ++t) {
+    if (!seen[t]) {
+      throw std::invalid_argument("one-way edges: vertex " + vertex_name(t) +
+                                  " cannot drive back to vertex " + vertex_name(0));
+    }
+  }
 }
 
 bool PatrolGraph::has_edge(int u, int v) const {

@@ -1,9 +1,11 @@
-// Patrol graph: vertices with metric positions and undirected edges with lengths [m].
+// Patrol graph: vertices with metric positions and undirected edges with lengths [m]; optionally
+// some edges one-way (a traffic orientation, docs/LANES.md): shortest paths then follow the arcs.
 #pragma once
 
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tpuaf_core/perception.hpp"
@@ -36,15 +38,21 @@ class PatrolGraph {
   // defaults to 0..n-1. Edge endpoints are indices into positions. A NaN length means the
   // Euclidean distance. Parallel edges keep the shortest. Refuses self-loops, unknown vertices,
   // non-positive lengths and disconnected graphs with a message naming the culprit.
+  // one_way: arcs (u, v) of edges that may be driven only from u to v (the other edges both
+  // ways); then shortest paths, distances and neighbours() follow the arcs, and the graph must
+  // be strongly connected (refused otherwise). Lengths, edges and hops stay undirected.
   PatrolGraph(const Points& positions, const std::vector<Edge>& edges,
-              std::vector<std::int64_t> ids = {});
+              std::vector<std::int64_t> ids = {},
+              const std::vector<std::pair<int, int>>& one_way = {});
 
   int num_vertices() const { return static_cast<int>(positions_.rows()); }
   int num_edges() const { return static_cast<int>(edges_.size()); }
   const Points& positions() const { return positions_; }
   const std::vector<Edge>& edges() const { return edges_; }
   const std::vector<std::int64_t>& ids() const { return ids_; }
+  // The vertices reachable over one edge from v (with one-way edges: along their arcs).
   const std::vector<int>& neighbours(int v) const;
+  const std::vector<std::pair<int, int>>& one_way() const { return one_way_; }
   // Length of edge u-v [m]; throws if there is no such edge.
   double edge_length(int u, int v) const;
   bool has_edge(int u, int v) const;
@@ -93,7 +101,12 @@ class PatrolGraph {
   // Breadth-first levels from u (-1: not reached), stopped once stop_at (>= 0) has its level.
   std::vector<int> hop_levels(int u, int stop_at) const;
 
+  // Refuses one-way arcs that are not edges, and a graph one cannot drive around.
+  void orient(const std::vector<std::pair<int, int>>& one_way);
+
   std::vector<std::vector<int>> adjacency_;
+  std::vector<std::vector<int>> out_;  // neighbours along the arcs (adjacency_ when none)
+  std::vector<std::pair<int, int>> one_way_;
   std::vector<std::vector<double>> adjacency_length_;
   ArcLists arcs_;
   std::shared_ptr<PathCache> cache_;

@@ -229,8 +229,9 @@ def lane_summary(pm, lane_map) -> list[dict]:
             for lane, text in zip(lane_map.lanes, texts, strict=True)]
 
 
-def picture(pm, folder: str, lane_map):
-    """DIR/<map>.png: the map and graph, lanes drawn over it (their planned paths)."""
+def picture(pm, folder: str, lane_map, orientation=None):
+    """DIR/<map>.png: the map and graph, lanes drawn over it (their planned paths), one-way
+    lanes with arrows."""
     from pathlib import Path
 
     from tpuaf.experiments.graph_figure import graph_png
@@ -248,7 +249,9 @@ def picture(pm, folder: str, lane_map):
         lanes = [([planner.edge_path(u, v) for u, v in lane.edges], list(lane.spots))
                  for lane in lane_map.lanes]
     return graph_png(pm, out / f"{pm.name}.png", lanes=lanes,
-                     title=f"{pm.name}" + (f": {len(lanes)} lanes" if lanes is not None else ""))
+                     arrows=orientation.arcs if orientation is not None else None,
+                     title=f"{pm.name}" + (f": {len(lanes)} lanes" if lanes is not None else "")
+                     + (f", {len(orientation.chains)} one-way" if orientation else ""))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -272,10 +275,18 @@ def run(args: argparse.Namespace) -> int:
         if pm.warnings:
             summary["warnings"] = list(pm.warnings)
         lane_map = lanes_of(pm) if args.lanes else None
+        orientation = None
         if lane_map is not None:
+            from tpuaf.navigation.one_way import orient_lanes
+
             summary["lanes"] = lane_summary(pm, lane_map)
+            orientation = orient_lanes(lane_map, pm) if lane_map else None
+            summary["one_way"] = ({"text": orientation.describe(pm.vertex_ids),
+                                   "arcs": [[pm.vertex_ids[u], pm.vertex_ids[v]]
+                                            for u, v in orientation.arcs]}
+                                  if orientation is not None else None)
         if args.picture:
-            summary["picture"] = str(picture(pm, args.picture, lane_map))
+            summary["picture"] = str(picture(pm, args.picture, lane_map, orientation))
         for warning in pm.warnings:
             print(f"tpuaf maps: warning ({pm.name}): {warning}", file=sys.stderr)
         summaries.append(summary)
@@ -293,6 +304,11 @@ def run(args: argparse.Namespace) -> int:
                       "holding a lock from a waiting spot)")
                 for lane in s["lanes"]:
                     print("  " + lane["text"])
+                if s.get("one_way"):
+                    print(f"traffic orientation of {s['name']} (one-way lanes: no lock; "
+                          "two-way lanes keep theirs):")
+                    for text in s["one_way"]["text"]:
+                        print("  " + text)
     blocked = False
     for s in summaries:
         line, errors, warnings = format_edge_check(s["name"], s["edge_check"],

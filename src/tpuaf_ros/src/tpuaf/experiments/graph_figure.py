@@ -16,12 +16,13 @@ MAX_INCHES = 7.0  # long side of the figure [in], at 80 dpi: < 200 kB as PNG
 
 def graph_png(pm, path: Path, *, covered: np.ndarray | None = None, region: np.ndarray | None
               = None, extent: tuple[float, float, float, float] | None = None,
-              kinds: list[str] | None = None, title: str = "", lanes: list | None = None
-              ) -> Path:
+              kinds: list[str] | None = None, title: str = "", lanes: list | None = None,
+              arrows: list[tuple[int, int]] | None = None) -> Path:
     """Write the picture of map `pm` to `path` (PNG). `covered` / `region`: work-grid masks
     (row 0 at the bottom) spanning `extent` (x0, x1, y0, y1) [m]. `lanes`: per lane (its
     edges' planned paths (k, 2) [m] or None, its waiting spots' vertex indices), drawn over
-    the graph, one colour each, the waiting spots as squares (docs/LANES.md)."""
+    the graph, one colour each, the waiting spots as squares (docs/LANES.md). `arrows`: one-way
+    arcs (u, v) by vertex index, an arrow each at the middle of its edge."""
     x0, y0, x1, y1 = pm.occupancy_grid().extent
     scale = MAX_INCHES / max(x1 - x0, y1 - y0)
     fig = new_figure(figsize=(max(2.5, (x1 - x0) * scale), max(2.5, (y1 - y0) * scale + 0.4)))
@@ -40,6 +41,11 @@ def graph_png(pm, path: Path, *, covered: np.ndarray | None = None, region: np.n
                 ax.plot(p[:, 0], p[:, 1], color=colour, linewidth=3.0, alpha=0.6, zorder=2)
         ax.scatter(pos[spots, 0], pos[spots, 1], s=40, marker="s", facecolors="none",
                    edgecolors=colour, linewidths=1.2, zorder=4)
+    for u, v in arrows or []:
+        a, b = pos[u], pos[v]
+        mid, step = (a + b) / 2.0, (b - a) * 0.15
+        ax.annotate("", xy=mid + step, xytext=mid - step, zorder=5,
+                    arrowprops={"arrowstyle": "-|>", "color": "black", "linewidth": 1.2})
     kinds = kinds or ["cover"] * len(pos)
     for kind, colour in KIND_COLOURS.items():
         mask = np.array([k == kind for k in kinds], dtype=bool)

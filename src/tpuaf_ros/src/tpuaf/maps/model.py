@@ -63,6 +63,9 @@ class PatrolMap:
     warnings: list[str] = field(default_factory=list)  # geometry doubts (tpuaf.maps.geometry)
     # settings field -> where its value came from (tpuaf.maps.params; absent = MapSettings')
     setting_sources: dict[str, str] = field(default_factory=dict)
+    # One-way arcs (u, v) by index: edges driven only from u to v (a traffic orientation of
+    # the lanes, navigation/one_way.py); empty: every edge both ways.
+    one_way: tuple[tuple[int, int], ...] = ()
 
     def occupancy_grid(self) -> Any:
         """The occupancy grid: the map's image, or corridors generated from the graph (cached)."""
@@ -77,7 +80,8 @@ class PatrolMap:
         check_coincident(self)  # two vertices on one spot: named here, not as a short edge
         try:
             return tpuaf_core.PatrolGraph(
-                np.asarray(self.positions, dtype=float), list(self.edges), list(self.vertex_ids)
+                np.asarray(self.positions, dtype=float), list(self.edges), list(self.vertex_ids),
+                [(int(u), int(v)) for u, v in self.one_way]
             )
         except (ValueError, IndexError) as err:
             where = f" ({self.source})" if self.source else ""

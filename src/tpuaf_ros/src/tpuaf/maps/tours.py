@@ -217,6 +217,8 @@ def _content_key(graph: Any, key: tuple) -> str:
     h.update(f"{_SEARCH_VERSION} {graph.num_vertices} {key!r}".encode())
     for u, v, length in graph.edges:
         h.update(f"{u} {v} {float(length)!r};".encode())
+    if graph.one_way:  # one-way arcs change every path (a two-way graph's key is unchanged)
+        h.update(f"one-way {list(graph.one_way)!r}".encode())
     return h.hexdigest()[:32]
 
 

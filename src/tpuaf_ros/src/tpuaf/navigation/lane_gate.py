@@ -19,6 +19,7 @@ from tpuaf.navigation.route import GraphRoute
 GATE_TOLERANCE_M = 0.15  # [m] a lane's waiting spot is reached within this (at least goal tol.)
 LANE_MOUTH_M = 0.5  # [m] along the lane from its waiting spot: where a robot comes out of it
 GATE_REFUGE_TOLERANCE_M = 0.08  # [m] the waiting point off the way is reached within this
+FOLLOW_MAX_S = 30.0  # [s] longest wait behind a robot ahead in a one-way lane, in a row
 
 
 def around(route: GraphRoute) -> tuple[int | None, int, int | None]:
@@ -30,7 +31,10 @@ def around(route: GraphRoute) -> tuple[int | None, int, int | None]:
 
 
 class LaneGate:
-    """Navigator methods of the lane layer (state: `lanes`, `_gate`, `_gate_corners`)."""
+    """Navigator methods of the lane layer (state: `lanes`, `_gate`, `_gate_corners`,
+    `_follow_since`)."""
+
+    _follow_since: float | None = None  # [s] since when waiting behind a robot in a lane
 
     def _gate_tolerance(self, route: GraphRoute, tol: float) -> float:
         """[m] the tolerance of the next waypoint: tight when the route enters a lane there."""
@@ -73,6 +77,25 @@ class LaneGate:
             if not advance:  # the spot becomes a waypoint again, reached before the lane
                 self.route.waypoints.insert(self.route._k, u)
         return Command(v, w, Status.DRIVING)
+
+    def _following(self, t: float, pose: tuple[float, float, float], ahead: np.ndarray) -> bool:
+        """Is what holds us ahead (map-frame points [m]) a robot in the one-way lane we drive
+        along its arc (docs/LANES.md, section 2b)? Then the robot waits behind it, at most
+        FOLLOW_MAX_S in a row (then the give-way and recovery rules act as without lanes).
+        Not when the robot aims against the arc (it stands past the leg's far end)."""
+        if self.lanes is None or self.route is None or self.route.done:
+            return False
+        prev, nxt, _ = around(self.route)
+        if prev is None or not self.lanes.follows(prev, nxt, ahead):
+            self._follow_since = None
+            return False
+        arc = self.route.positions[nxt] - self.route.positions[prev]
+        aim = np.asarray(self.controller.target or self.route.next_position()) - pose[:2]
+        if float(arc @ aim) <= 0.0:  # aiming against the lane's flow: no right to wait
+            return False
+        if self._follow_since is None:
+            self._follow_since = t
+        return t - self._follow_since <= FOLLOW_MAX_S
 
     def _waiting_point(self, pose: tuple[float, float, float], u: int, nxt: int,
                        obstacles) -> list[tuple[float, float]]:

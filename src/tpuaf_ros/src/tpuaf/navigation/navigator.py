@@ -218,6 +218,7 @@ class Navigator(LaneGate):
         anchor = self._blocked_at
         if anchor is None or math.hypot(x - anchor[0], y - anchor[1]) > HELD_M:
             self._blocked_at, self._blocked_since = (x, y), t
+            self._follow_since = None  # moving again: a new wait behind a robot starts anew
             return
         if t - self._blocked_since < self.yield_after_s:
             return
@@ -236,6 +237,9 @@ class Navigator(LaneGate):
         ahead = unmapped[keep]
         if self._near_goal(pose):  # another robot stands on our goal: end the route short
             self._short = True
+            return
+        if self._following(t, pose, ahead):  # behind a robot in a one-way lane: wait, not stuck
+            self.controller.restart_progress(t)
             return
         self.yields += 1
         x, y = pose[0], pose[1]
@@ -297,8 +301,9 @@ class Navigator(LaneGate):
         aim = None if parked else self.controller.target
         path = find_refuge(self.planner, me, blocker, [] if parked else self._trail,
                            self._pass_clearance_m(), obstacles, aim, self._lane_free)
-        if path is None:
-            return False
+        if path is None or (self.lanes is not None and self.lanes.one_way
+                            and not self._lane_free_path(path)):
+            return False  # with one-way lanes: never through a lane (against its flow)
         speed = self.controller.config.max_linear_speed
         # [s] the other robot drives past us and on: a few metres at its speed, at least 10 s
         wait = max(GIVE_WAY_MIN_S, (polyline_length(path) + GIVE_WAY_PASS_M) / speed)

@@ -4,6 +4,8 @@
 The navigator asks `may_start(u, v, now)` before every leg u -> v that starts at a vertex and
 `arrive(u, now)` at a route's goal: reaching a vertex outside the held lane (a waiting spot)
 releases it; a leg into a lane not held asks for the lane and waits at u until it is granted.
+With one-way lanes (navigation/one_way.py) only the lanes that stay two-way (`locked`: the
+bridges) are locked; a one-way lane is entered without a lock (robots in it only follow).
 """
 
 from __future__ import annotations
@@ -20,17 +22,27 @@ from tpuaf.team.messages import LaneClaim
 class LaneAccess:
     """One robot's lanes and locks (see the module docstring)."""
 
-    def __init__(self, lane_map: LaneMap, locks: LaneLocks):
+    def __init__(self, lane_map: LaneMap, locks: LaneLocks,
+                 locked: frozenset[int] | None = None):
         self.lane_map = lane_map
         self.locks = locks
         self.now = 0.0  # [s] the last time asked
+        # the lanes entered holding a lock (None: every lane)
+        self.locked = (frozenset(lane.index for lane in lane_map.lanes) if locked is None
+                       else frozenset(locked))
+        self.one_way = len(self.locked) < len(lane_map.lanes)  # some lanes driven one way
+
+    def locked_lane(self, u: int, v: int) -> int:
+        """The locked lane of the edge u-v, -1 when none (wide, or a one-way lane)."""
+        lane = self.lane_map.lane_of(u, v)
+        return lane if lane in self.locked else -1
 
     def enters(self, prev: int | None, u: int, nxt: int | None) -> bool:
         """Whether the route ... prev -> u -> nxt enters a lane at u (u is then a waiting spot
         the robot must reach, not just pass near)."""
         if nxt is None:
             return False
-        lane = self.lane_map.lane_of(u, nxt)
+        lane = self.locked_lane(u, nxt)
         return lane >= 0 and (prev is None or self.lane_map.lane_of(prev, u) != lane)
 
     def arrive(self, u: int, now: float) -> None:
@@ -43,18 +55,27 @@ class LaneAccess:
     def may_start(self, u: int, v: int, now: float) -> bool:
         """May the robot, at vertex u, drive the edge u -> v now? (Asks for its lane.)"""
         self.arrive(u, now)
-        lane = self.lane_map.lane_of(u, v)
+        lane = self.locked_lane(u, v)
         return lane < 0 or self.locks.may_enter(lane, now)
 
     def queued_behind_waiter(self, u: int, v: int) -> bool:
         """Is another robot waiting for the lane of u -> v ahead of us (not only a holder)?"""
-        lane = self.lane_map.lane_of(u, v)
+        lane = self.locked_lane(u, v)
         for claim in self.locks.queue(lane):
             if claim.robot == self.locks.robot:
                 return False
             if not claim.held:
                 return True
         return False
+
+    def follows(self, u: int | None, v: int, points) -> bool:
+        """On the leg u -> v of a one-way lane, is what holds us (map-frame points (k, 2) [m])
+        inside that lane, i.e. a robot ahead driving the same way (wait behind it: no way
+        round, no giving way)?"""
+        lane = -1 if u is None else self.lane_map.lane_of(u, v)
+        if lane < 0 or lane in self.locked:
+            return False
+        return bool((self.lane_map.lane_at(points) == lane).any())
 
     def allowed(self, points) -> np.ndarray:
         """Mask of map-frame points (k, 2) [m] outside every lane but the one held."""
@@ -71,9 +92,11 @@ class LaneAccess:
         self.locks.tick(now)
 
 
-def attach_lanes(agent: Any, lane_map: LaneMap, start_vertex: int) -> LaneAccess:
+def attach_lanes(agent: Any, lane_map: LaneMap, start_vertex: int,
+                 locked: frozenset[int] | None = None) -> LaneAccess:
     """Give an `AgentRuntime` the lane layer: its machine hears the claims, its navigator asks
-    at lane entries; a robot that starts inside a lane holds it."""
+    at lane entries; a robot that starts inside a locked lane holds it. `locked`: the lanes
+    entered with a lock (None: all; with one-way lanes the two-way ones)."""
     machine = agent.machine
 
     def send(claim: LaneClaim) -> None:
@@ -81,8 +104,9 @@ def attach_lanes(agent: Any, lane_map: LaneMap, start_vertex: int) -> LaneAccess
             machine.driver.transmit(machine.robot, claim)
 
     locks = LaneLocks(machine.robot, send, lambda r: r in machine.liveness.lost)
-    access = LaneAccess(lane_map, locks)
+    access = LaneAccess(lane_map, locks, locked)
     machine.lane_locks = locks
     agent.navigator.lanes = access
-    locks.hold(lane_map.interior_of(start_vertex), 0.0)
+    inside = lane_map.interior_of(start_vertex)
+    locks.hold(inside if inside in access.locked else -1, 0.0)
     return access

@@ -139,9 +139,23 @@ class AgentRuntime:
             self._stay_until = self._now + STAY_S
             self._stay_vertex = int(goal)
             return
-        route = GraphRoute(self._graph, self._positions, from_vertex, goal,
+        start = self._route_start(from_vertex, goal) if self._graph.one_way else from_vertex
+        route = GraphRoute(self._graph, self._positions, start, goal,
                            from_position=self.position, snap_m=self.navigator.waypoint_tolerance)
         self.navigator.set_route(route, self._now)
+
+    def _route_start(self, from_vertex: int, goal: int) -> int:
+        """With one-way lanes: the vertex a route starts from when the robot stands away from
+        `from_vertex` (a leg ended short or failed): of the vertices within twice the snap
+        distance, the one of least straight distance to it plus directed path to `goal` [m],
+        so that the robot does not drive back against the flow to where it came from."""
+        x, y = self.position
+        reach = 2.0 * self.navigator.waypoint_tolerance
+        d = np.hypot(self._positions[:, 0] - x, self._positions[:, 1] - y)
+        if d[from_vertex] <= self.navigator.waypoint_tolerance:
+            return from_vertex
+        near = [int(v) for v in np.flatnonzero(d <= reach)] or [from_vertex]
+        return min(near, key=lambda v: d[v] + self._graph.distance(v, goal))
 
     def dwell(self, robot: int, vertex: int, duration_s: float) -> None:
         self.navigator.cancel()

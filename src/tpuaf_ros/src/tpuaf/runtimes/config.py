@@ -149,6 +149,11 @@ def run_description(run, starts, strategy_params, faults, engine: str | None = N
 
 
 
+# Strategies whose closed-walk / partition search (maps/tours.py, tours.cpp) assumes every edge
+# is driven both ways: not run on one-way lanes (PhysicsConfig.one_way).
+UNDIRECTED_TOUR_STRATEGIES = ("tpuaf_plus", "cgg", "msp")
+
+
 @dataclass
 class PhysicsConfig(RunConfig):
     robot: str | None = AUTO  # a physical run always has a body (None: auto)
@@ -156,6 +161,9 @@ class PhysicsConfig(RunConfig):
     control_period_s: float = CONTROL_PERIOD_S
     planner: bool = True  # navigator on planned paths (False: straight edges, as before)
     lanes: bool = False  # lane locks where the map is one robot wide (docs/LANES.md; opt-in)
+    # with lanes: the lanes on cycles driven one way (navigation/one_way.py), only the others
+    # (bridges) locked
+    one_way: bool = False
 
     def validate(self) -> None:
         if self.robot is None:
@@ -165,6 +173,11 @@ class PhysicsConfig(RunConfig):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"{name} must be a finite number > 0 s, got {value!r}")
+        if self.one_way and not self.lanes:
+            raise ConfigError("one_way needs lanes (one-way lanes are a mode of the lane layer)")
+        if self.one_way and self.strategy in UNDIRECTED_TOUR_STRATEGIES:
+            raise ConfigError(f"one_way does not support strategy {self.strategy} yet: its tour "
+                              "search assumes two-way edges (docs/LANES.md)")
         ratio = self.control_period_s / self.physics_step_s
         if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
             raise ConfigError(f"control_period_s ({self.control_period_s:g}) must be a whole "

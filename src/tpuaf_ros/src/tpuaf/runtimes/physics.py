@@ -27,7 +27,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable
-from dataclasses import asdict
+from dataclasses import asdict, replace
 
 import numpy as np
 
@@ -39,6 +39,7 @@ from tpuaf.navigation import (
     scan_points_batch,
 )
 from tpuaf.navigation.lanes import find_lanes
+from tpuaf.navigation.one_way import orient_lanes
 from tpuaf.navigation.planner import shared_planner
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import REGISTRY
@@ -89,6 +90,14 @@ class PhysicsRun(TeamRun):
         # One planner (costmap and edge paths) for the team: they share the footprint.
         self.planner = (shared_planner(world_map, robot_model.radius) if config.planner
                         else None)
+        # The lane layer where the map has stretches one robot wide (docs/LANES.md); with
+        # one-way lanes the plan's graph (routes, strategies' travel times) follows the arcs.
+        self.lane_map = (find_lanes(self.planner, world_map)
+                         if self.planner is not None and config.lanes else None)
+        self.orientation = (orient_lanes(self.lane_map, pm)
+                            if self.lane_map and config.one_way else None)
+        if self.orientation is not None and self.orientation.chains:
+            self.patrol_map = pm = replace(pm, one_way=tuple(self.orientation.arcs))
         self.agents = [
             AgentRuntime(pm, cls(config.strategy_params), i, n, self.seed,
                          self._publisher(i), self.visit_listener(i),
@@ -100,10 +109,8 @@ class PhysicsRun(TeamRun):
                                    else LIVENESS_DEFAULTS.heartbeat_period_s)
         self._liveness_checks: list[tuple[float, int, int]] = []  # heap: (t [s], robot, token)
         self._team([a.machine for a in self.agents])
-        # The lane layer where the map has stretches one robot wide (docs/LANES.md).
-        self.lane_map = (find_lanes(self.planner, world_map)
-                         if self.planner is not None and config.lanes else None)
-        self.lane_access = ([attach_lanes(a, self.lane_map, starts[i])
+        locked = self.orientation.locked if self.orientation is not None else None
+        self.lane_access = ([attach_lanes(a, self.lane_map, starts[i], locked)
                              for i, a in enumerate(self.agents)] if self.lane_map else [])
         self.steps_per_control = round(config.control_period_s / config.physics_step_s)
         # Scans at the laser rate, on control ticks (LDS-01 5 Hz: every other 10 Hz tick).
@@ -227,6 +234,8 @@ class PhysicsRun(TeamRun):
         if self.lane_access:  # lane waits: requests not granted at once, and their time [s]
             locks = [access.locks for access in self.lane_access]
             summary["lanes"] = len(self.lane_map.lanes)
+            if self.orientation is not None:
+                summary["one_way_lanes"] = len(self.orientation.chains)
             summary["lane_waits"] = int(sum(lk.waits for lk in locks))
             summary["lane_wait_s"] = round(float(sum(lk.wait_s for lk in locks)), 3)
         return summary
