@@ -197,6 +197,55 @@ double walk_worst_idleness(const PatrolGraph& graph, const std::vector<int>& wal
   return worst;
 }
 
+// The latest first visit [m of travel] over the walk's vertices when robot t leaves the walk
+// position entry_arc[t] [m] after t_dep[t] [m]; with idle_m, each vertex's soonest first visit
+// plus its idleness [m]. first (one per walk entry), soonest: workspaces.
+double latest_first_visit(const PlusRoute& route, const std::vector<double>& entry_arc,
+                          const std::vector<double>& t_dep, const std::vector<double>* idle_m,
+                          std::vector<double>& first, std::vector<double>& soonest) {
+  const std::size_t n = route.walk.size(), m = t_dep.size();
+  const double L = route.length;
+  // first visit [m at v] of every walk vertex: the first robot passing it
+  // (arc - entry_arc lies in (-L, L): py_mod adds L to a negative one, as fmod does)
+  for (std::size_t i = 0; i < n; ++i) {
+    double f = kInf;
+    for (std::size_t t = 0; t < m; ++t) {
+      const double ahead = route.arc[i] - entry_arc[t];
+      f = std::min(f, t_dep[t] + (ahead < 0 ? ahead + L : ahead));
+    }
+    first[i] = f;
+  }
+  double score = -kInf;
+  if (idle_m == nullptr) {
+    for (double f : first) score = std::max(score, f);
+    return score;
+  }
+  // per vertex: its first visit over all its walk entries, after its idleness
+  soonest.assign(idle_m->size(), kInf);
+  for (std::size_t i = 0; i < n; ++i) {
+    double& s = soonest[static_cast<std::size_t>(route.walk[i])];
+    s = std::min(s, first[i]);
+  }
+  for (int v : route.walk) {
+    score = std::max(score,
+                     soonest[static_cast<std::size_t>(v)] + (*idle_m)[static_cast<std::size_t>(v)]);
+  }
+  return score;
+}
+
+// Each robot to the walk entry nearest its start, leaving at once: (entry, travel [s]).
+std::vector<std::pair<int, double>> nearest_entries(const PatrolGraph& graph,
+                                                    const PlusRoute& route,
+                                                    const std::vector<int>& starts,
+                                                    double speed_mps) {
+  std::vector<std::pair<int, double>> out(starts.size());
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    const int k = nearest_entry(graph, route, starts[i]);
+    out[i] = {k, graph.distance(starts[i], route.walk[static_cast<std::size_t>(k)]) / speed_mps};
+  }
+  return out;
+}
+
 std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, const PlusRoute& route,
                                                    const std::vector<int>& starts,
                                                    const std::vector<double>& late_m,
@@ -208,14 +257,8 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, con
       route.walk.empty()) {
     throw std::invalid_argument("start_schedule: one start and one lateness per robot needed");
   }
+  if (m == 1 || L <= 0) return nearest_entries(graph, route, starts, speed_mps);
   std::vector<std::pair<int, double>> out(m);
-  if (m == 1 || L <= 0) {
-    for (std::size_t i = 0; i < m; ++i) {
-      const int k = nearest_entry(graph, route, starts[i]);
-      out[i] = {k, graph.distance(starts[i], route.walk[static_cast<std::size_t>(k)]) / speed_mps};
-    }
-    return out;
-  }
   const std::size_t n = route.walk.size();
   const int mi = static_cast<int>(m);
   const int phases = std::max(4, std::min(16, 4000 / (mi * mi) + 4));
@@ -259,35 +302,13 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, con
             static_cast<std::size_t>(match.rows[t]) * m + static_cast<std::size_t>(match.cols[t]);
         t_dep[t] = reach[t] + alpha * (dep[x] - reach[t]);  // [m] of travel at v
       }
-      // first visit [m at v] of every walk vertex: the first robot passing it
-      // (arc - entry_arc lies in (-L, L): py_mod adds L to a negative one, as fmod does)
-      for (std::size_t i = 0; i < n; ++i) {
-        double f = kInf;
-        for (std::size_t t = 0; t < m; ++t) {
-          const double ahead = route.arc[i] - entry_arc[t];
-          f = std::min(f, t_dep[t] + (ahead < 0 ? ahead + L : ahead));
-        }
-        first[i] = f;
-      }
       for (std::size_t t = 0; t < m; ++t) virt[t] = py_mod(entry_arc[t] - t_dep[t], L);
       std::sort(virt.begin(), virt.end());
       double gap = (virt[0] + L) - virt[m - 1];
       for (std::size_t t = 1; t < m; ++t) gap = std::max(gap, virt[t] - virt[t - 1]);
       if (alpha < 1.0 && gap > kStartGap * L / mi) continue;
-      double score0 = -kInf;
-      if (idle_s == nullptr) {
-        for (double f : first) score0 = std::max(score0, f);
-      } else {  // per vertex: its first visit over all its walk entries, after its idleness
-        soonest.assign(idle_m.size(), kInf);
-        for (std::size_t i = 0; i < n; ++i) {
-          double& s = soonest[static_cast<std::size_t>(route.walk[i])];
-          s = std::min(s, first[i]);
-        }
-        for (int v : route.walk) {
-          score0 = std::max(
-              score0, soonest[static_cast<std::size_t>(v)] + idle_m[static_cast<std::size_t>(v)]);
-        }
-      }
+      const double score0 = latest_first_visit(
+          route, entry_arc, t_dep, idle_s != nullptr ? &idle_m : nullptr, first, soonest);
       const double score1 = numpy_sum(t_dep.data(), m);
       if (!have_best || score0 < best0 - kEps ||
           (score0 <= best0 + kEps && score1 < best1 - kEps)) {
