@@ -182,7 +182,10 @@ SubsetPaths subset_paths(const PatrolGraph& graph, const std::vector<int>& input
 }
 
 // Length [m] of a minimum spanning tree of the subgraph induced by the sorted `part` (Kruskal).
-double spanning_tree_length(const PatrolGraph& graph, const std::vector<int>& part) {
+// (length [m], (a, b)) of the edges inside a sorted vertex set, a < b positions in it, shortest
+// first (Kruskal's order).
+using PartEdge = std::pair<double, std::pair<int, int>>;
+std::vector<PartEdge> part_edges(const PatrolGraph& graph, const std::vector<int>& part) {
   std::vector<std::pair<double, std::pair<int, int>>> edges;
   for (int a = 0; a < static_cast<int>(part.size()); ++a) {
     for (int w : graph.neighbours(part[a])) {
@@ -192,6 +195,11 @@ double spanning_tree_length(const PatrolGraph& graph, const std::vector<int>& pa
     }
   }
   std::sort(edges.begin(), edges.end());
+  return edges;
+}
+
+double spanning_tree_length(const PatrolGraph& graph, const std::vector<int>& part) {
+  const std::vector<PartEdge> edges = part_edges(graph, part);
   std::vector<int> root(part.size());
   std::iota(root.begin(), root.end(), 0);
   auto find = [&](int v) {
@@ -431,15 +439,7 @@ struct LeafTree {
 };
 
 LeafTree leaf_tree(const PatrolGraph& graph, const std::vector<int>& part) {
-  std::vector<std::pair<double, std::pair<int, int>>> edges;
-  for (int a = 0; a < static_cast<int>(part.size()); ++a) {
-    for (int w : graph.neighbours(part[a])) {
-      if (w <= part[a] || !std::binary_search(part.begin(), part.end(), w)) continue;
-      const int b = static_cast<int>(std::lower_bound(part.begin(), part.end(), w) - part.begin());
-      edges.push_back({graph.edge_length(part[a], w), {a, b}});
-    }
-  }
-  std::sort(edges.begin(), edges.end());
+  const std::vector<PartEdge> edges = part_edges(graph, part);
   std::vector<int> root(part.size()), degree(part.size(), 0);
   std::iota(root.begin(), root.end(), 0);
   auto find = [&](int v) {
