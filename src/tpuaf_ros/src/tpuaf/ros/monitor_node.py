@@ -69,6 +69,9 @@ def run_config(p, patrol_map):
     return config
 
 
+RECORDER_NODE = "recorder"  # the rosbag record node's name in fleet.launch
+
+
 class MonitorNode:
     def __init__(self, p, patrol_map):
         self.p = p
@@ -243,10 +246,12 @@ class MonitorNode:
             _, subs, _ = rospy.get_master().getSystemState()[2]
         except Exception:  # noqa: BLE001 - the master answers slowly: try on the next event
             return False
-        me = rospy.get_name()
+        # the recorder itself (fleet.launch's rosbag node), not just any subscriber: the agents
+        # subscribe to the events too, and a start announced before the recorder listens is
+        # missing from the bag
         for topic, nodes in subs:
             if topic == convert.EVENTS_TOPIC:
-                return any(n != me for n in nodes)
+                return any(n.rsplit("/", 1)[-1] == RECORDER_NODE for n in nodes)
         return False
 
     def on_pose(self, msg, i):
