@@ -33,9 +33,6 @@ DELIBERATE = {
         "monitor node alone measures an hour, as the paper",
     ("fleet.launch", "lockstep", "AgentParams.lockstep"):
         "the fleet's simulator steps in lock-step with its agents; a robot's agent does not",
-    ("fleet.launch", "record", "MonitorParams.wait_for_recorder"):
-        "the fleet records a bag by default, so its monitor starts the run only once the "
-        "recorder listens; a monitor alone has no recorder to wait for",
     ("fleet.launch", "strategy", "MonitorParams.strategy"):
         "the monitor's ~strategy only labels config.yaml (empty = not said); the agents' is "
         "the default strategy",

@@ -29,3 +29,27 @@ def test_start_waits_for_every_agent_connected_to_the_start_topic():
     assert not monitor_with(["/robot_0/patrol_agent", "/robot_10/patrol_agent"])
     # hardware names: tb3_<i>
     assert monitor_with(["/tb3_0/patrol_agent", "/tb3_1/patrol_agent"], ("tb3_0", "tb3_1"))
+
+
+def recorder_ready_with(subscribers: list[str], recorder_node: str, monkeypatch) -> bool:
+    import rospy
+    from tpuaf.ros import convert
+    from tpuaf.ros.monitor_node import MonitorNode
+
+    state = [[], [(convert.EVENTS_TOPIC, subscribers), ("/clock", ["/recorder"])], []]
+    master = SimpleNamespace(getSystemState=lambda: (1, "", state))
+    monkeypatch.setattr(rospy, "get_master", lambda: master)
+    node = SimpleNamespace(p=SimpleNamespace(recorder_node=recorder_node))
+    return MonitorNode.recorder_ready(node)
+
+
+def test_start_waits_for_the_named_recorder_not_any_subscriber(monkeypatch):
+    # the agents subscribe to the events too: they do not stand for the recorder
+    assert not recorder_ready_with(["/robot_0/patrol_agent", "/robot_1/patrol_agent"],
+                                   "recorder", monkeypatch)
+    assert recorder_ready_with(["/robot_0/patrol_agent", "/recorder"], "recorder", monkeypatch)
+    # the name the launch file gives it (~recorder_node), not a fixed one
+    assert not recorder_ready_with(["/recorder"], "bag_writer", monkeypatch)
+    assert recorder_ready_with(["/fleet/bag_writer"], "bag_writer", monkeypatch)
+    # no recorder to wait for
+    assert recorder_ready_with([], "", monkeypatch)

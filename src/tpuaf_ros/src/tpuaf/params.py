@@ -221,7 +221,7 @@ class MonitorParams:
     teammate_timeout: float = _L.teammate_timeout_s  # [s] the agents' ~teammate_timeout: when survivors can know of a death (recovery's floor at detection)
     start_delay: float = 1.0  # [s] between all agents ready and the announced start
     start_wall_delay: float = 0.0  # [s of wall time] to wait once all are ready (connections)
-    wait_for_recorder: bool = False  # start only once a rosbag recorder subscribes
+    recorder_node: str = ""  # start only once the rosbag node of this name records the agent events ('' = no wait)
     # [s of wall time] at most this long once all are ready, wait until every agent (a node in
     # /<robot_prefix><i>/) is connected to our /fleet/start; then announce anyway, with a warning
     start_connect_timeout: float = 20.0

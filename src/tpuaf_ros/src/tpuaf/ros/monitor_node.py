@@ -69,9 +69,6 @@ def run_config(p, patrol_map):
     return config
 
 
-RECORDER_NODE = "recorder"  # the rosbag record node's name in fleet.launch
-
-
 class MonitorNode:
     def __init__(self, p, patrol_map):
         self.p = p
@@ -240,18 +237,19 @@ class MonitorNode:
         return all(any(c.startswith(f"/{name}/") for c in callers) for name in self.names)
 
     def recorder_ready(self):
-        if not self.p.wait_for_recorder:
+        if not self.p.recorder_node:
             return True
         try:
             _, subs, _ = rospy.get_master().getSystemState()[2]
         except Exception:  # noqa: BLE001 - the master answers slowly: try on the next event
             return False
-        # the recorder itself (fleet.launch's rosbag node), not just any subscriber: the agents
+        # the recorder itself (~recorder_node), not just any subscriber: the agents
         # subscribe to the events too, and a start announced before the recorder listens is
         # missing from the bag
         for topic, nodes in subs:
             if topic == convert.EVENTS_TOPIC:
-                return any(n.rsplit("/", 1)[-1] == RECORDER_NODE for n in nodes)
+                recorder = self.p.recorder_node.rsplit("/", 1)[-1]
+                return any(n.rsplit("/", 1)[-1] == recorder for n in nodes)
         return False
 
     def on_pose(self, msg, i):
