@@ -152,6 +152,12 @@ MAP_PARAMS: dict[str, tuple[str, str]] = {
 }
 
 
+# The lane layer's modes (docs/LANES.md; `tpuaf run`/`compare`/`fleet --lanes`, the agent's
+# ~lanes): off; locks (every lane one robot wide entered holding its lock); one_way (the lanes
+# on cycles driven one way, the others locked). Opt-in: the first, off, is the default.
+LANE_MODES = ("off", "locks", "one_way")
+
+
 @dataclass
 class AgentParams:
     """Private parameters of patrol_agent (units in the comments)."""
@@ -183,6 +189,7 @@ class AgentParams:
     max_retries: int = _C.max_retries  # recoveries before the goal is reported failed
     waypoint_tolerance: float = 0.6  # [m] pass-through vertices
     global_planner: bool = True  # builtin navigation: follow paths planned on the map's grid
+    lanes: str = LANE_MODES[0]  # lane layer: off | locks | one_way (builtin navigation with the global planner; docs/LANES.md)
     scan_beams: int = _C.scan_beams  # laser beams used by the controller at most (the scan is subsampled)
     heartbeat_period: float = _L.heartbeat_period_s  # [s] AgentEvent HEARTBEAT period
     lockstep: bool = False  # answer every pose tick with TwistStamped on cmd_vel_stamped

@@ -15,6 +15,7 @@ TEAM_TOPICS: dict[str, str] = {
     "IdlenessEstimate": "idleness",
     "TaskRequest": "task_requests",
     "TaskBid": "task_bids",
+    "LaneClaim": "lane_claims",  # the lane layer's (docs/LANES.md), not handed to policies
 }
 DEFAULT_TEAM_NS = "/team"
 EVENTS_TOPIC = "/fleet/agent_events"  # tpuaf_ros/AgentEvent of every agent
@@ -42,9 +43,13 @@ STALLED = "stalled"
 # AgentEvent.event values (= the constants of AgentEvent.msg).
 # REACHED: a visit (tpuaf_core.VisitRule); DWELL: a goal ended without one (docs/RUNTIMES.md).
 # STUCK: a navigator recovery started; GIVE_WAY: a refuge driven to (robot health, issue 33).
+# LANE_WAIT: a lane request not granted at once (stamped at the request); LANE_ENTER: granted
+# after such a wait (docs/LANES.md; the monitor's lane waits and their seconds).
 START, GOAL, REACHED, FAILED, HEARTBEAT, DWELL, STUCK, GIVE_WAY = 0, 1, 2, 3, 4, 5, 6, 7
+LANE_WAIT, LANE_ENTER = 8, 9
 EVENT_NAMES = {START: "START", GOAL: "GOAL", REACHED: "REACHED", FAILED: "FAILED",
-               HEARTBEAT: "HEARTBEAT", DWELL: "DWELL", STUCK: "STUCK", GIVE_WAY: "GIVE_WAY"}
+               HEARTBEAT: "HEARTBEAT", DWELL: "DWELL", STUCK: "STUCK", GIVE_WAY: "GIVE_WAY",
+               LANE_WAIT: "LANE_WAIT", LANE_ENTER: "LANE_ENTER"}
 
 
 def team_topic(team_ns: str, message_class: type) -> str:

@@ -32,6 +32,7 @@ from tpuaf.cli.fleet_supervisor import (
     wait_bag_closed,
 )
 from tpuaf.cli.run import (
+    add_lanes,
     add_map_params,
     add_teammate_timeout,
     finite_float,
@@ -131,6 +132,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--loss", type=probability, default=0.0,
                    help="team message loss probability per recipient, through a relay")
     add_teammate_timeout(p)
+    add_lanes(p, "every agent")
     add_map_params(p)
     p.add_argument("--timeout", type=positive_float, default=None,
                    help="wall-clock limit [s] (default: duration + 300)")
@@ -319,6 +321,7 @@ def fleet_config(args, out: Path, patrol_map, map_ref: str, strategy: str, param
                      "relay": uses_relay(args)},
         # agents and monitor alike (the monitor's death timeout follows it: one liveness rule)
         "teammate_timeout_s": float(args.teammate_timeout),
+        "lanes": args.lanes,
         "navigation_module": "tpuaf.navigation (GraphRoute + LocalController)",
         "bag": None if args.no_record else str(out / "run.bag"),
         "record_regex": None if args.no_record else record_regex(args.record),
@@ -348,6 +351,7 @@ def roslaunch_args(args, out: Path, config: dict, resolved: Path, strategy_file:
         f"record_regex:={config['record_regex'] or ''}",
         f"relay:={'true' if uses_relay(args) else 'false'}", f"delay:={args.delay}",
         f"loss:={args.loss}", f"teammate_timeout:={args.teammate_timeout}",
+        f"lanes:={args.lanes}",
         f"map_params:={json.dumps(config['map_params'], separators=(', ', ': '))}",
     ]
 

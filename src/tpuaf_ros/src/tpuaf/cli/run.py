@@ -99,6 +99,18 @@ def add_teammate_timeout(p: argparse.ArgumentParser) -> None:
                         f"monitor calls it dead then too (default {default:g})")
 
 
+def add_lanes(p: argparse.ArgumentParser, where: str) -> None:
+    """--lanes MODE (`tpuaf run --runtime physics`, `fleet`): the lane layer (docs/LANES.md),
+    modes and default from tpuaf.params.LANE_MODES."""
+    from tpuaf.params import LANE_MODES
+
+    p.add_argument("--lanes", choices=LANE_MODES, default=LANE_MODES[0],
+                   help=f"lane layer for aisles one robot wide ({where}): off (default); locks "
+                        "(a robot enters such a lane only holding its lock, asked for at a "
+                        "waiting spot outside it); one_way (the lanes on cycles driven one way, "
+                        "the others locked). Shown by `tpuaf maps --lanes`")
+
+
 def add_map_params(p: argparse.ArgumentParser) -> None:
     """--map-param KEY=VALUE (`tpuaf run`, `compare`, `fleet`, `maps`): overrides of the map's
     settings (tpuaf.maps.params, docs/MAPS.md)."""
@@ -214,6 +226,7 @@ def add_runtime_arguments(p: argparse.ArgumentParser) -> None:
                    help="K robots die at seeded random times in [duration/10, duration/2]")
     p.add_argument("--stall", action="append", default=[], metavar="ROBOT@TIME",
                    help="robot ROBOT stops moving at TIME [s] but keeps talking (repeatable)")
+    add_lanes(p, "physics runtime; the graph runtime models no widths")
 
 
 def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
@@ -228,11 +241,17 @@ def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
     kwargs = dict(config_kwargs, fail=fail, stall=stall,
                   fail_random=int(getattr(args, "fail_random", 0)),
                   travel=getattr(args, "travel", None), robot=getattr(args, "robot", None))
+    lanes = getattr(args, "lanes", "off")
     if getattr(args, "runtime", "graph") == "physics":
+        from tpuaf.robot.lanes import lane_flags
         from tpuaf.runtimes.config import PhysicsConfig
         from tpuaf.runtimes.physics import PhysicsRun
 
+        kwargs["lanes"], kwargs["one_way"] = lane_flags(lanes)
         return PhysicsRun(PhysicsConfig(**kwargs), patrol_map)
+    if lanes != "off":
+        raise CliError(f"--lanes {lanes} needs --runtime physics: the graph runtime drives "
+                       "edges without widths, so no lane is ever shared (docs/LANES.md)")
     from tpuaf.runtimes.config import RunConfig
     from tpuaf.runtimes.graph import make_run
 
@@ -275,6 +294,8 @@ def format_summary(summary: dict) -> str:
         ("visits", "visits", ""),
         ("complete patrol cycles", "complete_cycles", ""),
     ]
+    if "lane_waits" in summary:  # a run with the lane layer (physics --lanes, a fleet)
+        rows += [("lane waits", "lane_waits", ""), ("lane wait time", "lane_wait_s", "s")]
     width = max(len(r[0]) for r in rows)
     lines = []
     for label, key, unit in rows:

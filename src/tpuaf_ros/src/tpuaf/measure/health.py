@@ -1,7 +1,9 @@
 """Robot health at fleet level (ROS-free), per robot: stuck episodes and recoveries (STUCK
 events: a navigator recovery; an episode is the recoveries between two goals), failed goals
-(FAILED), give-way waits (GIVE_WAY), the time since its last visit, and no-progress spells: a
-robot alive that neither moved PROGRESS_M nor visited for `stuck_after_s` (ground-truth poses).
+(FAILED), give-way waits (GIVE_WAY), lane waits (LANE_WAIT, stamped at the request, to
+LANE_ENTER: their count and seconds, as the physics runtime's summary), the time since its last
+visit, and no-progress spells: a robot alive that neither moved PROGRESS_M nor visited for
+`stuck_after_s` (ground-truth poses).
 
 FleetMonitor feeds it the events at arrival, the visits and the processed pose groups; times
 are ROS time [s] in, run time [s] out (summary rows, live arrays).
@@ -13,10 +15,11 @@ import math
 
 import numpy as np
 
-from tpuaf.topics import FAILED, GIVE_WAY, GOAL, STUCK
+from tpuaf.topics import FAILED, GIVE_WAY, GOAL, LANE_ENTER, LANE_WAIT, STUCK
 
 PROGRESS_M = 0.25  # [m] a robot this far from where its spell began made progress
-COUNTED = {STUCK: "recoveries", FAILED: "failed_goals", GIVE_WAY: "give_ways"}
+COUNTED = {STUCK: "recoveries", FAILED: "failed_goals", GIVE_WAY: "give_ways",
+           LANE_WAIT: "lane_waits"}
 
 
 class FleetHealth:
@@ -32,10 +35,18 @@ class FleetHealth:
         self.last_visit = np.full(self.n, np.nan)  # [s] each robot's last visit
         self.spells: list[list] = []  # [robot, start s, end s or None] of no progress
         self._open = [-1] * self.n  # index in spells of a robot's open spell
+        self.lane_waits: list[list[list]] = [[] for _ in range(self.n)]  # [request s, end s|None]
 
     def on_event(self, robot: int, kind: int, t: float) -> None:
         if kind == GOAL:
             self._episode[robot] = False
+            return
+        waits = self.lane_waits[robot]
+        if kind == LANE_WAIT:
+            waits.append([float(t), None])
+        elif kind == LANE_ENTER:
+            if waits and waits[-1][1] is None:
+                waits[-1][1] = float(t)
             return
         name = COUNTED.get(kind)
         if name is None:
@@ -88,10 +99,19 @@ class FleetHealth:
         return {name: sum(1 for s in stamps if start <= s <= end)
                 for name, stamps in self.stamps[robot].items()}
 
+    def lane_wait_s(self, robot: int, start: float, end: float) -> float:
+        """[s] robot's lane waits within [start, end] (one still open: to `end`)."""
+        total = 0.0
+        for s0, s1 in self.lane_waits[robot]:
+            s1 = end if s1 is None else min(s1, end)
+            total += max(0.0, s1 - max(s0, start))
+        return total
+
     def live(self, start: float, now: float) -> dict[str, list]:
         """The LiveMetrics per-robot arrays at ROS time `now` [s]."""
         rows = [self.counts(r, start, now) for r in range(self.n)]
         out = {name: [row[name] for row in rows] for name in self.stamps[0]}
+        out["lane_wait_s"] = [self.lane_wait_s(r, start, now) for r in range(self.n)]
         out["since_last_visit"] = [now - (v if v == v else start) for v in self.last_visit]
         out["no_progress"] = [k >= 0 for k in self._open]
         return out
@@ -104,6 +124,7 @@ class FleetHealth:
             last = self.last_visit[r]
             rows.append({
                 "robot": r, **self.counts(r, start, end),
+                "lane_wait_s": round(self.lane_wait_s(r, start, end), 3),
                 "last_visit_s": last - start if last == last else None,
                 "since_last_visit_s": end - (last if last == last else start),
                 "no_progress": [{"start_s": s0 - start,
@@ -111,5 +132,6 @@ class FleetHealth:
                                 for rr, s0, s1 in self.spells if rr == r and s0 <= end],
             })
         totals = {name: sum(row[name] for row in rows) for name in self.stamps[0]}
+        totals["lane_wait_s"] = round(sum(row["lane_wait_s"] for row in rows), 3)
         return {**totals, "no_progress_spells": sum(len(row["no_progress"]) for row in rows),
                 "stuck_after_s": self.stuck_after_s, "robot_health": rows}

@@ -10,27 +10,76 @@ bridges) are locked; a one-way lane is entered without a lock (robots in it only
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from tpuaf.navigation.lanes import LaneMap
+from tpuaf.navigation.lanes import LaneMap, find_lanes
+from tpuaf.navigation.one_way import Orientation, orient_lanes
+from tpuaf.params import LANE_MODES
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
+from tpuaf.topics import LANE_ENTER, LANE_WAIT
+
+
+def lane_flags(mode: str) -> tuple[bool, bool]:
+    """(lanes, one_way) of a lane mode (PhysicsConfig's fields); ValueError naming the modes."""
+    if mode not in LANE_MODES:
+        raise ValueError(f"lane mode must be one of {', '.join(LANE_MODES)}, got {mode!r}")
+    return mode != "off", mode == "one_way"
+
+
+@dataclass(frozen=True)
+class LaneLayer:
+    """The team's lanes on one map and footprint: the lane map, the one-way orientation (None:
+    locks only) and the plan's map, whose graph follows the one-way arcs."""
+
+    lane_map: LaneMap
+    orientation: Orientation | None
+    plan_map: Any
+
+    @property
+    def locked(self) -> frozenset[int] | None:
+        """The lanes entered holding a lock (None: all)."""
+        return self.orientation.locked if self.orientation is not None else None
+
+
+def lane_layer(planner: Any, world_map: Any, plan_map: Any, one_way: bool) -> LaneLayer:
+    """The lane layer of every runtime (physics, ROS agents): the lanes of `world_map` for the
+    footprint of `planner` (maybe none), oriented when `one_way`. Every robot of one model
+    computes the same lanes (their indices are shared in LaneClaim)."""
+    lane_map = find_lanes(planner, world_map)
+    orientation = orient_lanes(lane_map, plan_map) if one_way and lane_map.lanes else None
+    if orientation is not None and orientation.chains:
+        plan_map = replace(plan_map, one_way=tuple(orientation.arcs))
+    return LaneLayer(lane_map, orientation, plan_map)
 
 
 class LaneAccess:
     """One robot's lanes and locks (see the module docstring)."""
 
     def __init__(self, lane_map: LaneMap, locks: LaneLocks,
-                 locked: frozenset[int] | None = None):
+                 locked: frozenset[int] | None = None,
+                 report: Callable[[int, int, float], None] | None = None):
         self.lane_map = lane_map
         self.locks = locks
+        # report(kind, waiting spot, t [s]): LANE_WAIT (stamped at the request) and LANE_ENTER
+        self.report = report
         self.now = 0.0  # [s] the last time asked
         # the lanes entered holding a lock (None: every lane)
         self.locked = (frozenset(lane.index for lane in lane_map.lanes) if locked is None
                        else frozenset(locked))
         self.one_way = len(self.locked) < len(lane_map.lanes)  # some lanes driven one way
+        self.started = False  # start_at called: the start's lane is held
+
+    def start_at(self, vertex: int, now: float) -> None:
+        """The robot starts at `vertex` [index] at run time `now` [s]: inside a locked lane, it
+        holds that lane at once (first in its queue)."""
+        self.started = True
+        inside = self.lane_map.interior_of(vertex)
+        self.locks.hold(inside if inside in self.locked else -1, now)
 
     def locked_lane(self, u: int, v: int) -> int:
         """The locked lane of the edge u-v, -1 when none (wide, or a one-way lane)."""
@@ -56,7 +105,17 @@ class LaneAccess:
         """May the robot, at vertex u, drive the edge u -> v now? (Asks for its lane.)"""
         self.arrive(u, now)
         lane = self.locked_lane(u, v)
-        return lane < 0 or self.locks.may_enter(lane, now)
+        if lane < 0:
+            return True
+        locks = self.locks
+        waits, waited = locks.waits, locks.wait_s
+        granted = locks.may_enter(lane, now)
+        if self.report is not None:
+            if locks.waits > waits:
+                self.report(LANE_WAIT, u, locks.mine.stamp)
+            if locks.wait_s > waited:
+                self.report(LANE_ENTER, u, now)
+        return granted
 
     def queued_behind_waiter(self, u: int, v: int) -> bool:
         """Is another robot waiting for the lane of u -> v ahead of us (not only a holder)?"""
@@ -92,21 +151,26 @@ class LaneAccess:
         self.locks.tick(now)
 
 
-def attach_lanes(agent: Any, lane_map: LaneMap, start_vertex: int,
+def attach_lanes(agent: Any, lane_map: LaneMap, start_vertex: int | None,
                  locked: frozenset[int] | None = None) -> LaneAccess:
     """Give an `AgentRuntime` the lane layer: its machine hears the claims, its navigator asks
-    at lane entries; a robot that starts inside a locked lane holds it. `locked`: the lanes
-    entered with a lock (None: all; with one-way lanes the two-way ones)."""
+    at lane entries, its ticks re-announce the claim; a robot that starts inside a locked lane
+    holds it (`start_vertex` [index]; None: not known yet, then when the runtime begins).
+    `locked`: the lanes entered with a lock (None: all; with one-way lanes the two-way ones)."""
     machine = agent.machine
 
     def send(claim: LaneClaim) -> None:
         if machine.alive:
             machine.driver.transmit(machine.robot, claim)
 
+    def report(kind: int, spot: int, t: float) -> None:
+        if machine.alive:
+            machine.emit(kind, int(spot), -1, float(t))
+
     locks = LaneLocks(machine.robot, send, lambda r: r in machine.liveness.lost)
-    access = LaneAccess(lane_map, locks, locked)
+    access = LaneAccess(lane_map, locks, locked, report)
     machine.lane_locks = locks
     agent.navigator.lanes = access
-    inside = lane_map.interior_of(start_vertex)
-    locks.hold(inside if inside in access.locked else -1, 0.0)
+    if start_vertex is not None:
+        access.start_at(start_vertex, 0.0)
     return access

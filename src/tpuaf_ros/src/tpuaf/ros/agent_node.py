@@ -32,6 +32,7 @@ from tpuaf.navigation.planner import shared_planner
 from tpuaf.navigation.travel_time import timed_map
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
+from tpuaf.robot.lanes import attach_lanes, lane_flags, lane_layer
 from tpuaf.ros import convert
 from tpuaf.ros.node import (
     fatal,
@@ -149,10 +150,22 @@ class AgentNode:
         # The strategy plans on the robot's speed and travel times (as in the physics runtime).
         self.robot = robot
         self.plan_map = timed_map(patrol_map, robot, shared_planner(patrol_map, robot.radius_m))
+        lanes, one_way = lane_flags(p.lanes)
+        # the team's lane layer, as in the physics runtime (docs/LANES.md); one-way lanes
+        # direct the plan's graph
+        layer = lane_layer(planner, patrol_map, self.plan_map, one_way) if lanes else None
+        if layer is not None:
+            self.plan_map = layer.plan_map
         self.runtime = AgentRuntime(self.plan_map, policy, p.robot_index, p.robots, p.seed,
                                     self.publish_team, self.publish_event, cfg,
                                     p.heartbeat_period, p.waypoint_tolerance, planner,
                                     teammate_timeout_s=p.teammate_timeout)
+        if layer is not None:  # the start's lane is held when the runtime begins
+            attach_lanes(self.runtime, layer.lane_map, None, layer.locked)
+            self.inbox.n_lanes = len(layer.lane_map.lanes)
+            rospy.loginfo(f"{self.name}: lanes {p.lanes}: {len(layer.lane_map.lanes)} lane(s)"
+                          + (f", {len(layer.orientation.chains)} one-way" if layer.orientation
+                             else ""))
         self.liveness = self.runtime.machine.liveness  # the machine's (RobotMachine.hear)
         self.runtime.on_stuck = self.report_stuck
         # [m] laser points farther from the base than this cannot matter to the controller

@@ -27,6 +27,7 @@ def ros_types() -> dict[type, type]:
         m.IdlenessEstimate: msg.IdlenessEstimate,
         m.TaskRequest: msg.TaskRequest,
         m.TaskBid: msg.TaskBid,
+        m.LaneClaim: msg.LaneClaim,
     }
 
 
@@ -115,6 +116,9 @@ class Converter:
             out.vertices = self.ids
             out.idleness = [float(x) for x in message.estimate]
             out.next_vertex = self.vid(message.next_vertex)
+        elif isinstance(message, m.LaneClaim):  # a lane index, not a vertex
+            out.lane, out.held = int(message.lane), bool(message.held)
+            out.request_time = float(message.stamp)
         else:  # TaskRequest, TaskBid
             out.vertex, out.bid = self.vid(message.vertex), float(message.bid)
         return out
@@ -148,4 +152,7 @@ class Converter:
             return m.TaskRequest(r, self.index(ros_msg.vertex), float(ros_msg.bid), t)
         if kind == "TaskBid":
             return m.TaskBid(r, self.index(ros_msg.vertex), float(ros_msg.bid), t)
+        if kind == "LaneClaim":
+            return m.LaneClaim(r, int(ros_msg.lane), float(ros_msg.request_time),
+                               bool(ros_msg.held), t)
         raise TypeError(f"not a team message: {type(ros_msg).__name__}")

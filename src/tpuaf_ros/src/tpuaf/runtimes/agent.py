@@ -191,7 +191,9 @@ class AgentRuntime:
         """A team message from another robot (the node filters out our own). A malformed one
         (unknown sender or vertex, NaN time: messages.well_formed) is dropped and counted."""
         m = self.machine
-        if not well_formed(message, m.n_robots, m.patrol_map.num_vertices):
+        lanes = getattr(self.navigator, "lanes", None)  # robot/lanes.py LaneAccess, if any
+        n_lanes = len(lanes.lane_map.lanes) if lanes is not None else 0
+        if not well_formed(message, m.n_robots, m.patrol_map.num_vertices, n_lanes):
             self.dropped_messages = getattr(self, "dropped_messages", 0) + 1
             return
         if message.robot != m.robot:
@@ -218,6 +220,9 @@ class AgentRuntime:
         self._now = max(self._now, float(t))
         x, y, _ = self._pose
         m.place(m.patrol_map.nearest_vertex(x, y))
+        lanes = getattr(self.navigator, "lanes", None)
+        if lanes is not None and not lanes.started:  # a start inside a lane holds it
+            lanes.start_at(m.current_vertex, self._now)
         m.start()
         self._decide_pending = True
         return True
@@ -235,6 +240,9 @@ class AgentRuntime:
         m = self.machine
         if self._pose is None or not m.alive:
             return 0.0, 0.0
+        lanes = getattr(self.navigator, "lanes", None)
+        if lanes is not None:  # the lane claim, re-announced when due
+            lanes.tick(self._now)
         if self._now >= self._next_heartbeat:  # also before the start: "ready"
             self._event(HEARTBEAT, m.goal if m.goal is not None else -1, m.current_vertex)
             self._next_heartbeat = self._now + self.heartbeat_period_s

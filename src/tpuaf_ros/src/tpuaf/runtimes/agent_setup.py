@@ -8,7 +8,7 @@ from dataclasses import replace
 
 from tpuaf.maps import start_vertices
 from tpuaf.navigation import ControllerConfig, retry_wait_for
-from tpuaf.params import AgentParams, NodeParamError
+from tpuaf.params import LANE_MODES, AgentParams, NodeParamError
 from tpuaf.robot.model import RobotChoiceError, RobotModel, choose_robot
 
 LOCALIZATIONS = ("tf", "odom", "ground_truth", "amcl")
@@ -44,6 +44,11 @@ def check_agent_params(p: AgentParams, sim: bool) -> None:
         raise NodeParamError("~clock_offset needs the wall clock (use_sim_time false)")
     if p.lockstep and p.navigation == "move_base":
         raise NodeParamError("~lockstep needs ~navigation builtin (move_base drives the robot)")
+    if p.lanes not in LANE_MODES:
+        raise NodeParamError(f"~lanes must be one of {', '.join(LANE_MODES)}, got {p.lanes!r}")
+    if p.lanes != LANE_MODES[0] and not (p.navigation == "builtin" and p.global_planner):
+        raise NodeParamError(f"~lanes {p.lanes} needs ~navigation builtin with ~global_planner "
+                             "true (lanes are found on the planned paths)")
 
 
 def agent_controller(p: AgentParams, robot: RobotModel) -> ControllerConfig:

@@ -27,7 +27,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable
-from dataclasses import asdict, replace
+from dataclasses import asdict
 
 import numpy as np
 
@@ -38,12 +38,10 @@ from tpuaf.navigation import (
     retry_wait_for,
     scan_points_batch,
 )
-from tpuaf.navigation.lanes import find_lanes
-from tpuaf.navigation.one_way import orient_lanes
 from tpuaf.navigation.planner import shared_planner
 from tpuaf.params import LIVENESS_DEFAULTS
 from tpuaf.policies import REGISTRY
-from tpuaf.robot.lanes import attach_lanes
+from tpuaf.robot.lanes import attach_lanes, lane_layer
 from tpuaf.robot.model import RobotModel, world_robot
 from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.base import TeamRun
@@ -92,12 +90,12 @@ class PhysicsRun(TeamRun):
                         else None)
         # The lane layer where the map has stretches one robot wide (docs/LANES.md); with
         # one-way lanes the plan's graph (routes, strategies' travel times) follows the arcs.
-        self.lane_map = (find_lanes(self.planner, world_map)
-                         if self.planner is not None and config.lanes else None)
-        self.orientation = (orient_lanes(self.lane_map, pm)
-                            if self.lane_map and config.one_way else None)
-        if self.orientation is not None and self.orientation.chains:
-            self.patrol_map = pm = replace(pm, one_way=tuple(self.orientation.arcs))
+        layer = (lane_layer(self.planner, world_map, pm, config.one_way)
+                 if self.planner is not None and config.lanes else None)
+        self.lane_map = layer.lane_map if layer is not None else None
+        self.orientation = layer.orientation if layer is not None else None
+        if layer is not None:
+            self.patrol_map = pm = layer.plan_map
         self.agents = [
             AgentRuntime(pm, cls(config.strategy_params), i, n, self.seed,
                          self._publisher(i), self.visit_listener(i),
@@ -109,9 +107,8 @@ class PhysicsRun(TeamRun):
                                    else LIVENESS_DEFAULTS.heartbeat_period_s)
         self._liveness_checks: list[tuple[float, int, int]] = []  # heap: (t [s], robot, token)
         self._team([a.machine for a in self.agents])
-        locked = self.orientation.locked if self.orientation is not None else None
-        self.lane_access = ([attach_lanes(a, self.lane_map, starts[i], locked)
-                             for i, a in enumerate(self.agents)] if self.lane_map else [])
+        self.lane_access = ([attach_lanes(a, layer.lane_map, starts[i], layer.locked)
+                             for i, a in enumerate(self.agents)] if layer is not None else [])
         self.steps_per_control = round(config.control_period_s / config.physics_step_s)
         # Scans at the laser rate, on control ticks (LDS-01 5 Hz: every other 10 Hz tick).
         self.scan_every = max(1, round(1.0 / (laser.rate * config.control_period_s)))
@@ -188,8 +185,6 @@ class PhysicsRun(TeamRun):
                     continue
                 x, y, th = rows[i]
                 a.on_pose(t, x, y, th)
-                if self.lane_access:
-                    self.lane_access[i].tick(t)
                 commands[i] = a.tick(t, points[i], scan_rows[i])
                 if self.bus.ready:
                     self.deliver_ready()

@@ -132,6 +132,7 @@ class TeamInbox:
                  config: InboxConfig | None = None, names: list[str] | None = None):
         self.n_robots = int(n_robots)
         self.n_vertices = int(n_vertices)
+        self.n_lanes = 0  # the team's lanes, when this robot runs the lane layer (LaneClaim)
         self.me = int(me)
         self.config = config or InboxConfig()
         self.skew = SkewEstimator(self.config.window)
@@ -163,7 +164,7 @@ class TeamInbox:
 
     def _problem(self, msg: Any, now: float) -> tuple[str, str | None]:
         """(counted reason, why) of problem()."""
-        why = m.problem(msg, self.n_robots, self.n_vertices)
+        why = m.problem(msg, self.n_robots, self.n_vertices, self.n_lanes)
         if why is not None:
             return "malformed", why
         if msg.robot == self.me:
@@ -203,6 +204,8 @@ class TeamInbox:
         changes = {"time": min(msg.time - shift, now)}
         if type(msg) is m.Intention:
             changes["expected_arrival"] = msg.expected_arrival - shift
+        elif type(msg) is m.LaneClaim:
+            changes["stamp"] = msg.stamp - shift  # the request, on the sender's clock too
         return dataclasses.replace(msg, **changes), None
 
     def skewed(self) -> dict[int, float]:

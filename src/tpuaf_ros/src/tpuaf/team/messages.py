@@ -95,11 +95,15 @@ def _finite(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def problem(message: object, n_robots: int, n_vertices: int) -> str | None:
+def problem(message: object, n_robots: int, n_vertices: int, n_lanes: int = 0) -> str | None:
     """Why a team message cannot be used by a policy (None: it can): an unknown type, a sender
     outside 0..n_robots-1, a vertex outside the map (next_vertex and from_vertex may be -1:
     'none'), a non-finite time, a negative travel time, bid or estimate, or an estimate of
-    the wrong length. The one structural check of every transport (agent runtime, ROS inbox)."""
+    the wrong length; a lane claim: `lane_claim_problem` on the team's `n_lanes` lanes (0: the
+    robot runs no lane layer). The one structural check of every transport (agent runtime, ROS
+    inbox)."""
+    if isinstance(message, LaneClaim):
+        return lane_claim_problem(message, n_robots, n_lanes)
     if not isinstance(message, TEAM_MESSAGES):
         return f"not a team message: {type(message).__name__}"
     r = message.robot
@@ -135,11 +139,15 @@ def lane_claim_problem(message: LaneClaim, n_robots: int, n_lanes: int) -> str |
     r = message.robot
     if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < n_robots:
         return f"unknown robot index {r!r} (team of {n_robots})"
-    if not (_finite(message.time) and _finite(message.stamp)):
+    # a robot that starts inside a lane holds it from -inf (first in every queue)
+    held_from_start = message.held and message.stamp == -math.inf
+    if not (_finite(message.time) and (_finite(message.stamp) or held_from_start)):
         return "lane claim time or stamp is not finite"
+    if n_lanes <= 0 and message.lane != -1:
+        return f"lane {message.lane!r} claimed, but we run no lane layer"
     return _index_problem(message.lane, "lane", n_lanes, allow_none=True)
 
 
-def well_formed(message: object, n_robots: int, n_vertices: int) -> bool:
-    """True when `problem` finds nothing: the message is safe to hand to a policy."""
-    return problem(message, n_robots, n_vertices) is None
+def well_formed(message: object, n_robots: int, n_vertices: int, n_lanes: int = 0) -> bool:
+    """True when `problem` finds nothing: the message is safe to hand to a robot."""
+    return problem(message, n_robots, n_vertices, n_lanes) is None
