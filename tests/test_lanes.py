@@ -9,6 +9,7 @@ import random
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from tpuaf.maps import load_map
@@ -287,3 +288,91 @@ def test_a_dead_holders_lane_is_freed_in_physics(tmp_path):
     granted = next(t for t, _, held, _ in trace if t > 30.0 and held == 0)
     assert granted >= 30.0 + LIVENESS_DEFAULTS.teammate_timeout_s
     assert trace[-1][3] > next(v for t, _, _, v in trace if t >= granted)
+
+
+def test_lane_claims_are_checked_as_every_team_message():
+    from tpuaf.team.messages import LaneClaim, problem
+
+    ok = LaneClaim(1, 2, 3.0, False, 3.5)
+    assert problem(ok, n_robots=2, n_vertices=5, n_lanes=3) is None
+    # a robot that starts inside a lane holds it from -inf: first in every queue
+    assert problem(LaneClaim(1, 2, -math.inf, True, 0.0), 2, 5, 3) is None
+    assert "not finite" in problem(LaneClaim(1, 2, -math.inf, False, 0.0), 2, 5, 3)
+    assert "not finite" in problem(LaneClaim(1, 2, math.nan, True, 0.0), 2, 5, 3)
+    assert "outside" in problem(LaneClaim(1, 3, 1.0, False, 1.0), 2, 5, 3)
+    assert "unknown robot" in problem(LaneClaim(2, 0, 1.0, False, 1.0), 2, 5, 3)
+    # a robot without the lane layer refuses claims on lanes it does not know
+    assert "no lane layer" in problem(ok, 2, 5)
+    assert problem(LaneClaim(1, -1, 1.0, False, 1.0), 2, 5) is None
+
+
+def test_lane_waits_are_reported_as_events_stamped_at_the_request(tmp_path):
+    """The events the ROS monitor counts (LANE_WAIT at the request, LANE_ENTER at the grant)
+    give the physics runtime's own lane-wait figures."""
+    from tpuaf.measure.health import FleetHealth
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+    from tpuaf.topics import LANE_ENTER, LANE_WAIT
+
+    pm = load_map(str(aisle_map(tmp_path / "aisle")))
+    run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1,
+                                   duration_s=160.0, robot="burger", lanes=True), patrol_map=pm)
+    health = FleetHealth(2, 60.0)
+    events: list[tuple[int, int, int, float]] = []
+    for agent in run.agents:
+        emit, robot = agent.machine.emit, agent.machine.robot
+
+        def tee(kind, vertex, from_vertex, t, emit=emit, robot=robot):
+            if kind in (LANE_WAIT, LANE_ENTER):
+                events.append((robot, kind, vertex, t))
+                health.on_event(robot, kind, t)
+            emit(kind, vertex, from_vertex, t)
+
+        agent.machine.emit = tee
+    summary = run.run()
+    assert summary["lane_waits"] > 0
+    assert sum(1 for e in events if e[1] == LANE_WAIT) == summary["lane_waits"]
+    assert all(vertex in (0, 2) for _, _, vertex, _ in events)  # the aisle's waiting spots
+    counted = health.summary(0.0, summary["duration_s"])
+    assert counted["lane_waits"] == summary["lane_waits"]
+    # waits still open at the end run to it in the monitor; the physics figure counts granted ones
+    open_s = sum(summary["duration_s"] - s0 for w in health.lane_waits for s0, s1 in w
+                 if s1 is None)
+    assert counted["lane_wait_s"] == pytest.approx(summary["lane_wait_s"] + open_s, abs=1e-6)
+
+
+def test_lanes_flag_of_run_and_fleet(tmp_path, capsys):
+    from tpuaf.cli import main
+
+    folder = str(aisle_map(tmp_path / "aisle"))
+    # the graph runtime models no widths: a one-line error, exit 2
+    assert main(["run", "--map", folder, "--robots", "2", "--duration", "60", "--lanes",
+                 "locks", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--lanes locks needs --runtime physics" in err[0]
+    assert main(["run", "--map", folder, "--robots", "2", "--duration", "120", "--runtime",
+                 "physics", "--robot", "burger", "--strategy", "cr", "--seed", "1", "--lanes",
+                 "locks", "--quiet", "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "lane waits" in out and "lane wait time" in out
+    import json
+
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["lanes"] == 1 and "lane_waits" in summary
+    assert main(["fleet", "--map", folder, "--robots", "2", "--lanes", "one_way",
+                 "--prepare-only", "--out", str(tmp_path / "fleet")]) == 0
+    printed = capsys.readouterr().out
+    assert "lanes:=one_way" in printed
+
+
+def test_agent_lanes_parameter_is_checked():
+    from tpuaf.params import AgentParams, NodeParamError, parse
+    from tpuaf.runtimes.agent_setup import check_agent_params
+
+    base = {"map": "lab", "robots": 2, "robot_index": 0}
+    check_agent_params(parse(AgentParams, {**base, "lanes": "one_way"}, "patrol_agent"), True)
+    with pytest.raises(NodeParamError, match="~lanes must be one of off, locks, one_way"):
+        check_agent_params(parse(AgentParams, {**base, "lanes": "oneway"}, "patrol_agent"), True)
+    with pytest.raises(NodeParamError, match="needs ~navigation builtin"):
+        check_agent_params(parse(AgentParams, {**base, "lanes": "locks",
+                                               "navigation": "move_base"}, "patrol_agent"), True)

@@ -45,6 +45,12 @@ class LaneLayer:
         """The lanes entered holding a lock (None: all)."""
         return self.orientation.locked if self.orientation is not None else None
 
+    def describe(self) -> str:
+        """'K lane(s)[, M one-way]'."""
+        one_way = (f", {len(self.orientation.chains)} one-way" if self.orientation is not None
+                   else "")
+        return f"{len(self.lane_map.lanes)} lane(s){one_way}"
+
 
 def lane_layer(planner: Any, world_map: Any, plan_map: Any, one_way: bool) -> LaneLayer:
     """The lane layer of every runtime (physics, ROS agents): the lanes of `world_map` for the

@@ -28,11 +28,8 @@ from tpuaf import topics
 from tpuaf.maps import MapError, load_map
 from tpuaf.navigation import GoalNavigator, LaserMount, Scan, scan_points
 from tpuaf.navigation.frames import FrameChain, StaticFrames, compose
-from tpuaf.navigation.planner import shared_planner
-from tpuaf.navigation.travel_time import timed_map
 from tpuaf.params import AgentParams, NodeParamError, parse
 from tpuaf.policies import REGISTRY, ParameterError
-from tpuaf.robot.lanes import attach_lanes, lane_flags, lane_layer
 from tpuaf.ros import convert
 from tpuaf.ros.node import (
     fatal,
@@ -43,10 +40,9 @@ from tpuaf.ros.node import (
     sender_of,
     yaw_of,
 )
-from tpuaf.runtimes.agent import AgentRuntime
 from tpuaf.runtimes.agent_setup import (
-    agent_controller,
     agent_robot,
+    agent_runtime,
     check_agent_params,
     odom_origin,
 )
@@ -142,30 +138,13 @@ class AgentNode:
         """The robot's model, controller, strategy and AgentRuntime; navigation and the pose
         origin."""
         robot = agent_robot(p, patrol_map)
-        cfg = agent_controller(p, robot)
-        policy = REGISTRY.create(p.strategy, p.strategy_params)
-        # Built-in navigation plans on the map's occupancy grid, as the physics runtime does.
-        planner = (shared_planner(patrol_map, cfg.robot_radius)
-                   if p.navigation == "builtin" and p.global_planner else None)
-        # The strategy plans on the robot's speed and travel times (as in the physics runtime).
         self.robot = robot
-        self.plan_map = timed_map(patrol_map, robot, shared_planner(patrol_map, robot.radius_m))
-        lanes, one_way = lane_flags(p.lanes)
-        # the team's lane layer, as in the physics runtime (docs/LANES.md); one-way lanes
-        # direct the plan's graph
-        layer = lane_layer(planner, patrol_map, self.plan_map, one_way) if lanes else None
-        if layer is not None:
-            self.plan_map = layer.plan_map
-        self.runtime = AgentRuntime(self.plan_map, policy, p.robot_index, p.robots, p.seed,
-                                    self.publish_team, self.publish_event, cfg,
-                                    p.heartbeat_period, p.waypoint_tolerance, planner,
-                                    teammate_timeout_s=p.teammate_timeout)
-        if layer is not None:  # the start's lane is held when the runtime begins
-            attach_lanes(self.runtime, layer.lane_map, None, layer.locked)
-            self.inbox.n_lanes = len(layer.lane_map.lanes)
-            rospy.loginfo(f"{self.name}: lanes {p.lanes}: {len(layer.lane_map.lanes)} lane(s)"
-                          + (f", {len(layer.orientation.chains)} one-way" if layer.orientation
-                             else ""))
+        self.runtime, self.plan_map, lanes = agent_runtime(
+            p, patrol_map, robot, REGISTRY.create(p.strategy, p.strategy_params),
+            self.publish_team, self.publish_event)
+        if lanes is not None:  # LaneClaim messages are checked against the team's lanes
+            self.inbox.n_lanes = len(lanes.lane_map.lanes)
+            rospy.loginfo(f"{self.name}: lanes {p.lanes}: {lanes.describe()}")
         self.liveness = self.runtime.machine.liveness  # the machine's (RobotMachine.hear)
         self.runtime.on_stuck = self.report_stuck
         # [m] laser points farther from the base than this cannot matter to the controller

@@ -1,5 +1,6 @@
 """What the patrol_agent node builds from its parameters (ROS-free): the checks across
-parameters, the robot model, the local controller's configuration and the odometry origin."""
+parameters, the robot model, the local controller's configuration, the AgentRuntime with its
+plan map and lane layer, and the odometry origin."""
 
 from __future__ import annotations
 
@@ -9,7 +10,9 @@ from dataclasses import replace
 from tpuaf.maps import start_vertices
 from tpuaf.navigation import ControllerConfig, retry_wait_for
 from tpuaf.params import LANE_MODES, AgentParams, NodeParamError
+from tpuaf.robot.lanes import LaneLayer, attach_lanes, lane_flags, lane_layer
 from tpuaf.robot.model import RobotChoiceError, RobotModel, choose_robot
+from tpuaf.runtimes.agent import AgentRuntime
 
 LOCALIZATIONS = ("tf", "odom", "ground_truth", "amcl")
 NAVIGATIONS = ("builtin", "move_base")
@@ -49,6 +52,31 @@ def check_agent_params(p: AgentParams, sim: bool) -> None:
     if p.lanes != LANE_MODES[0] and not (p.navigation == "builtin" and p.global_planner):
         raise NodeParamError(f"~lanes {p.lanes} needs ~navigation builtin with ~global_planner "
                              "true (lanes are found on the planned paths)")
+
+
+def agent_runtime(p: AgentParams, patrol_map, robot: RobotModel, policy, publish_team,
+                  publish_event) -> tuple[AgentRuntime, object, LaneLayer | None]:
+    """(runtime, plan map, lane layer or None) of this robot, as the physics runtime builds
+    them: built-in navigation plans on the map's occupancy grid; the strategy plans on the
+    robot's speed and travel times, along the one-way lanes (~lanes one_way); the lane layer
+    holds the start's lane when the runtime begins."""
+    from tpuaf.navigation.planner import shared_planner
+    from tpuaf.navigation.travel_time import timed_map
+
+    cfg = agent_controller(p, robot)
+    planner = (shared_planner(patrol_map, cfg.robot_radius)
+               if p.navigation == "builtin" and p.global_planner else None)
+    plan_map = timed_map(patrol_map, robot, shared_planner(patrol_map, robot.radius_m))
+    lanes, one_way = lane_flags(p.lanes)
+    layer = lane_layer(planner, patrol_map, plan_map, one_way) if lanes else None
+    if layer is not None:
+        plan_map = layer.plan_map
+    runtime = AgentRuntime(plan_map, policy, p.robot_index, p.robots, p.seed, publish_team,
+                           publish_event, cfg, p.heartbeat_period, p.waypoint_tolerance,
+                           planner, teammate_timeout_s=p.teammate_timeout)
+    if layer is not None:
+        attach_lanes(runtime, layer.lane_map, None, layer.locked)
+    return runtime, plan_map, layer
 
 
 def agent_controller(p: AgentParams, robot: RobotModel) -> ControllerConfig:
