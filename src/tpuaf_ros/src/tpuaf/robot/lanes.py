@@ -52,12 +52,15 @@ class LaneLayer:
         return f"{len(self.lane_map.lanes)} lane(s){one_way}"
 
 
-def lane_layer(planner: Any, world_map: Any, plan_map: Any, one_way: bool) -> LaneLayer:
+def lane_layer(planner: Any, world_map: Any, plan_map: Any, one_way: bool) -> LaneLayer | None:
     """The lane layer of every runtime (physics, ROS agents): the lanes of `world_map` for the
-    footprint of `planner` (maybe none), oriented when `one_way`. Every robot of one model
-    computes the same lanes (their indices are shared in LaneClaim)."""
+    footprint of `planner`, oriented when `one_way`; None when the map has no lane (the run is
+    then the run without the layer). Every robot of one model computes the same lanes (their
+    indices are shared in LaneClaim)."""
     lane_map = find_lanes(planner, world_map)
-    orientation = orient_lanes(lane_map, plan_map) if one_way and lane_map.lanes else None
+    if not lane_map.lanes:
+        return None
+    orientation = orient_lanes(lane_map, plan_map) if one_way else None
     if orientation is not None and orientation.chains:
         plan_map = replace(plan_map, one_way=tuple(orientation.arcs))
     return LaneLayer(lane_map, orientation, plan_map)
