@@ -222,3 +222,37 @@ def test_a_robot_follows_only_in_one_way_lanes_along_their_leg():
     assert one_way.may_start(9, 8, 0.0) and locks.mine.lane < 0  # no lock asked
     all_locked = LaneAccess(lanes, LaneLocks(1, lambda claim: None, lambda robot: False))
     assert not all_locked.one_way and not all_locked.follows(9, 8, middle_aisle)
+
+
+def test_the_graph_runtime_drives_one_way_lanes_their_way(tmp_path, capsys):
+    """`--lanes one_way` in the graph runtime (the promise): routes follow the same orientation
+    as in physics; both ways are driven without it."""
+    from tpuaf.cli import main
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import make_run
+
+    pm = load_map(str(ring_of_aisles(tmp_path / "ring")))
+
+    def legs(one_way: bool) -> tuple[set, set, dict]:
+        run = make_run(RunConfig(map=pm.name, strategy="rand", robots=2, seed=2,
+                                 duration_s=600.0, robot="burger", one_way=one_way), pm)
+        summary = run.run()
+        last: dict[int, int] = {}
+        seen = set()
+        for _, robot, vertex in run.recorder.visits:
+            if robot in last and last[robot] != vertex:
+                seen.add((last[robot], vertex))
+            last[robot] = vertex
+        return seen, (set(run.lanes.plan_map.one_way) if run.lanes else set()), summary
+
+    lane_edges = {(0, 1), (1, 2), (2, 3), (0, 3)}
+    two_way, _, _ = legs(False)
+    assert {(b, a) for a, b in two_way} & two_way & {*lane_edges, *((b, a) for a, b in lane_edges)}
+    one_way, arcs, summary = legs(True)
+    assert len(arcs) == 4 and summary["one_way_lanes"] == 2
+    driven = {leg for leg in one_way if (min(leg), max(leg)) in lane_edges}
+    assert driven and driven <= arcs
+    # the CLI: one_way in the graph runtime, locks refused (exit 2, one line)
+    assert main(["run", "--map", str(tmp_path / "ring"), "--robots", "2", "--duration", "60",
+                 "--lanes", "one_way", "--quiet"]) == 0
+    capsys.readouterr()

@@ -226,7 +226,8 @@ def add_runtime_arguments(p: argparse.ArgumentParser) -> None:
                    help="K robots die at seeded random times in [duration/10, duration/2]")
     p.add_argument("--stall", action="append", default=[], metavar="ROBOT@TIME",
                    help="robot ROBOT stops moving at TIME [s] but keeps talking (repeatable)")
-    add_lanes(p, "physics runtime; the graph runtime models no widths")
+    add_lanes(p, "one_way in every runtime; locks in physics only: the graph runtime models no "
+                 "widths")
 
 
 def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
@@ -249,9 +250,10 @@ def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
 
         kwargs["lanes"], kwargs["one_way"] = lane_flags(lanes)
         return PhysicsRun(PhysicsConfig(**kwargs), patrol_map)
-    if lanes != "off":
-        raise CliError(f"--lanes {lanes} needs --runtime physics: the graph runtime drives "
-                       "edges without widths, so no lane is ever shared (docs/LANES.md)")
+    if lanes == "locks":
+        raise CliError("--lanes locks needs --runtime physics: the graph runtime drives edges "
+                       "without widths, so no lane is shared there (one_way runs in both)")
+    kwargs["one_way"] = lanes == "one_way"
     from tpuaf.runtimes.config import RunConfig
     from tpuaf.runtimes.graph import make_run
 
@@ -294,7 +296,9 @@ def format_summary(summary: dict) -> str:
         ("visits", "visits", ""),
         ("complete patrol cycles", "complete_cycles", ""),
     ]
-    if "lane_waits" in summary:  # a run with the lane layer (physics --lanes, a fleet)
+    if "one_way_lanes" in summary:  # --lanes one_way
+        rows.append(("lanes driven one way", "one_way_lanes", ""))
+    if "lane_waits" in summary:  # a run with lane locks (physics --lanes, a fleet)
         rows += [("lane waits", "lane_waits", ""), ("lane wait time", "lane_wait_s", "s")]
     width = max(len(r[0]) for r in rows)
     lines = []

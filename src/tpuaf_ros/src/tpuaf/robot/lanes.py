@@ -45,10 +45,14 @@ class LaneLayer:
         """The lanes entered holding a lock (None: all)."""
         return self.orientation.locked if self.orientation is not None else None
 
+    @property
+    def one_way_count(self) -> int:
+        """The lanes driven one way."""
+        return len(self.orientation.chains) if self.orientation is not None else 0
+
     def describe(self) -> str:
         """'K lane(s)[, M one-way]'."""
-        one_way = (f", {len(self.orientation.chains)} one-way" if self.orientation is not None
-                   else "")
+        one_way = f", {self.one_way_count} one-way" if self.orientation is not None else ""
         return f"{len(self.lane_map.lanes)} lane(s){one_way}"
 
 

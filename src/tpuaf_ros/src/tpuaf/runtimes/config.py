@@ -83,6 +83,10 @@ class RunConfig:
     # Overrides of the map's settings (tpuaf.maps.params.USER_PARAMS; `--map-param`), e.g.
     # {"sensing_radius": 2.0} [m]; {} = the map's own.
     map_params: dict[str, Any] = field(default_factory=dict)
+    # The lanes one robot wide (for the run's robot, docs/LANES.md) that lie on cycles are
+    # driven one way: routes, strategies and travel times follow their arcs (`--lanes one_way`;
+    # the physics runtime also needs `lanes`). The graph runtime models no lane locks.
+    one_way: bool = False
 
     def resolved_travel(self) -> str:
         return self.travel or ("timed" if self.robot is not None else "declared")
@@ -112,6 +116,9 @@ class RunConfig:
             raise ConfigError(str(err)) from None
         if self.travel is not None and self.travel not in TRAVELS:
             raise ConfigError(f"travel must be one of {', '.join(TRAVELS)}, got {self.travel!r}")
+        if self.one_way and self.strategy in UNDIRECTED_TOUR_STRATEGIES:
+            raise ConfigError(f"one_way does not support strategy {self.strategy} yet: its tour "
+                              "search assumes two-way edges (docs/LANES.md)")
         self.faults()
 
     def faults(self) -> list[Fault]:
@@ -161,9 +168,7 @@ class PhysicsConfig(RunConfig):
     control_period_s: float = CONTROL_PERIOD_S
     planner: bool = True  # navigator on planned paths (False: straight edges, as before)
     lanes: bool = False  # lane locks where the map is one robot wide (docs/LANES.md; opt-in)
-    # with lanes: the lanes on cycles driven one way (navigation/one_way.py), only the others
-    # (bridges) locked
-    one_way: bool = False
+    # with lanes and one_way: the lanes on cycles driven one way, only the others (bridges) locked
 
     def validate(self) -> None:
         if self.robot is None:
@@ -175,9 +180,6 @@ class PhysicsConfig(RunConfig):
                 raise ConfigError(f"{name} must be a finite number > 0 s, got {value!r}")
         if self.one_way and not self.lanes:
             raise ConfigError("one_way needs lanes (one-way lanes are a mode of the lane layer)")
-        if self.one_way and self.strategy in UNDIRECTED_TOUR_STRATEGIES:
-            raise ConfigError(f"one_way does not support strategy {self.strategy} yet: its tour "
-                              "search assumes two-way edges (docs/LANES.md)")
         ratio = self.control_period_s / self.physics_step_s
         if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
             raise ConfigError(f"control_period_s ({self.control_period_s:g}) must be a whole "

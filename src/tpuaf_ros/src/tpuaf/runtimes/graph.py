@@ -49,6 +49,17 @@ def _rng_stream(seed: int, *key: int):
     return tpuaf_core.NumpyPcg64(np.random.default_rng([seed, *key]).bit_generator.state)
 
 
+def one_way_layer(source_map, plan_map, robot):
+    """The lane layer with one-way lanes of `source_map` (the geometry) for the footprint of
+    `robot` (None: the map's preset), oriented on `plan_map`'s travel; None without lanes."""
+    from tpuaf.navigation.planner import shared_planner
+    from tpuaf.robot.lanes import lane_layer
+    from tpuaf.robot.model import AUTO, choose_robot
+
+    body = robot or choose_robot(AUTO, source_map.settings)
+    return lane_layer(shared_planner(source_map, body.radius_m), source_map, plan_map, True)
+
+
 def make_run(config: RunConfig, patrol_map=None):
     """The graph runtime's run of `config` (the C++ event loop)."""
     config.validate()
@@ -220,6 +231,11 @@ class GraphRun:
             config.map, params=config.map_params, params_origin="map_params")
         self.robot = run_robot(config, self.source_map)  # None: the map's nominal figures
         self.patrol_map = travel_map(config, self.source_map, self.robot)
+        self.lanes = None  # robot/lanes.py LaneLayer with config.one_way
+        if config.one_way:  # routes follow the one-way lanes, as in physics (no locks here)
+            self.lanes = one_way_layer(self.source_map, self.patrol_map, self.robot)
+            if self.lanes is not None:
+                self.patrol_map = self.lanes.plan_map
         self.graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
         s = self.patrol_map.settings
         self.speed = float(s.nominal_speed)
@@ -316,6 +332,9 @@ class GraphRun:
         summary = self.recorder.summary(self.now)
         summary["messages"] = asdict(self.bus.stats)
         summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
+        if self.lanes is not None:
+            summary["lanes"] = len(self.lanes.lane_map.lanes)
+            summary["one_way_lanes"] = self.lanes.one_way_count
         if self.faults:
             died_at = {int(robot): float(t) for t, robot in self.recorder.deaths}
             summary["liveness"] = liveness_summary(
