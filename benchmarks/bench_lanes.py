@@ -1,4 +1,5 @@
-"""What the lane layer changes: lab, TurtleBot3 Burgers, physics runtime, N = 1-4, three modes.
+"""What the lane layer changes: lab, TurtleBot3 Burgers, physics runtime, N = 1-4, three modes
+(another map and robot: --map, --robot).
 
 For TPUAF and tpuaf_plus, the same seeds with lanes off, with lane locks on every lane, and
 with one-way lanes (lanes on cycles driven one way, the others locked; docs/LANES.md): the
@@ -8,6 +9,7 @@ visits of one robot in the last quarter of the run (0: a robot stopped visiting)
 
     .venv/bin/python benchmarks/bench_lanes.py [--duration 600] [--seeds 2] [--workers 2]
         [--modes off,locks,one_way] [--strategies tpuaf,tpuaf_plus] [--teams 1,2,3,4]
+        [--map lab] [--robot burger] [--out lanes]
 
 Writes benchmarks/results/lanes.md.
 """
@@ -33,16 +35,16 @@ SETTINGS = {"off": (False, False), "locks": (True, False), "one_way": (True, Tru
 KEYS = ("ins", "x", "visits", "failures", "give_ways", "waits", "wait_s", "late_min")
 
 
-def one(case: tuple[str, int, int, float, str]) -> tuple[tuple, dict]:
+def one(case: tuple[str, int, int, float, str, str, str]) -> tuple[tuple, dict]:
     from tpuaf.runtimes.config import PhysicsConfig
     from tpuaf.runtimes.physics import PhysicsRun
     from tpuaf.topics import REACHED
 
-    strategy, n, seed, duration, mode = case
+    strategy, n, seed, duration, mode, map_ref, robot = case
     lanes, one_way = SETTINGS[mode]
     late: dict[int, int] = dict.fromkeys(range(n), 0)  # visits per robot in the last quarter
-    run = PhysicsRun(PhysicsConfig(map="lab", strategy=strategy, robots=n, duration_s=duration,
-                                   seed=seed, robot="burger", lanes=lanes, one_way=one_way))
+    run = PhysicsRun(PhysicsConfig(map=map_ref, strategy=strategy, robots=n, duration_s=duration,
+                                   seed=seed, robot=robot, lanes=lanes, one_way=one_way))
     for i in range(n):
         listener = run.agents[i]._publish_event
 
@@ -68,6 +70,8 @@ def main() -> int:
     ap.add_argument("--modes", default=",".join(MODES))
     ap.add_argument("--strategies", default=",".join(STRATEGIES))
     ap.add_argument("--teams", default=",".join(map(str, TEAMS)))
+    ap.add_argument("--map", default="lab", help="map name or folder")
+    ap.add_argument("--robot", default="burger", help="robot preset (auto: the map's)")
     ap.add_argument("--out", default="lanes", help="results file stem (benchmarks/results/)")
     args = ap.parse_args()
     modes = args.modes.split(",")
@@ -83,24 +87,28 @@ def main() -> int:
     def runs(s, mode):  # one-way lanes refuse strategies with a two-way tour search
         return not (mode == "one_way" and s in UNDIRECTED_TOUR_STRATEGIES)
 
-    cases = [(s, n, seed, args.duration, mode) for s in strategies for n in teams
-             for seed in seeds for mode in modes if runs(s, mode)]
+    cases = [(s, n, seed, args.duration, mode, args.map, args.robot) for s in strategies
+             for n in teams for seed in seeds for mode in modes if runs(s, mode)]
     start = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
         results = dict(pool.map(one, cases))
     wall = time.perf_counter() - start
 
     def med(s, n, mode, key):
-        return statistics.median(results[(s, n, seed, args.duration, mode)][key]
-                                 for seed in seeds)
+        return statistics.median(results[(s, n, seed, args.duration, mode, args.map,
+                                          args.robot)][key] for seed in seeds)
 
+    where = "" if (args.map, args.robot) == ("lab", "burger") else (
+        f" --map {args.map} --robot {args.robot}")
     command = (f"`.venv/bin/python benchmarks/bench_lanes.py --duration {args.duration:g} "
                f"--seeds {args.seeds} --modes {args.modes} --strategies {args.strategies} "
-               f"--teams {args.teams}`")
-    lines = [header("Lanes on the lab: physics, Burgers, lanes off / locks / one-way"),
+               f"--teams {args.teams}{where} --out {args.out}`")
+    map_name = Path(args.map).name
+    lines = [header(f"Lanes on {map_name}: physics, robot {args.robot}, lanes "
+                    + " / ".join(modes)),
              f"{args.duration:g} s per run, seeds 1-{args.seeds}, medians; wall {wall:.0f} s "
              f"with {args.workers} workers, load average {os.getloadavg()[0]:.1f}. Runs: "
-             "`tpuaf run --runtime physics --map lab --robot burger` (PhysicsConfig lanes, "
+             f"`tpuaf run --runtime physics --map {map_name} --robot {args.robot}` (PhysicsConfig lanes, "
              f"one_way). Command: {command}. Last-quarter visits: the fewest visits of one "
              "robot in the run's last quarter, lowest over the seeds (0: a robot stopped).\n",
              "| strategy | N | lanes | I_ins [s] | X | visits | goal failures | give-ways | "
@@ -110,15 +118,20 @@ def main() -> int:
         for n in teams:
             for mode in (m for m in modes if runs(s, m)):
                 v = {k: med(s, n, mode, k) for k in KEYS}
-                low = min(results[(s, n, seed, args.duration, mode)]["late_min"]
-                          for seed in seeds)
+                low = min(results[(s, n, seed, args.duration, mode, args.map,
+                                   args.robot)]["late_min"] for seed in seeds)
                 lines.append(f"| {s} | {n} | {mode} | {v['ins']:.1f} | {v['x']:.3f} | "
                              f"{v['visits']:.0f} | {v['failures']:.0f} | {v['give_ways']:.0f} | "
                              f"{v['waits']:.0f} | {v['wait_s']:.0f} | {low} |")
     verdicts = []
     for s in strategies:
         for mode in (m for m in modes if runs(s, m)):
-            for key, name, unit in (("ins", "I_ins", " s"), ("x", "X", "")):
+            lows = [results[c]["late_min"] for c in cases if c[0] == s and c[4] == mode]
+            verdicts.append(f"- {s}, lanes {mode}: every robot of every run visits in the last "
+                            f"quarter (no deadlock): **{'yes' if min(lows) > 0 else 'no'}** "
+                            f"({sum(low > 0 for low in lows)} of {len(lows)} runs)")
+            for key, name, unit in (("ins", "I_ins", " s"), ("x", "X", "")) if len(teams) > 1 \
+                    else ():
                 row = [med(s, n, mode, key) for n in teams]
                 falls = all(b < a for a, b in zip(row, row[1:], strict=False))
                 verdicts.append(f"- {s}, lanes {mode}: {name} falls at every step of N: "
