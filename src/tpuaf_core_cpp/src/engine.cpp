@@ -161,9 +161,8 @@ void GraphEngine::deliver_batch_by_robot() {
         ++c;
       }
       const TeamMessage& message = message_of(d);
-      if (faults) {  // deliver_heard's steps (hear cannot bring a teammate back here)
-        if (!protocols_[static_cast<std::size_t>(r)].alive()) continue;
-        hear(r, message.robot, now_);
+      if (faults) {  // the team's delivery (no sender is lost: nobody's check moves)
+        if (!team_->deliver_to(r, message.robot, now_)) continue;
         bus_.count_delivered(1);
       }
       strategy_->on_message(*this, r, message);
@@ -179,20 +178,12 @@ void GraphEngine::deliver_batch_by_robot() {
 }
 
 void GraphEngine::deliver_heard() {
-  // TeamRun._deliver_heard: message by message, each live recipient first hears its sender
-  // (liveness; a teammate back from lost moves its checks), then gets the message.
-  while (!bus_.ready().empty()) {
-    const BusDelivery d = bus_.pop_ready();
-    const TeamMessage& message = message_of(d);
-    const int sender = message.robot;
-    d.for_each_recipient(config_.robots, [&](int r) {
-      if (!protocols_[static_cast<std::size_t>(r)].alive()) return;
-      if (hear(r, sender, now_)) plan_liveness(r);
-      strategy_->on_message(*this, r, message);
-      bus_.count_delivered(1);
-    });
-    free_message(d.message);
-  }
+  // The team's rule (TeamLiveness::deliver_ready): message by message, each live recipient first
+  // hears its sender (a teammate back from lost moves its check), then gets the message.
+  team_->deliver_ready(
+      now_, [this](const BusDelivery& d) { return message_of(d).robot; },
+      [this](int r, const BusDelivery& d) { strategy_->on_message(*this, r, message_of(d)); },
+      [this](const BusDelivery& d) { free_message(d.message); });
 }
 
 void GraphEngine::deliver_ready() {
@@ -204,8 +195,7 @@ void GraphEngine::deliver_ready() {
     bool batch = ready.size() > 1 && strategy_->messages_are_local();
     for (std::size_t k = 0; batch && k < ready.size(); ++k) {
       const int sender = message_of(ready[k]).robot;
-      batch =
-          sender < 0 || sender >= config_.robots || lost_by_[static_cast<std::size_t>(sender)] == 0;
+      batch = sender < 0 || sender >= config_.robots || team_->lost_by(sender) == 0;
     }
     if (batch) {
       deliver_batch_by_robot();
@@ -365,9 +355,7 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
     protocol_of(i).decide();
     deliver_ready();
   }
-  if (links_) {
-    for (int i = 0; i < n; ++i) plan_liveness(i);
-  }
+  if (team_) team_->start(now_);
   double next_progress = 0.0;
   auto next_wall = std::chrono::steady_clock::now() + std::chrono::milliseconds(100);
   for (;;) {
@@ -393,13 +381,12 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
     } else if (ev.kind == kWake) {
       protocol_of(ev.payload).on_wake();
     } else if (ev.kind == kFault) {
-      inject(faults_[static_cast<std::size_t>(ev.payload)]);
+      const EngineFault& f = faults_[static_cast<std::size_t>(ev.payload)];
+      team_->inject(f.robot, f.death, now_);
     } else if (ev.kind == kGiveUp) {
       if (robots_[static_cast<std::size_t>(ev.payload)].pending == ev.seq) give_up(ev.payload);
     } else if (ev.kind == kLiveness) {
-      if (robots_[static_cast<std::size_t>(ev.payload)].liveness == ev.seq) {
-        liveness_due(ev.payload);
-      }
+      team_->check_due(ev.payload, ev.seq, now_);
     }
     deliver_ready();
     // Every 1/200 of the run, and every 0.1 s of wall time (looked at every 256 events): a

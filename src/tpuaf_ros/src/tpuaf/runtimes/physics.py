@@ -191,7 +191,7 @@ class PhysicsRun(TeamRun):
                 if self.lane_access:
                     self.lane_access[i].tick(t)
                 commands[i] = a.tick(t, points[i], scan_rows[i])
-                if self.bus.ready:
+                if self.bus.has_ready:
                     self.deliver_ready()
             if stopped.any():
                 commands[stopped] = 0.0
