@@ -74,7 +74,7 @@ void tpuaf::bindings::bind_robot_protocol(py::module_& m) {
                 "RobotMachine: its `driver` moves the robot, its hooks run the policy.")
       .def(py::init([](py::handle machine, const Points& positions, int robot, int robots,
                        double stay_s, double retry_s, double teammate_timeout_s,
-                       double visit_radius_m) {
+                       double visit_radius_m, double goal_tolerance_m) {
              ProtocolConfig c;
              c.robot = robot;
              c.robots = robots;
@@ -82,11 +82,12 @@ void tpuaf::bindings::bind_robot_protocol(py::module_& m) {
              c.retry_s = retry_s;
              c.teammate_timeout_s = teammate_timeout_s;
              c.visit_radius_m = visit_radius_m;
+             c.goal_tolerance_m = goal_tolerance_m;
              return new P(machine, positions, c);
            }),
            py::arg("machine"), py::arg("positions"), py::arg("robot"), py::arg("robots"),
            py::arg("stay_s"), py::arg("retry_s"), py::arg("teammate_timeout_s"),
-           py::arg("visit_radius_m"))
+           py::arg("visit_radius_m"), py::arg("goal_tolerance_m") = kDefaultGoalToleranceM)
       .def("place", &P::place, py::arg("vertex"))
       .def("start", &P::start)
       .def("decide", &P::decide)
@@ -94,6 +95,10 @@ void tpuaf::bindings::bind_robot_protocol(py::module_& m) {
       .def("on_vertex", &P::on_vertex, py::arg("vertex"), py::arg("at_goal"))
       .def("on_goal_failed", &P::on_goal_failed, py::arg("vertex"), py::arg("nearest_vertex"))
       .def("observe", &P::observe, py::arg("x"), py::arg("y"))
+      .def("within_goal_tolerance", &P::within_goal_tolerance, py::arg("vertex"),
+           "Is the robot within the goal tolerance [m] of `vertex` (it dwells rather than drive)?")
+      .def("nearest_vertex", &P::nearest_vertex, py::arg("x"), py::arg("y"),
+           "The vertex nearest (x, y) [m] (the first on ties).")
       .def("hear", &P::hear, py::arg("robot"), py::arg("t"))
       .def("check_liveness", &P::check_liveness, py::arg("now"))
       .def("on_teammate_lost", &P::on_teammate_lost, py::arg("robot"))

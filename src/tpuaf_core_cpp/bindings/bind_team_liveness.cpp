@@ -50,8 +50,8 @@ void tpuaf::bindings::bind_team_liveness(py::module_& m) {
                            "(team_liveness.hpp): heartbeats, each robot's pending liveness "
                            "check, the losses, a fault's steps, and delivery that feeds "
                            "liveness; the graph loop's too.")
-      .def(py::init([](const std::vector<bindings::PythonDrivenProtocol*>& machines,
-                       TeamBus& bus, GroundTruthRecorder& recorder, const HeartbeatLinks& links,
+      .def(py::init([](const std::vector<bindings::PythonDrivenProtocol*>& machines, TeamBus& bus,
+                       GroundTruthRecorder& recorder, const HeartbeatLinks& links,
                        py::handle runtime) {
              std::vector<RobotProtocol*> protocols(machines.begin(), machines.end());
              return new TeamLiveness(std::move(protocols), bus, recorder, links,
@@ -60,7 +60,8 @@ void tpuaf::bindings::bind_team_liveness(py::module_& m) {
            py::arg("protocols"), py::arg("bus"), py::arg("recorder"), py::arg("links"),
            py::arg("runtime"), py::keep_alive<1, 2>(), py::keep_alive<1, 3>(),
            py::keep_alive<1, 4>())
-      .def_property_readonly("links", &TeamLiveness::links, py::return_value_policy::reference_internal)
+      .def_property_readonly("links", &TeamLiveness::links,
+                             py::return_value_policy::reference_internal)
       .def_property_readonly("robots", &TeamLiveness::robots)
       .def("start", &TeamLiveness::start, py::arg("now"))
       .def("inject", &TeamLiveness::inject, py::arg("robot"), py::arg("death"), py::arg("now"))
@@ -82,7 +83,8 @@ void tpuaf::bindings::bind_team_liveness(py::module_& m) {
           "first: sender_of(id) -> robot, deliver(recipient, id), done(id).")
       .def_property_readonly("losses", [](const TeamLiveness& team) {
         py::list out;  // (t [s], observer, lost teammate)
-        for (const auto& l : team.losses()) out.append(py::make_tuple(l.time_s, l.observer, l.lost));
+        for (const auto& l : team.losses())
+          out.append(py::make_tuple(l.time_s, l.observer, l.lost));
         return out;
       });
 }

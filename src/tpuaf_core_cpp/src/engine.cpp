@@ -41,6 +41,7 @@ GraphEngine::GraphEngine(const PatrolGraph& graph, Points positions, EngineConfi
   pc.retry_s = config_.retry_s;
   pc.teammate_timeout_s = config_.teammate_timeout_s;
   pc.visit_radius_m = config_.visit_radius_m;
+  pc.goal_tolerance_m = config_.goal_tolerance_m;
   for (int i = 0; i < n; ++i) {
     Robot& r = robots_[static_cast<std::size_t>(i)];
     const int v = config_.start_vertices[static_cast<std::size_t>(i)];
@@ -271,25 +272,8 @@ void GraphEngine::dwell(int robot, int vertex, double /*duration_s*/) {
 bool GraphEngine::at_vertex(int robot, int vertex) const {
   // A robot that can move stands exactly on its vertex between drives; a stalled one may have
   // stopped anywhere.
-  if (!protocols_[static_cast<std::size_t>(robot)].stalled()) return true;
-  double x, y;
-  position(robot, now_, x, y);
-  return std::hypot(x - positions_(vertex, 0), y - positions_(vertex, 1)) <=
-         config_.goal_tolerance_m;
-}
-
-int GraphEngine::nearest_vertex(double x, double y) const {
-  // PatrolMap.nearest_vertex: argmin of np.hypot (the first on ties).
-  int best = 0;
-  double best_d = std::hypot(positions_(0, 0) - x, positions_(0, 1) - y);
-  for (Eigen::Index v = 1; v < positions_.rows(); ++v) {
-    const double d = std::hypot(positions_(v, 0) - x, positions_(v, 1) - y);
-    if (d < best_d) {
-      best_d = d;
-      best = static_cast<int>(v);
-    }
-  }
-  return best;
+  const RobotProtocol& p = protocols_[static_cast<std::size_t>(robot)];
+  return !p.stalled() || p.within_goal_tolerance(vertex);
 }
 
 void GraphEngine::move(int robot) {

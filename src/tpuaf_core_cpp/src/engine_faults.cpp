@@ -54,7 +54,7 @@ void GraphEngine::give_up(int robot) {
   if (goal < 0 || !p.alive()) return;
   double x, y;
   position(robot, now_, x, y);
-  p.on_goal_failed(goal, nearest_vertex(x, y));
+  p.on_goal_failed(goal, p.nearest_vertex(x, y));
 }
 
 void GraphEngine::freeze(int robot) {

@@ -51,9 +51,9 @@ struct Team {
   Points positions = three_vertices();
   std::vector<RobotProtocol> protocols;
   TeamBus bus{3, 0.0, 0.0, NumpyPcg64(0, 0, 0, 1)};
-  GroundTruthRecorder recorder{three_robots(),
-                               UncertaintyField(three_vertices(), Eigen::VectorXd::Constant(3, 0.01),
-                                                Eigen::VectorXd::Ones(3))};
+  GroundTruthRecorder recorder{
+      three_robots(), UncertaintyField(three_vertices(), Eigen::VectorXd::Constant(3, 0.01),
+                                       Eigen::VectorXd::Ones(3))};
   std::vector<std::string> log;
   std::priority_queue<Check, std::vector<Check>, std::greater<Check>> checks;
   std::uint64_t tokens = 0;

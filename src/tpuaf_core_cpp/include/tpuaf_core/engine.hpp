@@ -121,7 +121,6 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
   void give_up(int robot);
   void freeze(int robot);
   void after_stall(int robot);
-  int nearest_vertex(double x, double y) const;
   void deliver_batch_by_robot();
   const TeamMessage& message_of(const BusDelivery& d) const {
     return messages_[static_cast<std::size_t>(d.message)];

@@ -217,7 +217,7 @@ class AgentRuntime:
             return m.started
         self._now = max(self._now, float(t))
         x, y, _ = self._pose
-        m.place(m.patrol_map.nearest_vertex(x, y))
+        m.place(m.nearest_vertex(x, y))
         m.start()
         self._decide_pending = True
         return True
@@ -277,7 +277,7 @@ class AgentRuntime:
                 m.on_vertex(vertex, True)
                 continue
             elif event == Event.FAILED:
-                m.on_goal_failed(vertex, m.patrol_map.nearest_vertex(*self.position))
+                m.on_goal_failed(vertex, m.nearest_vertex(*self.position))
                 return 0.0, 0.0
             break
         else:
