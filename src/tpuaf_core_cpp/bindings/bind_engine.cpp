@@ -353,6 +353,11 @@ py::class_<GraphEngine> wrap_engine(py::module_& m) {
           },
           py::arg("times_s"), py::arg("robots"), py::arg("deaths"), py::arg("heartbeat_rngs"),
           "The run's faults in time order (death or stall) and the heartbeat streams.")
+      .def_property_readonly(
+          "team", [](const GraphEngine& e) { return e.team(); },
+          py::return_value_policy::reference_internal,
+          "The team's liveness and fault steps (TeamLiveness, the physics runtime's too); "
+          "None without faults.")
       .def("alive", &GraphEngine::alive, py::arg("robot"))
       .def("stalled", &GraphEngine::stalled, py::arg("robot"))
       .def_property_readonly("losses",

@@ -8,75 +8,13 @@
 #include <utility>
 
 #include "bindings.hpp"
+#include "python_protocol.hpp"
 #include "tpuaf_core/robot_protocol.hpp"
 
 namespace py = pybind11;
 using namespace tpuaf;
 
 namespace {
-
-// The RobotDriver of a Python RobotMachine: the motion and clock of `machine.driver` (the
-// tpuaf.robot.machine.RobotDriver protocol) and the policy hooks and events of the machine.
-// A weak reference: the machine owns the protocol (and keeps its driver); a protocol outliving its
-// machine refuses to call back (no reference cycle that the garbage collector cannot see).
-class PythonDriver : public RobotDriver {
- public:
-  explicit PythonDriver(py::handle machine) : machine_ref_(machine) {}
-  double now() const override { return driver().attr("now").cast<double>(); }
-  void position(int robot, double& x, double& y) const override {
-    auto p = driver().attr("position_of")(robot).cast<std::pair<double, double>>();
-    x = p.first;
-    y = p.second;
-  }
-  bool at_vertex(int /*robot*/, int vertex) const override {
-    return machine().attr("at_vertex")(vertex).cast<bool>();
-  }
-  void schedule_wake(int robot, double time_s) override {
-    driver().attr("schedule_wake")(robot, time_s);
-  }
-  void drive(int robot, int from_vertex, int goal) override {
-    driver().attr("drive")(robot, from_vertex, goal);
-  }
-  void dwell(int robot, int vertex, double duration_s) override {
-    driver().attr("dwell")(robot, vertex, duration_s);
-  }
-  void halt(int robot) override { driver().attr("halt")(robot); }
-  void policy_start(int /*robot*/) override { machine().attr("_policy_start")(); }
-  int policy_decide(int /*robot*/) override {
-    py::object goal = machine().attr("_policy_decide")();
-    return goal.is_none() ? -1 : goal.cast<int>();
-  }
-  void policy_goal_failed(int /*robot*/, int vertex) override {
-    machine().attr("_policy_goal_failed")(vertex);
-  }
-  void policy_teammate_lost(int /*robot*/, int teammate) override {
-    machine().attr("_policy_teammate_lost")(teammate);
-  }
-  void emit(int /*robot*/, int kind, int vertex, int from_vertex, double t) override {
-    machine().attr("_emit_event")(kind, vertex, from_vertex, t);
-  }
-
- private:
-  py::object machine() const {
-    py::object m = machine_ref_();
-    if (m.is_none()) throw std::runtime_error("the RobotMachine of this RobotProtocol is gone");
-    return m;
-  }
-  py::object driver() const { return machine().attr("driver"); }
-  py::weakref machine_ref_;
-};
-
-// A protocol with its Python driver (the driver is built first: a base before the protocol).
-struct DriverHolder {
-  explicit DriverHolder(py::handle machine) : python_driver(machine) {}
-  PythonDriver python_driver;
-};
-
-class PythonDrivenProtocol : private DriverHolder, public RobotProtocol {
- public:
-  PythonDrivenProtocol(py::handle machine, const Points& positions, ProtocolConfig config)
-      : DriverHolder(machine), RobotProtocol(python_driver, positions, config) {}
-};
 
 void bind_liveness(py::module_& m) {
   py::class_<TeammateLiveness>(m, "TeammateLiveness",
@@ -130,13 +68,13 @@ void tpuaf::bindings::bind_robot_protocol(py::module_& m) {
   events.attr("REACHED") = robot_event::kReached;
   events.attr("FAILED") = robot_event::kFailed;
   events.attr("DWELL") = robot_event::kDwell;
-  using P = PythonDrivenProtocol;
+  using P = bindings::PythonDrivenProtocol;
   py::class_<P>(m, "RobotProtocol",
                 "One robot's patrol protocol (robot_protocol.hpp), driven by a Python "
                 "RobotMachine: its `driver` moves the robot, its hooks run the policy.")
       .def(py::init([](py::handle machine, const Points& positions, int robot, int robots,
                        double stay_s, double retry_s, double teammate_timeout_s,
-                       double visit_radius_m) {
+                       double visit_radius_m, double goal_tolerance_m) {
              ProtocolConfig c;
              c.robot = robot;
              c.robots = robots;
@@ -144,11 +82,12 @@ void tpuaf::bindings::bind_robot_protocol(py::module_& m) {
              c.retry_s = retry_s;
              c.teammate_timeout_s = teammate_timeout_s;
              c.visit_radius_m = visit_radius_m;
+             c.goal_tolerance_m = goal_tolerance_m;
              return new P(machine, positions, c);
            }),
            py::arg("machine"), py::arg("positions"), py::arg("robot"), py::arg("robots"),
            py::arg("stay_s"), py::arg("retry_s"), py::arg("teammate_timeout_s"),
-           py::arg("visit_radius_m"))
+           py::arg("visit_radius_m"), py::arg("goal_tolerance_m") = kDefaultGoalToleranceM)
       .def("place", &P::place, py::arg("vertex"))
       .def("start", &P::start)
       .def("decide", &P::decide)
@@ -156,6 +95,10 @@ void tpuaf::bindings::bind_robot_protocol(py::module_& m) {
       .def("on_vertex", &P::on_vertex, py::arg("vertex"), py::arg("at_goal"))
       .def("on_goal_failed", &P::on_goal_failed, py::arg("vertex"), py::arg("nearest_vertex"))
       .def("observe", &P::observe, py::arg("x"), py::arg("y"))
+      .def("within_goal_tolerance", &P::within_goal_tolerance, py::arg("vertex"),
+           "Is the robot within the goal tolerance [m] of `vertex` (it dwells rather than drive)?")
+      .def("nearest_vertex", &P::nearest_vertex, py::arg("x"), py::arg("y"),
+           "The vertex nearest (x, y) [m] (the first on ties).")
       .def("hear", &P::hear, py::arg("robot"), py::arg("t"))
       .def("check_liveness", &P::check_liveness, py::arg("now"))
       .def("on_teammate_lost", &P::on_teammate_lost, py::arg("robot"))

@@ -31,6 +31,9 @@ void tpuaf::bindings::bind_team_bus(py::module_& m) {
            "Broadcast message id `message` at now_s [s]; False when nobody is to receive it.")
       .def("next_due_s", &TeamBus::next_due_s, "[s] the next message in flight is due (+inf).")
       .def_property_readonly("in_flight", &TeamBus::in_flight)
+      .def_property_readonly(
+          "ready_count", [](const TeamBus& b) { return b.ready().size(); },
+          "Messages ready to deliver now.")
       .def("release_next", &TeamBus::release_next)
       .def("release_due", &TeamBus::release_due, py::arg("now_s"), py::arg("slack_s") = 1e-9)
       .def(

@@ -7,6 +7,9 @@ namespace py = pybind11;
 
 void tpuaf::bindings::bind_visit_rule(py::module_& m) {
   m.attr("DEFAULT_VISIT_RADIUS_M") = kDefaultVisitRadiusM;
+  m.attr("DEFAULT_GOAL_TOLERANCE_M") = kDefaultGoalToleranceM;
+  m.def("nearest_vertex", &nearest_vertex, py::arg("positions"), py::arg("x"), py::arg("y"),
+        "The vertex nearest (x, y) [m] (the first on ties: numpy's argmin of hypot).");
   m.attr("VISIT_REARM_FACTOR") = kRearmFactor;
   py::class_<VisitRule>(m, "VisitRule",
                         "The one definition of a visit (docs/RUNTIMES.md): an arrival within "

@@ -17,6 +17,7 @@ void bind_visit_rule(pybind11::module_& m);
 void bind_strategy(pybind11::module_& m);
 void bind_team_bus(pybind11::module_& m);
 void bind_robot_protocol(pybind11::module_& m);
+void bind_team_liveness(pybind11::module_& m);
 }  // namespace tpuaf::bindings
 
 namespace tpuaf {

@@ -18,4 +18,5 @@ PYBIND11_MODULE(_core, m) {
   tpuaf::bindings::bind_assignment(m);
   tpuaf::bindings::bind_visit_rule(m);
   tpuaf::bindings::bind_robot_protocol(m);
+  tpuaf::bindings::bind_team_liveness(m);
 }

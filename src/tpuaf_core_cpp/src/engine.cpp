@@ -41,6 +41,7 @@ GraphEngine::GraphEngine(const PatrolGraph& graph, Points positions, EngineConfi
   pc.retry_s = config_.retry_s;
   pc.teammate_timeout_s = config_.teammate_timeout_s;
   pc.visit_radius_m = config_.visit_radius_m;
+  pc.goal_tolerance_m = config_.goal_tolerance_m;
   for (int i = 0; i < n; ++i) {
     Robot& r = robots_[static_cast<std::size_t>(i)];
     const int v = config_.start_vertices[static_cast<std::size_t>(i)];
@@ -161,9 +162,8 @@ void GraphEngine::deliver_batch_by_robot() {
         ++c;
       }
       const TeamMessage& message = message_of(d);
-      if (faults) {  // deliver_heard's steps (hear cannot bring a teammate back here)
-        if (!protocols_[static_cast<std::size_t>(r)].alive()) continue;
-        hear(r, message.robot, now_);
+      if (faults) {  // the team's delivery (no sender is lost: nobody's check moves)
+        if (!team_->deliver_to(r, message.robot, now_)) continue;
         bus_.count_delivered(1);
       }
       strategy_->on_message(*this, r, message);
@@ -179,20 +179,12 @@ void GraphEngine::deliver_batch_by_robot() {
 }
 
 void GraphEngine::deliver_heard() {
-  // TeamRun._deliver_heard: message by message, each live recipient first hears its sender
-  // (liveness; a teammate back from lost moves its checks), then gets the message.
-  while (!bus_.ready().empty()) {
-    const BusDelivery d = bus_.pop_ready();
-    const TeamMessage& message = message_of(d);
-    const int sender = message.robot;
-    d.for_each_recipient(config_.robots, [&](int r) {
-      if (!protocols_[static_cast<std::size_t>(r)].alive()) return;
-      if (hear(r, sender, now_)) plan_liveness(r);
-      strategy_->on_message(*this, r, message);
-      bus_.count_delivered(1);
-    });
-    free_message(d.message);
-  }
+  // The team's rule (TeamLiveness::deliver_ready): message by message, each live recipient first
+  // hears its sender (a teammate back from lost moves its check), then gets the message.
+  team_->deliver_ready(
+      now_, [this](const BusDelivery& d) { return message_of(d).robot; },
+      [this](int r, const BusDelivery& d) { strategy_->on_message(*this, r, message_of(d)); },
+      [this](const BusDelivery& d) { free_message(d.message); });
 }
 
 void GraphEngine::deliver_ready() {
@@ -204,8 +196,7 @@ void GraphEngine::deliver_ready() {
     bool batch = ready.size() > 1 && strategy_->messages_are_local();
     for (std::size_t k = 0; batch && k < ready.size(); ++k) {
       const int sender = message_of(ready[k]).robot;
-      batch =
-          sender < 0 || sender >= config_.robots || lost_by_[static_cast<std::size_t>(sender)] == 0;
+      batch = sender < 0 || sender >= config_.robots || team_->lost_by(sender) == 0;
     }
     if (batch) {
       deliver_batch_by_robot();
@@ -281,25 +272,8 @@ void GraphEngine::dwell(int robot, int vertex, double /*duration_s*/) {
 bool GraphEngine::at_vertex(int robot, int vertex) const {
   // A robot that can move stands exactly on its vertex between drives; a stalled one may have
   // stopped anywhere.
-  if (!protocols_[static_cast<std::size_t>(robot)].stalled()) return true;
-  double x, y;
-  position(robot, now_, x, y);
-  return std::hypot(x - positions_(vertex, 0), y - positions_(vertex, 1)) <=
-         config_.goal_tolerance_m;
-}
-
-int GraphEngine::nearest_vertex(double x, double y) const {
-  // PatrolMap.nearest_vertex: argmin of np.hypot (the first on ties).
-  int best = 0;
-  double best_d = std::hypot(positions_(0, 0) - x, positions_(0, 1) - y);
-  for (Eigen::Index v = 1; v < positions_.rows(); ++v) {
-    const double d = std::hypot(positions_(v, 0) - x, positions_(v, 1) - y);
-    if (d < best_d) {
-      best_d = d;
-      best = static_cast<int>(v);
-    }
-  }
-  return best;
+  const RobotProtocol& p = protocols_[static_cast<std::size_t>(robot)];
+  return !p.stalled() || p.within_goal_tolerance(vertex);
 }
 
 void GraphEngine::move(int robot) {
@@ -365,9 +339,7 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
     protocol_of(i).decide();
     deliver_ready();
   }
-  if (links_) {
-    for (int i = 0; i < n; ++i) plan_liveness(i);
-  }
+  if (team_) team_->start(now_);
   double next_progress = 0.0;
   auto next_wall = std::chrono::steady_clock::now() + std::chrono::milliseconds(100);
   for (;;) {
@@ -393,13 +365,12 @@ void GraphEngine::run(const std::function<void(double)>& progress) {
     } else if (ev.kind == kWake) {
       protocol_of(ev.payload).on_wake();
     } else if (ev.kind == kFault) {
-      inject(faults_[static_cast<std::size_t>(ev.payload)]);
+      const EngineFault& f = faults_[static_cast<std::size_t>(ev.payload)];
+      team_->inject(f.robot, f.death, now_);
     } else if (ev.kind == kGiveUp) {
       if (robots_[static_cast<std::size_t>(ev.payload)].pending == ev.seq) give_up(ev.payload);
     } else if (ev.kind == kLiveness) {
-      if (robots_[static_cast<std::size_t>(ev.payload)].liveness == ev.seq) {
-        liveness_due(ev.payload);
-      }
+      team_->check_due(ev.payload, ev.seq, now_);
     }
     deliver_ready();
     // Every 1/200 of the run, and every 0.1 s of wall time (looked at every 256 events): a

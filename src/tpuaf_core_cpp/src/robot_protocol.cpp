@@ -63,6 +63,13 @@ void RobotProtocol::decide() {
   set_goal(goal);
 }
 
+bool RobotProtocol::within_goal_tolerance(int vertex) const {
+  check_vertex(vertex);
+  double x, y;
+  driver_.position(config_.robot, x, y);
+  return within_vertex(rule_.positions(), vertex, x, y, config_.goal_tolerance_m);
+}
+
 void RobotProtocol::set_goal(int goal) {
   goal_ = goal;
   const int here = current_;

@@ -31,7 +31,7 @@ void VisitRule::check(int vertex) const {
 }
 
 double VisitRule::distance(int vertex, double x, double y) const {
-  return std::hypot(x - positions_(vertex, 0), y - positions_(vertex, 1));
+  return vertex_distance(positions_, vertex, x, y);
 }
 
 void VisitRule::reset() {

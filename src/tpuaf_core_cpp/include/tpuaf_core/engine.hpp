@@ -23,6 +23,7 @@
 #include "tpuaf_core/strategies.hpp"
 #include "tpuaf_core/strategy.hpp"
 #include "tpuaf_core/team_bus.hpp"
+#include "tpuaf_core/team_liveness.hpp"
 #include "tpuaf_core/uncertainty.hpp"
 #include "tpuaf_core/visit_rule.hpp"
 
@@ -47,11 +48,10 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
   bool alive(int robot) const { return protocol(robot).alive(); }
   bool stalled(int robot) const { return protocol(robot).stalled(); }
   // (run time [s], observer, lost teammate) of every liveness loss, in order.
-  struct Loss {
-    double time_s;
-    int observer, lost;
-  };
-  const std::vector<Loss>& losses() const { return losses_; }
+  using Loss = TeamLiveness::Loss;
+  const std::vector<Loss>& losses() const;
+  // The team's liveness and fault steps (runs with faults; null without).
+  const TeamLiveness* team() const { return team_.get(); }
   // Simulate until duration_s; progress(now) now and then (every 1/200 of the run).
   void run(const std::function<void(double)>& progress = {});
   void finish() { recorder_.finish(now_); }
@@ -97,8 +97,7 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
     std::size_t route_k = 0;
     double travelled_m = 0, travel_time_s = 0;
     double p0x = 0, p0y = 0, vx = 0, vy = 0, t0 = 0, t1 = 0;  // current straight segment
-    std::uint64_t pending = 0;   // seq of its one awaited ARRIVE or GIVE_UP (0: none)
-    std::uint64_t liveness = 0;  // seq of its one pending liveness check (0: none)
+    std::uint64_t pending = 0;  // seq of its one awaited ARRIVE or GIVE_UP (0: none)
   };
   struct Event {
     double time;
@@ -121,12 +120,7 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
   void give_up_later(int robot);
   void give_up(int robot);
   void freeze(int robot);
-  void inject(const EngineFault& fault);
-  int nearest_vertex(double x, double y) const;
-  bool hear(int robot, int sender, double t);
-  void feed_heartbeats(int robot);
-  void plan_liveness(int robot);
-  void liveness_due(int robot);
+  void after_stall(int robot);
   void deliver_batch_by_robot();
   const TeamMessage& message_of(const BusDelivery& d) const {
     return messages_[static_cast<std::size_t>(d.message)];
@@ -176,11 +170,7 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
   std::vector<std::size_t> batch_cursor_;
   Points scratch_;
   std::vector<EngineFault> faults_;
-  std::unique_ptr<HeartbeatLinks> links_;
-  std::vector<Loss> losses_;
-  std::vector<int> lost_by_;
-  std::vector<int> back_;  // teammates heard again by a heartbeat feed  // per robot: how many
-                           // teammates hold it for lost now
+  std::unique_ptr<TeamLiveness> team_;  // with faults: heartbeats, checks, a fault's steps
 };
 
 }  // namespace tpuaf

@@ -64,6 +64,7 @@ struct ProtocolConfig {
   double retry_s = 1.0;              // [s] a waiting policy without a wake-up decides again after
   double teammate_timeout_s = 10.0;  // [s] a teammate silent this long is lost
   double visit_radius_m = kDefaultVisitRadiusM;
+  double goal_tolerance_m = kDefaultGoalToleranceM;  // [m] within this of its goal: dwell there
 };
 
 class RobotProtocol {
@@ -83,6 +84,12 @@ class RobotProtocol {
   // The motion gave up on goal `vertex`; the robot is nearest to nearest_vertex.
   void on_goal_failed(int vertex, int nearest_vertex);
   void observe(double x, double y) { rule_.observe(x, y); }  // every pose [m]: the visit rule
+  // Is the robot (the driver's position) within the goal tolerance of `vertex`?
+  bool within_goal_tolerance(int vertex) const;
+  // The vertex nearest (x, y) [m] (the first on ties).
+  int nearest_vertex(double x, double y) const {
+    return tpuaf::nearest_vertex(rule_.positions(), x, y);
+  }
   // Teammate `robot` heard at run time t [s]; true when it had been lost (it is back).
   bool hear(int robot, double t) { return alive_ && liveness_.heard(robot, t); }
   // Teammates silent for the timeout by now [s], each reported once; the policy's

@@ -26,7 +26,8 @@ struct EngineConfig {
   // [m] a visit: an arrival this close after driving there (VisitRule)
   double visit_radius_m = kDefaultVisitRadiusM;
   // Runs with faults (GraphEngine::set_faults):
-  double goal_tolerance_m = 0.0;     // a stalled robot dwells only within this of its goal
+  double goal_tolerance_m =
+      kDefaultGoalToleranceM;        // a stalled robot dwells only within this of its goal
   double stall_give_up_s = 60.0;     // a stalled robot's navigator gives up a drive after [s]
   double teammate_timeout_s = 10.0;  // a teammate silent this long is lost [s]
   double heartbeat_period_s = 1.0;   // every live robot sends a heartbeat this often [s]

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "tpuaf_core/perception.hpp"
+#include "tpuaf_core/vertex_geometry.hpp"
 
 namespace tpuaf {
 
@@ -37,6 +38,7 @@ class VisitRule {
   double radius() const { return radius_; }
   int num_vertices() const { return static_cast<int>(armed_.size()); }
   long long visits() const { return visits_; }
+  const Points& positions() const { return positions_; }  // [m] the vertices
 
  private:
   void check(int vertex) const;

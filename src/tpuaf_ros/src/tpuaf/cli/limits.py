@@ -15,18 +15,26 @@ from tpuaf.files import available_bytes
 BUDGET_FRACTION = 0.75  # of MemAvailable a command may plan to use (the rest: OS and others)
 BASE_BYTES = 150 << 20  # the interpreter, numpy, the core and a map: ~60-120 MB measured
 
-# Team memory [B] = BASE + n2 * N^2 + n3 * N^3 + nv * N * V (upper bounds of the measured
-# peak RSS; N robots, V vertices). Knowledge of the teammates' visits and intentions is N^2;
-# tpuaf_plus' slot assignment builds an (N(N-1)/2 x N) float64 matrix (and temporaries).
-# Measured (N = 150-600, grid): 2.9 kB per N^2 for the strategies on the Python event loop,
-# 10 B per N^2 on the C++ loop (tpuaf, gbs, dtag; 990 MB at N = 10,000).
-_TEAM_DEFAULT = {"n2": 3300.0, "n3": 0.0, "nv": 64.0}
+# Team memory [B] = BASE + n2 N^2 + n3 N^3 + nv N V + v2 V^2 + nv2 N V^2 (upper bounds of the
+# measured peak RSS; N robots, V vertices; benchmarks/bench_limits.py, results/limits.md).
+# Knowledge of the teammates' visits and intentions is N^2; the recorder and the strategies'
+# per-vertex state N V; dtag, msp and hpcc read the map's all-pairs distances (one V x V
+# float64 matrix: 8 B V^2), dtap copies them for every robot (8 B N V^2: 14 GiB at N = 300,
+# V = 2,500). Measured (grid and generated buildings, V = 25-10,000): the C++ loop's strategies
+# ~56 B per N^2 and ~42 B per N V with the recorder; tpuaf_plus ~300-450 B per N^2 (no N^3 term
+# since its plans moved to the core); Python strategies at most ~500 B per N^2 (cbls; kept at
+# 3,300 for the ones not measured).
+_TEAM_DEFAULT = {"n2": 3300.0, "n3": 0.0, "nv": 64.0, "v2": 0.0, "nv2": 0.0}
+_ALL_PAIRS = 8.5  # [B] per entry of a V x V float64 matrix (and its row views)
 TEAM_COEFFS = {
-    "tpuaf": {"n2": 40.0, "n3": 0.0, "nv": 64.0},
-    "gbs": {"n2": 40.0, "n3": 0.0, "nv": 64.0},
-    "dtag": {"n2": 40.0, "n3": 0.0, "nv": 64.0},
-    "tpuaf_plus": {"n2": 3300.0, "n3": 8.0, "nv": 64.0},
-    "recorder": {"n2": 0.0, "n3": 0.0, "nv": 64.0},  # tpuaf analyze: the metrics alone
+    "tpuaf": {**_TEAM_DEFAULT, "n2": 40.0},
+    "gbs": {**_TEAM_DEFAULT, "n2": 40.0},
+    "dtag": {**_TEAM_DEFAULT, "n2": 40.0, "v2": _ALL_PAIRS},
+    "tpuaf_plus": {**_TEAM_DEFAULT, "n2": 600.0},
+    "msp": {**_TEAM_DEFAULT, "v2": _ALL_PAIRS},
+    "hpcc": {**_TEAM_DEFAULT, "v2": _ALL_PAIRS},
+    "dtap": {**_TEAM_DEFAULT, "nv2": _ALL_PAIRS},
+    "recorder": {**_TEAM_DEFAULT, "n2": 0.0},  # tpuaf analyze: the metrics alone
 }
 RECORDER_BYTES_PER_PAIR = 48.0  # interference pairs: keys, last entries (core recorder.cpp)
 SWEEP_BYTES_PER_RUN = 24 << 10  # one run's key, task, future and results row in the driver
@@ -53,7 +61,7 @@ def team_bytes(strategy: str, robots: int, vertices: int) -> float:
     c = TEAM_COEFFS.get(str(strategy).lower(), _TEAM_DEFAULT)
     n, v = float(robots), float(vertices)
     return (BASE_BYTES + c["n2"] * n * n + c["n3"] * n ** 3 + c["nv"] * n * v
-            + RECORDER_BYTES_PER_PAIR * n * n)
+            + c["v2"] * v * v + c["nv2"] * n * v * v + RECORDER_BYTES_PER_PAIR * n * n)
 
 
 def largest(fits, upper: int) -> int:

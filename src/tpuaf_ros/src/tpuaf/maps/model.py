@@ -22,7 +22,8 @@ class MapSettings:
     sensing_radius: float = 5.0  # r_i [m] of Eq. 1
     sensing_peak: float = 1.0  # G_i of Eq. 1
     interference_distance: float = 2.0  # d_if [m] (SPEC section 6)
-    goal_tolerance: float = 0.4  # [m] the navigator may end a leg this far from a vertex
+    # [m] the navigator may end a leg this far from a vertex (tpuaf_core's declared default)
+    goal_tolerance: float = tpuaf_core.DEFAULT_GOAL_TOLERANCE_M
     # [m] a visit is an arrival this close (tpuaf_core.VisitRule; at most goal_tolerance)
     visit_radius: float = tpuaf_core.DEFAULT_VISIT_RADIUS_M
     robot_radius: float = 0.105  # [m], TurtleBot3 Burger
@@ -122,5 +123,5 @@ class PatrolMap:
         return tpuaf_core.VisitRule(np.asarray(self.positions, dtype=float), self.visit_radius_m)
 
     def nearest_vertex(self, x: float, y: float) -> int:
-        d = np.hypot(self.positions[:, 0] - x, self.positions[:, 1] - y)
-        return int(np.argmin(d))
+        """The vertex nearest (x, y) [m], the first on ties (the core's one rule)."""
+        return tpuaf_core.nearest_vertex(self.positions, float(x), float(y))

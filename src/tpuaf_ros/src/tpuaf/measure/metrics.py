@@ -287,6 +287,12 @@ class RunRecorder(RecorderView):
         self._shape = (self.n_robots, 2)
         self._start_view()
 
+    @property
+    def core(self) -> Any:
+        """The core's recorder (tpuaf_core.GroundTruthRecorder: the team's faults are noted in
+        it by tpuaf_core.TeamLiveness)."""
+        return self._core
+
     def record_visit(self, robot: int, vertex: int, time: float) -> None:
         """Robot `robot` reached its goal vertex `vertex` (graph index) at `time` [s].
 

@@ -100,7 +100,8 @@ class RobotMachine(RobotContextBase):
         # teammate liveness ([s] a teammate silent teammate_timeout_s is lost).
         self.protocol = tpuaf_core.RobotProtocol(
             self, np.asarray(patrol_map.positions, dtype=float), self.robot, self.n_robots,
-            STAY_S, DEFAULT_RETRY_S, float(teammate_timeout_s), float(patrol_map.visit_radius_m))
+            STAY_S, DEFAULT_RETRY_S, float(teammate_timeout_s), float(patrol_map.visit_radius_m),
+            float(patrol_map.settings.goal_tolerance))
         self._start_position = (math.nan, math.nan)
         if start_vertex is not None:
             self.place(start_vertex)
@@ -147,10 +148,12 @@ class RobotMachine(RobotContextBase):
 
     def at_vertex(self, vertex: int) -> bool:
         """Is the robot within the map's goal tolerance [m] of `vertex` (it dwells there rather
-        than drive)?"""
-        x, y = self.position
-        p = self.patrol_map.positions[vertex]
-        return math.hypot(x - p[0], y - p[1]) <= float(self.patrol_map.settings.goal_tolerance)
+        than drive)? The protocol's rule (vertex_geometry.hpp, the graph loop's too)."""
+        return self.protocol.within_goal_tolerance(int(vertex))
+
+    def nearest_vertex(self, x: float, y: float) -> int:
+        """The vertex nearest (x, y) [m] (the first on ties; the graph loop's rule)."""
+        return self.protocol.nearest_vertex(float(x), float(y))
 
     def within(self, vertex: int) -> bool:
         """Is the robot within the visit radius [m] of `vertex` (VisitRule)?"""

@@ -219,7 +219,7 @@ class AgentRuntime:
             return m.started
         self._now = max(self._now, float(t))
         x, y, _ = self._pose
-        m.place(m.patrol_map.nearest_vertex(x, y))
+        m.place(m.nearest_vertex(x, y))
         lanes = getattr(self.navigator, "lanes", None)
         if lanes is not None and not lanes.started:  # a start inside a lane holds it
             lanes.start_at(m.current_vertex, self._now)
@@ -285,7 +285,7 @@ class AgentRuntime:
                 m.on_vertex(vertex, True)
                 continue
             elif event == Event.FAILED:
-                m.on_goal_failed(vertex, m.patrol_map.nearest_vertex(*self.position))
+                m.on_goal_failed(vertex, m.nearest_vertex(*self.position))
                 return 0.0, 0.0
             break
         else:

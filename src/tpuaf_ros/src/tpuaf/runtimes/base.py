@@ -7,22 +7,27 @@ the run summary. A runtime subclasses it and supplies motion through three hooks
 `_stop_motion(i)` (a death: stop where it is), `_after_stall(i)` and `_liveness_at(t, i, token)`
 (call `liveness_due(i, token)` at run time t [s]).
 
-Liveness (runs with faults): every robot's machine is fed the team messages delivered to it and
-the heartbeats it hears (`heartbeat_links`: one a second from every live robot, with the bus's
-loss and delay), and checks its teammates' silence when one can reach the timeout
-(`config.teammate_timeout_s`, the agent node's ~teammate_timeout): a death is detected from what
-the survivors hear, later under loss; a stalled robot keeps its heartbeats. One pending check per
-robot (the earliest time a silence can end; messages only postpone it, so it is never late).
-Runs without faults carry no heartbeats (nothing can go silent but through loss), so they stay
+Liveness and faults (runs with faults) are the core's `tpuaf_core.TeamLiveness`
+(team_liveness.cpp), the one the graph loop holds too: every robot's machine is fed the team
+messages delivered to it and the heartbeats it hears (`heartbeat_links`: one a second from every
+live robot, with the bus's loss and delay), and checks its teammates' silence when one can reach
+the timeout (`config.teammate_timeout_s`, the agent node's ~teammate_timeout): a death is
+detected from what the survivors hear, later under loss; a stalled robot keeps its heartbeats.
+One pending check per robot (the earliest time a silence can end; messages only postpone it, so
+it is never late). The steps of a death, in their one order, are TeamLiveness.inject's. Runs
+without faults carry no heartbeats (nothing can go silent but through loss), so they stay
 identical to the C++ loop's.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
+
+import tpuaf_core
 
 from tpuaf.maps import load_map
 from tpuaf.measure.metrics import RunRecorder
@@ -52,10 +57,9 @@ class TeamRun:
         self.faults = config.faults()
         self.recorder: RunRecorder | None = None
         self.machines: list[RobotMachine] = []
-        self.links = None  # tpuaf_core.HeartbeatLinks: heartbeats, in runs with faults
-        self._liveness_token: list[int] = []  # per robot: the id of its one pending check
-        self.losses: list[tuple[float, int, int]] = []  # (t [s], observer, lost teammate)
-        self._died_at: dict[int, float] = {}
+        self.team: tpuaf_core.TeamLiveness | None = None  # liveness and faults (with faults)
+        self.links = None  # tpuaf_core.HeartbeatLinks: the team's heartbeats
+        self._check_tokens = itertools.count(1)  # the liveness checks' tokens (0: none)
 
     def _record(self) -> RunRecorder:
         """The run's recorder, on the plan's map (the robots' speed and travel times)."""
@@ -72,10 +76,12 @@ class TeamRun:
             for machine in machines:
                 machine.on_announce = self.announcer(machine.robot)
             cfg = self.config
-            self.links = heartbeat_links(cfg.robots, float(cfg.duration_s),
-                                         float(cfg.teammate_timeout_s), self.bus.delay_s,
-                                         self.bus.loss, self.seed, self.heartbeat_period_s)
-            self._liveness_token = [0] * len(machines)
+            links = heartbeat_links(cfg.robots, float(cfg.duration_s),
+                                    float(cfg.teammate_timeout_s), self.bus.delay_s,
+                                    self.bus.loss, self.seed, self.heartbeat_period_s)
+            self.team = tpuaf_core.TeamLiveness([m.protocol for m in machines], self.bus.core,
+                                                self.recorder.core, links, self)
+            self.links = self.team.links
 
     heartbeat_period_s = HEARTBEAT_PERIOD_S  # [s] (the physics runtime: its agents')
 
@@ -103,35 +109,19 @@ class TeamRun:
 
     # --- team messages ---
     def deliver_ready(self) -> None:
-        """Hand every ready message to its live recipients."""
-        ready = self.bus.ready
+        """Hand every ready message to its live recipients (with faults: the team's delivery,
+        which feeds each recipient's liveness first)."""
         machines = self.machines
-        if self.links is not None:
-            self._deliver_heard()
+        if self.team is not None:
+            self.bus.deliver_through(self.team, self.now,
+                                     lambda r, message: machines[r].on_message(message))
             return
         delivered = 0
-        while ready:
-            message, recipients = ready.popleft()
+        while self.bus.ready:  # messages sent on the way join in
+            message, recipients = self.bus.ready.popleft()
             for r in recipients:
                 machine = machines[r]
                 if machine.alive:
-                    machine.on_message(message)
-                    delivered += 1
-        self.bus.count_delivered(delivered)
-
-    def _deliver_heard(self) -> None:
-        """deliver_ready, each message also heard by its recipient's liveness."""
-        ready = self.bus.ready
-        machines = self.machines
-        delivered = 0
-        while ready:
-            message, recipients = ready.popleft()
-            sender = getattr(message, "robot", -1)
-            for r in recipients:
-                machine = machines[r]
-                if machine.alive:
-                    if machine.hear(sender, self.now):
-                        self._plan_liveness(r)  # back: its next silence may come sooner
                     machine.on_message(message)
                     delivered += 1
         self.bus.count_delivered(delivered)
@@ -139,58 +129,31 @@ class TeamRun:
     # --- liveness (runs with faults) ---
     def start_liveness(self) -> None:
         """Plan every robot's first liveness check (after the start, at run time now)."""
-        if self.links is not None:
-            for machine in self.machines:
-                self._plan_liveness(machine.robot)
-
-    def _feed_heartbeats(self, robot: int) -> None:
-        """Robot `robot` hears the last heartbeat of every teammate that reached it by now."""
-        self.links.feed(self.machines[robot].liveness, self.now)
-
-    def _plan_liveness(self, robot: int) -> None:
-        """Schedule robot `robot`'s next liveness check (the earliest time any teammate's
-        silence can reach the timeout, or one can be heard again: HeartbeatLinks, as the
-        graph loop plans it)."""
-        machine = self.machines[robot]
-        if not machine.alive:
-            return
-        self._feed_heartbeats(robot)
-        due = self.links.next_check_of(machine.liveness, self.now)
-        self._liveness_token[robot] += 1
-        if math.isfinite(due):
-            self._liveness_at(max(due, self.now), robot, self._liveness_token[robot])
+        if self.team is not None:
+            self.team.start(self.now)
 
     def liveness_due(self, robot: int, token: int) -> None:
         """A planned liveness check of robot `robot` (stale when `token` is not its latest)."""
-        if token != self._liveness_token[robot] or not self.machines[robot].alive:
-            return
-        self._feed_heartbeats(robot)
-        for lost in self.machines[robot].check_liveness(self.now):
-            self.losses.append((self.now, robot, lost))
-        self._plan_liveness(robot)
+        self.team.check_due(robot, token, self.now)
+
+    def _schedule_check(self, robot: int, time_s: float) -> int:
+        """TeamLiveness's hook: plan robot `robot`'s check at run time time_s [s]; its token."""
+        token = next(self._check_tokens)
+        self._liveness_at(time_s, robot, token)
+        return token
 
     def _liveness_at(self, time_s: float, robot: int, token: int) -> None:  # pragma: no cover
         raise NotImplementedError
 
+    @property
+    def losses(self) -> list[tuple[float, int, int]]:
+        """(t [s], observer, lost teammate) of every liveness loss."""
+        return self.team.losses if self.team is not None else []
+
     # --- faults ---
     def inject(self, fault: Fault) -> None:
-        i = fault.robot
-        machine = self.machines[i]
-        if not machine.alive:
-            return
-        if fault.kind == DEATH:
-            self._stop_motion(i)
-            machine.die()
-            self.bus.set_dead(i)
-            self.recorder.record_robot_death(i, self.now)
-            self._died_at[i] = self.now
-            self.links.died(i, self.now)  # its heartbeats stop: every survivor's checks move
-            for machine in self.machines:
-                self._plan_liveness(machine.robot)
-            return
-        machine.stall()
-        self.recorder.record_robot_stall(i, self.now)
-        self._after_stall(i)
+        """The fault's steps, in TeamLiveness.inject's order (the graph loop's)."""
+        self.team.inject(fault.robot, fault.kind == DEATH, self.now)
 
     def _stop_motion(self, robot: int) -> None:
         """A death: the robot stops where it is now."""
@@ -209,8 +172,9 @@ class TeamRun:
 
     def liveness_summary(self) -> dict[str, Any]:
         """How the survivors noticed each death (see `liveness_summary`)."""
+        died_at = {int(robot): float(t) for t, robot in self.recorder.deaths}
         return liveness_summary(float(self.config.teammate_timeout_s), self.links.period_s,
-                                self._died_at, self.losses)
+                                died_at, self.losses)
 
 def liveness_summary(teammate_timeout_s: float, heartbeat_period_s: float,
                      died_at: dict[int, float], losses: list[tuple[float, int, int]]

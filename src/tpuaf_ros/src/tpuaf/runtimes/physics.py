@@ -186,7 +186,7 @@ class PhysicsRun(TeamRun):
                 x, y, th = rows[i]
                 a.on_pose(t, x, y, th)
                 commands[i] = a.tick(t, points[i], scan_rows[i])
-                if self.bus.ready:
+                if self.bus.has_ready:
                     self.deliver_ready()
             if stopped.any():
                 commands[stopped] = 0.0

@@ -7,7 +7,9 @@ what a radio does to them: every recipient independently loses a message with pr
 counters, the live robots and the messages in flight are the core's `tpuaf_core.TeamBus` (the
 graph loop's bus too); this adapter keeps each Python message under the id the core carries. A
 runtime releases the messages in flight into `ready` when they are due (in due order, then send
-order) and then hands `ready` to the robots, counting what it delivered.
+order) and then hands `ready` to the robots, counting what it delivered; in runs with faults
+the team's `tpuaf_core.TeamLiveness` hands them over instead (`deliver_through`), feeding each
+recipient's liveness. The ready messages stay in the core until `ready` is asked for.
 """
 
 from __future__ import annotations
@@ -44,9 +46,35 @@ class TeamBus:
         self.n_robots = int(n_robots)
         self.delay_s = float(delay_s)
         self.loss = float(loss)
-        self.ready: deque[tuple[Any, list[int]]] = deque()  # (message, recipients) to deliver now
+        self._ready: deque[tuple[Any, list[int]]] = deque()  # (message, recipients) taken
         self._messages: dict[int, Any] = {}  # id -> message in flight
         self._ids = itertools.count()
+
+    @property
+    def core(self) -> tpuaf_core.TeamBus:
+        """The core's bus (what TeamLiveness drops a dead robot from and delivers from)."""
+        return self._core
+
+    @property
+    def ready(self) -> deque[tuple[Any, list[int]]]:
+        """(message, recipients) to deliver now, in order (messages sent while these are
+        delivered join at the next look)."""
+        if self._core.ready_count:
+            self._take_ready()
+        return self._ready
+
+    @property
+    def has_ready(self) -> bool:
+        return bool(self._ready) or self._core.ready_count > 0
+
+    def deliver_through(self, team: tpuaf_core.TeamLiveness, now: float, deliver) -> None:
+        """Every ready message through the team's delivery rule (TeamLiveness.deliver_ready:
+        each live recipient hears the sender, then `deliver(recipient, message)`), counted."""
+        if self._ready:
+            raise RuntimeError("messages taken from the bus must be delivered by their taker")
+        messages = self._messages
+        team.deliver_ready(now, lambda key: getattr(messages[key], "robot", -1),
+                           lambda r, key: deliver(r, messages[key]), messages.pop)
 
     @property
     def stats(self) -> BusStats:
@@ -72,8 +100,6 @@ class TeamBus:
         if not self._core.send(sender, key, now):
             return  # nobody is to receive it
         self._messages[key] = message
-        if self.delay_s == 0:
-            self._take_ready()
 
     def next_due_s(self) -> float:
         """[s] when the next message in flight is due (+inf if none)."""
@@ -82,15 +108,13 @@ class TeamBus:
     def release_next(self) -> None:
         """The next message in flight becomes ready."""
         self._core.release_next()
-        self._take_ready()
 
     def release_due(self, now: float, slack_s: float = 1e-9) -> None:
         """Every message in flight due by `now` [s] (within `slack_s`) becomes ready."""
         if self._core.next_due_s() <= now + slack_s:
             self._core.release_due(now, slack_s)
-            self._take_ready()
 
     def _take_ready(self) -> None:
         messages = self._messages
         for key, recipients in self._core.take_ready():
-            self.ready.append((messages.pop(key), recipients))
+            self._ready.append((messages.pop(key), recipients))
