@@ -61,17 +61,23 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--duration", type=float, default=120.0)
     parser.add_argument("--long", type=float, default=3600.0)
+    parser.add_argument("--strategies", default="", help="only these cases (comma-separated; "
+                        "no long run), e.g. dtap; default: every case")
+    parser.add_argument("--out", default="limits", help="results file stem")
     args = parser.parse_args()
+    chosen = [c for c in CASES if not args.strategies or c[0] in args.strategies.split(",")]
     from tpuaf.cli import limits
     from tpuaf.maps import load_map
 
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         maps = {0: "grid"}
-        for v in sorted({c[2] for c in CASES if c[2]}):
+        for v in sorted({c[2] for c in chosen if c[2]}):
             maps[v] = str(write_building(Path(tmp) / f"b{v}", v))
         sizes = {v: load_map(m).num_vertices for v, m in maps.items()}
-        cases = [(*c, args.duration) for c in CASES] + [(*LONG_CASE, args.long)]
+        cases = [(*c, args.duration) for c in chosen]
+        if not args.strategies:
+            cases.append((*LONG_CASE, args.long))
         for strategy, n, v, extra, duration in cases:
             r = run_case(strategy, n, maps[v], duration, extra)
             vertices = sizes[v]
@@ -82,7 +88,7 @@ def main() -> None:
                          "estimate_mb": estimate, "ratio": estimate / r["peak_mb"],
                          "exit": r["exit"]})
             print(rows[-1], flush=True)
-    write("limits.md", report(rows, args))
+    write(f"{args.out}.md", report(rows, args))
 
 
 def fit(rows: list[dict], duration: float) -> tuple[float, float, float]:
@@ -102,8 +108,9 @@ def report(rows: list[dict], args: argparse.Namespace) -> str:
     from tpuaf.cli import limits
 
     out = header("Team memory estimate against measured peak RSS (cli/limits.py)")
+    only = f" --strategies {args.strategies} --out {args.out}" if args.strategies else ""
     out += ("`.venv/bin/python benchmarks/bench_limits.py --duration "
-            f"{args.duration:g} --long {args.long:g}`: one `tpuaf run --map MAP --strategy S "
+            f"{args.duration:g} --long {args.long:g}{only}`: one `tpuaf run --map MAP --strategy S "
             "--robots N --duration D --quiet` process per row (the graph runtime), peak RSS "
             "= GNU time's %M; MAP: the built-in grid or a generated building of V "
             "vertices (bench_bigmaps.write_building). Estimate: `limits.team_bytes` (MiB), "

@@ -1,12 +1,10 @@
 """The team memory estimate (cli/limits.py) covers what the measured runs hold
-(benchmarks/results/limits.md): all-pairs distances once (dtag, msp, hpcc) or per robot
-(dtap), and no N^3 term for tpuaf_plus."""
+(benchmarks/results/limits.md, limits_dtap.md): all-pairs matrices once, shared by the robots
+(dtag, msp, hpcc, dtap), and no N^3 term for tpuaf_plus."""
 
 from __future__ import annotations
 
-import pytest
 from tpuaf.cli import limits
-from tpuaf.errors import CliError
 
 MIB = 2**20
 
@@ -17,15 +15,28 @@ def test_all_pairs_distances_count_once_or_per_robot():
         assert limits.team_bytes(strategy, 10, v) >= limits.BASE_BYTES + 8 * v * v
         assert limits.team_bytes(strategy, 10, v) < limits.team_bytes(strategy, 10, 2 * v) / 3
     assert limits.team_bytes("gbs", 10, v) < 200 * MIB  # gbs holds no such matrix
+    # dtap: distances and hop counts, one matrix of each for the whole team
+    assert limits.team_bytes("dtap", 10, 2500) >= limits.BASE_BYTES + 12 * 2500**2
     per_robot = limits.team_bytes("dtap", 31, 2500) - limits.team_bytes("dtap", 30, 2500)
-    assert per_robot >= 8 * 2500**2  # dtap: a copy per robot
+    assert per_robot < 2500**2  # no copy per robot
 
 
-def test_dtap_beyond_the_machine_is_refused(monkeypatch):
-    monkeypatch.setattr(limits, "available_bytes", lambda: 8 << 30)
-    with pytest.raises(CliError, match=r"dtap with 300 robots .* at most (\d+) robots fit"):
-        limits.check_team("dtap", 300, 2500)  # measured: 14 GiB
-    limits.check_team("dtap", 10, 2500)  # measured: 0.6 GiB
+def test_dtap_robots_share_the_graphs_matrices():
+    """The per-robot copy (14 GiB at N = 300, V = 2,500 before) is gone: every robot's dtap
+    reads the graph's own matrices."""
+    from types import SimpleNamespace
+
+    from tpuaf.maps import load_map
+    from tpuaf.policies import REGISTRY
+
+    pm = load_map("grid")
+    policies = [REGISTRY.create("dtap", {}) for _ in range(2)]
+    for robot, policy in enumerate(policies):
+        policy.start(SimpleNamespace(patrol_map=pm, now=0.0, robot=robot))
+    a, b = policies
+    assert a.dist.base is not None and a.hops.base is not None  # views, not copies
+    assert (a.dist.__array_interface__["data"][0] == b.dist.__array_interface__["data"][0])
+    assert (a.hops.__array_interface__["data"][0] == b.hops.__array_interface__["data"][0])
 
 
 def test_tpuaf_plus_grows_as_n_squared():

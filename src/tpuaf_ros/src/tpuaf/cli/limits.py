@@ -19,13 +19,15 @@ BASE_BYTES = 150 << 20  # the interpreter, numpy, the core and a map: ~60-120 MB
 # measured peak RSS; N robots, V vertices; benchmarks/bench_limits.py, results/limits.md).
 # Knowledge of the teammates' visits and intentions is N^2; the recorder and the strategies'
 # per-vertex state N V; dtag, msp and hpcc read the map's all-pairs distances (one V x V
-# float64 matrix: 8 B V^2), dtap copies them for every robot (8 B N V^2: 14 GiB at N = 300,
-# V = 2,500). Measured (grid and generated buildings, V = 25-10,000): the C++ loop's strategies
+# float64 matrix: 8 B V^2), dtap also its hop counts (int32: 4 B V^2), every robot viewing the
+# same matrices (until 2026-12-06 dtap copied them per robot: 1.6 GiB at N = 30, V = 2,500,
+# now 0.15 GiB; results/limits_dtap.md). Measured (grid and generated buildings, V = 25-10,000): the C++ loop's strategies
 # ~56 B per N^2 and ~42 B per N V with the recorder; tpuaf_plus ~300-450 B per N^2 (no N^3 term
 # since its plans moved to the core); Python strategies at most ~500 B per N^2 (cbls; kept at
 # 3,300 for the ones not measured).
 _TEAM_DEFAULT = {"n2": 3300.0, "n3": 0.0, "nv": 64.0, "v2": 0.0, "nv2": 0.0}
 _ALL_PAIRS = 8.5  # [B] per entry of a V x V float64 matrix (and its row views)
+_HOPS = 4.5  # [B] per entry of the V x V int32 hop-count matrix
 TEAM_COEFFS = {
     "tpuaf": {**_TEAM_DEFAULT, "n2": 40.0},
     "gbs": {**_TEAM_DEFAULT, "n2": 40.0},
@@ -33,7 +35,7 @@ TEAM_COEFFS = {
     "tpuaf_plus": {**_TEAM_DEFAULT, "n2": 600.0},
     "msp": {**_TEAM_DEFAULT, "v2": _ALL_PAIRS},
     "hpcc": {**_TEAM_DEFAULT, "v2": _ALL_PAIRS},
-    "dtap": {**_TEAM_DEFAULT, "nv2": _ALL_PAIRS},
+    "dtap": {**_TEAM_DEFAULT, "v2": _ALL_PAIRS + _HOPS},
     "recorder": {**_TEAM_DEFAULT, "n2": 0.0},  # tpuaf analyze: the metrics alone
 }
 RECORDER_BYTES_PER_PAIR = 48.0  # interference pairs: keys, last entries (core recorder.cpp)

@@ -79,8 +79,9 @@ class DynamicTaskAssignmentPartition(Policy):
         n = g.num_vertices
         init = self.params["initial_estimate"]
         self.estimate = SharedEstimate(n, 2.0 * n if init is None else init, ctx.now)
-        self.hops = np.asarray(g.hop_matrix, dtype=float)
-        self.dist = np.asarray(g.distances, dtype=float)
+        # views of the graph's one matrix of each (no copy per robot: 8 n^2 bytes each)
+        self.hops = g.hop_matrix
+        self.dist = g.distances
         self.bids: dict[int, dict[int, tuple[float, float]]] = {}  # v -> robot -> (bid m, time s)
         self.goal: int | None = None  # the vertex the robot is heading to ("next")
         self.auction: Auction | None = None
