@@ -87,10 +87,12 @@ void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
     robots_.clear();
     robots_.reserve(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) robots_.emplace_back(prototype_);
+    visits_ = TeamVisits(prototype_, n);
     plan_cache_.clear();
   }
   Robot& r = state(robot);
   r = Robot(prototype_);
+  visits_.reset(robot);
   const std::size_t size = static_cast<std::size_t>(n);
   r.alive.assign(size, 1);
   r.lost_at.assign(size, kInf);
@@ -131,11 +133,11 @@ void TpuafPlusStrategy::install_plan(StrategyHost& host, int robot, bool initial
       r.respace_at = host.now();
     }
   } else if (route.robots.size() == 1 && route.walk.size() > 1) {  // a new part alone
-    r.entry = urgent_entry(r, route, host.current_vertex(robot), host.now());
+    r.entry = urgent_entry(robot, route, host.current_vertex(robot), host.now());
     r.idx = -1;
   } else {
     // a walk new to several robots: the start schedule's entries from where each stood
-    const std::map<int, int> entries = transition_entries(r);
+    const std::map<int, int> entries = transition_entries(r, robot);
     auto it = entries.find(robot);
     r.entry = it != entries.end() ? it->second
                                   : nearest_entry(*graph_, route, host.current_vertex(robot));
@@ -144,16 +146,15 @@ void TpuafPlusStrategy::install_plan(StrategyHost& host, int robot, bool initial
   r.holding = false;
 }
 
-int TpuafPlusStrategy::urgent_entry(const Robot& r, const PlusRoute& route, int vertex,
+int TpuafPlusStrategy::urgent_entry(int robot, const PlusRoute& route, int vertex,
                                     double now) const {
   // min over entries k of max over walk entries i of (drive to k + arc k -> i + idleness of i)
   // [s], rounded to 1e-6 s as np.round; ties to the nearer entry, then the lower index.
   const std::size_t n = route.walk.size();
   const double speed = params_.speed_mps;
-  const Eigen::VectorXd& last = r.knowledge.last_visit();
   std::vector<double> idle(n), reach(n), worst(n);
   for (std::size_t i = 0; i < n; ++i) {
-    idle[i] = now - last[route.walk[i]];
+    idle[i] = now - visits_.last_visit(robot, route.walk[i]);
     reach[i] = distance(vertex, route.walk[i]) / speed;
   }
   for (std::size_t k = 0; k < n; ++k) {
@@ -171,7 +172,7 @@ int TpuafPlusStrategy::urgent_entry(const Robot& r, const PlusRoute& route, int 
   return static_cast<int>(best);
 }
 
-std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
+std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r, int robot) const {
   // Each robot of my new walk starts at the vertex its last announcement before the team
   // change headed to, late by what was left of that drive; {} when one was never heard.
   const double t_ref = r.changed_at;
@@ -189,10 +190,9 @@ std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
     late.push_back(std::max(0.0, info->departure + distance(info->from, info->to) / speed - t_ref) *
                    speed);
   }
-  const Eigen::VectorXd& last = r.knowledge.last_visit();
-  std::vector<double> idle(static_cast<std::size_t>(last.size()));
-  for (Eigen::Index v = 0; v < last.size(); ++v) {
-    idle[static_cast<std::size_t>(v)] = std::max(t_ref - last[v], 0.0);
+  std::vector<double> idle(static_cast<std::size_t>(graph_->num_vertices()));
+  for (int v = 0; v < graph_->num_vertices(); ++v) {
+    idle[static_cast<std::size_t>(v)] = std::max(t_ref - visits_.last_visit(robot, v), 0.0);
   }
   const auto plan = start_schedule(*graph_, route, starts, late, speed, &idle);
   std::map<int, int> out;
@@ -246,13 +246,12 @@ double TpuafPlusStrategy::idle_room(Robot& r, int robot, double now) {
       reach = std::min(reach, py_mod(arc + dwell - here, L));
     }
   }
-  const Eigen::VectorXd& last = r.knowledge.last_visit();
   double room = kInf;
   for (std::size_t step = 1; step < n; ++step) {
     const std::size_t i = (static_cast<std::size_t>(r.idx) + step) % n;
     const double d = py_mod(route.arc[i] - here, L);
     if (d > reach + kEps) break;
-    room = std::min(room, (even - d) / speed - (now - last[route.walk[i]]));
+    room = std::min(room, (even - d) / speed - (now - visits_.last_visit(robot, route.walk[i])));
   }
   return std::isfinite(room) ? std::max(0.0, room) : 0.0;
 }
@@ -305,7 +304,7 @@ void TpuafPlusStrategy::on_message(StrategyHost& /*host*/, int robot, const Team
   Heard& latest = r.heard[static_cast<std::size_t>(k)];
   char& has = r.has_heard[static_cast<std::size_t>(k)];
   if (message.kind == TeamMessage::Kind::kVisit) {
-    r.knowledge.hear_visit(k, message.vertex, sent);
+    visits_.record(robot, message.vertex, sent);  // TpuafKnowledge::hear_visit's record
     heard_from(r, k, sent);
     learn_pace(r, k, message.vertex, sent);
     const int next = message.next_vertex >= 0 ? message.next_vertex : message.vertex;
@@ -471,7 +470,7 @@ int TpuafPlusStrategy::decide(StrategyHost& host, int robot) {
   const bool waking = r.waking;
   r.waking = false;
   if (!waking) {
-    r.knowledge.record_visit(here, now);
+    visits_.record(robot, here, now);
     learn_pace(r, robot, here, now);  // my own drive here
   }
   update_team(host, robot);
@@ -565,6 +564,9 @@ int TpuafPlusStrategy::repair_hop(StrategyHost& host, int robot, int here, int t
     return pick;
   }
   Robot& r = state(robot);
+  std::vector<int> lent = on_path;
+  lent.push_back(here);
+  visits_.lend(robot, lent, r.knowledge);  // what Eq. 13 reads of them
   const UtilityResult result = r.knowledge.utilities(*graph_, host.now(), here, on_path,
                                                      params_.speed_mps, UtilityForm::kEq13, false);
   Eigen::Index pick = 0;  // np.argmax: the first maximum (a NaN wins)

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "tpuaf_core/strategies.hpp"
+#include "tpuaf_core/team_visits.hpp"
 
 namespace tpuaf {
 
@@ -158,6 +159,7 @@ class TpuafPlusStrategy : public TeamStrategy {
   };
   struct Robot {
     explicit Robot(const TpuafKnowledge& k) : knowledge(k) {}
+    // For repair hops' utilities only: the visits are in visits_, lent to it for each one.
     TpuafKnowledge knowledge;
     std::vector<char> alive;
     std::vector<double> lost_at;  // [s] reported lost by the runtime (+inf: not)
@@ -186,8 +188,8 @@ class TpuafPlusStrategy : public TeamStrategy {
   const PlusRoute& route_of(const Robot& r) const { return r.plan->routes[r.route]; }
   std::shared_ptr<const PlusPlan> plan_for(const std::vector<int>& team);
   void install_plan(StrategyHost& host, int robot, bool initial);
-  int urgent_entry(const Robot& r, const PlusRoute& route, int vertex, double now) const;
-  std::map<int, int> transition_entries(const Robot& r) const;
+  int urgent_entry(int robot, const PlusRoute& route, int vertex, double now) const;
+  std::map<int, int> transition_entries(const Robot& r, int robot) const;
   bool respace_target(Robot& r, int robot, double now, double& target);
   double idle_room(Robot& r, int robot, double now);
   double respace_wait(Robot& r, int robot, double now);
@@ -211,6 +213,7 @@ class TpuafPlusStrategy : public TeamStrategy {
   };
   mutable std::vector<KnownLength> lengths_ = std::vector<KnownLength>(1u << 14);
   TpuafKnowledge prototype_;
+  TeamVisits visits_;  // every robot's visits and estimate anchors (its knowledge's)
   TpuafPlusParams params_;
   PlanSource plans_;
   std::map<std::vector<int>, std::shared_ptr<const PlusPlan>> plan_cache_;
