@@ -88,6 +88,7 @@ void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
     robots_.reserve(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) robots_.emplace_back(prototype_);
     visits_ = TeamVisits(prototype_, n);
+    histories_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), Recent{});
     plan_cache_.clear();
   }
   Robot& r = state(robot);
@@ -100,7 +101,7 @@ void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
   r.has_heard.assign(size, 0);
   r.mate_arc.assign(size, 0.0);
   r.has_mate_arc.assign(size, 0);
-  r.history.assign(size, {});
+  for (int k = 0; k < n; ++k) history(r, k) = Recent{};
   r.pace.assign(size, params_.speed_mps);
   r.last_announce = -kInf;
   r.started = true;
@@ -182,7 +183,7 @@ std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r, int rob
   std::vector<double> late;
   for (int k : route.robots) {
     const Heard* info = nullptr;
-    for (const Heard& h : r.history[static_cast<std::size_t>(k)]) {
+    for (const Heard& h : history(r, k)) {
       if (h.sent <= t_ref + kEps) info = &h;
     }
     if (info == nullptr) return {};
@@ -278,14 +279,24 @@ void TpuafPlusStrategy::heard_from(Robot& r, int k, double sent) const {
 }
 
 void TpuafPlusStrategy::remember(Robot& r, int robot, const Heard& entry) {
-  r.history[static_cast<std::size_t>(robot)].push(entry);
+  history(r, robot).push(entry);
+}
+
+TpuafPlusStrategy::Recent& TpuafPlusStrategy::history(const Robot& r, int k) {
+  const auto holder = static_cast<std::size_t>(&r - robots_.data());
+  return histories_[static_cast<std::size_t>(k) * robots_.size() + holder];
+}
+
+const TpuafPlusStrategy::Recent& TpuafPlusStrategy::history(const Robot& r, int k) const {
+  const auto holder = static_cast<std::size_t>(&r - robots_.data());
+  return histories_[static_cast<std::size_t>(k) * robots_.size() + holder];
 }
 
 void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s) const {
   // One pace sample of robot k, at `vertex` at arrived_s [s]: the drive its newest announcement
   // before then headed here on, length / (arrival - departure) [m/s].
   const Heard* last = nullptr;
-  for (const Heard& h : r.history[static_cast<std::size_t>(k)]) {
+  for (const Heard& h : history(r, k)) {
     if (h.sent <= arrived_s + kEps) last = &h;
   }
   if (last == nullptr || last->from == last->to || last->to != vertex) return;
