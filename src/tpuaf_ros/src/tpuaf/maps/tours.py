@@ -208,7 +208,7 @@ class Partition:
 
 _CACHE: OrderedDict[tuple, Any] = OrderedDict()
 CACHE_ENV = "TPUAF_PLAN_CACHE"  # a folder: plans are also kept there, keyed by the map's content
-_SEARCH_VERSION = "cpp-2"  # part of the disk key: a changed search never reads old plans
+_SEARCH_VERSION = "cpp-3"  # part of the disk key: a changed search never reads old plans
 
 
 def _content_key(graph: Any, key: tuple) -> str:
