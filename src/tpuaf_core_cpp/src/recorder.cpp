@@ -87,6 +87,11 @@ GroundTruthRecorder::GroundTruthRecorder(const RecorderConfig& config, Uncertain
     target_index_[static_cast<std::size_t>(
         count[static_cast<std::size_t>(cell_of[static_cast<std::size_t>(j)])]++)] = j;
   }
+  target_xy_.resize(2 * target_index_.size());  // in cell order: a cell's targets side by side
+  for (std::size_t k = 0; k < target_index_.size(); ++k) {
+    target_xy_[2 * k] = targets(target_index_[k], 0);
+    target_xy_[2 * k + 1] = targets(target_index_[k], 1);
+  }
 }
 
 void GroundTruthRecorder::record_visit(int robot, int vertex, double time) {

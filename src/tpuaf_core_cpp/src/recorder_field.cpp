@@ -22,7 +22,6 @@ void GroundTruthRecorder::coverage(const Points& start, const Points& end, doubl
   for (int j : touched) out[j] = 0.0;  // the rest is zero already
   touched.clear();
   cover_at_ = start + fraction * (end - start);
-  const auto& targets = field_.targets();
   for (Eigen::Index i = 0; i < cover_at_.rows(); ++i) {
     const double r2 = radii_[i] * radii_[i];
     const double scale = peaks_[i] / (r2 * r2);
@@ -35,11 +34,11 @@ void GroundTruthRecorder::coverage(const Points& start, const Points& end, doubl
       for (int gy = std::max(cy - 1, 0); gy <= std::min(cy + 1, target_ny_ - 1); ++gy) {
         const int c = gx * target_ny_ + gy;
         for (int k = target_start_[c]; k < target_start_[c + 1]; ++k) {
-          const int j = target_index_[k];
-          const double dx = targets(j, 0) - qx;
-          const double dy = targets(j, 1) - qy;
+          const double dx = target_xy_[2 * static_cast<std::size_t>(k)] - qx;
+          const double dy = target_xy_[2 * static_cast<std::size_t>(k) + 1] - qy;
           const double s2 = dx * dx + dy * dy;
           if (s2 <= r2) {
+            const int j = target_index_[k];
             const double d = s2 - r2;
             out[j] += scale * d * d;
             touched.push_back(j);

@@ -178,6 +178,7 @@ class GroundTruthRecorder {
   double target_cell_ = 1, target_x0_ = 0, target_y0_ = 0;
   int target_nx_ = 1, target_ny_ = 1;
   std::vector<int> target_start_, target_index_;
+  std::vector<double> target_xy_;  // x, y [m] of target_index_[k] at 2 k, 2 k + 1
   // The coverage at a substep's start, middle and end (zero but at the targets listed with
   // it: those within sensing range of a robot, repeats possible); recorder_field.cpp.
   Eigen::VectorXd cover_left_, cover_mid_, cover_right_;
