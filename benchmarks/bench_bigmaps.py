@@ -99,14 +99,14 @@ def measure(cmd: list[str]) -> dict:
     """Wall time [s], CPU time (user + system) [s], peak RSS [MB] and exit code of one run of
     `cmd` (its own process). CPU time is the figure other loads of a shared machine disturb
     least."""
-    with tempfile.TemporaryFile("w+") as out:
-        start = time.perf_counter()
-        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.PIPE, text=True)
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as errors:
+        start = time.perf_counter()  # output to files: a full pipe would stall the child
+        proc = subprocess.Popen(cmd, stdout=out, stderr=errors, text=True)
         _, status, usage = os.wait4(proc.pid, 0)
         wall = time.perf_counter() - start
         out.seek(0)
-        printed = out.read()
-    err = proc.stderr.read() if proc.stderr else ""
+        errors.seek(0)
+        printed, err = out.read(), errors.read()
     proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode != 0:
         print(f"  exit {proc.returncode}: {shlex.join(cmd)}\n{err[-2000:]}", file=sys.stderr)

@@ -434,6 +434,7 @@ double TpuafPlusStrategy::spacing_wait(Robot& r, int robot, double now) {
   if (!(L > 0)) return 0.0;
   const double here = route.arc[static_cast<std::size_t>(r.idx)];
   std::vector<MatePlace> mates;
+  mates.reserve(route.robots.size());
   for (int k : route.robots) {
     const std::size_t kk = static_cast<std::size_t>(k);
     double arc = 0, dwell = 0;
