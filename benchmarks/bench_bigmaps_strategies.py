@@ -3,9 +3,11 @@
 peak RSS and I_max against the target (10 s, 1 GB).
 
     .venv/bin/python benchmarks/bench_bigmaps_strategies.py [--size 10000] [--robots 100]
-        [--duration 3600] [--strategies cbls,cgg,...] [--timeout 120] [--out NAME]
+        [--duration 3600] [--strategies cbls,cgg,...] [--timeout 120] [--max-memory 4]
+        [--out NAME]
 
-A run that takes longer than --timeout [s] of wall time is stopped and reported as such.
+A run that takes longer than --timeout [s] of wall time is stopped, one that needs more than
+--max-memory [GB] of address space fails (prlimit); both are reported as such.
 Writes benchmarks/results/<out>.md and .json (default: bigmaps_strategies).
 """
 
@@ -32,6 +34,9 @@ def main() -> None:
     p.add_argument("--duration", type=float, default=3600.0, help="[s] simulated")
     p.add_argument("--strategies", default=STRATEGIES, help="comma-separated")
     p.add_argument("--timeout", type=float, default=120.0, help="[s] wall time per run")
+    p.add_argument("--max-memory", type=float, default=4.0,
+                   help="[GB] address space per run (prlimit): a run needing more fails there "
+                        "instead of exhausting the shared machine")
     p.add_argument("--out", default="bigmaps_strategies")
     args = p.parse_args()
     command = "benchmarks/bench_bigmaps_strategies.py " + shlex.join(sys.argv[1:])
@@ -39,7 +44,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="bigmaps_") as tmp:
         folder = write_building(Path(tmp) / "map", args.size)
         for strategy in args.strategies.split(","):
-            cmd = ["timeout", f"{args.timeout:g}"] + tpuaf_command() + [
+            cmd = ["timeout", f"{args.timeout:g}", "prlimit",
+                   f"--as={int(args.max_memory * 2**30)}"] + tpuaf_command() + [
                 "run", "--map", str(folder), "--strategy", strategy, "--robots",
                 str(args.robots), "--duration", f"{args.duration:g}", "--quiet"]
             row = {"strategy": strategy, **measure(cmd)}
@@ -60,7 +66,8 @@ def main() -> None:
     text += (f"Command: `.venv/bin/python {command.strip()}`\n\n"
              f"`run --map MAP --strategy S --robots {args.robots} --duration "
              f"{args.duration:g} --quiet` (the graph runtime), one process per strategy, one run each, "
-             f"stopped after {args.timeout:g} s of wall time; the map is bench_bigmaps.py's "
+             f"stopped after {args.timeout:g} s of wall time and limited to "
+             f"{args.max_memory:g} GB of address space (prlimit); the map is bench_bigmaps.py's "
              f"building (`write_building`). Target (issue 34): under {TARGET_S:g} s and "
              f"{TARGET_MB:g} MB. Wall time depends on the other loads of the shared 2-core "
              "machine; CPU time (user + system) less so.\n\n")

@@ -79,7 +79,7 @@ class DynamicTaskAssignmentPartition(Policy):
         n = g.num_vertices
         init = self.params["initial_estimate"]
         self.estimate = SharedEstimate(n, 2.0 * n if init is None else init, ctx.now)
-        self.hops = np.asarray(g.hop_matrix, dtype=float)
+        self.hops = g.hop_matrix  # the graph's (int) matrix, shared: no copy per robot
         self.dist = np.asarray(g.distances, dtype=float)
         self.bids: dict[int, dict[int, tuple[float, float]]] = {}  # v -> robot -> (bid m, time s)
         self.goal: int | None = None  # the vertex the robot is heading to ("next")
