@@ -555,8 +555,8 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
     const std::vector<int> seeds = farthest_seeds(graph, arcs, firsts[f], k, work);
     Partition part;
     // big graphs: parts grown to equal tree lengths (moves cannot even out nearest-seed ones)
-    part.owner = n > kDenseTourMax ? grow_balanced_parts(arcs, seeds)
-                                   : dijkstra(arcs, seeds, kEps).source;
+    part.owner =
+        n > kDenseTourMax ? grow_balanced_parts(arcs, seeds) : dijkstra(arcs, seeds, kEps).source;
     part.parts.resize(k);
     for (int v = 0; v < n; ++v) part.parts[part.owner[v]].push_back(v);
     part.costs.resize(k);

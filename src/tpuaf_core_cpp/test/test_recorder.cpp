@@ -113,8 +113,9 @@ void expect_field_as_uncertainty_field(bool one_importance) {
     std::memcpy(&a, &want, sizeof a);
     std::memcpy(&b, &got, sizeof b);
     EXPECT_EQ(a, b) << "target " << j << ": " << want << " vs " << got;
-    const double uncovered = UncertaintyField(targets, importance, initial).model().evolve(
-        initial[j], importance[j], 1.0);
+    const double uncovered = UncertaintyField(targets, importance, initial)
+                                 .model()
+                                 .evolve(initial[j], importance[j], 1.0);
     covered += want < uncovered - 1e-9;  // (one step of 1 s, not 4: rounding apart)
   }
   EXPECT_GT(covered, 10);  // both kinds of target were stepped

@@ -183,10 +183,10 @@ class GroundTruthRecorder {
   // it: those within sensing range of a robot, repeats possible); recorder_field.cpp.
   Eigen::VectorXd cover_left_, cover_mid_, cover_right_;
   std::vector<int> touched_left_, touched_mid_, touched_right_;
-  std::vector<int> covered_;            // the targets some robot covers during a substep
-  std::vector<char> covered_mark_;      // per target: listed in covered_
-  std::vector<double> covered_value_;   // their new X, in covered_'s order
-  int uniform_importance_ = -1;         // every target's C is the same: 1, not: 0, unknown: -1
+  std::vector<int> covered_;           // the targets some robot covers during a substep
+  std::vector<char> covered_mark_;     // per target: listed in covered_
+  std::vector<double> covered_value_;  // their new X, in covered_'s order
+  int uniform_importance_ = -1;        // every target's C is the same: 1, not: 0, unknown: -1
   Points cover_at_;
   void coverage(const Points& start, const Points& end, double fraction, Eigen::VectorXd& out,
                 std::vector<int>& touched);

@@ -167,8 +167,8 @@ class TpuafPlusStrategy : public TeamStrategy {
     std::vector<char> has_heard;
     std::vector<double> mate_arc;  // last estimated arc [m] per mate
     std::vector<char> has_mate_arc;
-    std::vector<double> pace;     // [m/s] measured pace along the walk per robot (me too)
-    double changed_at = 0;        // [s] when the team last changed
+    std::vector<double> pace;  // [m/s] measured pace along the walk per robot (me too)
+    double changed_at = 0;     // [s] when the team last changed
     bool holding = false;
     double hold_until = 0;  // planned departure while dwelling [s]
     bool respacing = false;
