@@ -18,6 +18,7 @@ import argparse
 import json
 import math
 import os
+import re
 import shlex
 import subprocess
 import sys
@@ -98,20 +99,26 @@ def measure(cmd: list[str]) -> dict:
     """Wall time [s], CPU time (user + system) [s], peak RSS [MB] and exit code of one run of
     `cmd` (its own process). CPU time is the figure other loads of a shared machine disturb
     least."""
-    start = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - start
-    err = proc.stderr.read() if proc.stderr else ""
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as errors:
+        start = time.perf_counter()  # output to files: a full pipe would stall the child
+        proc = subprocess.Popen(cmd, stdout=out, stderr=errors, text=True)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - start
+        out.seek(0)
+        errors.seek(0)
+        printed, err = out.read(), errors.read()
     proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode != 0:
         print(f"  exit {proc.returncode}: {shlex.join(cmd)}\n{err[-2000:]}", file=sys.stderr)
+    found = re.search(r"I_max\s+([0-9,.]+) s", printed)  # `run`'s summary
     return {"wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime,
-            "peak_mb": usage.ru_maxrss / 1024.0, "exit": proc.returncode}
+            "peak_mb": usage.ru_maxrss / 1024.0, "exit": proc.returncode,
+            **({"i_max_s": float(found.group(1).replace(",", ""))} if found else {})}
 
 
 def median_of(runs: list[dict]) -> dict:
-    return {"wall_s": float(np.median([r["wall_s"] for r in runs])),
+    extra = {"i_max_s": runs[0]["i_max_s"]} if "i_max_s" in runs[0] else {}  # deterministic
+    return {**extra, "wall_s": float(np.median([r["wall_s"] for r in runs])),
             "cpu_s": float(np.median([r["cpu_s"] for r in runs])),
             "peak_mb": float(np.median([r["peak_mb"] for r in runs])),
             "exit": max(r["exit"] for r in runs), "repeats": len(runs)}
@@ -140,6 +147,11 @@ def bench(args: argparse.Namespace) -> list[dict]:
                 print(f"{n:>6} vertices  {what:<4}  {row[what]['wall_s']:7.2f} s  "
                       f"(CPU {row[what]['cpu_s']:6.2f} s)  "
                       f"{row[what]['peak_mb']:7.0f} MB  (exit {row[what]['exit']})", flush=True)
+            row["plan"] = plan_figures(folder, args.robots)
+            p = row["plan"]
+            print(f"{n:>6} vertices  parts {p['parts']}: longest walk {p['longest_m']:,.0f} m = "
+                  f"{p['longest_m'] / p['mean_m']:.2f} x the mean ({p['cpu_s']:.2f} s CPU)",
+                  flush=True)
             if args.tours:
                 row["tours"] = tour_quality(folder)
                 t = row["tours"]
@@ -176,6 +188,43 @@ def tour_quality(folder: Path) -> dict:
     return out
 
 
+def plan_figures(folder: Path, robots: int) -> dict:
+    """tpuaf_plus's two candidate plans for `robots` robots (tpuaf_plus.make_plan): the
+    partition into min(N, |V|) parts (`tours.partition_tours`: its CPU time in this process,
+    part sizes, walks [m]) and the cycle; the predicted worst idleness [s] of each at the map's
+    speed (`tpuaf_core.walk_worst_idleness`)."""
+    import tpuaf_core
+    from tpuaf.maps import load_map, tours
+
+    pm = load_map(folder)
+    graph, speed = pm.graph, float(pm.settings.nominal_speed)
+    start = time.process_time()
+    part = tours.partition_tours(pm, robots)
+    cpu = time.process_time() - start
+    lengths = [t.length for t in part.tours]
+    part_worst = max(tpuaf_core.walk_worst_idleness(graph, t.walk, m, speed)
+                     for t, m in zip(part.tours, part.robots_per_part, strict=True))
+    cycle = tours.cyclic_tour(pm)
+    return {"parts": len(part.parts), "sizes": [len(q) for q in part.parts],
+            "longest_m": max(lengths), "mean_m": float(np.mean(lengths)), "cpu_s": cpu,
+            "partition_worst_s": part_worst, "cycle_m": cycle.length,
+            "cycle_worst_s": tpuaf_core.walk_worst_idleness(graph, cycle.walk, robots, speed)}
+
+
+def plan_table(rows: list[dict]) -> str:
+    lines = ["| vertices | parts | part sizes | longest walk [m] | longest / mean | partition "
+             "CPU [s] | predicted worst: partition [s] | cycle [s] | lower worst |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
+    for r in rows:
+        p = r["plan"]
+        takes = "partition" if p["partition_worst_s"] < p["cycle_worst_s"] - 1e-6 else "cycle"
+        lines.append(f"| {r['vertices']:,} | {p['parts']} | {min(p['sizes']):,}-"
+                     f"{max(p['sizes']):,} | {p['longest_m']:,.0f} | "
+                     f"{p['longest_m'] / p['mean_m']:.2f} | {p['cpu_s']:.2f} | "
+                     f"{p['partition_worst_s']:,.0f} | {p['cycle_worst_s']:,.0f} | {takes} |")
+    return "\n".join(lines)
+
+
 def tour_table(rows: list[dict]) -> str:
     lines = ["| vertices | sparse: starts, kicks | sparse length [m] | sparse CPU [s] | "
              "dense: starts, kicks | dense length [m] | dense CPU [s] | sparse / dense |",
@@ -192,14 +241,15 @@ def tour_table(rows: list[dict]) -> str:
 
 def table(rows: list[dict]) -> str:
     lines = ["| vertices | `maps` wall [s] | `maps` CPU [s] | `maps` peak RSS [MB] | `run` wall [s] "
-             "| `run` CPU [s] | `run` peak RSS [MB] | repeats |",
-             "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "| `run` CPU [s] | `run` peak RSS [MB] | `run` I_max [s] | repeats |",
+             "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         m, u = r["maps"], r["run"]
         flag = "" if m["exit"] == 0 and u["exit"] == 0 else f" (exit {m['exit']}/{u['exit']})"
         lines.append(f"| {r['vertices']:,} | {m['wall_s']:.2f} | {m['cpu_s']:.2f} | "
                      f"{m['peak_mb']:.0f} | {u['wall_s']:.2f} | {u['cpu_s']:.2f} | "
-                     f"{u['peak_mb']:.0f} | {m['repeats']}{flag} |")
+                     f"{u['peak_mb']:.0f} | {u.get('i_max_s', float('nan')):.1f} | "
+                     f"{m['repeats']}{flag} |")
     return "\n".join(lines)
 
 
@@ -231,6 +281,12 @@ def main() -> None:
              f"(`write_building`). Target (issue 34): at 10,000 vertices each under "
              f"{TARGET_S:g} s and {TARGET_MB:g} MB.\n\n")
     text += table(rows) + "\n"
+    text += ("\ntpuaf_plus's candidate plans for the same team (`tpuaf_plus.make_plan` keeps the "
+             "one of lower predicted worst idleness; within 2 % the lower predicted mean X): the "
+             "partition into N connected parts, each toured by its robots (part sizes in "
+             "vertices; the longest part walk against the mean one: the partition's balance; "
+             "`tours.partition_tours`, CPU time in this process), and the one cycle:\n\n")
+    text += plan_table(rows) + "\n"
     if args.tours:
         text += ("\nThe closed walk through every vertex (tpuaf_plus's cycle, `tours.closed_walk`): "
                  "the sparse search (lengths on demand, above `tpuaf_core.DENSE_TOUR_MAX` "

@@ -168,3 +168,53 @@ def test_a_big_map_plans_tpuaf_plus_without_an_all_pairs_matrix(tmp_path):
                              duration_s=120.0), pm)
     assert run.run()["visits"] > 30
     assert not g.has_dense_matrices
+
+
+@pytest.mark.parametrize("k", [5, 20])
+def test_a_big_building_splits_into_parts_of_about_equal_walks(tmp_path, k):
+    """Above DENSE_TOUR_MAX vertices the parts grow together to equal tree lengths; nearest-seed
+    parts left the longest walk 1.26x the mean here at k = 5 (2.29x at 10,000 vertices), and
+    the vertex moves cannot even them out."""
+    from tpuaf.maps import tours
+
+    pm = _building(tmp_path, 2000)  # 2,025 vertices
+    g = pm.graph
+    assert g.num_vertices > core.DENSE_TOUR_MAX
+    part = tours.partition_tours(pm, k)
+    assert sorted(v for p in part.parts for v in p) == list(range(g.num_vertices))
+    adj = tours._adjacency(g)
+    assert all(tours._connected(adj, set(p)) for p in part.parts)
+    lengths = [t.length for t in part.tours]
+    assert all(set(t.walk) == set(p) for t, p in zip(part.tours, part.parts, strict=True))
+    assert max(lengths) <= 1.3 * float(np.mean(lengths))  # measured: 1.02 (k = 5), 1.26 (20)
+    assert not g.has_dense_matrices
+
+
+
+def test_a_graph_file_as_written_reads_line_by_line_as_yaml_reads_it(tmp_path):
+    from tpuaf.errors import MapError
+    from tpuaf.maps import mapfile
+    from tpuaf_core import yamlfile
+
+    folder = _bench().write_building(tmp_path / "plain", 400)
+    path = folder / "graph.yaml"
+    text = path.read_text()
+    text = text.replace("  - {id: 3, x:", "  - {id: 3, importance: 2, initial_uncertainty: 0.5, x:")
+    first_edge = text.split("edges:\n")[1].split("\n")[0]  # "  - [u, v]"
+    edge = f"{first_edge[:-1]}, 2.5]\n"
+    text = text.replace(f"{first_edge}\n", edge)
+    path.write_text(text)
+    plain = mapfile._plain_graph(path)
+    assert plain is not None
+    full = yamlfile.read_yaml_fast(path, MapError)
+    assert plain == full
+    kinds = [[type(x) for x in v.values()] for v in plain["vertices"]]
+    assert kinds == [[type(x) for x in v.values()] for v in full["vertices"]]
+    assert [[type(x) for x in e] for e in plain["edges"]] == \
+        [[type(x) for x in e] for e in full["edges"]]
+    assert load_map(folder).importance[3] == 2.0
+    for other in (f"{edge[:-1]}  # m\n", "  - [01, 2]\n", "  - [1, 2, 5e-2]\n"):
+        path.write_text(text.replace(edge, other))  # YAML decides these
+        assert mapfile._plain_graph(path) is None
+    path.write_text(text.replace("  - {id: 3,", "  - {id: 3, id: 4,"))  # a repeated key
+    assert mapfile._plain_graph(path) is None

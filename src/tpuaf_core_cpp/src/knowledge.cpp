@@ -54,13 +54,34 @@ void TpuafKnowledge::record_visit(int vertex, double time_s) {
     anchor_[vertex].time = time_s;
     return;
   }
-  const double c = importance_[vertex];
-  const double x = model_.evolve(anchor_[vertex].value, c, time_s - anchor_[vertex].time);
-  const double value = model_.evolve(x, c - pass_coverage_, pass_time_s_);
+  const double value = after_visit(vertex, anchor_[vertex].value, anchor_[vertex].time, time_s);
   if (shared != nullptr)
     *shared = {anchor_[vertex].value, anchor_[vertex].time, time_s, value, true};
   anchor_[vertex].value = value;
   anchor_[vertex].time = time_s;
+}
+
+double TpuafKnowledge::after_visit(int vertex, double value, double time_s,
+                                   double visit_time_s) const {
+  const double c = importance_[vertex];
+  const double x = model_.evolve(value, c, visit_time_s - time_s);
+  return model_.evolve(x, c - pass_coverage_, pass_time_s_);
+}
+
+double TpuafKnowledge::anchor_value(int vertex) const {
+  check_vertex(vertex);
+  return anchor_[static_cast<std::size_t>(vertex)].value;
+}
+
+double TpuafKnowledge::anchor_time(int vertex) const {
+  check_vertex(vertex);
+  return anchor_[static_cast<std::size_t>(vertex)].time;
+}
+
+void TpuafKnowledge::set_visit_state(int vertex, double value, double time_s) {
+  check_vertex(vertex);
+  anchor_[static_cast<std::size_t>(vertex)] = {value, time_s};
+  last_visit_[vertex] = time_s;
 }
 
 void TpuafKnowledge::share_visit_results() {

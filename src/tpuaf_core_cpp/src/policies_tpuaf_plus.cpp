@@ -87,10 +87,13 @@ void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
     robots_.clear();
     robots_.reserve(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) robots_.emplace_back(prototype_);
+    visits_ = TeamVisits(prototype_, n);
+    histories_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), Recent{});
     plan_cache_.clear();
   }
   Robot& r = state(robot);
   r = Robot(prototype_);
+  visits_.reset(robot);
   const std::size_t size = static_cast<std::size_t>(n);
   r.alive.assign(size, 1);
   r.lost_at.assign(size, kInf);
@@ -98,7 +101,7 @@ void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
   r.has_heard.assign(size, 0);
   r.mate_arc.assign(size, 0.0);
   r.has_mate_arc.assign(size, 0);
-  r.history.assign(size, {});
+  for (int k = 0; k < n; ++k) history(r, k) = Recent{};
   r.pace.assign(size, params_.speed_mps);
   r.last_announce = -kInf;
   r.started = true;
@@ -131,11 +134,11 @@ void TpuafPlusStrategy::install_plan(StrategyHost& host, int robot, bool initial
       r.respace_at = host.now();
     }
   } else if (route.robots.size() == 1 && route.walk.size() > 1) {  // a new part alone
-    r.entry = urgent_entry(r, route, host.current_vertex(robot), host.now());
+    r.entry = urgent_entry(robot, route, host.current_vertex(robot), host.now());
     r.idx = -1;
   } else {
     // a walk new to several robots: the start schedule's entries from where each stood
-    const std::map<int, int> entries = transition_entries(r);
+    const std::map<int, int> entries = transition_entries(r, robot);
     auto it = entries.find(robot);
     r.entry = it != entries.end() ? it->second
                                   : nearest_entry(*graph_, route, host.current_vertex(robot));
@@ -144,16 +147,15 @@ void TpuafPlusStrategy::install_plan(StrategyHost& host, int robot, bool initial
   r.holding = false;
 }
 
-int TpuafPlusStrategy::urgent_entry(const Robot& r, const PlusRoute& route, int vertex,
+int TpuafPlusStrategy::urgent_entry(int robot, const PlusRoute& route, int vertex,
                                     double now) const {
   // min over entries k of max over walk entries i of (drive to k + arc k -> i + idleness of i)
   // [s], rounded to 1e-6 s as np.round; ties to the nearer entry, then the lower index.
   const std::size_t n = route.walk.size();
   const double speed = params_.speed_mps;
-  const Eigen::VectorXd& last = r.knowledge.last_visit();
   std::vector<double> idle(n), reach(n), worst(n);
   for (std::size_t i = 0; i < n; ++i) {
-    idle[i] = now - last[route.walk[i]];
+    idle[i] = now - visits_.last_visit(robot, route.walk[i]);
     reach[i] = distance(vertex, route.walk[i]) / speed;
   }
   for (std::size_t k = 0; k < n; ++k) {
@@ -171,7 +173,7 @@ int TpuafPlusStrategy::urgent_entry(const Robot& r, const PlusRoute& route, int 
   return static_cast<int>(best);
 }
 
-std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
+std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r, int robot) const {
   // Each robot of my new walk starts at the vertex its last announcement before the team
   // change headed to, late by what was left of that drive; {} when one was never heard.
   const double t_ref = r.changed_at;
@@ -181,7 +183,7 @@ std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
   std::vector<double> late;
   for (int k : route.robots) {
     const Heard* info = nullptr;
-    for (const Heard& h : r.history[static_cast<std::size_t>(k)]) {
+    for (const Heard& h : history(r, k)) {
       if (h.sent <= t_ref + kEps) info = &h;
     }
     if (info == nullptr) return {};
@@ -189,10 +191,9 @@ std::map<int, int> TpuafPlusStrategy::transition_entries(const Robot& r) const {
     late.push_back(std::max(0.0, info->departure + distance(info->from, info->to) / speed - t_ref) *
                    speed);
   }
-  const Eigen::VectorXd& last = r.knowledge.last_visit();
-  std::vector<double> idle(static_cast<std::size_t>(last.size()));
-  for (Eigen::Index v = 0; v < last.size(); ++v) {
-    idle[static_cast<std::size_t>(v)] = std::max(t_ref - last[v], 0.0);
+  std::vector<double> idle(static_cast<std::size_t>(graph_->num_vertices()));
+  for (int v = 0; v < graph_->num_vertices(); ++v) {
+    idle[static_cast<std::size_t>(v)] = std::max(t_ref - visits_.last_visit(robot, v), 0.0);
   }
   const auto plan = start_schedule(*graph_, route, starts, late, speed, &idle);
   std::map<int, int> out;
@@ -246,13 +247,12 @@ double TpuafPlusStrategy::idle_room(Robot& r, int robot, double now) {
       reach = std::min(reach, py_mod(arc + dwell - here, L));
     }
   }
-  const Eigen::VectorXd& last = r.knowledge.last_visit();
   double room = kInf;
   for (std::size_t step = 1; step < n; ++step) {
     const std::size_t i = (static_cast<std::size_t>(r.idx) + step) % n;
     const double d = py_mod(route.arc[i] - here, L);
     if (d > reach + kEps) break;
-    room = std::min(room, (even - d) / speed - (now - last[route.walk[i]]));
+    room = std::min(room, (even - d) / speed - (now - visits_.last_visit(robot, route.walk[i])));
   }
   return std::isfinite(room) ? std::max(0.0, room) : 0.0;
 }
@@ -279,14 +279,24 @@ void TpuafPlusStrategy::heard_from(Robot& r, int k, double sent) const {
 }
 
 void TpuafPlusStrategy::remember(Robot& r, int robot, const Heard& entry) {
-  r.history[static_cast<std::size_t>(robot)].push(entry);
+  history(r, robot).push(entry);
+}
+
+TpuafPlusStrategy::Recent& TpuafPlusStrategy::history(const Robot& r, int k) {
+  const auto holder = static_cast<std::size_t>(&r - robots_.data());
+  return histories_[static_cast<std::size_t>(k) * robots_.size() + holder];
+}
+
+const TpuafPlusStrategy::Recent& TpuafPlusStrategy::history(const Robot& r, int k) const {
+  const auto holder = static_cast<std::size_t>(&r - robots_.data());
+  return histories_[static_cast<std::size_t>(k) * robots_.size() + holder];
 }
 
 void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s) const {
   // One pace sample of robot k, at `vertex` at arrived_s [s]: the drive its newest announcement
   // before then headed here on, length / (arrival - departure) [m/s].
   const Heard* last = nullptr;
-  for (const Heard& h : r.history[static_cast<std::size_t>(k)]) {
+  for (const Heard& h : history(r, k)) {
     if (h.sent <= arrived_s + kEps) last = &h;
   }
   if (last == nullptr || last->from == last->to || last->to != vertex) return;
@@ -305,7 +315,7 @@ void TpuafPlusStrategy::on_message(StrategyHost& /*host*/, int robot, const Team
   Heard& latest = r.heard[static_cast<std::size_t>(k)];
   char& has = r.has_heard[static_cast<std::size_t>(k)];
   if (message.kind == TeamMessage::Kind::kVisit) {
-    r.knowledge.hear_visit(k, message.vertex, sent);
+    visits_.record(robot, message.vertex, sent);  // TpuafKnowledge::hear_visit's record
     heard_from(r, k, sent);
     learn_pace(r, k, message.vertex, sent);
     const int next = message.next_vertex >= 0 ? message.next_vertex : message.vertex;
@@ -424,6 +434,7 @@ double TpuafPlusStrategy::spacing_wait(Robot& r, int robot, double now) {
   if (!(L > 0)) return 0.0;
   const double here = route.arc[static_cast<std::size_t>(r.idx)];
   std::vector<MatePlace> mates;
+  mates.reserve(route.robots.size());
   for (int k : route.robots) {
     const std::size_t kk = static_cast<std::size_t>(k);
     double arc = 0, dwell = 0;
@@ -471,7 +482,7 @@ int TpuafPlusStrategy::decide(StrategyHost& host, int robot) {
   const bool waking = r.waking;
   r.waking = false;
   if (!waking) {
-    r.knowledge.record_visit(here, now);
+    visits_.record(robot, here, now);
     learn_pace(r, robot, here, now);  // my own drive here
   }
   update_team(host, robot);
@@ -565,6 +576,9 @@ int TpuafPlusStrategy::repair_hop(StrategyHost& host, int robot, int here, int t
     return pick;
   }
   Robot& r = state(robot);
+  std::vector<int> lent = on_path;
+  lent.push_back(here);
+  visits_.lend(robot, lent, r.knowledge);  // what Eq. 13 reads of them
   const UtilityResult result = r.knowledge.utilities(*graph_, host.now(), here, on_path,
                                                      params_.speed_mps, UtilityForm::kEq13, false);
   Eigen::Index pick = 0;  // np.argmax: the first maximum (a NaN wins)

@@ -87,6 +87,11 @@ GroundTruthRecorder::GroundTruthRecorder(const RecorderConfig& config, Uncertain
     target_index_[static_cast<std::size_t>(
         count[static_cast<std::size_t>(cell_of[static_cast<std::size_t>(j)])]++)] = j;
   }
+  target_xy_.resize(2 * target_index_.size());  // in cell order: a cell's targets side by side
+  for (std::size_t k = 0; k < target_index_.size(); ++k) {
+    target_xy_[2 * k] = targets(target_index_[k], 0);
+    target_xy_[2 * k + 1] = targets(target_index_[k], 1);
+  }
 }
 
 void GroundTruthRecorder::record_visit(int robot, int vertex, double time) {
@@ -481,84 +486,6 @@ void GroundTruthRecorder::step_field(double dt, const Points& pa, const Points& 
     return;
   }
   advance_linear(dt, pa, pb);
-}
-
-void GroundTruthRecorder::coverage(const Points& start, const Points& end, double fraction,
-                                   Eigen::VectorXd& out) {
-  // total_perception (Eq. 1 summed over robots) at start + fraction (end - start), robot by
-  // robot in index order as there, over the targets within one cell of the robot only.
-  cover_at_ = start + fraction * (end - start);
-  out.setZero(n_vertices_);
-  const auto& targets = field_.targets();
-  for (Eigen::Index i = 0; i < cover_at_.rows(); ++i) {
-    const double r2 = radii_[i] * radii_[i];
-    const double scale = peaks_[i] / (r2 * r2);
-    const double qx = cover_at_(i, 0), qy = cover_at_(i, 1);
-    const double fx = std::floor((qx - target_x0_) / target_cell_);
-    const double fy = std::floor((qy - target_y0_) / target_cell_);
-    if (!(fx >= -1 && fx <= target_nx_ && fy >= -1 && fy <= target_ny_)) continue;  // far away
-    const int cx = static_cast<int>(fx), cy = static_cast<int>(fy);
-    for (int gx = std::max(cx - 1, 0); gx <= std::min(cx + 1, target_nx_ - 1); ++gx) {
-      for (int gy = std::max(cy - 1, 0); gy <= std::min(cy + 1, target_ny_ - 1); ++gy) {
-        const int c = gx * target_ny_ + gy;
-        for (int k = target_start_[c]; k < target_start_[c + 1]; ++k) {
-          const int j = target_index_[k];
-          const double dx = targets(j, 0) - qx;
-          const double dy = targets(j, 1) - qy;
-          const double s2 = dx * dx + dy * dy;
-          if (s2 <= r2) {
-            const double d = s2 - r2;
-            out[j] += scale * d * d;
-          }
-        }
-      }
-    }
-  }
-}
-
-void GroundTruthRecorder::advance_linear(double dt, const Points& start, const Points& end) {
-  // UncertaintyField::advance_linear, step for step (Simpson's rule per substep, exact
-  // constant-coverage solution), with the coverage through the target cells.
-  const int steps = std::max(1, static_cast<int>(std::ceil(dt / max_substep_)));
-  const double h = dt / steps;
-  const UncertaintyModel& model = field_.model();
-  const Eigen::VectorXd& importance = field_.importance();
-  const bool affine = model.is_affine();
-  const double a0 = model.growth_coefficients[0];
-  const double a1 = model.growth_coefficients.size() > 1 ? model.growth_coefficients[1] : 0.0;
-  coverage(start, end, 0.0, cover_left_);
-  for (int k = 0; k < steps; ++k) {
-    coverage(start, end, (k + 0.5) / steps, cover_mid_);
-    coverage(start, end, (k + 1.0) / steps, cover_right_);
-    // One exp pair per distinct rate: the uncovered targets of a uniform map share theirs.
-    double cached_rate = kNaN, growth = 0, offset = 0;
-    bool saturated = false;
-    for (Eigen::Index j = 0; j < values_.size(); ++j) {
-      const double mean = (cover_left_[j] + 4.0 * cover_mid_[j] + cover_right_[j]) / 6.0;
-      const double rate = importance[j] - mean;
-      if (!affine || !(h > 0)) {
-        values_[j] = model.evolve(values_[j], rate, h);
-        continue;
-      }
-      if (!(rate == cached_rate)) {  // UncertaintyModel::evolve, affine branch
-        cached_rate = rate;
-        const double z = a1 * rate * h;
-        saturated = z > 700;
-        if (!saturated) {
-          growth = std::exp(z);
-          const double ratio = std::abs(z) < 1e-12 ? 1.0 + 0.5 * z : std::expm1(z) / z;
-          offset = a0 * rate * h * ratio;
-        }
-      }
-      if (saturated) {
-        values_[j] = model.max_value;
-        continue;
-      }
-      const double x = values_[j] * growth + offset;
-      values_[j] = !(x > 0) ? 0.0 : std::min(x, model.max_value);
-    }
-    cover_left_.swap(cover_right_);
-  }
 }
 
 double GroundTruthRecorder::worst_idleness(double end_s) const {

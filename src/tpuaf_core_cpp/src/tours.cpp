@@ -12,6 +12,7 @@
 #include <string>
 #include <utility>
 
+#include "partition_growth.hpp"
 #include "tour_local_search.hpp"
 #include "tour_metrics.hpp"
 #include "tpuaf_core/shortest_path.hpp"
@@ -553,7 +554,9 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
   for (std::size_t f = 0; f < firsts.size(); ++f) {
     const std::vector<int> seeds = farthest_seeds(graph, arcs, firsts[f], k, work);
     Partition part;
-    part.owner = dijkstra(arcs, seeds, kEps).source;
+    // big graphs: parts grown to equal tree lengths (moves cannot even out nearest-seed ones)
+    part.owner =
+        n > kDenseTourMax ? grow_balanced_parts(arcs, seeds) : dijkstra(arcs, seeds, kEps).source;
     part.parts.resize(k);
     for (int v = 0; v < n; ++v) part.parts[part.owner[v]].push_back(v);
     part.costs.resize(k);

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "tpuaf_core/knowledge.hpp"
+#include "tpuaf_core/team_visits.hpp"
 
 namespace tpuaf {
 namespace {
@@ -102,6 +103,47 @@ TEST(Knowledge, TeamKnowledgeLeavesOutTheDecidersOwnIntentionAndRefusesAnUnclose
   EXPECT_TRUE(team.hear_team_visit(1, 2));     // closes it
   EXPECT_TRUE(team.intentions().empty());
   EXPECT_TRUE(team.hear_team_intention(in));
+}
+
+}  // namespace
+}  // namespace tpuaf
+
+namespace tpuaf {
+namespace {
+
+TEST(TeamVisits, EveryRobotKnowsWhatItsOwnKnowledgeWould) {
+  // Four robots, each hearing its own interleaving of visits (old ones, repeats, the same
+  // visit as a mate): the team store holds what a TpuafKnowledge per robot holds.
+  TpuafKnowledge initial(Eigen::VectorXd::LinSpaced(5, 0.01, 0.05),
+                         Eigen::VectorXd::LinSpaced(5, 0.0, 2.0), {}, 0.5, 4.0, 10.0);
+  initial.share_visit_results();
+  TeamVisits team(initial, 4);
+  std::vector<TpuafKnowledge> own(4, initial);
+  unsigned state = 12345;
+  auto next = [&](unsigned mod) {
+    state = state * 1103515245u + 12345u;
+    return (state >> 16) % mod;
+  };
+  for (int step = 0; step < 400; ++step) {
+    const int robot = static_cast<int>(next(4)), vertex = static_cast<int>(next(5));
+    const double time_s = 0.5 * (step / 3) - static_cast<double>(next(3));  // some older
+    team.record(robot, vertex, time_s);
+    own[static_cast<std::size_t>(robot)].record_visit(vertex, time_s);
+  }
+  for (int r = 0; r < 4; ++r) {
+    for (int v = 0; v < 5; ++v) {
+      const TpuafKnowledge& k = own[static_cast<std::size_t>(r)];
+      EXPECT_EQ(team.last_visit(r, v), k.last_visit()[v]);
+      TpuafKnowledge lent = initial;
+      team.lend(r, {v}, lent);
+      EXPECT_EQ(lent.anchor_value(v), k.anchor_value(v)) << "robot " << r << " vertex " << v;
+      EXPECT_EQ(lent.anchor_time(v), k.anchor_time(v));
+    }
+  }
+  team.reset(2);
+  EXPECT_EQ(team.last_visit(2, 3), 0.0);
+  EXPECT_THROW(team.record(4, 0, 1.0), std::out_of_range);
+  EXPECT_THROW(team.record(0, 5, 1.0), std::out_of_range);
 }
 
 }  // namespace

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "tpuaf_core/recorder.hpp"
 
@@ -79,6 +81,53 @@ TEST(Recorder, AnAbsentRobotNeitherSensesNorInterferes) {
   rec.record_positions(3.0, p);
   ASSERT_EQ(rec.interferences().size(), 1u);
   EXPECT_NEAR(rec.interferences()[0].time_s, 2.0 + 18.0 / 19.0, 1e-12);
+}
+
+// The recorder's field against UncertaintyField::advance_linear on a 12 x 12 grid of targets
+// 1 m apart, two robots driving across it for 1 s (4 substeps; sensing radius 2 m, so most
+// targets are uncovered): equal bit for bit, with one importance for all targets (the
+// recorder's shared-rate loop) and with a different one per target (the general loop).
+void expect_field_as_uncertainty_field(bool one_importance) {
+  Points targets(144, 2);
+  Eigen::VectorXd importance(144);
+  for (int j = 0; j < 144; ++j) {
+    targets.row(j) << j % 12, j / 12;
+    importance[j] = one_importance ? 0.01 : 0.01 + 0.001 * (j % 7);
+  }
+  const Eigen::VectorXd initial = Eigen::VectorXd::LinSpaced(144, 0.5, 2.0);
+  UncertaintyField reference(targets, importance, initial);
+  RecorderConfig config = two_robots(0.0, true);
+  config.sensing_radius_m = 2.0;
+  GroundTruthRecorder rec(config, UncertaintyField(targets, importance, initial));
+  Points start(2, 2), end(2, 2);
+  start << 1, 1, 10, 3;
+  end << 3, 2, 9, 5;  // integers: start + (end - start) is end exactly
+  rec.record_positions(0.0, start);
+  rec.record_positions(1.0, end);  // the 1 s row: the field advanced over [0, 1] s
+  reference.advance_linear(1.0, start, end, Eigen::VectorXd::Ones(2),
+                           Eigen::VectorXd::Constant(2, 2.0), config.max_substep_s);
+  int covered = 0;
+  for (int j = 0; j < 144; ++j) {
+    const double want = reference.values()[j], got = rec.field_values()[j];
+    std::uint64_t a, b;
+    std::memcpy(&a, &want, sizeof a);
+    std::memcpy(&b, &got, sizeof b);
+    EXPECT_EQ(a, b) << "target " << j << ": " << want << " vs " << got;
+    const double uncovered = UncertaintyField(targets, importance, initial)
+                                 .model()
+                                 .evolve(initial[j], importance[j], 1.0);
+    covered += want < uncovered - 1e-9;  // (one step of 1 s, not 4: rounding apart)
+  }
+  EXPECT_GT(covered, 10);  // both kinds of target were stepped
+  EXPECT_LT(covered, 100);
+}
+
+TEST(Recorder, TheFieldOfOneImportanceIsUncertaintyFieldsBitForBit) {
+  expect_field_as_uncertainty_field(true);
+}
+
+TEST(Recorder, TheFieldOfManyImportancesIsUncertaintyFieldsBitForBit) {
+  expect_field_as_uncertainty_field(false);
 }
 
 TEST(Recorder, DwellsCountTheTimeStandingOnTheGoalStoodOn) {

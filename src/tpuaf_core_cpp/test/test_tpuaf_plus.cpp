@@ -35,7 +35,13 @@ class TpuafPlusProbe {
     return s.state(i).pace[static_cast<std::size_t>(k)];
   }
   static std::map<int, int> transition_entries(TpuafPlusStrategy& s, int i) {
-    return s.transition_entries(s.state(i));
+    return s.transition_entries(s.state(i), i);
+  }
+  static TpuafPlusStrategy::Recent& history(TpuafPlusStrategy& s, int i, int k) {
+    return s.history(s.state(i), k);
+  }
+  static void record_visit(TpuafPlusStrategy& s, int i, int vertex, double time_s) {
+    s.visits_.record(i, vertex, time_s);
   }
 };
 
@@ -226,12 +232,12 @@ TEST(TpuafPlus, TransitionToANewSharedWalkSpreadsTheEntries) {
   plan->routes[0].robots = {0, 1};
   r.plan = plan;
   r.changed_at = 100.0;
-  r.knowledge.record_visit(0, 99.0);
-  r.knowledge.record_visit(1, 95.0);
-  r.knowledge.record_visit(3, 95.0);  // vertex 2: never visited (idle 100 s)
+  TpuafPlusProbe::record_visit(*s, 0, 0, 99.0);
+  TpuafPlusProbe::record_visit(*s, 0, 1, 95.0);
+  TpuafPlusProbe::record_visit(*s, 0, 3, 95.0);  // vertex 2: never visited (idle 100 s)
   // robot 1's later message (after the change) is not used: where it stood at the change
-  r.history[0] = {{1, 0, 90.0, 90.0}};
-  r.history[1] = {{1, 0, 91.0, 91.0}, {0, 3, 120.0, 120.0}};
+  TpuafPlusProbe::history(*s, 0, 0) = {{1, 0, 90.0, 90.0}};
+  TpuafPlusProbe::history(*s, 0, 1) = {{1, 0, 91.0, 91.0}, {0, 3, 120.0, 120.0}};
   const std::map<int, int> entries = TpuafPlusProbe::transition_entries(*s, 0);
   ASSERT_EQ(entries.size(), 2u);
   ASSERT_TRUE(entries.count(0) && entries.count(1));
@@ -241,7 +247,7 @@ TEST(TpuafPlus, TransitionToANewSharedWalkSpreadsTheEntries) {
   EXPECT_TRUE(vertices[1] == 2 || vertices[1] == 3) << vertices[1];
   EXPECT_DOUBLE_EQ(graph.distance(0, 2), 20.0);
   // a robot never heard before the change: no entries (nearest vertex instead)
-  r.history[1] = {{0, 3, 120.0, 120.0}};
+  TpuafPlusProbe::history(*s, 0, 1) = {{0, 3, 120.0, 120.0}};
   EXPECT_TRUE(TpuafPlusProbe::transition_entries(*s, 0).empty());
 }
 

@@ -34,6 +34,15 @@ class TpuafKnowledge {
   // A Visit message of `robot`: records the visit and clears that robot's
   // intention if it was for this vertex.
   void hear_visit(int robot, int vertex, double time_s);
+  // X_j of `vertex` after a visit at visit_time_s, from its estimate `value` at `time_s`:
+  // record_visit's arithmetic (Eq. 2 up to the visit, then one straight pass).
+  double after_visit(int vertex, double value, double time_s, double visit_time_s) const;
+  // The estimate's anchor of `vertex`: X_j at its newest applied visit, and that time [s].
+  double anchor_value(int vertex) const;
+  double anchor_time(int vertex) const;
+  // Sets `vertex`'s anchor and newest visit to (value, time_s): a state kept elsewhere
+  // (TeamVisits) lent back for a utility.
+  void set_visit_state(int vertex, double value, double time_s);
   // An Intention message; the newest intention per robot wins.
   void hear_intention(const Intention& intention);
   void forget_intention(int robot);

@@ -178,10 +178,20 @@ class GroundTruthRecorder {
   double target_cell_ = 1, target_x0_ = 0, target_y0_ = 0;
   int target_nx_ = 1, target_ny_ = 1;
   std::vector<int> target_start_, target_index_;
+  std::vector<double> target_xy_;  // x, y [m] of target_index_[k] at 2 k, 2 k + 1
+  // The coverage at a substep's start, middle and end (zero but at the targets listed with
+  // it: those within sensing range of a robot, repeats possible); recorder_field.cpp.
   Eigen::VectorXd cover_left_, cover_mid_, cover_right_;
+  std::vector<int> touched_left_, touched_mid_, touched_right_;
+  std::vector<int> covered_;           // the targets some robot covers during a substep
+  std::vector<char> covered_mark_;     // per target: listed in covered_
+  std::vector<double> covered_value_;  // their new X, in covered_'s order
+  int uniform_importance_ = -1;        // every target's C is the same: 1, not: 0, unknown: -1
   Points cover_at_;
-  void coverage(const Points& start, const Points& end, double fraction, Eigen::VectorXd& out);
+  void coverage(const Points& start, const Points& end, double fraction, Eigen::VectorXd& out,
+                std::vector<int>& touched);
   void advance_linear(double dt, const Points& start, const Points& end);
+  void gather_covered();
   Eigen::VectorXd peaks_, radii_;
   double field_t_ = 0;
   Points field_p_;

@@ -56,7 +56,8 @@ double closed_walk_length(const PatrolGraph& graph, const std::vector<int>& vert
                           const TourSearch& search = {});
 
 // min(k, |V|) connected parts (sorted vertex lists) balanced by the length of their closed walks:
-// nearest-seed parts from farthest-point seeds (three first seeds), then single-vertex moves
+// nearest-seed parts from farthest-point seeds (three first seeds; above kDenseTourMax
+// vertices one, and parts grown together to equal tree lengths instead), then single-vertex moves
 // from the part of the longest walk to an adjacent part while that lowers the longest walk,
 // at most `max_moves` moves per seeding (part walks scored with `part_search`). The seeding
 // with the lowest longest walk wins. `tree_score`: parts are scored by the length of their

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "tpuaf_core/strategies.hpp"
+#include "tpuaf_core/team_visits.hpp"
 
 namespace tpuaf {
 
@@ -158,6 +159,7 @@ class TpuafPlusStrategy : public TeamStrategy {
   };
   struct Robot {
     explicit Robot(const TpuafKnowledge& k) : knowledge(k) {}
+    // For repair hops' utilities only: the visits are in visits_, lent to it for each one.
     TpuafKnowledge knowledge;
     std::vector<char> alive;
     std::vector<double> lost_at;  // [s] reported lost by the runtime (+inf: not)
@@ -165,9 +167,8 @@ class TpuafPlusStrategy : public TeamStrategy {
     std::vector<char> has_heard;
     std::vector<double> mate_arc;  // last estimated arc [m] per mate
     std::vector<char> has_mate_arc;
-    std::vector<Recent> history;  // the last 4 announcements per robot
-    std::vector<double> pace;     // [m/s] measured pace along the walk per robot (me too)
-    double changed_at = 0;        // [s] when the team last changed
+    std::vector<double> pace;  // [m/s] measured pace along the walk per robot (me too)
+    double changed_at = 0;     // [s] when the team last changed
     bool holding = false;
     double hold_until = 0;  // planned departure while dwelling [s]
     bool respacing = false;
@@ -186,13 +187,16 @@ class TpuafPlusStrategy : public TeamStrategy {
   const PlusRoute& route_of(const Robot& r) const { return r.plan->routes[r.route]; }
   std::shared_ptr<const PlusPlan> plan_for(const std::vector<int>& team);
   void install_plan(StrategyHost& host, int robot, bool initial);
-  int urgent_entry(const Robot& r, const PlusRoute& route, int vertex, double now) const;
-  std::map<int, int> transition_entries(const Robot& r) const;
+  int urgent_entry(int robot, const PlusRoute& route, int vertex, double now) const;
+  std::map<int, int> transition_entries(const Robot& r, int robot) const;
   bool respace_target(Robot& r, int robot, double now, double& target);
   double idle_room(Robot& r, int robot, double now);
   double respace_wait(Robot& r, int robot, double now);
   void heard_from(Robot& r, int k, double sent) const;
-  static void remember(Robot& r, int robot, const Heard& entry);
+  void remember(Robot& r, int robot, const Heard& entry);
+  // What robot r holds of robot k's last announcements (histories_).
+  Recent& history(const Robot& r, int k);
+  const Recent& history(const Robot& r, int k) const;
   void learn_pace(Robot& r, int k, int vertex, double arrived_s) const;
   void update_team(StrategyHost& host, int robot);
   bool mate_arc(Robot& r, int k, double now, double& arc, double* dwell_m = nullptr);
@@ -211,6 +215,10 @@ class TpuafPlusStrategy : public TeamStrategy {
   };
   mutable std::vector<KnownLength> lengths_ = std::vector<KnownLength>(1u << 14);
   TpuafKnowledge prototype_;
+  TeamVisits visits_;  // every robot's visits and estimate anchors (its knowledge's)
+  // The last 4 announcements of robot k as robot r holds them, at [k * robots + r]: a message
+  // heard by the whole team touches one stretch of memory.
+  std::vector<Recent> histories_;
   TpuafPlusParams params_;
   PlanSource plans_;
   std::map<std::vector<int>, std::shared_ptr<const PlusPlan>> plan_cache_;

@@ -208,7 +208,7 @@ class Partition:
 
 _CACHE: OrderedDict[tuple, Any] = OrderedDict()
 CACHE_ENV = "TPUAF_PLAN_CACHE"  # a folder: plans are also kept there, keyed by the map's content
-_SEARCH_VERSION = "cpp-2"  # part of the disk key: a changed search never reads old plans
+_SEARCH_VERSION = "cpp-3"  # part of the disk key: a changed search never reads old plans
 
 
 def _content_key(graph: Any, key: tuple) -> str:
@@ -299,7 +299,8 @@ def default_max_moves(k: int, n_vertices: int) -> int:
 def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None) -> Partition:
     """min(N, |V|) connected parts balanced by tour length; each part's closed walk (cached per
     map object, and on disk when $TPUAF_PLAN_CACHE names a folder). The search (C++ core):
-    nearest-seed parts from farthest-point seeds, then single-vertex moves off the part of the
+    nearest-seed parts from farthest-point seeds (above DENSE_TOUR_MAX vertices: parts grown
+    together to equal spanning-tree lengths), then single-vertex moves off the part of the
     longest walk while that lowers it."""
     if n_robots < 1:
         raise ValueError(f"n_robots must be >= 1, got {n_robots}")
