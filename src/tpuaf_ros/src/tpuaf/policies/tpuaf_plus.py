@@ -16,6 +16,10 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    slot phase and robot-to-slot matching are those under which every walk vertex is first
    visited soonest. Until it leaves, a mate counts as on its slot, and after that while its
    latest message is older (a delayed or lost departure message).
+   With one-way lanes (the map's `one_way` arcs) every walk and part follows the arcs: the
+   walks are closed walks that drive each one-way lane only its way (tours_directed.cpp), the
+   parts strongly connected, the routes to them directed shortest paths; robots drive the
+   walk in its direction.
 3. Spacing (closed loop). Each robot measures each mate's pace (its speed along the walk,
    from consecutive timed messages: edge length / (arrival - departure), a running average
    weighted `pace_weight`, clamped to 0.1-1x the plan speed v). On reaching each walk vertex it
@@ -175,6 +179,8 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
         ks = range(2, top + 1) if graph.num_vertices <= SMALL_GRAPH else [top] if top > 1 else []
         for k in ks:
             cand = tours.partition_tours(patrol_map, k)
+            if not cand.parts:  # one-way arcs: no k parts each toured inside itself
+                continue
             per_part = tours.robots_per_part([t.length for t in cand.tours], m)
             worst = max(
                 tpuaf_core.walk_worst_idleness(graph, t.walk, j, speed)
@@ -270,7 +276,10 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
             for g in groups:
                 if not any(w in g[0] for v in o[0] for w in adj[v]):
                     continue
-                walk, length = tours.closed_walk(graph, sorted(g[0] | o[0]), adj, 3, 4)
+                try:
+                    walk, length = tours.closed_walk(graph, sorted(g[0] | o[0]), adj, 3, 4)
+                except ValueError:  # one-way arcs: the merged part cannot be toured inside
+                    continue
                 score = length / len(g[2])
                 if best is None or score < best[0] - _EPS:
                     best = (score, g, walk)
