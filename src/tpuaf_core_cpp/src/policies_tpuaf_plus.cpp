@@ -314,6 +314,7 @@ void TpuafPlusStrategy::on_message(StrategyHost& /*host*/, int robot, const Team
     if (!has || sent > latest.sent + kEps) {
       latest = entry;
       has = 1;
+      track_mate(r, k, entry.from, entry.to, sent);
     }
   } else if (message.kind == TeamMessage::Kind::kIntention) {
     heard_from(r, k, sent);
@@ -323,6 +324,7 @@ void TpuafPlusStrategy::on_message(StrategyHost& /*host*/, int robot, const Team
     if (!has || sent >= latest.sent - kEps) {
       latest = entry;
       has = 1;
+      track_mate(r, k, entry.from, entry.to, sent);
     }
   }
 }
@@ -401,6 +403,10 @@ bool TpuafPlusStrategy::mate_arc(Robot& r, int k, double now, double& arc, doubl
       }
     }
   }
+  if (hits > 1) {  // one-way walks: the position its messages were followed to
+    const int tracked = tracked_hit(r, k, route.positions(info.from, info.to));
+    if (tracked >= 0) chosen = tracked;
+  }
   if (scheduled && info.sent < schedule[kk].second - kEps) {
     // its latest message is from before it left its start slot: off my walk, or due at its
     // entry vertex in time, it left unheard (delay, loss)
@@ -430,10 +436,14 @@ double TpuafPlusStrategy::spacing_wait(Robot& r, int robot, double now) {
     if (k == robot || !r.alive[kk] || !mate_arc(r, k, now, arc, &dwell)) continue;
     double d = py_mod(arc + dwell - here, L);
     if (d < kEps || L - d < kEps) d = k < robot ? 0.0 : L;  // together: the lower index ahead
-    mates.push_back(MatePlace{d, dwell, r.pace[kk]});
+    mates.push_back(MatePlace{d, dwell, r.pace[kk], k});
   }
-  return spacing_dwell(std::move(mates), L, r.pace[static_cast<std::size_t>(robot)], params_.gain,
-                       params_.deadband_s);
+  const double pace = r.pace[static_cast<std::size_t>(robot)];
+  if (!route.gaps.empty()) {
+    return spacing_dwell_gaps(std::move(mates), route.gaps, robot, L, pace, params_.gain,
+                              params_.deadband_s);
+  }
+  return spacing_dwell(std::move(mates), L, pace, params_.gain, params_.deadband_s);
 }
 
 // ------------------------------------------------------------------ decisions

@@ -42,7 +42,7 @@ class DirectedSearch {
     order_ = order;
     pos_.assign(n_, 0);
     for (int i = 0; i < n_; ++i) pos_[order_[i]] = i;
-    fwd_.assign(2 * n_, 0.0);  // fwd_[t]: driven from position 0 to t (over two laps)
+    fwd_.assign(2 * n_, 0.0);   // fwd_[t]: driven from position 0 to t (over two laps)
     back_.assign(2 * n_, 0.0);  // back_[t]: the same stretch driven backwards
     for (int t = 0; t + 1 < 2 * n_; ++t) {
       fwd_[t + 1] = fwd_[t] + D(at(t), at(t + 1));
@@ -82,8 +82,7 @@ class DirectedSearch {
   // Change [m] of reversing the `len` positions from `first` (2 <= len <= n - 1).
   double reversal_delta(int first, int len) const {
     const int p = at(first - 1), s1 = at(first), s2 = at(first + len - 1), e = at(first + len);
-    return D(p, s2) + D(s1, e) - D(p, s1) - D(s2, e) + inside_back(first, len) -
-           inside(first, len);
+    return D(p, s2) + D(s1, e) - D(p, s1) - D(s2, e) + inside_back(first, len) - inside(first, len);
   }
 
   // The best reversal whose new arc leaves a (a -> segment end) or enters it (start -> a).
@@ -109,7 +108,8 @@ class DirectedSearch {
     const int ends[4] = {at(best_first - 1), at(best_first), at(best_first + best_len - 1),
                          at(best_first + best_len)};
     std::vector<int> out = order_;
-    for (int s = 0; s < best_len; ++s) out[wrap(best_first + s)] = at(best_first + best_len - 1 - s);
+    for (int s = 0; s < best_len; ++s)
+      out[wrap(best_first + s)] = at(best_first + best_len - 1 - s);
     set_order(out);
     for (int v : ends) push(v);
     return true;
@@ -220,8 +220,8 @@ std::vector<int> double_bridge(const std::vector<int>& order, Rng& rng, std::vec
   out.insert(out.end(), rot.begin() + cut[1], rot.begin() + cut[2]);
   out.insert(out.end(), rot.begin() + cut[0], rot.begin() + cut[1]);
   out.insert(out.end(), rot.begin() + cut[2], rot.end());
-  *ends = {rot[cut[0] - 1], rot[cut[1]], rot[cut[2] - 1], rot[cut[0]], rot[cut[1] - 1],
-           rot[cut[2] % n]};
+  *ends = {rot[cut[0] - 1], rot[cut[1]],     rot[cut[2] - 1],
+           rot[cut[0]],     rot[cut[1] - 1], rot[cut[2] % n]};
   return out;
 }
 
@@ -298,8 +298,8 @@ double infeasible_part_m(const PatrolGraph& graph, const std::vector<int>& part)
       }
     }
   }
-  const int missing = static_cast<int>(std::count_if(reached.begin(), reached.end(),
-                                                     [](int r) { return r != 3; }));
+  const int missing =
+      static_cast<int>(std::count_if(reached.begin(), reached.end(), [](int r) { return r != 3; }));
   return missing == 0 ? 0.0 : kInfeasiblePartM * (1 + missing);
 }
 

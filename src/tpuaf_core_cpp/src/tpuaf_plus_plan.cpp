@@ -276,9 +276,15 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, con
   std::vector<int> best_k;
   std::vector<double> best_t;
   static const double kAlphas[] = {1.0, 0.75, 0.5, 0.25, 0.0};
+  std::vector<double> offset(m, 0.0);  // [m] uneven slots (one-way walks: route.gaps)
+  for (std::size_t j = 1; j < m && route.gaps.size() == m; ++j) {
+    offset[j] = offset[j - 1] + route.gaps[j - 1];
+  }
   for (int q = 0; q < phases; ++q) {
     for (std::size_t j = 0; j < m; ++j) {
-      slots[j] = (static_cast<double>(q) / phases + static_cast<double>(j)) * (L / mi);
+      slots[j] = route.gaps.size() == m
+                     ? static_cast<double>(q) / phases * (L / mi) + offset[j]
+                     : (static_cast<double>(q) / phases + static_cast<double>(j)) * (L / mi);
     }
     for (std::size_t i = 0; i < m; ++i) {
       slot_departures(graph, route, starts[i], slots, late_m[i], &dep[i * m], &ent[i * m]);

@@ -82,6 +82,7 @@ class Route:
     arc: tuple[float, ...]  # [m] arc position of each walk entry from walk[0]
     length: float  # [m] L
     robots: tuple[int, ...]  # robot indices on this walk, sorted
+    gaps: tuple[float, ...] = ()  # [m] uneven target gaps (`uneven_gaps`); () = even, L / m
 
 
 @dataclass(frozen=True)
@@ -100,7 +101,60 @@ def _route(graph, walk, robots) -> Route:
         arc.append(s)
         if len(walk) > 1:
             s += graph.edge_length(v, walk[(i + 1) % len(walk)])
-    return Route(tuple(int(v) for v in walk), tuple(arc), float(s), tuple(sorted(robots)))
+    gaps = uneven_gaps(arc, walk, float(s), len(robots)) if graph.one_way else ()
+    return Route(tuple(int(v) for v in walk), tuple(arc), float(s), tuple(sorted(robots)), gaps)
+
+
+MEET_CLEARANCE_M = 1.2  # [m of plan travel] robots reaching one vertex from two passes: apart
+GAP_STEPS = 3  # uneven_gaps shifts each phase by up to this many half clearances either way
+
+
+def uneven_gaps(arc, walk, length: float, m: int) -> tuple[float, ...]:
+    """Target gaps [m] between m robots on a one-way closed walk that passes some vertex twice
+    (the lab's figure eight: the middle aisle, once per loop). Evenly spaced robots whose
+    phases differ by the arc between two passes of a vertex reach it at once, one from each
+    pass, and merge there in a convoy. The phases j L / m + x_j (x_j in steps of half
+    `MEET_CLEARANCE_M`, at most `GAP_STEPS` of them) are chosen so that no two robots' phases
+    differ by such an arc within the clearance, with the least longest gap (then the least sum
+    of squared gaps): exhaustively up to 4 robots, else one phase at a time. () when even
+    spacing has no such meeting (or m < 2)."""
+    passes: dict[int, list[float]] = {}
+    for v, a in zip(walk, arc, strict=True):
+        passes.setdefault(int(v), []).append(float(a))
+    apart = sorted({(q - p) % length for ps in passes.values() for p in ps for q in ps if p != q})
+    if m < 2 or not apart or length <= 0:
+        return ()
+
+    def meetings(phases) -> int:
+        out = 0
+        for i in range(m):
+            for j in range(i + 1, m):
+                d = phases[j] - phases[i]
+                out += sum(min(abs(d - a), length - abs(d - a)) < MEET_CLEARANCE_M - 1e-9
+                           for a in apart)
+        return out
+
+    def score(shifts):
+        phases = [j * length / m + x for j, x in enumerate(shifts)]
+        gaps = [b - a for a, b in zip(phases, phases[1:] + [phases[0] + length], strict=True)]
+        if min(gaps) <= 0:
+            return (np.inf,), gaps
+        return (meetings(phases), round(max(gaps), 9), round(sum(g * g for g in gaps), 9)), gaps
+
+    steps = [k * MEET_CLEARANCE_M / 2 for k in range(-GAP_STEPS, GAP_STEPS + 1)]
+    best = [0.0] * m
+    if score(best)[0][0] == 0:
+        return ()
+    if m <= 4:
+        import itertools
+
+        best = min(([0.0, *rest] for rest in itertools.product(steps, repeat=m - 1)),
+                   key=lambda shifts: score(shifts)[0])
+    else:
+        for _ in range(3):
+            for j in range(1, m):
+                best[j] = min(steps, key=lambda x: score(best[:j] + [x] + best[j + 1:])[0])
+    return tuple(float(g) for g in score(best)[1])
 
 
 def predicted_mean_uncertainty(patrol_map, walk, n_robots: int, speed: float) -> float:
@@ -140,7 +194,7 @@ def start_schedule(graph, route: Route, starts: dict, speed: float, late_m: dict
     paths)."""
     robots = list(route.robots)
     plan = tpuaf_core.start_schedule(
-        graph, (list(route.walk), list(route.arc), route.length, robots),
+        graph, (list(route.walk), list(route.arc), route.length, robots, list(route.gaps)),
         [int(starts[r]) for r in robots], [float((late_m or {}).get(r, 0.0)) for r in robots],
         float(speed), None if idle_s is None else np.asarray(idle_s, dtype=float).tolist())
     return {r: (int(k), float(t)) for r, (k, t) in zip(robots, plan, strict=True)}
@@ -388,7 +442,8 @@ class TpuafPlus(CoreStrategyPolicy):
         def plans(team: list[int]):
             plan = make_plan(patrol_map, tuple(team), all_starts, params["plan"],
                              params["repair"])
-            routes = [(list(r.walk), list(r.arc), r.length, list(r.robots)) for r in plan.routes]
+            routes = [(list(r.walk), list(r.arc), r.length, list(r.robots), list(r.gaps))
+                      for r in plan.routes]
             route_of = [plan.route_of.get(k, -1) for k in range(n_robots)]
             schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n_robots)]
             return routes, route_of, schedule
