@@ -27,7 +27,10 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    measured pace; messages carry the sender's clock, so delay does not bias them) and computes
    its phase error e [m] against the team's even spacing (phases L / m apart around the team's
    mean phase). Early (e > 0): it dwells `2 gain e / u` (u its own pace); late: it never
-   dwells. A convoy dissolves within a lap; the gaps converge to L / m.
+   dwells. A convoy dissolves within a lap; the gaps converge to L / m. On a one-way walk that
+   passes a vertex twice, where robots L / m apart would reach it at once from its two passes,
+   the targets are uneven gaps instead (`uneven_gaps`; the nearest rotation of them), and each
+   mate's walk position is followed from message to message (a step can be on the walk twice).
 4. Dwelling. A dwelling robot re-visits its vertex every `dwell_revisit_s` (goal = its own
    vertex: it is physically there) and re-announces its departure time (a heartbeat).
 5. Faults. A mate the runtime's one liveness rule reports lost (silent for the teammate
@@ -47,6 +50,7 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
 
 from __future__ import annotations
 
+import itertools
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -146,8 +150,6 @@ def uneven_gaps(arc, walk, length: float, m: int) -> tuple[float, ...]:
     if score(best)[0][0] == 0:
         return ()
     if m <= 4:
-        import itertools
-
         best = min(([0.0, *rest] for rest in itertools.product(steps, repeat=m - 1)),
                    key=lambda shifts: score(shifts)[0])
     else:
