@@ -173,7 +173,8 @@ void wrap_heartbeats(py::module_& m) {
 }
 
 // TPUAF+'s decision path; its plans come from a Python callable (TpuafPlus.core_strategy):
-// plans(team) -> (routes, route_of, schedule) with routes [(walk, arc [m], L [m], robots)],
+// plans(team) -> (routes, route_of, schedule) with routes [(walk, arc [m], L [m], robots[,
+// gaps [m]])],
 // route_of [route index or -1 per robot], schedule [(entry index or -1, departure [s]) per
 // robot]. It is called with the GIL held (the run keeps it: is_native() is false).
 PlusRoute route_from_python(py::handle item) {
@@ -183,6 +184,10 @@ PlusRoute route_from_python(py::handle item) {
   route.arc = t[1].cast<std::vector<double>>();
   route.length = t[2].cast<double>();
   route.robots = t[3].cast<std::vector<int>>();
+  if (t.size() > 4) route.gaps = t[4].cast<std::vector<double>>();
+  if (!route.gaps.empty() && route.gaps.size() != route.robots.size()) {
+    throw std::invalid_argument("a TPUAF+ route needs one gap per robot (or none)");
+  }
   if (route.arc.size() != route.walk.size() || route.walk.empty()) {
     throw std::invalid_argument("a TPUAF+ route needs one arc position per walk vertex");
   }

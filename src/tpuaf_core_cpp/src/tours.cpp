@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "partition_growth.hpp"
+#include "tour_directed.hpp"
 #include "tour_local_search.hpp"
 #include "tour_metrics.hpp"
 #include "tpuaf_core/shortest_path.hpp"
@@ -249,7 +250,7 @@ ClosedWalk closed_walk(const PatrolGraph& graph, const std::vector<int>& vertice
     out.walk = sorted;
     return out;
   }
-  if (sparse_tour(k, search)) {
+  if (!directed(graph) && sparse_tour(k, search)) {  // one-way arcs: dense, asymmetric search
     SparseMetric metric(graph, sorted);
     const std::vector<int> order = search_order(metric, search);
     out.length_m = cyclic_length(metric, order);
@@ -265,7 +266,8 @@ ClosedWalk closed_walk(const PatrolGraph& graph, const std::vector<int>& vertice
   }
   const SubsetPaths sp = subset_paths(graph, sorted, true);
   DenseMetric metric(sp.dist, k);
-  const std::vector<int> order = search_order(metric, search);
+  const std::vector<int> order =
+      directed(graph) ? directed_order(sp.dist, k, search) : search_order(metric, search);
   out.length_m = order_length(sp.dist, k, order);
   for (int i = 0; i < k; ++i) {
     const int a = order[i], b = order[(i + 1) % k];
@@ -282,11 +284,12 @@ double closed_walk_length(const PatrolGraph& graph, const std::vector<int>& vert
   const std::vector<int> sorted = sorted_unique(vertices);
   const int k = static_cast<int>(sorted.size());
   if (k <= 1) return 0.0;
-  if (sparse_tour(k, search)) {
+  if (!directed(graph) && sparse_tour(k, search)) {
     SparseMetric metric(graph, sorted);
     return cyclic_length(metric, search_order(metric, search));
   }
   const SubsetPaths sp = subset_paths(graph, sorted, false);
+  if (directed(graph)) return order_length(sp.dist, k, directed_order(sp.dist, k, search));
   DenseMetric metric(sp.dist, k);
   return order_length(sp.dist, k, search_order(metric, search));
 }
@@ -530,6 +533,10 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
   }
   std::map<std::vector<int>, double> cost_cache;  // walk scores (small parts) only
   auto cost = [&](const std::vector<int>& part) {
+    if (directed(graph)) {  // one-way arcs: a part must be strongly connected to be toured
+      const double infeasible = infeasible_part_m(graph, part);
+      if (infeasible > 0) return infeasible;
+    }
     if (tree_score) return spanning_tree_length(graph, part);  // two per move: not kept
     auto it = cost_cache.find(part);
     if (it != cost_cache.end()) return it->second;
@@ -577,6 +584,7 @@ std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k
       best_parts = part.parts;
     }
   }
+  if (best_cost >= kInfeasiblePartM) return {};  // one-way arcs: no part set could be toured
   return best_parts;
 }
 

@@ -233,6 +233,18 @@ double latest_first_visit(const PlusRoute& route, const std::vector<double>& ent
   return score;
 }
 
+// [m] slot j's arc at t = 0 in phase q of `phases`: L / m apart, or route.gaps apart (one-way
+// walks that pass a vertex twice).
+double slot_arc(const PlusRoute& route, std::size_t j, int q, int phases, int m) {
+  const double L = route.length;
+  if (route.gaps.size() != static_cast<std::size_t>(m)) {
+    return (static_cast<double>(q) / phases + static_cast<double>(j)) * (L / m);
+  }
+  double offset = 0;
+  for (std::size_t i = 0; i < j; ++i) offset += route.gaps[i];
+  return static_cast<double>(q) / phases * (L / m) + offset;
+}
+
 // Each robot to the walk entry nearest its start, leaving at once: (entry, travel [s]).
 std::vector<std::pair<int, double>> nearest_entries(const PatrolGraph& graph,
                                                     const PlusRoute& route,
@@ -277,9 +289,7 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, con
   std::vector<double> best_t;
   static const double kAlphas[] = {1.0, 0.75, 0.5, 0.25, 0.0};
   for (int q = 0; q < phases; ++q) {
-    for (std::size_t j = 0; j < m; ++j) {
-      slots[j] = (static_cast<double>(q) / phases + static_cast<double>(j)) * (L / mi);
-    }
+    for (std::size_t j = 0; j < m; ++j) slots[j] = slot_arc(route, j, q, phases, mi);
     for (std::size_t i = 0; i < m; ++i) {
       slot_departures(graph, route, starts[i], slots, late_m[i], &dep[i * m], &ent[i * m]);
     }

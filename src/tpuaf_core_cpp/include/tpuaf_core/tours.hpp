@@ -47,7 +47,8 @@ struct ClosedWalk {
 
 // Shortest closed walk found through `vertices` (any order, duplicates ignored), moving only
 // inside their induced subgraph. Throws std::invalid_argument when that subgraph is not
-// connected.
+// connected. On a graph with one-way arcs the walk drives every arc only its way (the dense,
+// asymmetric search of tour_directed.hpp at any size; the subgraph must be strongly connected).
 ClosedWalk closed_walk(const PatrolGraph& graph, const std::vector<int>& vertices,
                        const TourSearch& search = {});
 
@@ -62,6 +63,8 @@ double closed_walk_length(const PatrolGraph& graph, const std::vector<int>& vert
 // at most `max_moves` moves per seeding (part walks scored with `part_search`). The seeding
 // with the lowest longest walk wins. `tree_score`: parts are scored by the length of their
 // minimum spanning tree instead (large parts: a walk search per boundary vertex is too slow).
+// With one-way arcs a part must be strongly connected (one that is not costs a penalty the
+// moves lower); empty when no seeding ends with every part strongly connected.
 std::vector<std::vector<int>> balanced_partition(const PatrolGraph& graph, int k, int max_moves,
                                                  const TourSearch& part_search = {3, 4, 12345},
                                                  const Progress& progress = nullptr,

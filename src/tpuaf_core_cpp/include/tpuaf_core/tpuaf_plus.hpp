@@ -25,6 +25,10 @@ struct PlusRoute {
   std::vector<double> arc;  // [m] arc position of each walk entry from walk[0]
   double length = 0;        // [m] L
   std::vector<int> robots;  // robot indices on this walk, sorted
+  // [m] target gaps between consecutive robots along the walk, one per robot (sum L; which
+  // robot has which gap: by their places); empty: even, L / m (one-way walks that pass a vertex
+  // twice space robots unevenly so that none meet there: tpuaf_plus.uneven_gaps)
+  std::vector<double> gaps;
 
   // Walk indices (a range of ints).
   struct Indices {
@@ -80,6 +84,7 @@ struct MatePlace {
   double ahead_m = 0;   // [m] where it is, ahead along the walk, in [0, L] (dwelling: its vertex)
   double dwell_m = 0;   // [m] its pace x its dwell left: its phase is ahead_m - dwell_m
   double pace_mps = 1;  // its measured pace
+  int robot = -1;       // its index (spacing_dwell_gaps)
 };
 
 // TPUAF+'s spacing dwell [s] at a walk vertex of a robot of pace pace_mps (u): over its mates
@@ -88,6 +93,12 @@ struct MatePlace {
 // the mate behind reaches the robot's vertex (it would queue behind it) less deadband_s; late 0.
 double spacing_dwell(std::vector<MatePlace> mates, double length_m, double pace_mps, double gain,
                      double deadband_s);
+
+// spacing_dwell towards uneven target gaps (PlusRoute::gaps, m of them; else spacing_dwell):
+// mate j ahead's target is the sum of the gaps from the robot's slot, its slot the rotation of
+// the gaps nearest its mates' phases (least squares). Even gaps give spacing_dwell's dwell.
+double spacing_dwell_gaps(std::vector<MatePlace> mates, const std::vector<double>& gaps, int robot,
+                          double length_m, double pace_mps, double gain, double deadband_s);
 
 // The walk index where a robot at `vertex` joins `route`: its nearest walk vertex (ties to the
 // lowest vertex index), first occurrence (tpuaf_plus._entry_index).
@@ -167,6 +178,10 @@ class TpuafPlusStrategy : public TeamStrategy {
     std::vector<char> has_heard;
     std::vector<double> mate_arc;  // last estimated arc [m] per mate
     std::vector<char> has_mate_arc;
+    // one-way walks (a step may be on the walk twice): each mate's walk index, followed forward
+    // from message to message (-1: not yet), on the route mate_index_route (track_mate)
+    std::vector<int> mate_index;
+    const PlusRoute* mate_index_route = nullptr;
     std::vector<double> pace;  // [m/s] measured pace along the walk per robot (me too)
     double changed_at = 0;     // [s] when the team last changed
     bool holding = false;
@@ -200,6 +215,12 @@ class TpuafPlusStrategy : public TeamStrategy {
   void learn_pace(Robot& r, int k, int vertex, double arrived_s) const;
   void update_team(StrategyHost& host, int robot);
   bool mate_arc(Robot& r, int k, double now, double& arc, double* dwell_m = nullptr);
+  // One-way walks only: mate k announced the step from -> to at `sent` [s]; its walk index
+  // moves on to the first walk position of that step at or after the one it had; before its
+  // start-schedule departure it stays at its entry (tpuaf_plus_one_way.cpp).
+  void track_mate(Robot& r, int k, int from, int to, double sent) const;
+  // The tracked walk index of mate k when it is among `hits` (its latest step's positions).
+  int tracked_hit(const Robot& r, int k, const PlusRoute::Indices& hits) const;
   double spacing_wait(Robot& r, int robot, double now);
   void announce(StrategyHost& host, int robot, int here, int next, double departure, bool visit);
   int hold(StrategyHost& host, int robot, int here, bool waking);

@@ -301,7 +301,8 @@ def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None
     map object, and on disk when $TPUAF_PLAN_CACHE names a folder). The search (C++ core):
     nearest-seed parts from farthest-point seeds (above DENSE_TOUR_MAX vertices: parts grown
     together to equal spanning-tree lengths), then single-vertex moves off the part of the
-    longest walk while that lowers it."""
+    longest walk while that lowers it. With one-way arcs the parts are strongly connected and
+    their walks follow the arcs; no parts (an empty Partition) when none were found."""
     if n_robots < 1:
         raise ValueError(f"n_robots must be >= 1, got {n_robots}")
     graph = patrol_map.graph
@@ -316,6 +317,8 @@ def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None
                                                   large)
         finally:
             progress.close()
+        if not parts:  # one-way arcs: no k parts that can each be toured inside themselves
+            return Partition([], [], [])
         tours = [Tour(*closed_walk(graph, part, None, *_part_effort(graph.num_vertices, len(part))))
                  for part in parts]
         return Partition(parts, tours, robots_per_part([t.length for t in tours], n_robots))

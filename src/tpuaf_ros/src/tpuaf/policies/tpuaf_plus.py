@@ -16,6 +16,10 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    slot phase and robot-to-slot matching are those under which every walk vertex is first
    visited soonest. Until it leaves, a mate counts as on its slot, and after that while its
    latest message is older (a delayed or lost departure message).
+   With one-way lanes (the map's `one_way` arcs) every walk and part follows the arcs: the
+   walks are closed walks that drive each one-way lane only its way (tours_directed.cpp), the
+   parts strongly connected, the routes to them directed shortest paths; robots drive the
+   walk in its direction.
 3. Spacing (closed loop). Each robot measures each mate's pace (its speed along the walk,
    from consecutive timed messages: edge length / (arrival - departure), a running average
    weighted `pace_weight`, clamped to 0.1-1x the plan speed v). On reaching each walk vertex it
@@ -23,7 +27,10 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    measured pace; messages carry the sender's clock, so delay does not bias them) and computes
    its phase error e [m] against the team's even spacing (phases L / m apart around the team's
    mean phase). Early (e > 0): it dwells `2 gain e / u` (u its own pace); late: it never
-   dwells. A convoy dissolves within a lap; the gaps converge to L / m.
+   dwells. A convoy dissolves within a lap; the gaps converge to L / m. On a one-way walk that
+   passes a vertex twice, where robots L / m apart would reach it at once from its two passes,
+   the targets are uneven gaps instead (`uneven_gaps`; the nearest rotation of them), and each
+   mate's walk position is followed from message to message (a step can be on the walk twice).
 4. Dwelling. A dwelling robot re-visits its vertex every `dwell_revisit_s` (goal = its own
    vertex: it is physically there) and re-announces its departure time (a heartbeat).
 5. Faults. A mate the runtime's one liveness rule reports lost (silent for the teammate
@@ -43,6 +50,7 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
 
 from __future__ import annotations
 
+import itertools
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -78,6 +86,7 @@ class Route:
     arc: tuple[float, ...]  # [m] arc position of each walk entry from walk[0]
     length: float  # [m] L
     robots: tuple[int, ...]  # robot indices on this walk, sorted
+    gaps: tuple[float, ...] = ()  # [m] uneven target gaps (`uneven_gaps`); () = even, L / m
 
 
 @dataclass(frozen=True)
@@ -96,7 +105,58 @@ def _route(graph, walk, robots) -> Route:
         arc.append(s)
         if len(walk) > 1:
             s += graph.edge_length(v, walk[(i + 1) % len(walk)])
-    return Route(tuple(int(v) for v in walk), tuple(arc), float(s), tuple(sorted(robots)))
+    gaps = uneven_gaps(arc, walk, float(s), len(robots)) if graph.one_way else ()
+    return Route(tuple(int(v) for v in walk), tuple(arc), float(s), tuple(sorted(robots)), gaps)
+
+
+MEET_CLEARANCE_M = 1.2  # [m of plan travel] robots reaching one vertex from two passes: apart
+GAP_STEPS = 3  # uneven_gaps shifts each phase by up to this many half clearances either way
+
+
+def uneven_gaps(arc, walk, length: float, m: int) -> tuple[float, ...]:
+    """Target gaps [m] between m robots on a one-way closed walk that passes some vertex twice
+    (the lab's figure eight: the middle aisle, once per loop). Evenly spaced robots whose
+    phases differ by the arc between two passes of a vertex reach it at once, one from each
+    pass, and merge there in a convoy. The phases j L / m + x_j (x_j in steps of half
+    `MEET_CLEARANCE_M`, at most `GAP_STEPS` of them) are chosen so that no two robots' phases
+    differ by such an arc within the clearance, with the least longest gap (then the least sum
+    of squared gaps): exhaustively up to 4 robots, else one phase at a time. () when even
+    spacing has no such meeting (or m < 2)."""
+    passes: dict[int, list[float]] = {}
+    for v, a in zip(walk, arc, strict=True):
+        passes.setdefault(int(v), []).append(float(a))
+    apart = sorted({(q - p) % length for ps in passes.values() for p in ps for q in ps if p != q})
+    if m < 2 or not apart or length <= 0:
+        return ()
+
+    def meetings(phases) -> int:
+        out = 0
+        for i in range(m):
+            for j in range(i + 1, m):
+                d = phases[j] - phases[i]
+                out += sum(min(abs(d - a), length - abs(d - a)) < MEET_CLEARANCE_M - 1e-9
+                           for a in apart)
+        return out
+
+    def score(shifts):
+        phases = [j * length / m + x for j, x in enumerate(shifts)]
+        gaps = [b - a for a, b in zip(phases, phases[1:] + [phases[0] + length], strict=True)]
+        if min(gaps) <= 0:
+            return (np.inf,), gaps
+        return (meetings(phases), round(max(gaps), 9), round(sum(g * g for g in gaps), 9)), gaps
+
+    steps = [k * MEET_CLEARANCE_M / 2 for k in range(-GAP_STEPS, GAP_STEPS + 1)]
+    best = [0.0] * m
+    if score(best)[0][0] == 0:
+        return ()
+    if m <= 4:
+        best = min(([0.0, *rest] for rest in itertools.product(steps, repeat=m - 1)),
+                   key=lambda shifts: score(shifts)[0])
+    else:
+        for _ in range(3):
+            for j in range(1, m):
+                best[j] = min(steps, key=lambda x: score(best[:j] + [x] + best[j + 1:])[0])
+    return tuple(float(g) for g in score(best)[1])
 
 
 def predicted_mean_uncertainty(patrol_map, walk, n_robots: int, speed: float) -> float:
@@ -136,7 +196,7 @@ def start_schedule(graph, route: Route, starts: dict, speed: float, late_m: dict
     paths)."""
     robots = list(route.robots)
     plan = tpuaf_core.start_schedule(
-        graph, (list(route.walk), list(route.arc), route.length, robots),
+        graph, (list(route.walk), list(route.arc), route.length, robots, list(route.gaps)),
         [int(starts[r]) for r in robots], [float((late_m or {}).get(r, 0.0)) for r in robots],
         float(speed), None if idle_s is None else np.asarray(idle_s, dtype=float).tolist())
     return {r: (int(k), float(t)) for r, (k, t) in zip(robots, plan, strict=True)}
@@ -175,6 +235,8 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
         ks = range(2, top + 1) if graph.num_vertices <= SMALL_GRAPH else [top] if top > 1 else []
         for k in ks:
             cand = tours.partition_tours(patrol_map, k)
+            if not cand.parts:  # one-way arcs: no k parts each toured inside itself
+                continue
             per_part = tours.robots_per_part([t.length for t in cand.tours], m)
             worst = max(
                 tpuaf_core.walk_worst_idleness(graph, t.walk, j, speed)
@@ -270,7 +332,10 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
             for g in groups:
                 if not any(w in g[0] for v in o[0] for w in adj[v]):
                     continue
-                walk, length = tours.closed_walk(graph, sorted(g[0] | o[0]), adj, 3, 4)
+                try:
+                    walk, length = tours.closed_walk(graph, sorted(g[0] | o[0]), adj, 3, 4)
+                except ValueError:  # one-way arcs: the merged part cannot be toured inside
+                    continue
                 score = length / len(g[2])
                 if best is None or score < best[0] - _EPS:
                     best = (score, g, walk)
@@ -379,7 +444,8 @@ class TpuafPlus(CoreStrategyPolicy):
         def plans(team: list[int]):
             plan = make_plan(patrol_map, tuple(team), all_starts, params["plan"],
                              params["repair"])
-            routes = [(list(r.walk), list(r.arc), r.length, list(r.robots)) for r in plan.routes]
+            routes = [(list(r.walk), list(r.arc), r.length, list(r.robots), list(r.gaps))
+                      for r in plan.routes]
             route_of = [plan.route_of.get(k, -1) for k in range(n_robots)]
             schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n_robots)]
             return routes, route_of, schedule

@@ -156,9 +156,10 @@ def run_description(run, starts, strategy_params, faults, engine: str | None = N
 
 
 
-# Strategies whose closed-walk / partition search (maps/tours.py, tours.cpp) assumes every edge
-# is driven both ways: not run on one-way lanes (PhysicsConfig.one_way).
-UNDIRECTED_TOUR_STRATEGIES = ("tpuaf_plus", "cgg", "msp")
+# Strategies that assume every edge is driven both ways: not run on one-way lanes
+# (PhysicsConfig.one_way). tpuaf_plus's tours follow the arcs (tours_directed.cpp); cgg's and
+# msp's plans do not yet.
+UNDIRECTED_TOUR_STRATEGIES = ("cgg", "msp")
 
 
 @dataclass

@@ -1,0 +1,155 @@
+"""tpuaf_plus on one-way lanes (docs/LANES.md): its walks drive every one-way lane only its way,
+robots are spaced so that none meet where a walk passes a vertex twice, and physics runs keep
+every robot visiting."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from tpuaf.maps import load_map
+from tpuaf.maps.model import PatrolMap
+from tpuaf.policies import tpuaf_plus
+
+from tests.test_one_way import ring_of_aisles
+
+
+def against_arcs(walk, arcs) -> list[tuple[int, int]]:
+    """The steps of the closed walk that drive an arc backwards."""
+    back = {(v, u) for u, v in arcs}
+    return [(a, b) for a, b in zip(walk, walk[1:] + walk[:1], strict=True) if (a, b) in back]
+
+
+def ring(n: int) -> PatrolMap:
+    angles = 2 * np.pi * np.arange(n) / n
+    positions = np.c_[np.cos(angles), np.sin(angles)] * 2.0
+    return PatrolMap("ring", list(range(n)), positions,
+                     [(i, (i + 1) % n, float("nan")) for i in range(n)], np.ones(n), np.ones(n))
+
+
+@pytest.mark.parametrize("robots", [1, 2, 3])
+def test_the_cycle_drives_a_one_way_lane_only_its_way(robots):
+    """A ring of 6 whose edge 0-1 is one way, 1 -> 0: the cycle goes round the ring that way
+    (through 1 -> 0), never 0 -> 1, and visits every vertex; the plan tpuaf_plus picks (here
+    with 3 robots a partition, parts of two-way edges) never drives 0 -> 1 either."""
+    arcs = ((1, 0),)
+    pm = replace(ring(6), one_way=arcs)
+    team, starts = tuple(range(robots)), tuple([0] * robots)
+    (route,) = tpuaf_plus.make_plan(pm, team, starts, "cycle").routes
+    walk = list(route.walk)
+    assert against_arcs(walk, arcs) == [], walk
+    assert (1, 0) in list(zip(walk, walk[1:] + walk[:1], strict=True))
+    assert set(walk) == set(range(6))
+    plan = tpuaf_plus.make_plan(pm, team, starts, "auto")
+    for route in plan.routes:
+        assert against_arcs(list(route.walk), arcs) == [], route.walk
+    assert set().union(*(r.walk for r in plan.routes)) == set(range(6))
+
+
+def lab_one_way() -> tuple[PatrolMap, list[tuple[int, int]]]:
+    from tpuaf.navigation.lanes import find_lanes
+    from tpuaf.navigation.one_way import orient_lanes
+    from tpuaf.navigation.planner import PathPlanner
+
+    pm = load_map("lab")
+    arcs = orient_lanes(find_lanes(PathPlanner(pm, 0.105), pm), pm).arcs
+    return replace(pm, one_way=tuple(arcs)), arcs
+
+
+def test_lab_figure_eight_is_driven_one_way_and_spaced_so_no_two_robots_meet():
+    """The lab's one-way lanes form a figure eight whose middle aisle every closed walk passes
+    twice. Every walk follows the arcs; with 2 and 4 robots (whose even spacing L / 2 would put
+    two robots at the middle aisle at once, one from each loop) the target gaps keep every
+    pair's phase difference at least MEET_CLEARANCE_M from the arc between two passes of a
+    vertex; with 3 robots even spacing already does (no gaps)."""
+    pm, arcs = lab_one_way()
+    clearance = tpuaf_plus.MEET_CLEARANCE_M
+    for robots in (1, 2, 3, 4):
+        plan = tpuaf_plus.make_plan(pm, tuple(range(robots)), tuple([0] * robots), "auto")
+        (route,) = plan.routes
+        walk = list(route.walk)
+        assert against_arcs(walk, arcs) == [] and set(walk) == set(range(pm.num_vertices))
+        L = route.length
+        passes: dict[int, list[float]] = {}
+        for v, a in zip(walk, route.arc, strict=True):
+            passes.setdefault(v, []).append(a)
+        apart = {(q - p) % L for ps in passes.values() for p in ps for q in ps if p != q}
+        assert apart  # the middle aisle is passed twice
+        if robots == 1 or robots == 3:
+            assert route.gaps == ()
+            continue
+        assert len(route.gaps) == robots and sum(route.gaps) == pytest.approx(L)
+        assert max(route.gaps) <= L / robots + 2 * clearance  # near even
+        phases = np.cumsum([0.0, *route.gaps[:-1]])
+        for i in range(robots):
+            for j in range(i + 1, robots):
+                d = phases[j] - phases[i]
+                assert all(min(abs(d - a), L - abs(d - a)) >= clearance - 1e-6 for a in apart)
+        # even spacing would meet: robots L / 2 apart, about one loop
+        assert any(min(abs(L / 2 - a), L - abs(L / 2 - a)) < clearance for a in apart)
+
+
+def test_one_way_runs_tpuaf_plus_and_still_refuses_cgg_and_msp():
+    from tpuaf.runtimes.config import ConfigError, PhysicsConfig
+
+    PhysicsConfig(map="lab", strategy="tpuaf_plus", lanes=True, one_way=True).validate()
+    for strategy in ("cgg", "msp"):
+        with pytest.raises(ConfigError, match=f"does not support strategy {strategy}"):
+            PhysicsConfig(map="lab", strategy=strategy, lanes=True, one_way=True).validate()
+
+
+def run_and_count(run, windows):
+    """Runs `run`; per window (start, end) [s], each robot's visits in it."""
+    counts: list[tuple[float, list[int]]] = []
+    summary = run.run(lambda t: counts.append((t, [a.machine.visits for a in run.agents])))
+    out = []
+    for start, end in windows:
+        before = next(c for t, c in counts if t >= start)
+        after = [c for t, c in counts if t <= end][-1]
+        out.append([b - a for a, b in zip(before, after, strict=True)])
+    return summary, out
+
+
+def test_tpuaf_plus_on_a_ring_of_aisles_follows_the_arcs_and_keeps_visiting(tmp_path):
+    """Two robots, one-way lanes on a ring of two aisles with a dead end in each room: every leg
+    through a one-way lane follows its arc, and both robots visit in each 100 s of the run."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    pm = load_map(str(ring_of_aisles(tmp_path / "ring")))
+    run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="tpuaf_plus", robots=2, seed=1,
+                                   duration_s=300.0, robot="burger", lanes=True, one_way=True),
+                     patrol_map=pm)
+    allowed = set(run.orientation.arcs)
+    one_way_edges = {(min(a, b), max(a, b)) for a, b in allowed}
+    legs: list[tuple[int, int]] = []
+    for agent in run.agents:
+        nav = agent.navigator
+        original = nav.set_route
+
+        def recording(route, t, original=original):
+            seq = [route.start, *route.waypoints]
+            legs.extend(zip(seq[:-1], seq[1:], strict=True))
+            return original(route, t)
+
+        nav.set_route = recording
+    summary, visits = run_and_count(run, [(0.0, 100.0), (100.0, 200.0), (200.0, 300.0)])
+    through = [(a, b) for a, b in legs if (min(a, b), max(a, b)) in one_way_edges]
+    assert through and all(leg in allowed for leg in through)
+    assert summary["collisions"] == 0
+    assert all(v > 0 for window in visits for v in window), visits
+
+
+def test_four_burgers_with_tpuaf_plus_keep_visiting_on_the_lab_one_way():
+    """The issue's lab, 4 Burgers, tpuaf_plus on one-way lanes, 300 s: every robot visits in
+    every 100 s (no robot stuck behind another at a merge)."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    run = PhysicsRun(PhysicsConfig(map="lab", strategy="tpuaf_plus", robots=4, seed=2,
+                                   duration_s=300.0, robot="burger", lanes=True, one_way=True))
+    assert run.patrol_map.one_way  # the plan's graph follows the arcs
+    summary, visits = run_and_count(run, [(0.0, 100.0), (100.0, 200.0), (200.0, 300.0)])
+    assert all(v > 0 for window in visits for v in window), visits
+    assert summary["lane_waits"] == 0
