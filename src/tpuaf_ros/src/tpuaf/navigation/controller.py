@@ -13,8 +13,13 @@ from dataclasses import dataclass, fields
 from enum import Enum
 
 import numpy as np
+import tpuaf_core
 
 from tpuaf.params import CONTROLLER_DEFAULTS as _D  # the defaults shared with the agent node
+
+# [m] a goal is reached this close: the core's one default (vertex_geometry.hpp), which the
+# maps' goal_tolerance setting also reads
+GOAL_TOLERANCE_M = float(tpuaf_core.DEFAULT_GOAL_TOLERANCE_M)
 
 # ---------------------------------------------------------------------------------------------
 # Local controller
@@ -101,7 +106,7 @@ class LocalController:
         k = np.arange(c.n_headings)
         self._headings = wrap_angle_array(-math.pi + 2.0 * math.pi * k / c.n_headings)
         self.target: tuple[float, float] | None = None
-        self.tolerance = 0.4
+        self.tolerance = GOAL_TOLERANCE_M
         self.retries = 0
         self._state = self._DRIVE
         self._state_t = 0.0

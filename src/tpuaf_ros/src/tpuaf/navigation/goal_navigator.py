@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from tpuaf.navigation.controller import STOP_FAILED, Command, Status
+from tpuaf.navigation.controller import GOAL_TOLERANCE_M, STOP_FAILED, Command, Status
 from tpuaf.navigation.navigator import Event
 from tpuaf.navigation.route import GraphRoute
 
@@ -35,7 +35,7 @@ class GoalNavigator:
     `progress_m` for `stuck_timeout_s` [s]; within `near_goal_m` [m] (the goal tolerance) of the
     goal it ends short instead (ARRIVED; the visit rule makes it a dwell)."""
 
-    def __init__(self, client: GoalClient, goal_tolerance: float = 0.4,
+    def __init__(self, client: GoalClient, goal_tolerance: float = GOAL_TOLERANCE_M,
                  waypoint_tolerance: float = 0.6, stuck_timeout_s: float = 60.0,
                  progress_m: float = 0.15, near_goal_m: float | None = None):
         self.client = client

@@ -8,7 +8,7 @@ from enum import Enum
 
 import numpy as np
 
-from tpuaf.navigation.controller import Command, LocalController, Status
+from tpuaf.navigation.controller import GOAL_TOLERANCE_M, Command, LocalController, Status
 from tpuaf.navigation.give_way import GiveWay, find_refuge
 from tpuaf.navigation.lane_gate import LaneGate
 from tpuaf.navigation.route import GraphRoute, polyline_length
@@ -44,7 +44,7 @@ class Navigator(LaneGate):
     `step` returns (Command, Event, vertex): the vertex is the waypoint or goal reached, or the
     goal that failed."""
 
-    def __init__(self, controller: LocalController, goal_tolerance: float = 0.4,
+    def __init__(self, controller: LocalController, goal_tolerance: float = GOAL_TOLERANCE_M,
                  waypoint_tolerance: float = 0.6, planner=None, corner_tolerance: float = 0.3,
                  robot_index: int = 0, near_goal_m: float | None = None):
         self.controller = controller
