@@ -62,16 +62,16 @@ def test_a_key_missing_from_the_map_file_is_the_default(tmp_path):
 
 
 @needs_shared
-def test_imported_defaults_are_specs_and_hint_on_a_small_map():
+def test_imported_defaults_are_specs_and_scale_down_on_a_small_map():
     big = load_map(str(PS_DIR / "cumberland"))
     assert big.settings.sensing_radius == 5.0  # the paper's r
     assert big.settings.interference_distance == 2.0  # SPEC's d_if
     assert big.settings.nominal_speed == 1.0
     source = effective_params(big)["sensing_radius"]["source"]
-    assert source.startswith(IMPORTED) and "large for" not in source  # 51.6 m across
-    small = load_map(str(PS_DIR / "1r5"))
-    assert small.settings.sensing_radius == 5.0
-    assert "large for a graph" in effective_params(small)["sensing_radius"]["source"]
+    assert source == f"{IMPORTED}: the paper's r"  # 51.6 m across: 5 m is a tenth of it
+    small = load_map(str(PS_DIR / "1r5"))  # 10 m across: r scaled to a quarter of that
+    assert small.settings.sensing_radius == pytest.approx(2.5, abs=0.01)
+    assert "x the graph's 10.0 m span" in effective_params(small)["sensing_radius"]["source"]
     over = load_map(str(PS_DIR / "1r5"), params={"sensing_radius": 4.0}, params_origin=CLI)
     assert effective_params(over)["sensing_radius"] == {"value": 4.0, "unit": "m",
                                                         "source": CLI}
@@ -80,6 +80,12 @@ def test_imported_defaults_are_specs_and_hint_on_a_small_map():
 def test_imported_defaults_of_a_single_spot_have_no_hint():
     d = imported_defaults([[1.0, 1.0]])
     assert d["sensing_radius"] == (5.0, "imported default: the paper's r")
+
+
+def test_imported_sensing_radius_scales_with_the_span_up_to_the_papers():
+    assert imported_defaults([[0, 0], [8, 3]])["sensing_radius"][0] == pytest.approx(2.0)
+    assert imported_defaults([[0, 0], [20, 3]])["sensing_radius"][0] == 5.0  # exactly 5 m
+    assert imported_defaults([[0, 0], [60, 3]])["sensing_radius"][0] == 5.0
 
 
 @pytest.mark.parametrize("items, wanted", [

@@ -28,33 +28,40 @@ IMPORTED = "imported default"
 CLI = "--map-param"
 
 # Imported patrolling_sim maps (their files carry no settings): the reference simulator's robot
-# (tpuaf_stage.presets) and SPEC's values for them (r = 5 m, the paper's; d_if = 2 m).
+# (tpuaf_stage.presets) and SPEC's values for them (r = 5 m, the paper's, on maps big enough for
+# it; d_if = 2 m).
 IMPORTED_ROBOT = "patrolling_sim"
 IMPORTED_SENSING_M = 5.0  # [m] the paper's r
 IMPORTED_INTERFERENCE_M = 2.0  # [m] SPEC's default d_if
-SENSING_SPAN_FRACTION = 0.2  # r above this fraction of the graph's longer side: a hint is shown
+# r at most this fraction of the graph's longer side [-]: on a small map the paper's 5 m would
+# sense most of it, and X (the signal TPUAF is built on) would stay near 0
+SENSING_SPAN_FRACTION = 0.25
+
+
+def imported_sensing(span_m: float) -> tuple[float, str]:
+    """(r [m], its source) of an imported map whose vertices span `span_m` [m] on their longer
+    side: the paper's 5 m, or SENSING_SPAN_FRACTION of the span (to 0.1 m) when smaller."""
+    scaled = max(round(SENSING_SPAN_FRACTION * span_m, 1), 0.1)  # to 0.1 m
+    if span_m > 0 and scaled < IMPORTED_SENSING_M:
+        return scaled, (f"{IMPORTED}: {SENSING_SPAN_FRACTION:g} x the graph's {span_m:.1f} m "
+                        f"span (the paper's {IMPORTED_SENSING_M:g} m would sense most of it)")
+    return IMPORTED_SENSING_M, f"{IMPORTED}: the paper's r"
 
 
 def imported_defaults(positions: np.ndarray) -> dict[str, tuple[Any, str]]:
     """{setting: (value, source)} of an imported map with vertices at `positions` (n, 2) [m]:
-    the reference robot's speed and radius, r = 5 m and d_if = 2 m (SPEC). The source of r
-    carries a hint when 5 m is large for the map (over SENSING_SPAN_FRACTION x its longer
-    side): one robot then senses much of the map; `--map-param sensing_radius=...` scales it."""
+    the reference robot's speed and radius, r = 5 m scaled down on small maps
+    (`imported_sensing`) and d_if = 2 m (SPEC); `--map-param` overrides any of them."""
     from tpuaf_stage.presets import ROBOT_PRESETS
 
     robot = ROBOT_PRESETS[IMPORTED_ROBOT]
     pos = np.asarray(positions, dtype=float).reshape(-1, 2)
     span = float((pos.max(axis=0) - pos.min(axis=0)).max()) if len(pos) else 0.0
     radius = float(robot["radius"])
-    sensing_source = f"{IMPORTED}: the paper's r"
-    if span > 0 and IMPORTED_SENSING_M > SENSING_SPAN_FRACTION * span:
-        sensing_source += (f" (large for a graph {span:.1f} m across: "
-                           f"--map-param sensing_radius={SENSING_SPAN_FRACTION * span:.2g} "
-                           f"would be {SENSING_SPAN_FRACTION:g} x its span)")
     return {
         "nominal_speed": (float(robot["max_linear_speed"]),
                           f"{IMPORTED}: {IMPORTED_ROBOT} robot's limit"),
-        "sensing_radius": (IMPORTED_SENSING_M, sensing_source),
+        "sensing_radius": imported_sensing(span),
         "interference_distance": (IMPORTED_INTERFERENCE_M, f"{IMPORTED}: SPEC's d_if"),
         "robot_radius": (radius, f"{IMPORTED}: {IMPORTED_ROBOT} robot"),
     }
