@@ -120,7 +120,10 @@ class AgentNode:
             if self.drives:
                 self.cmd_pub = rospy.Publisher(topics.CMD_VEL, Twist, queue_size=None,
                                                tcp_nodelay=True)
-        self.event_pub = rospy.Publisher(topics.EVENTS_TOPIC, AgentEvent, queue_size=None)
+        # latched: a subscriber that connects late (a monitor slow to start, while a lock-step
+        # simulator holds time before the run start) still gets our last event, the "ready"
+        self.event_pub = rospy.Publisher(topics.EVENTS_TOPIC, AgentEvent, queue_size=None,
+                                         latch=True)
         self.rejections_pub = rospy.Publisher(topics.REJECTIONS_TOPIC, String, queue_size=1,
                                               latch=True)
         # The run start the team agreed on, re-latched by every agent that knows it.
