@@ -2,9 +2,9 @@
 // tours.cpp): 2-opt and Or-opt over neighbour lists, on either metric of tour_metrics.hpp.
 #pragma once
 
-#include <deque>
 
 #include "tour_metrics.hpp"
+#include "vertex_queue.hpp"
 
 namespace tpuaf::tour {
 
@@ -22,7 +22,7 @@ class LocalSearch {
       const std::vector<int> near = metric.nearest(a, k);
       std::copy(near.begin(), near.end(), nbr_.begin() + static_cast<std::size_t>(a) * k);
     }
-    queued_.assign(n_, 0);
+    queue_.reset(n_);
     pos_.assign(n_, 0);
   }
 
@@ -34,24 +34,12 @@ class LocalSearch {
   const std::vector<int>& order() const { return order_; }
   double gain() const { return gain_; }
 
-  void push(int v) {
-    if (!queued_[v]) {
-      queued_[v] = 1;
-      queue_.push_back(v);
-    }
-  }
-  void push_all() {
-    for (int v : order_) push(v);
-  }
+  void push(int v) { queue_.push(v); }
+  void push_all() { queue_.push_all(order_); }
 
   // Improves until no move from a queued vertex improves.
   void run() {
-    while (!queue_.empty()) {
-      const int a = queue_.front();
-      queue_.pop_front();
-      queued_[a] = 0;
-      if (two_opt(a) || or_opt(a)) push(a);
-    }
+    queue_.drain([this](int a) { return two_opt(a) || or_opt(a); });
   }
 
  private:
@@ -212,8 +200,7 @@ class LocalSearch {
   int n_, k_ = 0;
   double gain_ = 0.0;
   std::vector<int> nbr_, order_, pos_;
-  std::vector<char> queued_;
-  std::deque<int> queue_;
+  VertexQueue queue_;
 };
 
 }  // namespace tpuaf::tour

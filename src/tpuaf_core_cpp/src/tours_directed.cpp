@@ -1,11 +1,11 @@
 // The plan search on graphs with one-way arcs: cyclic orders on an asymmetric metric, and the
 // partition search's test that a part can be toured (tour_directed.hpp).
 #include <algorithm>
-#include <deque>
 #include <numeric>
 
 #include "tour_directed.hpp"
 #include "tour_metrics.hpp"
+#include "vertex_queue.hpp"
 
 namespace tpuaf::tour {
 namespace {
@@ -35,7 +35,7 @@ class DirectedSearch {
         idx.resize(n);
       }
     }
-    queued_.assign(n, 0);
+    queue_.reset(n);
   }
 
   void set_order(const std::vector<int>& order) {
@@ -51,22 +51,10 @@ class DirectedSearch {
   }
   const std::vector<int>& order() const { return order_; }
   double length() const { return fwd_[n_]; }  // [m] the closed order, last -> first included
-  void push(int v) {
-    if (!queued_[v]) {
-      queued_[v] = 1;
-      queue_.push_back(v);
-    }
-  }
-  void push_all() {
-    for (int v : order_) push(v);
-  }
+  void push(int v) { queue_.push(v); }
+  void push_all() { queue_.push_all(order_); }
   void run() {
-    while (!queue_.empty()) {
-      const int a = queue_.front();
-      queue_.pop_front();
-      queued_[a] = 0;
-      if (reversal(a) || or_opt(a)) push(a);
-    }
+    queue_.drain([this](int a) { return reversal(a) || or_opt(a); });
   }
 
  private:
@@ -182,8 +170,7 @@ class DirectedSearch {
   int n_, k_ = 0;
   std::vector<int> out_, in_, order_, pos_;  // out_/in_: k nearest successors/predecessors
   std::vector<double> fwd_, back_;
-  std::vector<char> queued_;
-  std::deque<int> queue_;
+  VertexQueue queue_;
 };
 
 std::vector<int> nearest_neighbour(const std::vector<double>& dist, int n, int start) {
