@@ -132,6 +132,22 @@ def ring_of_aisles(folder):
                      [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (2, 5)])
 
 
+def record_legs(run) -> list[tuple[int, int]]:
+    """The (u, v) legs of every route the physics run's navigators are given, filled as it runs."""
+    legs: list[tuple[int, int]] = []
+    for agent in run.agents:
+        nav = agent.navigator
+        original = nav.set_route
+
+        def recording(route, t, original=original):
+            seq = [route.start, *route.waypoints]
+            legs.extend(zip(seq[:-1], seq[1:], strict=True))
+            return original(route, t)
+
+        nav.set_route = recording
+    return legs
+
+
 def test_two_robots_on_a_ring_of_aisles_only_follow_each_other_in_physics(tmp_path):
     """One robot in each room: with one-way lanes every leg through an aisle follows the
     orientation (no head-on meeting), no lane is locked, nobody collides, both keep visiting."""
@@ -145,17 +161,7 @@ def test_two_robots_on_a_ring_of_aisles_only_follow_each_other_in_physics(tmp_pa
     assert len(run.lane_map.lanes) == 2 and len(run.orientation.chains) == 2
     allowed = set(run.orientation.arcs)
     lane_edges = {e for lane in run.lane_map.lanes for e in lane.edges}
-    legs: list[tuple[int, int]] = []
-    for agent in run.agents:
-        nav = agent.navigator
-        original = nav.set_route
-
-        def recording(route, t, original=original):
-            seq = [route.start, *route.waypoints]
-            legs.extend(zip(seq[:-1], seq[1:], strict=True))
-            return original(route, t)
-
-        nav.set_route = recording
+    legs = record_legs(run)
     counts: list[tuple[float, list[int]]] = []
     summary = run.run(lambda t: counts.append((t, [a.machine.visits for a in run.agents])))
     through = [(a, b) for a, b in legs if (min(a, b), max(a, b)) in lane_edges]

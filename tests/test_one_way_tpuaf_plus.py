@@ -12,7 +12,7 @@ from tpuaf.maps import load_map
 from tpuaf.maps.model import PatrolMap
 from tpuaf.policies import tpuaf_plus
 
-from tests.test_one_way import ring_of_aisles
+from tests.test_one_way import record_legs, ring_of_aisles
 
 
 def against_arcs(walk, arcs) -> list[tuple[int, int]]:
@@ -123,17 +123,7 @@ def test_tpuaf_plus_on_a_ring_of_aisles_follows_the_arcs_and_keeps_visiting(tmp_
                      patrol_map=pm)
     allowed = set(run.orientation.arcs)
     one_way_edges = {(min(a, b), max(a, b)) for a, b in allowed}
-    legs: list[tuple[int, int]] = []
-    for agent in run.agents:
-        nav = agent.navigator
-        original = nav.set_route
-
-        def recording(route, t, original=original):
-            seq = [route.start, *route.waypoints]
-            legs.extend(zip(seq[:-1], seq[1:], strict=True))
-            return original(route, t)
-
-        nav.set_route = recording
+    legs = record_legs(run)
     summary, visits = run_and_count(run, [(0.0, 100.0), (100.0, 200.0), (200.0, 300.0)])
     through = [(a, b) for a, b in legs if (min(a, b), max(a, b)) in one_way_edges]
     assert through and all(leg in allowed for leg in through)

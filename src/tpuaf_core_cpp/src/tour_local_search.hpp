@@ -2,7 +2,6 @@
 // tours.cpp): 2-opt and Or-opt over neighbour lists, on either metric of tour_metrics.hpp.
 #pragma once
 
-
 #include "tour_metrics.hpp"
 #include "vertex_queue.hpp"
 
@@ -114,9 +113,7 @@ class LocalSearch {
           const int off = ((pos_[v] - first) % n_ + n_) % n_;
           return off < len;
         };
-        double best = -kEps;
-        int best_u = -1;
-        bool best_reversed = false;
+        Insertion best;
         for (int end = 0; end < 2; ++end) {
           const int* cs = nbrs(end == 0 ? s1 : s2);
           for (int t = 0; t < k_; ++t) {
@@ -128,27 +125,17 @@ class LocalSearch {
               const int w = succ(u);
               if (in_segment(u) || in_segment(w)) continue;
               const double base = D(u, w);
-              const double limit = best + base + removed + kEps;  // of each added length
-              const double fwd = D(u, s1, limit) + D(s2, w, limit) - base - removed;
-              const double rev = D(u, s2, limit) + D(s1, w, limit) - base - removed;
-              if (fwd < best) {
-                best = fwd;
-                best_u = u;
-                best_reversed = false;
-              }
-              if (rev < best) {
-                best = rev;
-                best_u = u;
-                best_reversed = true;
-              }
+              const double limit = best.gain + base + removed + kEps;  // of each added length
+              best.offer(u, D(u, s1, limit) + D(s2, w, limit) - base - removed,
+                         D(u, s2, limit) + D(s1, w, limit) - base - removed);
             }
           }
         }
-        if (best_u >= 0) {
-          const int best_w = succ(best_u);
-          move_segment(first, len, best_u, best_reversed);
-          gain_ += best;
-          for (int v : {p, nx, s1, s2, best_u, best_w}) push(v);
+        if (best.after >= 0) {
+          const int best_w = succ(best.after);
+          move_segment(first, len, best.after, best.reversed);
+          gain_ += best.gain;
+          for (int v : {p, nx, s1, s2, best.after, best_w}) push(v);
           return true;
         }
       }

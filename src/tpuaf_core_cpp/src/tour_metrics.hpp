@@ -27,6 +27,26 @@ constexpr int kLandmarks = 32;   // rows that rank vertices by remoteness on lar
 // Pairs a sparse metric memoises (16 B each at half load: 64 MB), then it forgets them all.
 constexpr std::size_t kMemoEntries = 1u << 21;
 
+// Or-opt: the best place to reinsert a segment, after vertex u, forward or reversed; a change of
+// length below -kEps to be kept (both local searches).
+struct Insertion {
+  double gain = -kEps;  // [m] the change of length of the best place (negative: shorter)
+  int after = -1;       // u, -1: none better
+  bool reversed = false;
+  void offer(int u, double forward, double backward) {
+    if (forward < gain) {
+      gain = forward;
+      after = u;
+      reversed = false;
+    }
+    if (backward < gain) {
+      gain = backward;
+      after = u;
+      reversed = true;
+    }
+  }
+};
+
 // splitmix64: a fixed, portable sequence for the kicks.
 struct Rng {
   std::uint64_t state;

@@ -114,25 +114,12 @@ class DirectedSearch {
         const double removed = D(p, s1) + D(s2, nx) - D(p, nx);
         const double turn = inside_back(first, len) - inside(first, len);  // reversed segment
         const auto in_segment = [&](int v) { return wrap(pos_[v] - first) < len; };
-        double best = -kEps;
-        int best_u = -1;
-        bool best_reversed = false;
+        Insertion best;
         const auto consider = [&](int u) {
           const int w = succ(u);
           if (u == p || in_segment(u) || in_segment(w)) return;
           const double base = D(u, w) + removed;
-          const double fwd = D(u, s1) + D(s2, w) - base;
-          const double rev = D(u, s2) + D(s1, w) - base + turn;
-          if (fwd < best) {
-            best = fwd;
-            best_u = u;
-            best_reversed = false;
-          }
-          if (rev < best) {
-            best = rev;
-            best_u = u;
-            best_reversed = true;
-          }
+          best.offer(u, D(u, s1) + D(s2, w) - base, D(u, s2) + D(s1, w) - base + turn);
         };
         for (int end : {s1, s2}) {
           const std::size_t row = static_cast<std::size_t>(end) * k_;
@@ -141,10 +128,10 @@ class DirectedSearch {
             consider(pred(out_[row + t]));  // end -> w
           }
         }
-        if (best_u >= 0) {
-          const int best_w = succ(best_u);
-          move_segment(first, len, best_u, best_reversed);
-          for (int v : {p, nx, s1, s2, best_u, best_w}) push(v);
+        if (best.after >= 0) {
+          const int best_w = succ(best.after);
+          move_segment(first, len, best.after, best.reversed);
+          for (int v : {p, nx, s1, s2, best.after, best_w}) push(v);
           return true;
         }
       }
