@@ -1,14 +1,14 @@
-"""Complete means complete (issue 33 item 5): `tpuaf fleet` on a 500 kB filesystem fails with a
-one-line error and never leaves a summary.json saying "complete": true (beside an empty bag or
-simulator.json); `tpuaf render` says the folder is incomplete. Needs root for the tmpfs (skipped
-with the reason otherwise). About 1 minute of wall time."""
+"""Complete means complete (issue 33 item 5): `tpuaf fleet` on a 500 kB filesystem fails at once
+with a one-line error naming the free space (rosbag records nothing below 1 GiB free), before any
+ROS process starts, and never leaves a summary.json; the same folder is usable again. A recorder
+that dies during a run ends it (fleet.launch: the recorder is required). Needs root for the tmpfs
+(skipped with the reason otherwise)."""
 
 from __future__ import annotations
 
-import json
 import os
-import subprocess
 from pathlib import Path
+from xml.etree import ElementTree
 
 import pytest
 
@@ -17,22 +17,26 @@ from ..conftest import run_cli
 REPO = Path(__file__).resolve().parents[2]
 TPUAF = str(REPO / ".venv" / "bin" / "tpuaf")
 
-pytestmark = [pytest.mark.ros, pytest.mark.slow]
+pytestmark = [pytest.mark.ros]
 
 
-def test_a_full_disk_is_not_a_complete_fleet_run(small_disk):
+def test_a_full_disk_is_refused_before_the_fleet_starts(small_disk):
     out = small_disk / "run"
     env = {k: v for k, v in os.environ.items() if not k.startswith("ROS_")}
-    run = run_cli([TPUAF, "fleet", "--map", "grid", "--robots", "2", "--duration", "60",
-                   "--rtf", "10", "--quiet", "--out", str(out)], timeout=600, env=env, cwd=REPO)
-    summary_path = out / "summary.json"
-    summary = json.loads(summary_path.read_text()) if summary_path.is_file() else None
-    render = (subprocess.run([TPUAF, "render", str(out)], capture_output=True, text=True,
-                             timeout=300) if summary is not None else None)
-    assert run.returncode == 2, run.stdout + run.stderr
-    assert "Traceback" not in run.stderr, run.stderr
-    last = run.stderr.strip().splitlines()[-1]
-    assert last.startswith("tpuaf fleet: error:"), run.stderr
-    if summary is not None:
-        assert summary["complete"] is False, summary
-        assert "incomplete" in render.stderr, render.stderr
+    for _ in range(2):  # the refused folder does not block a second try
+        run = run_cli([TPUAF, "fleet", "--map", "grid", "--robots", "2", "--duration", "60",
+                       "--rtf", "10", "--quiet", "--out", str(out)], timeout=120, env=env,
+                      cwd=REPO)
+        assert run.returncode == 2, run.stdout + run.stderr
+        assert "Traceback" not in run.stderr, run.stderr
+        lines = run.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("tpuaf fleet: error: only "), run.stderr
+        assert "MiB free" in lines[0] and "--no-record" in lines[0], run.stderr
+        assert not (out / "summary.json").exists()
+        assert not (out / "roslaunch.log").exists()  # no ROS process was started
+
+
+def test_the_recorder_is_required_in_the_fleet_launch():
+    launch = ElementTree.parse(REPO / "src" / "tpuaf_ros" / "launch" / "fleet.launch")
+    recorders = [n for n in launch.getroot().iter("node") if n.get("pkg") == "rosbag"]
+    assert recorders and all(n.get("required") == "true" for n in recorders)

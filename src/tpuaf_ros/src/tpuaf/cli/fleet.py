@@ -21,6 +21,7 @@ import contextlib
 import json
 import re
 import shlex
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -231,6 +232,8 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
 
     prepare_out_dir(args.out, overwrite=args.overwrite)  # a file, unwritable, earlier results
     out = args.out.expanduser().resolve()
+    if not args.no_record:
+        check_bag_space(out)
     record_written(out, *FLEET_FILES)
     map_ref = args.map if args.map in builtin_map_names() else str(Path(args.map).expanduser().resolve())
     world, resolved = write_world(args, out, map_ref, robot)
@@ -242,6 +245,19 @@ def prepare(args: argparse.Namespace) -> tuple[list[str], dict]:
     config = fleet_config(args, out, patrol_map, map_ref, strategy, params, world, robot, faults)
     atomic_write_text(out / "fleet_config.yaml", yaml.safe_dump(config, sort_keys=False))
     return roslaunch_args(args, out, config, resolved, strategy_file), config
+
+
+# rosbag record stops recording (and exits 1) below 1 GiB free on the bag's disk.
+ROSBAG_MIN_FREE_BYTES = 1 << 30
+
+
+def check_bag_space(out: Path) -> None:
+    """CliError before any ROS process starts when rosbag would refuse the bag's disk."""
+    free = shutil.disk_usage(out).free
+    if free < ROSBAG_MIN_FREE_BYTES:
+        raise CliError(f"only {free / 2**20:.1f} MiB free on the disk of {out}: rosbag records "
+                       "nothing with less than 1 GiB free (free some space, choose another "
+                       "--out, or run with --no-record)")
 
 
 def load_inputs(args: argparse.Namespace):
