@@ -30,8 +30,7 @@ from common import header, write  # noqa: E402
 
 STRATEGIES = ("tpuaf", "tpuaf_plus")
 TEAMS = (1, 2, 3, 4)
-MODES = ("off", "locks", "one_way")  # PhysicsConfig (lanes, one_way) of each
-SETTINGS = {"off": (False, False), "locks": (True, False), "one_way": (True, True)}
+MODES = ("off", "locks", "one_way")  # PhysicsConfig.lanes (params.LANE_MODES, auto aside)
 KEYS = ("ins", "x", "visits", "failures", "give_ways", "waits", "wait_s", "late_min")
 
 
@@ -41,10 +40,9 @@ def one(case: tuple[str, int, int, float, str, str, str]) -> tuple[tuple, dict]:
     from tpuaf.topics import REACHED
 
     strategy, n, seed, duration, mode, map_ref, robot = case
-    lanes, one_way = SETTINGS[mode]
     late: dict[int, int] = dict.fromkeys(range(n), 0)  # visits per robot in the last quarter
     run = PhysicsRun(PhysicsConfig(map=map_ref, strategy=strategy, robots=n, duration_s=duration,
-                                   seed=seed, robot=robot, lanes=lanes, one_way=one_way))
+                                   seed=seed, robot=robot, lanes=mode))
     for i in range(n):
         listener = run.agents[i]._publish_event
 
@@ -82,7 +80,7 @@ def main() -> int:
               file=sys.stderr)
         return 2
     seeds = range(1, args.seeds + 1)
-    from tpuaf.runtimes.config import UNDIRECTED_TOUR_STRATEGIES
+    from tpuaf.params import UNDIRECTED_TOUR_STRATEGIES
 
     def runs(s, mode):  # one-way lanes refuse strategies with a two-way tour search
         return not (mode == "one_way" and s in UNDIRECTED_TOUR_STRATEGIES)

@@ -243,7 +243,7 @@ def test_two_robots_entering_one_aisle_from_both_ends_keep_visiting_in_physics(t
 
     pm = load_map(str(aisle_map(tmp_path / "aisle")))
     config = PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1, duration_s=160.0,
-                           robot="burger", lanes=True)
+                           robot="burger", lanes="locks")
     run = PhysicsRun(config, patrol_map=pm)
     assert run.starts == [0, 4]  # one robot in each room: the aisle is entered from both ends
     counts: list[tuple[float, list[int]]] = []
@@ -279,7 +279,7 @@ def test_a_dead_holders_lane_is_freed_in_physics(tmp_path):
 
     pm = load_map(str(aisle_map(tmp_path / "aisle")))
     run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1,
-                                   duration_s=100.0, robot="burger", fail=["0@30"], lanes=True),
+                                   duration_s=100.0, robot="burger", fail=["0@30"], lanes="locks"),
                      patrol_map=pm)
     dead, alive = (access.locks for access in run.lane_access)
     trace: list[tuple[float, int, int, int]] = []
@@ -316,7 +316,7 @@ def test_lane_waits_are_reported_as_events_stamped_at_the_request(tmp_path):
 
     pm = load_map(str(aisle_map(tmp_path / "aisle")))
     run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1,
-                                   duration_s=160.0, robot="burger", lanes=True), patrol_map=pm)
+                                   duration_s=160.0, robot="burger", lanes="locks"), patrol_map=pm)
     health = FleetHealth(2, 60.0)
     events: list[tuple[int, int, int, float]] = []
     for agent in run.agents:
@@ -349,7 +349,7 @@ def test_lanes_flag_of_run_and_fleet(tmp_path, capsys):
     assert main(["run", "--map", folder, "--robots", "2", "--duration", "60", "--lanes",
                  "locks", "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--lanes locks needs --runtime physics" in err[0]
+    assert len(err) == 1 and "lane locks need the physics runtime (--runtime physics)" in err[0]
     assert main(["run", "--map", folder, "--robots", "2", "--duration", "120", "--runtime",
                  "physics", "--robot", "burger", "--strategy", "cr", "--seed", "1", "--lanes",
                  "locks", "--quiet", "--out", str(tmp_path / "out")]) == 0
@@ -371,8 +371,26 @@ def test_agent_lanes_parameter_is_checked():
 
     base = {"map": "lab", "robots": 2, "robot_index": 0}
     check_agent_params(parse(AgentParams, {**base, "lanes": "one_way"}, "patrol_agent"), True)
-    with pytest.raises(NodeParamError, match="~lanes must be one of off, locks, one_way"):
+    with pytest.raises(NodeParamError, match="~lanes must be one of auto, off, locks, one_way"):
         check_agent_params(parse(AgentParams, {**base, "lanes": "oneway"}, "patrol_agent"), True)
     with pytest.raises(NodeParamError, match="needs ~navigation builtin"):
         check_agent_params(parse(AgentParams, {**base, "lanes": "locks",
                                                "navigation": "move_base"}, "patrol_agent"), True)
+    with pytest.raises(NodeParamError, match="one_way does not support strategy cgg"):
+        check_agent_params(parse(AgentParams, {**base, "lanes": "one_way", "strategy": "cgg"},
+                                 "patrol_agent"), True)
+
+
+def test_the_agents_default_lane_mode_is_auto():
+    """auto: one_way where lanes can be found (built-in navigation on planned paths), off for
+    the two-way tour strategies and for move_base (no planned paths to find lanes on)."""
+    from tpuaf.params import AgentParams, parse
+    from tpuaf.runtimes.agent_setup import agent_lane_mode, check_agent_params
+
+    base = {"map": "lab", "robots": 2, "robot_index": 0}
+    for extra, mode in (({}, "one_way"), ({"strategy": "msp"}, "off"),
+                        ({"navigation": "move_base"}, "off"), ({"global_planner": False}, "off"),
+                        ({"lanes": "locks"}, "locks"), ({"lanes": "off"}, "off")):
+        p = parse(AgentParams, {**base, **extra}, "patrol_agent")
+        check_agent_params(p, True)
+        assert agent_lane_mode(p) == mode, extra

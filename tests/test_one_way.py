@@ -156,7 +156,7 @@ def test_two_robots_on_a_ring_of_aisles_only_follow_each_other_in_physics(tmp_pa
 
     pm = load_map(str(ring_of_aisles(tmp_path / "ring")))
     run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1,
-                                   duration_s=200.0, robot="burger", lanes=True, one_way=True),
+                                   duration_s=200.0, robot="burger", lanes="one_way"),
                      patrol_map=pm)
     assert len(run.lane_map.lanes) == 2 and len(run.orientation.chains) == 2
     allowed = set(run.orientation.arcs)
@@ -173,11 +173,24 @@ def test_two_robots_on_a_ring_of_aisles_only_follow_each_other_in_physics(tmp_pa
         assert all(b > a for a, b in zip(before, after, strict=True)), (start, before, after)
 
 
-def test_one_way_needs_lanes():
-    from tpuaf.runtimes.config import ConfigError, PhysicsConfig
+def test_lane_modes_are_checked_and_auto_resolves_per_strategy():
+    from tpuaf.runtimes.config import ConfigError, PhysicsConfig, RunConfig
 
-    with pytest.raises(ConfigError, match="one_way needs lanes"):
-        PhysicsConfig(map="lab", one_way=True).validate()
+    with pytest.raises(ConfigError, match="lanes must be one of auto, off, locks, one_way"):
+        PhysicsConfig(map="lab", lanes="both").validate()
+    with pytest.raises(ConfigError, match="lane locks need the physics runtime"):
+        RunConfig(map="lab", lanes="locks").validate()
+    PhysicsConfig(map="lab", lanes="locks").validate()
+    for strategy, mode in (("tpuaf", "one_way"), ("tpuaf_plus", "one_way"), ("cgg", "off"),
+                           ("msp", "off")):
+        for config in (RunConfig(map="lab", strategy=strategy, robot="burger"),
+                       PhysicsConfig(map="lab", strategy=strategy)):  # the default: auto
+            config.validate()
+            assert config.lanes == "auto" and config.lane_mode() == mode, strategy
+            assert config.one_way is (mode == "one_way")
+    # the graph runtime's point robot (no --robot) has no width: auto is off, one_way is not
+    assert RunConfig(map="lab").lane_mode() == "off"
+    assert RunConfig(map="lab", lanes="one_way").lane_mode() == "one_way"
 
 
 def test_tpuaf_maps_prints_and_draws_the_orientation(tmp_path, capsys):
@@ -208,7 +221,7 @@ def test_one_way_changes_nothing_on_a_map_without_lanes():
         assert not run.agents[0].machine.patrol_map.one_way
         return {k: v for k, v in out.items() if isinstance(v, int | float)}
 
-    assert summary(lanes=True, one_way=True) == summary()
+    assert summary(lanes="one_way") == summary(lanes="off") == summary()
 
 
 def test_a_robot_follows_only_in_one_way_lanes_along_their_leg():
@@ -241,7 +254,7 @@ def test_the_graph_runtime_drives_one_way_lanes_their_way(tmp_path, capsys):
 
     def legs(one_way: bool) -> tuple[set, set, dict]:
         run = make_run(RunConfig(map=pm.name, strategy="rand", robots=2, seed=2,
-                                 duration_s=600.0, robot="burger", one_way=one_way), pm)
+                                 duration_s=600.0, robot="burger", lanes="one_way" if one_way else "off"), pm)
         summary = run.run()
         last: dict[int, int] = {}
         seen = set()

@@ -93,10 +93,10 @@ def test_lab_figure_eight_is_driven_one_way_and_spaced_so_no_two_robots_meet():
 def test_one_way_runs_tpuaf_plus_and_still_refuses_cgg_and_msp():
     from tpuaf.runtimes.config import ConfigError, PhysicsConfig
 
-    PhysicsConfig(map="lab", strategy="tpuaf_plus", lanes=True, one_way=True).validate()
+    PhysicsConfig(map="lab", strategy="tpuaf_plus", lanes="one_way").validate()
     for strategy in ("cgg", "msp"):
-        with pytest.raises(ConfigError, match=f"does not support strategy {strategy}"):
-            PhysicsConfig(map="lab", strategy=strategy, lanes=True, one_way=True).validate()
+        with pytest.raises(ConfigError, match=f"one_way lanes do not support strategy {strategy}"):
+            PhysicsConfig(map="lab", strategy=strategy, lanes="one_way").validate()
 
 
 def run_and_count(run, windows):
@@ -119,7 +119,7 @@ def test_tpuaf_plus_on_a_ring_of_aisles_follows_the_arcs_and_keeps_visiting(tmp_
 
     pm = load_map(str(ring_of_aisles(tmp_path / "ring")))
     run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="tpuaf_plus", robots=2, seed=1,
-                                   duration_s=300.0, robot="burger", lanes=True, one_way=True),
+                                   duration_s=300.0, robot="burger", lanes="one_way"),
                      patrol_map=pm)
     allowed = set(run.orientation.arcs)
     one_way_edges = {(min(a, b), max(a, b)) for a, b in allowed}
@@ -138,7 +138,7 @@ def test_four_burgers_with_tpuaf_plus_keep_visiting_on_the_lab_one_way():
     from tpuaf.runtimes.physics import PhysicsRun
 
     run = PhysicsRun(PhysicsConfig(map="lab", strategy="tpuaf_plus", robots=4, seed=2,
-                                   duration_s=300.0, robot="burger", lanes=True, one_way=True))
+                                   duration_s=300.0, robot="burger", lanes="one_way"))
     assert run.patrol_map.one_way  # the plan's graph follows the arcs
     summary, visits = run_and_count(run, [(0.0, 100.0), (100.0, 200.0), (200.0, 300.0)])
     assert all(v > 0 for window in visits for v in window), visits

@@ -153,9 +153,26 @@ MAP_PARAMS: dict[str, tuple[str, str]] = {
 
 
 # The lane layer's modes (docs/LANES.md; `tpuaf run`/`compare`/`fleet --lanes`, the agent's
-# ~lanes): off; locks (every lane one robot wide entered holding its lock); one_way (the lanes
-# on cycles driven one way, the others locked). Opt-in: the first, off, is the default.
-LANE_MODES = ("off", "locks", "one_way")
+# ~lanes): auto (the default: one_way for a strategy that drives one-way lanes, else off; off
+# too for a body-less run, the graph runtime without a robot);
+# off; locks (every lane one robot wide entered holding its lock); one_way (the lanes on
+# cycles driven one way, the others locked). On a map without lanes for the robot every mode
+# runs as off.
+LANE_MODES = ("auto", "off", "locks", "one_way")
+LANE_DEFAULT = "auto"
+# Strategies whose plans assume every edge driven both ways: never run on one-way lanes
+# (tpuaf_plus's tours follow the arcs, tours_directed.cpp; cgg's and msp's do not yet).
+UNDIRECTED_TOUR_STRATEGIES = ("cgg", "msp")
+
+
+def resolve_lane_mode(mode: str, strategy: str) -> str:
+    """The lane mode a run of `strategy` uses for `mode` (auto: one_way, or off for the
+    strategies of UNDIRECTED_TOUR_STRATEGIES); ValueError naming the modes."""
+    if mode not in LANE_MODES:
+        raise ValueError(f"lane mode must be one of {', '.join(LANE_MODES)}, got {mode!r}")
+    if mode != "auto":
+        return mode
+    return "off" if strategy.lower() in UNDIRECTED_TOUR_STRATEGIES else "one_way"
 
 
 @dataclass
@@ -189,7 +206,7 @@ class AgentParams:
     max_retries: int = _C.max_retries  # recoveries before the goal is reported failed
     waypoint_tolerance: float = 0.6  # [m] pass-through vertices
     global_planner: bool = True  # builtin navigation: follow paths planned on the map's grid
-    lanes: str = LANE_MODES[0]  # lane layer: off | locks | one_way (builtin navigation with the global planner; docs/LANES.md)
+    lanes: str = LANE_DEFAULT  # lane layer: auto | off | locks | one_way (params.LANE_MODES; not off only with builtin navigation and the global planner, where auto is off; docs/LANES.md)
     scan_beams: int = _C.scan_beams  # laser beams used by the controller at most (the scan is subsampled)
     heartbeat_period: float = _L.heartbeat_period_s  # [s] AgentEvent HEARTBEAT period
     lockstep: bool = False  # answer every pose tick with TwistStamped on cmd_vel_stamped

@@ -188,6 +188,11 @@ def check_options(args: argparse.Namespace) -> None:
     robots = [r for r, _ in args.fail]
     if len(set(robots)) != len(robots):
         raise CliError("--fail: each robot can die once")
+    from tpuaf.params import UNDIRECTED_TOUR_STRATEGIES
+
+    if args.lanes == "one_way" and args.strategy.lower() in UNDIRECTED_TOUR_STRATEGIES:
+        raise CliError(f"--lanes one_way does not support strategy {args.strategy} yet: its tour "
+                       "search assumes two-way edges (docs/LANES.md)")
     record_regex(args.record)
 
 
@@ -311,6 +316,7 @@ def fleet_config(args, out: Path, patrol_map, map_ref: str, strategy: str, param
 
     from tpuaf.maps import start_vertices
     from tpuaf.maps.params import effective_params
+    from tpuaf.params import resolve_lane_mode
 
     starts = start_vertices(patrol_map, args.robots)
     return {
@@ -337,7 +343,8 @@ def fleet_config(args, out: Path, patrol_map, map_ref: str, strategy: str, param
                      "relay": uses_relay(args)},
         # agents and monitor alike (the monitor's death timeout follows it: one liveness rule)
         "teammate_timeout_s": float(args.teammate_timeout),
-        "lanes": args.lanes,
+        "lanes": args.lanes,  # the agents' ~lanes; the mode they run (built-in navigation):
+        "lane_mode": resolve_lane_mode(args.lanes, strategy),
         "navigation_module": "tpuaf.navigation (GraphRoute + LocalController)",
         "bag": None if args.no_record else str(out / "run.bag"),
         "record_regex": None if args.no_record else record_regex(args.record),

@@ -102,13 +102,16 @@ def add_teammate_timeout(p: argparse.ArgumentParser) -> None:
 def add_lanes(p: argparse.ArgumentParser, where: str) -> None:
     """--lanes MODE (`tpuaf run --runtime physics`, `fleet`): the lane layer (docs/LANES.md),
     modes and default from tpuaf.params.LANE_MODES."""
-    from tpuaf.params import LANE_MODES
+    from tpuaf.params import LANE_DEFAULT, LANE_MODES, UNDIRECTED_TOUR_STRATEGIES
 
-    p.add_argument("--lanes", choices=LANE_MODES, default=LANE_MODES[0],
-                   help=f"lane layer for aisles one robot wide ({where}): off (default); locks "
-                        "(a robot enters such a lane only holding its lock, asked for at a "
-                        "waiting spot outside it); one_way (the lanes on cycles driven one way, "
-                        "the others locked). Shown by `tpuaf maps --lanes`")
+    p.add_argument("--lanes", choices=LANE_MODES, default=LANE_DEFAULT,
+                   help=f"lane layer for aisles one robot wide ({where}): auto (default: "
+                        f"one_way, off for {' and '.join(UNDIRECTED_TOUR_STRATEGIES)} and for "
+                        "the graph runtime without --robot); off; "
+                        "locks (a robot enters such a lane only holding its lock, asked for at "
+                        "a waiting spot outside it); one_way (the lanes on cycles driven one "
+                        "way, the others locked). A map without such aisles runs as off. Shown "
+                        "by `tpuaf maps --lanes`")
 
 
 def add_map_params(p: argparse.ArgumentParser) -> None:
@@ -242,18 +245,13 @@ def make_engine(args: argparse.Namespace, config_kwargs: dict, patrol_map):
     kwargs = dict(config_kwargs, fail=fail, stall=stall,
                   fail_random=int(getattr(args, "fail_random", 0)),
                   travel=getattr(args, "travel", None), robot=getattr(args, "robot", None))
-    lanes = getattr(args, "lanes", "off")
+    if hasattr(args, "lanes"):
+        kwargs["lanes"] = args.lanes
     if getattr(args, "runtime", "graph") == "physics":
-        from tpuaf.robot.lanes import lane_flags
         from tpuaf.runtimes.config import PhysicsConfig
         from tpuaf.runtimes.physics import PhysicsRun
 
-        kwargs["lanes"], kwargs["one_way"] = lane_flags(lanes)
         return PhysicsRun(PhysicsConfig(**kwargs), patrol_map)
-    if lanes == "locks":
-        raise CliError("--lanes locks needs --runtime physics: the graph runtime drives edges "
-                       "without widths, so no lane is shared there (one_way runs in both)")
-    kwargs["one_way"] = lanes == "one_way"
     from tpuaf.runtimes.config import RunConfig
     from tpuaf.runtimes.graph import make_run
 

@@ -18,17 +18,9 @@ import numpy as np
 
 from tpuaf.navigation.lanes import LaneMap, find_lanes
 from tpuaf.navigation.one_way import Orientation, orient_lanes
-from tpuaf.params import LANE_MODES
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
 from tpuaf.topics import LANE_ENTER, LANE_WAIT
-
-
-def lane_flags(mode: str) -> tuple[bool, bool]:
-    """(lanes, one_way) of a lane mode (PhysicsConfig's fields); ValueError naming the modes."""
-    if mode not in LANE_MODES:
-        raise ValueError(f"lane mode must be one of {', '.join(LANE_MODES)}, got {mode!r}")
-    return mode != "off", mode == "one_way"
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,14 @@ from dataclasses import replace
 
 from tpuaf.maps import start_vertices
 from tpuaf.navigation import ControllerConfig, retry_wait_for
-from tpuaf.params import LANE_MODES, AgentParams, NodeParamError
-from tpuaf.robot.lanes import LaneLayer, attach_lanes, lane_flags, lane_layer
+from tpuaf.params import (
+    LANE_MODES,
+    UNDIRECTED_TOUR_STRATEGIES,
+    AgentParams,
+    NodeParamError,
+    resolve_lane_mode,
+)
+from tpuaf.robot.lanes import LaneLayer, attach_lanes, lane_layer
 from tpuaf.robot.model import RobotChoiceError, RobotModel, choose_robot
 from tpuaf.runtimes.agent import AgentRuntime
 
@@ -49,9 +55,25 @@ def check_agent_params(p: AgentParams, sim: bool) -> None:
         raise NodeParamError("~lockstep needs ~navigation builtin (move_base drives the robot)")
     if p.lanes not in LANE_MODES:
         raise NodeParamError(f"~lanes must be one of {', '.join(LANE_MODES)}, got {p.lanes!r}")
-    if p.lanes != LANE_MODES[0] and not (p.navigation == "builtin" and p.global_planner):
+    if p.lanes == "one_way" and p.strategy.lower() in UNDIRECTED_TOUR_STRATEGIES:
+        raise NodeParamError(f"~lanes one_way does not support strategy {p.strategy} yet: its "
+                             "tour search assumes two-way edges (docs/LANES.md)")
+    if p.lanes not in ("auto", "off") and not finds_lanes(p):
         raise NodeParamError(f"~lanes {p.lanes} needs ~navigation builtin with ~global_planner "
                              "true (lanes are found on the planned paths)")
+
+
+def finds_lanes(p: AgentParams) -> bool:
+    """Whether this agent's navigation can find lanes (on the planned paths)."""
+    return p.navigation == "builtin" and p.global_planner
+
+
+def agent_lane_mode(p: AgentParams) -> str:
+    """The lane mode this agent runs (auto: params.resolve_lane_mode, off without the planned
+    paths lanes are found on)."""
+    if p.lanes == "auto" and not finds_lanes(p):
+        return "off"
+    return resolve_lane_mode(p.lanes, p.strategy)
 
 
 def agent_runtime(p: AgentParams, patrol_map, robot: RobotModel, policy, publish_team,
@@ -67,8 +89,8 @@ def agent_runtime(p: AgentParams, patrol_map, robot: RobotModel, policy, publish
     planner = (shared_planner(patrol_map, cfg.robot_radius)
                if p.navigation == "builtin" and p.global_planner else None)
     plan_map = timed_map(patrol_map, robot, shared_planner(patrol_map, robot.radius_m))
-    lanes, one_way = lane_flags(p.lanes)
-    layer = lane_layer(planner, patrol_map, plan_map, one_way) if lanes else None
+    mode = agent_lane_mode(p)
+    layer = lane_layer(planner, patrol_map, plan_map, mode == "one_way") if mode != "off" else None
     if layer is not None:
         plan_map = layer.plan_map
     runtime = AgentRuntime(plan_map, policy, p.robot_index, p.robots, p.seed, publish_team,

@@ -12,7 +12,13 @@ from tpuaf import __version__
 from tpuaf.errors import MapError, TpuafError
 from tpuaf.maps.params import check_map_params, effective_params
 from tpuaf.navigation.controller import CONTROL_PERIOD_S, PHYSICS_STEP_S
-from tpuaf.params import LIVENESS_DEFAULTS
+from tpuaf.params import (
+    LANE_DEFAULT,
+    LANE_MODES,
+    LIVENESS_DEFAULTS,
+    UNDIRECTED_TOUR_STRATEGIES,
+    resolve_lane_mode,
+)
 from tpuaf.policies import REGISTRY
 from tpuaf.robot.model import AUTO, TRAVELS, RobotChoiceError, RobotModel, choose_robot
 from tpuaf.runtimes.faults import Fault, FaultError, resolve_faults
@@ -83,10 +89,23 @@ class RunConfig:
     # Overrides of the map's settings (tpuaf.maps.params.USER_PARAMS; `--map-param`), e.g.
     # {"sensing_radius": 2.0} [m]; {} = the map's own.
     map_params: dict[str, Any] = field(default_factory=dict)
-    # The lanes one robot wide (for the run's robot, docs/LANES.md) that lie on cycles are
-    # driven one way: routes, strategies and travel times follow their arcs (`--lanes one_way`;
-    # the physics runtime also needs `lanes`). The graph runtime models no lane locks.
-    one_way: bool = False
+    # The lane layer in aisles one robot wide for the run's robot (params.LANE_MODES,
+    # docs/LANES.md). one_way: the lanes on cycles driven one way; routes, strategies and travel
+    # times follow their arcs. locks: physics only (the graph runtime models no widths).
+    lanes: str = LANE_DEFAULT
+    lanes_share_widths = False  # class: whether this runtime can lock lanes (physics can)
+
+    def lane_mode(self) -> str:
+        """The lane mode this run uses: auto resolved for the strategy (params.resolve_lane_mode),
+        and off for the graph runtime's point robot (no `robot`: no width, no lane)."""
+        if self.lanes == "auto" and self.robot is None:
+            return "off"
+        return resolve_lane_mode(self.lanes, self.strategy)
+
+    @property
+    def one_way(self) -> bool:
+        """Whether the lanes on cycles are driven one way."""
+        return self.lane_mode() == "one_way"
 
     def resolved_travel(self) -> str:
         return self.travel or ("timed" if self.robot is not None else "declared")
@@ -116,9 +135,15 @@ class RunConfig:
             raise ConfigError(str(err)) from None
         if self.travel is not None and self.travel not in TRAVELS:
             raise ConfigError(f"travel must be one of {', '.join(TRAVELS)}, got {self.travel!r}")
-        if self.one_way and self.strategy in UNDIRECTED_TOUR_STRATEGIES:
-            raise ConfigError(f"one_way does not support strategy {self.strategy} yet: its tour "
-                              "search assumes two-way edges (docs/LANES.md)")
+        if self.lanes not in LANE_MODES:
+            raise ConfigError(f"lanes must be one of {', '.join(LANE_MODES)}, got {self.lanes!r}")
+        if self.lanes == "one_way" and self.strategy in UNDIRECTED_TOUR_STRATEGIES:
+            raise ConfigError(f"one_way lanes do not support strategy {self.strategy} yet: its "
+                              "tour search assumes two-way edges (docs/LANES.md)")
+        if self.lanes == "locks" and not self.lanes_share_widths:
+            raise ConfigError("lane locks need the physics runtime (--runtime physics): the "
+                              "graph runtime drives edges without widths, so no lane is shared "
+                              "there (one_way runs in both)")
         self.faults()
 
     def faults(self) -> list[Fault]:
@@ -155,21 +180,13 @@ def run_description(run, starts, strategy_params, faults, engine: str | None = N
 
 
 
-
-# Strategies that assume every edge is driven both ways: not run on one-way lanes
-# (PhysicsConfig.one_way). tpuaf_plus's tours follow the arcs (tours_directed.cpp); cgg's and
-# msp's plans do not yet.
-UNDIRECTED_TOUR_STRATEGIES = ("cgg", "msp")
-
-
 @dataclass
 class PhysicsConfig(RunConfig):
     robot: str | None = AUTO  # a physical run always has a body (None: auto)
     physics_step_s: float = PHYSICS_STEP_S
     control_period_s: float = CONTROL_PERIOD_S
     planner: bool = True  # navigator on planned paths (False: straight edges, as before)
-    lanes: bool = False  # lane locks where the map is one robot wide (docs/LANES.md; opt-in)
-    # with lanes and one_way: the lanes on cycles driven one way, only the others (bridges) locked
+    lanes_share_widths = True  # lane locks too (the lanes that stay two-way under one_way)
 
     def validate(self) -> None:
         if self.robot is None:
@@ -179,8 +196,6 @@ class PhysicsConfig(RunConfig):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"{name} must be a finite number > 0 s, got {value!r}")
-        if self.one_way and not self.lanes:
-            raise ConfigError("one_way needs lanes (one-way lanes are a mode of the lane layer)")
         ratio = self.control_period_s / self.physics_step_s
         if abs(ratio - round(ratio)) > 1e-6 or round(ratio) < 1:
             raise ConfigError(f"control_period_s ({self.control_period_s:g}) must be a whole "
