@@ -160,11 +160,15 @@ class MonitorNode:
         # made every agent ready may be stamped seconds of a fast lock-step clock ago;
         # a start already past reached the agents late, and each began the run when it
         # heard it (10-16 s after it, differently in every run: issue 33 item 7).
-        start = max(stamp, self.fm.now, rospy.get_time()) + self.p.start_delay
+        message = convert.run_start_message(
+            max(stamp, self.fm.now, rospy.get_time()) + self.p.start_delay, rospy.get_name(),
+            self.names)
+        # the start as the agents and the bag read it (the stamp's whole nanoseconds): an
+        # event stamped at the start counts live as it does in `tpuaf analyze`
+        start = convert.stamp_s(message)
         self.fm.start_after = start
         self.run_start.offer(start, rospy.get_name())
-        publish(self.start_pub, convert.run_start_message(start, rospy.get_name(),
-                                                         self.names))
+        publish(self.start_pub, message)
         self.announced = True
         rospy.loginfo(f"{NODE}: all {self.p.robots} agents ready, run starts at t = "
                       f"{start:.2f} s for {self.p.duration:g} s")
