@@ -181,7 +181,7 @@ def test_lane_modes_are_checked_and_auto_resolves_per_strategy():
     with pytest.raises(ConfigError, match="lane locks need the physics runtime"):
         RunConfig(map="lab", lanes="locks").validate()
     PhysicsConfig(map="lab", lanes="locks").validate()
-    for strategy, mode in (("tpuaf", "one_way"), ("tpuaf_plus", "one_way"), ("cgg", "off"),
+    for strategy, mode in (("tpuaf", "one_way"), ("tpuaf_plus", "one_way"), ("cgg", "one_way"),
                            ("msp", "off")):
         for config in (RunConfig(map="lab", strategy=strategy, robot="burger"),
                        PhysicsConfig(map="lab", strategy=strategy)):  # the default: auto

@@ -160,19 +160,20 @@ MAP_PARAMS: dict[str, tuple[str, str]] = {
 # runs as off.
 LANE_MODES = ("auto", "off", "locks", "one_way")
 LANE_DEFAULT = "auto"
-# Strategies whose plans assume every edge driven both ways: never run on one-way lanes
-# (tpuaf_plus's tours follow the arcs, tours_directed.cpp; cgg's and msp's do not yet).
-UNDIRECTED_TOUR_STRATEGIES = ("cgg", "msp")
+# Strategies that auto runs without lanes: msp's robots keep to their own parts, which meet
+# little, and one-way arcs leave fewer strongly connected parts than robots (lab, Burgers,
+# physics, N = 4, 900 s: worst idleness 15.3 s off against 24.8 s one-way; docs/LANES.md).
+AUTO_LANES_OFF_STRATEGIES = ("msp",)
 
 
 def resolve_lane_mode(mode: str, strategy: str) -> str:
     """The lane mode a run of `strategy` uses for `mode` (auto: one_way, or off for the
-    strategies of UNDIRECTED_TOUR_STRATEGIES); ValueError naming the modes."""
+    strategies of AUTO_LANES_OFF_STRATEGIES); ValueError naming the modes."""
     if mode not in LANE_MODES:
         raise ValueError(f"lane mode must be one of {', '.join(LANE_MODES)}, got {mode!r}")
     if mode != "auto":
         return mode
-    return "off" if strategy.lower() in UNDIRECTED_TOUR_STRATEGIES else "one_way"
+    return "off" if strategy.lower() in AUTO_LANES_OFF_STRATEGIES else "one_way"
 
 
 @dataclass
