@@ -182,7 +182,7 @@ def test_lane_modes_are_checked_and_auto_resolves_per_strategy():
         RunConfig(map="lab", lanes="locks").validate()
     PhysicsConfig(map="lab", lanes="locks").validate()
     for strategy, mode in (("tpuaf", "one_way"), ("tpuaf_plus", "one_way"), ("cgg", "one_way"),
-                           ("msp", "off")):
+                           ("msp", "off"), ("dtap", "off"), ("sebs", "off")):
         for config in (RunConfig(map="lab", strategy=strategy, robot="burger"),
                        PhysicsConfig(map="lab", strategy=strategy)):  # the default: auto
             config.validate()

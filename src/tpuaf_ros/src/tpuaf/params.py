@@ -160,10 +160,11 @@ MAP_PARAMS: dict[str, tuple[str, str]] = {
 # runs as off.
 LANE_MODES = ("auto", "off", "locks", "one_way")
 LANE_DEFAULT = "auto"
-# Strategies that auto runs without lanes: msp's robots keep to their own parts, which meet
-# little, and one-way arcs leave fewer strongly connected parts than robots (lab, Burgers,
-# physics, N = 4, 900 s: worst idleness 15.3 s off against 24.8 s one-way; docs/LANES.md).
-AUTO_LANES_OFF_STRATEGIES = ("msp",)
+# Strategies that auto runs without lanes, as measured (lab, 4 Burgers, physics, 900 s, 3 seeds,
+# I_ins off / one-way; lanes_strategies_seeds.md): their robots rarely meet (msp's keep to their
+# parts, of which one-way arcs leave fewer; sebs's spread) or their goals are several hops away
+# and one-way makes them loops away (dtap). Every other strategy gains from one-way lanes there.
+AUTO_LANES_OFF_STRATEGIES = ("dtap", "msp", "sebs")
 
 
 def resolve_lane_mode(mode: str, strategy: str) -> str:

@@ -106,7 +106,7 @@ def add_lanes(p: argparse.ArgumentParser, where: str) -> None:
 
     p.add_argument("--lanes", choices=LANE_MODES, default=LANE_DEFAULT,
                    help=f"lane layer for aisles one robot wide ({where}): auto (default: "
-                        f"one_way, off for {' and '.join(AUTO_LANES_OFF_STRATEGIES)} and for "
+                        f"one_way, off for {', '.join(AUTO_LANES_OFF_STRATEGIES)} and for "
                         "the graph runtime without --robot); off; "
                         "locks (a robot enters such a lane only holding its lock, asked for at "
                         "a waiting spot outside it); one_way (the lanes on cycles driven one "
