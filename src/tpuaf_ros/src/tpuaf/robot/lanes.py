@@ -141,10 +141,19 @@ class LaneAccess:
             return False
         return bool((self.lane_map.lane_at(points) == lane).any())
 
-    def allowed(self, points) -> np.ndarray:
-        """Mask of map-frame points (k, 2) [m] outside every lane but the one held."""
+    def driven(self, u: int | None, v: int | None) -> int:
+        """The one-way lane of the leg u -> v when the leg drives it along its arc, -1 when
+        none: the robot holds the one-way lane it drives (docs/LANES.md, section 2b)."""
+        if u is None or v is None or not self.one_way:
+            return -1
+        lane = self.lane_map.lane_of(u, v)
+        return lane if lane >= 0 and lane not in self.locked else -1
+
+    def allowed(self, points, driven: int = -1) -> np.ndarray:
+        """Mask of map-frame points (k, 2) [m] outside every lane but the one held and the
+        one-way lane `driven` (the robot's leg: `driven`)."""
         lanes = self.lane_map.lane_at(points)
-        return (lanes < 0) | (lanes == self.locks.held)
+        return (lanes < 0) | (lanes == self.locks.held) | ((lanes == driven) & (driven >= 0))
 
     def withdraw(self) -> None:
         """The route changed: a request not granted yet is dropped (a held lane is kept)."""
