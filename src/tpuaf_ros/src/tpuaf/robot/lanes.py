@@ -5,7 +5,8 @@ The navigator asks `may_start(u, v, now)` before every leg u -> v that starts at
 `arrive(u, now)` at a route's goal: reaching a vertex outside the held lane (a waiting spot)
 releases it; a leg into a lane not held asks for the lane and waits at u until it is granted.
 With one-way lanes (navigation/one_way.py) only the lanes that stay two-way (`locked`: the
-bridges) are locked; a one-way lane is entered without a lock (robots in it only follow).
+bridges) are locked; a one-way lane is entered without a lock (robots in it only follow), and
+the robot whose leg drives it holds it off its route too (`driven`, `allowed`).
 """
 
 from __future__ import annotations
@@ -151,7 +152,7 @@ class LaneAccess:
 
     def allowed(self, points, driven: int = -1) -> np.ndarray:
         """Mask of map-frame points (k, 2) [m] outside every lane but the one held and the
-        one-way lane `driven` (the robot's leg: `driven`)."""
+        one-way lane `driven` (the lane of the robot's leg, -1: none)."""
         lanes = self.lane_map.lane_at(points)
         return (lanes < 0) | (lanes == self.locks.held) | ((lanes == driven) & (driven >= 0))
 
