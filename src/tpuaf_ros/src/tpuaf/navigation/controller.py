@@ -107,6 +107,7 @@ class LocalController:
         self._headings = wrap_angle_array(-math.pi + 2.0 * math.pi * k / c.n_headings)
         self.target: tuple[float, float] | None = None
         self.tolerance = GOAL_TOLERANCE_M
+        self.reverse = False  # drive to the target backward (giving way: back the way we came)
         self.retries = 0
         self._state = self._DRIVE
         self._state_t = 0.0
@@ -115,9 +116,11 @@ class LocalController:
         self._back_w = 0.0
 
     def set_target(self, xy: tuple[float, float], tolerance_m: float, t: float,
-                   new_goal: bool = True) -> None:
+                   new_goal: bool = True, reverse: bool = False) -> None:
+        """`reverse`: drive to it backward (the rear as the front: same rules, v negated)."""
         self.target = (float(xy[0]), float(xy[1]))
         self.tolerance = float(tolerance_m)
+        self.reverse = bool(reverse)
         if new_goal:
             self.retries = 0
             self._state = self._DRIVE
@@ -201,6 +204,15 @@ class LocalController:
 
     def step(self, t: float, pose: tuple[float, float, float],
              points: np.ndarray | None) -> Command:
+        if self.reverse:  # the robot turned round on paper: its rear leads
+            x, y, th = pose
+            flipped = None if points is None else -np.asarray(points)
+            cmd = self._step(t, (x, y, wrap_angle(th + math.pi)), flipped)
+            return Command(-cmd.v, cmd.w, cmd.status)
+        return self._step(t, pose, points)
+
+    def _step(self, t: float, pose: tuple[float, float, float],
+              points: np.ndarray | None) -> Command:
         if self.target is None:
             return Command(0.0, 0.0, Status.REACHED)
         c = self.config

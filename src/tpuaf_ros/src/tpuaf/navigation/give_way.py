@@ -3,7 +3,9 @@
 When two robots block each other and there is no reasonable way round, one of them (the one
 whose yield timer fires first: staggered by robot index, navigator.py) gives way: it drives to
 a *refuge*, the nearest free spot off the other robot's way (a side pocket, a junction, the
-corridor it came from), waits there until the other has passed, then carries on. A robot standing
+corridor it came from), waits there until the other has passed, then carries on. The navigator
+looks behind the robot first (`behind_first`: back the way it came, away from the other
+robot), where it backs into the refuge without turning round; only then anywhere near. A robot standing
 still without a goal does the same when another comes right up to it. The other robot's way is
 estimated from what one robot knows: it comes from where it stands, through our position, on
 along the way we came (our trail) and straight on beyond us.
@@ -39,6 +41,7 @@ class GiveWay:
     arrived_s: float | None = None  # [s] at the refuge since
     clear_since_s: float | None = None  # [s] nothing unmapped near since
     parked: bool = False  # a robot without a goal making room
+    reverse: bool = False  # driven backward (the refuge lies behind the robot)
     other_at: np.ndarray | None = None  # [m] centre of the other robot's points near us
     other_since_s: float = 0.0  # [s] ... there (within HELD_M) since
 
@@ -80,11 +83,12 @@ def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
                 trail: list[tuple[float, float]], pass_clearance_m: float,
                 obstacles: np.ndarray | None,
                 heading_to: tuple[float, float] | None = None,
-                allowed=None) -> np.ndarray | None:
+                allowed=None, behind_first: bool = False) -> np.ndarray | None:
     """The planned path (k, 2) [m] from `me` to the nearest refuge: a free spot at least
     `pass_clearance_m` from the other robot's expected way (`other_way`), reachable without
     crossing `obstacles` (discs (x, y, radius) [m]: the other robots), where `allowed`
-    (points (k, 2) -> bool mask; None: anywhere) lets the robot stand, or None.
+    (points (k, 2) -> bool mask; None: anywhere) lets the robot stand, or None. With
+    `behind_first` the refuges behind `me` (on the far side from the blocker) come first.
 
     Nearest by a wave over a square of cells round `me` (free: not lethal for the robot, not
     within a disc's lethal reach), then a plan to the first few refuges the wave met."""
@@ -128,9 +132,16 @@ def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
     idx = idx[segment_distances(cells[idx], way) >= pass_clearance_m]
     if allowed is not None:  # e.g. not inside a lane the robot does not hold (lanes.py)
         idx = idx[allowed(cells[idx])]
-    for j in idx[np.argsort(order.ravel()[idx], kind="stable")][:REFUGE_PLANS]:
-        path = planner.plan(me, tuple(cells[j]), obstacles)
-        if path is not None and polyline_length(path) <= (
-                REFUGE_PATH_FACTOR * order.ravel()[j] * step + 1.0):
-            return path
+    idx = idx[np.argsort(order.ravel()[idx], kind="stable")]
+    groups = [idx]
+    if behind_first:  # away from the blocker: (cell - me) . (me - blocker) > 0
+        away = ((cells[idx, 0] - me[0]) * (me[0] - blocker[0])
+                + (cells[idx, 1] - me[1]) * (me[1] - blocker[1])) > 0.0
+        groups = [idx[away], idx[~away]]
+    for group in groups:
+        for j in group[:REFUGE_PLANS]:
+            path = planner.plan(me, tuple(cells[j]), obstacles)
+            if path is not None and polyline_length(path) <= (
+                    REFUGE_PATH_FACTOR * order.ravel()[j] * step + 1.0):
+                return path
     return None

@@ -34,13 +34,14 @@ class Navigator(LaneGate):
     After a recovery (the controller was stuck and backed off) the leg is replanned from the
     pose, with the laser's points as obstacles for that plan (another robot, an unmapped
     obstacle), so the robot takes another way when there is a reasonable one. A robot held
-    still by another robot gives way (a refuge off the other's way) when there is no way round;
+    by another robot (no progress toward its aim) gives way when there is no way round: it
+    backs to a refuge behind it, off the other's way (or another refuge when none is behind);
     a robot without a route makes room for one that comes up to it (`park_step`). Pass-through waypoints count as
     reached within `waypoint_tolerance` [m], the goal within `goal_tolerance` [m] (the agents:
     the map's visit radius). A robot within `near_goal_m` [m] of its goal (the map's goal
-    tolerance; None: never) that another robot holds still there, or whose controller gave up
-    there, ends the route short (ARRIVED; `short_arrivals` counts them): the visit rule then
-    makes it a dwell, not a visit.
+    tolerance; None: never) whose goal another robot covers (stands on it), held there or
+    with its controller given up, ends the route short (ARRIVED; `short_arrivals` counts
+    them): the visit rule then makes it a dwell, not a visit. Not covered, it keeps trying.
     `step` returns (Command, Event, vertex): the vertex is the waypoint or goal reached, or the
     goal that failed."""
 
@@ -62,8 +63,11 @@ class Navigator(LaneGate):
         self._retries_seen = 0
         self.replans = 0  # legs replanned (after a recovery, or to give way)
         self.yields = 0  # replans round a robot (or unmapped obstacle) that held us still
-        self._blocked_since: float | None = None
-        self._blocked_at: tuple[float, float] | None = None  # [m] where the hold watch started
+        self._blocked_since: float | None = None  # [s] no progress toward the aim since
+        self._held_aim: tuple[float, float] | None = None  # [m] the aim point watched
+        self._held_best = math.inf  # [m] the nearest the robot came to it meanwhile
+        # (where the robot stood, [m] from there to the robot ahead) half way to acting
+        self._held_gap: tuple[tuple[float, float], float] | None = None
         # [s] held still this long by an unmapped obstacle ahead: replan round it or give way
         # (1.5-3 s, staggered with the controller's retry wait, and by 0.1 s per four robot
         # indices: two robots held by each other do not act at the same instant)
@@ -71,6 +75,9 @@ class Navigator(LaneGate):
         self.yield_after_s = (1.0 + controller.config.retry_wait_s
                               + 0.1 * min(self.robot_index // 4, 4))
         self.give_ways = 0  # refuges driven to (to let another robot pass)
+        self.reversals = 0  # ... of them driven backward (the refuge behind the robot)
+        # the laser sees behind the robot (a full circle): refuges behind are reversed into
+        self.sees_behind = True
         self._give_way: GiveWay | None = None
         self._give_ways_this_leg = 0
         self._trail: list[tuple[float, float]] = []  # [m] recent positions, newest last
@@ -213,30 +220,35 @@ class Navigator(LaneGate):
         other's way and waits there, give_way.py), without waiting to be stuck. The other then
         finds its way clear."""
         x, y = pose[0], pose[1]
-        # Held still: not HELD_M away from where the watch started (turning on the spot, or
-        # dithering, is still being held).
-        anchor = self._blocked_at
-        if anchor is None or math.hypot(x - anchor[0], y - anchor[1]) > HELD_M:
-            self._blocked_at, self._blocked_since = (x, y), t
-            self._follow_since = None  # moving again: a new wait behind a robot starts anew
+        # Held: no progress toward the point we aim at (HELD_M closer than the nearest we came
+        # since the watch started); turning on the spot, dithering or stepping aside is still
+        # being held. A new aim point starts the watch anew.
+        aim = self.controller.target or self.route.next_position()
+        d = math.hypot(aim[0] - x, aim[1] - y)
+        if (self._blocked_since is None or self._held_aim != aim
+                or d < self._held_best - HELD_M):
+            self._held_aim, self._held_best, self._blocked_since = aim, d, t
+            self._held_gap = None
+            self._follow_since = None  # moving on: a new wait behind a robot starts anew
             return
-        if t - self._blocked_since < self.yield_after_s:
+        held = t - self._blocked_since
+        if held < 0.5 * self.yield_after_s:
+            return
+        if self._held_gap is None:  # half way: how far the robot ahead is (from here)
+            self._held_gap = ((x, y), self._gap_ahead(pose, points, aim, (x, y))[0])
+            return
+        if held < self.yield_after_s:
             return
         self._blocked_since = t  # at most one such replan per yield_after_s
-        unmapped = self._unmapped(_map_points(pose, points))
-        if unmapped is None:
+        origin, gap0 = self._held_gap
+        self._held_gap = None
+        gap, unmapped, ahead = self._gap_ahead(pose, points, aim, origin)
+        if gap > gap0 + HELD_M:  # it moves away (gives way itself): wait on
             return
-        # Ahead: toward the point we aim at (not the heading, which may be turning), in range.
-        aim = self.controller.target or self.route.next_position()
-        ux, uy = aim[0] - x, aim[1] - y
-        rel = unmapped - np.array([x, y])
-        keep = ((rel[:, 0] * ux + rel[:, 1] * uy > 0.0)
-                & (np.hypot(rel[:, 0], rel[:, 1]) <= BLOCKING_RANGE_M))
-        if not keep.any():
+        if ahead is None:
             return
-        ahead = unmapped[keep]
-        if self._near_goal(pose):  # another robot stands on our goal: end the route short
-            self._short = True
+        if self._near_goal(pose) and self._goal_covered(unmapped):
+            self._short = True  # another robot stands on our goal: end the route short
             return
         if self._following(t, pose, ahead):  # behind a robot in a one-way lane: wait, not stuck
             self.controller.restart_progress(t)
@@ -260,6 +272,26 @@ class Navigator(LaneGate):
         if detour is not None:  # a long way round is still better than none
             self.replans += 1
             self._plan_leg(t, pose, ahead, keep_obstacles=True)
+
+    def _gap_ahead(self, pose: tuple[float, float, float], points: np.ndarray | None,
+                   aim: tuple[float, float], origin: tuple[float, float]):
+        """(distance [m] from `origin` to the nearest point the map does not explain within
+        BLOCKING_RANGE_M of the pose toward `aim` (inf: none), all such points near (map
+        frame), those of them ahead; None for none)."""
+        unmapped = self._unmapped(_map_points(pose, points))
+        if unmapped is None:
+            return math.inf, None, None
+        # Ahead: toward the point we aim at (not the heading, which may be turning), in range.
+        x, y = pose[0], pose[1]
+        ux, uy = aim[0] - x, aim[1] - y
+        rel = unmapped - np.array([x, y])
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        keep = (rel[:, 0] * ux + rel[:, 1] * uy > 0.0) & (dist <= BLOCKING_RANGE_M)
+        if not keep.any():
+            return math.inf, unmapped, None
+        ahead = unmapped[keep]
+        gap = np.hypot(ahead[:, 0] - origin[0], ahead[:, 1] - origin[1]).min()
+        return float(gap), unmapped, ahead
 
     def _remaining_path(self, pose: tuple[float, float, float]) -> np.ndarray | None:
         """The polyline [m] still ahead on this leg: pose, corners, next vertex."""
@@ -300,7 +332,8 @@ class Navigator(LaneGate):
         obstacles = np.vstack((_obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
         aim = None if parked else self.controller.target
         path = find_refuge(self.planner, me, blocker, [] if parked else self._trail,
-                           self._pass_clearance_m(), obstacles, aim, self._lane_free)
+                           self._pass_clearance_m(), obstacles, aim, self._lane_free,
+                           behind_first=self.sees_behind)
         if path is None or (self.lanes is not None and self.lanes.one_way
                             and not self._lane_free_path(path)):
             return False  # with one-way lanes: never through a lane (against its flow)
@@ -308,12 +341,20 @@ class Navigator(LaneGate):
         # [s] the other robot drives past us and on: a few metres at its speed, at least 10 s
         wait = max(GIVE_WAY_MIN_S, (polyline_length(path) + GIVE_WAY_PASS_M) / speed)
         corners = [(float(px), float(py)) for px, py in path[1:]]
+        # Backward when the way to the refuge starts behind the robot (no turning round, and
+        # it faces the way it was going when it drives on); only with a laser that sees there.
+        th = pose[2]
+        first = next((c for c in corners if math.hypot(c[0] - me[0], c[1] - me[1])
+                      >= REVERSE_LOOK_M), corners[-1])  # the path's cells next to us: no use
+        reverse = self.sees_behind and (
+            (first[0] - me[0]) * math.cos(th) + (first[1] - me[1]) * math.sin(th) < 0.0)
         self._give_way = GiveWay(refuge=corners[-1], corners=corners, blocker=blocker,
                                  started_s=t, deadline_s=t + wait + polyline_length(path) / speed,
-                                 parked=parked)
+                                 parked=parked, reverse=reverse)
         self.give_ways += 1
+        self.reversals += int(reverse)
         self._blocked_since = None
-        self._blocked_at = None
+        self._held_aim = None
         self._aim_give_way(t)
         return True
 
@@ -322,14 +363,15 @@ class Navigator(LaneGate):
         last = len(gw.corners) == 1
         self.controller.set_target(gw.corners[0], REFUGE_TOLERANCE_M if last
                                    else min(self.corner_tolerance, CORNER_GIVE_WAY_M), t,
-                                   new_goal=False)
+                                   new_goal=False, reverse=gw.reverse)
 
     def _end_give_way(self, t: float, pose: tuple[float, float, float]) -> None:
         """Back to the route (a plan from the pose), or to standing still when parked."""
         self._give_way = None
         self._blocked_since = None
-        self._blocked_at = None
+        self._held_aim = None
         self.controller.resume_driving(t)
+        self.controller.reverse = False
         if self.route is None:
             self.controller.target = None
             return
@@ -447,7 +489,8 @@ class Navigator(LaneGate):
         cmd = ctl.step(t, pose, points)
         if cmd.status == Status.FAILED:
             goal = route.goal
-            if self._near_goal(pose):
+            if self._near_goal(pose) and self._goal_covered(self._unmapped(
+                    _map_points(pose, points))):
                 return self._end_short(goal)
             self.cancel()
             return cmd, Event.FAILED, goal
@@ -522,6 +565,15 @@ class Navigator(LaneGate):
         gx, gy = route.next_position()
         return math.hypot(pose[0] - gx, pose[1] - gy) <= self.near_goal_m
 
+    def _goal_covered(self, unmapped: np.ndarray | None) -> bool:
+        """Another robot stands on the goal: something the map does not explain (map-frame
+        points [m]) within a robot radius + COVERED_MARGIN_M of the goal vertex."""
+        if unmapped is None or self.route is None:
+            return False
+        gx, gy = self.route.next_position()
+        reach = self.controller.config.robot_radius + COVERED_MARGIN_M
+        return bool((np.hypot(unmapped[:, 0] - gx, unmapped[:, 1] - gy) <= reach).any())
+
     def _end_short(self, goal: int) -> tuple[Command, Event, int]:
         self.short_arrivals += 1
         self.route.advance()
@@ -535,7 +587,9 @@ TIGHT_CORNER_M = 0.05  # [m] tolerance of a corner whose next point is not in si
 OBSTACLE_RADIUS_M = 0.05  # [m] of one laser point as a temporary obstacle of a replan
 OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a replan
 UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
-HELD_M = 0.05  # [m] a robot that has not moved this far is held still
+HELD_M = 0.05  # [m] a robot that has not come this much closer to its aim is held
+REVERSE_LOOK_M = 0.2  # [m] the way to a refuge starts toward its first corner this far off
+COVERED_MARGIN_M = 0.05  # [m] beyond a robot radius from the goal: another robot covers it
 BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
 
 
