@@ -247,7 +247,7 @@ class Navigator(LaneGate):
             return
         if ahead is None:
             return
-        if self._near_goal(pose) and self._goal_covered(unmapped):
+        if self._near_goal(pose) and self._goal_covered(pose, unmapped):
             self._short = True  # another robot stands on our goal: end the route short
             return
         if self._following(t, pose, ahead):  # behind a robot in a one-way lane: wait, not stuck
@@ -489,7 +489,7 @@ class Navigator(LaneGate):
         cmd = ctl.step(t, pose, points)
         if cmd.status == Status.FAILED:
             goal = route.goal
-            if self._near_goal(pose) and self._goal_covered(self._unmapped(
+            if self._near_goal(pose) and self._goal_covered(pose, self._unmapped(
                     _map_points(pose, points))):
                 return self._end_short(goal)
             self.cancel()
@@ -565,14 +565,24 @@ class Navigator(LaneGate):
         gx, gy = route.next_position()
         return math.hypot(pose[0] - gx, pose[1] - gy) <= self.near_goal_m
 
-    def _goal_covered(self, unmapped: np.ndarray | None) -> bool:
-        """Another robot stands on the goal: something the map does not explain (map-frame
-        points [m]) within a robot radius + COVERED_MARGIN_M of the goal vertex."""
+    def _goal_covered(self, pose: tuple[float, float, float],
+                      unmapped: np.ndarray | None) -> bool:
+        """Another robot stands on the goal: the centre of what the map does not explain near
+        the goal (map-frame points [m]; their mean, a robot radius farther from us) is within
+        the goal tolerance (the visit radius) + COVERED_MARGIN_M of the goal vertex. A robot
+        only beside the goal (two robots after the same vertex) does not cover it."""
         if unmapped is None or self.route is None:
             return False
         gx, gy = self.route.next_position()
-        reach = self.controller.config.robot_radius + COVERED_MARGIN_M
-        return bool((np.hypot(unmapped[:, 0] - gx, unmapped[:, 1] - gy) <= reach).any())
+        r = self.controller.config.robot_radius
+        reach = self.goal_tolerance + COVERED_MARGIN_M
+        rim = unmapped[np.hypot(unmapped[:, 0] - gx, unmapped[:, 1] - gy) <= r + reach]
+        if len(rim) == 0:
+            return False
+        cx, cy = rim.mean(axis=0)
+        d = math.hypot(cx - pose[0], cy - pose[1]) or 1.0
+        cx, cy = cx + r * (cx - pose[0]) / d, cy + r * (cy - pose[1]) / d
+        return math.hypot(cx - gx, cy - gy) <= reach
 
     def _end_short(self, goal: int) -> tuple[Command, Event, int]:
         self.short_arrivals += 1
@@ -589,7 +599,7 @@ OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a 
 UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
 HELD_M = 0.05  # [m] a robot that has not come this much closer to its aim is held
 REVERSE_LOOK_M = 0.2  # [m] the way to a refuge starts toward its first corner this far off
-COVERED_MARGIN_M = 0.05  # [m] beyond a robot radius from the goal: another robot covers it
+COVERED_MARGIN_M = 0.05  # [m] another robot's centre within the goal tolerance + this covers it
 BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
 
 
