@@ -489,15 +489,19 @@ class Navigator(LaneGate):
         cmd = ctl.step(t, pose, points)
         if cmd.status == Status.FAILED:
             goal = route.goal
-            if self._near_goal(pose) and self._goal_covered(pose, self._unmapped(
+            if route.is_last and self._near_goal(pose) and self._goal_covered(pose, self._unmapped(
                     _map_points(pose, points))):
                 return self._end_short(goal)
             self.cancel()
             return cmd, Event.FAILED, goal
         if self.planner is not None and cmd.status == Status.DRIVING:
             self._watch_blocked(t, pose, points, cmd)
-            if self._short:
+            if self._short and route.is_last:
                 return self._end_short(route.goal)
+            if self._short:  # a lane's waiting spot another robot stands on: reached here
+                self._short = False
+                self._corners = []
+                cmd = Command(0.0, 0.0, Status.REACHED)
             if self._give_way is not None:
                 return self._step_give_way(t, pose, points), Event.NONE, -1
         for _ in range(2 * len(self._corners)):
@@ -558,12 +562,16 @@ class Navigator(LaneGate):
         return self._gate_wait(t, pose, points, u, nxt, obstacles), Event.NONE, -1
 
     def _near_goal(self, pose: tuple[float, float, float]) -> bool:
-        """On the route's last leg, within `near_goal_m` of the goal vertex."""
+        """Within `near_goal_m` of the goal, or of a lane's waiting spot next on the route,
+        within the clearance of two robots side by side at least (the other waypoints count
+        as reached farther off: waypoint_tolerance)."""
         route = self.route
-        if self.near_goal_m is None or route is None or not route.is_last:
+        if self.near_goal_m is None or route is None:
             return False
+        near = self.near_goal_m if route.is_last else max(self.near_goal_m,
+                                                          self._pass_clearance_m())
         gx, gy = route.next_position()
-        return math.hypot(pose[0] - gx, pose[1] - gy) <= self.near_goal_m
+        return math.hypot(pose[0] - gx, pose[1] - gy) <= near
 
     def _goal_covered(self, pose: tuple[float, float, float],
                       unmapped: np.ndarray | None) -> bool:
