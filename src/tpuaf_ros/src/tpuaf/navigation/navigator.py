@@ -576,21 +576,25 @@ class Navigator(LaneGate):
     def _goal_covered(self, pose: tuple[float, float, float],
                       unmapped: np.ndarray | None) -> bool:
         """Another robot stands on the goal: the centre of what the map does not explain near
-        the goal (map-frame points [m]; their mean, a robot radius farther from us) is within
-        the goal tolerance (the visit radius) + COVERED_MARGIN_M of the goal vertex. A robot
-        only beside the goal (two robots after the same vertex) does not cover it."""
+        the goal (map-frame points [m] within a radius of `near_goal_m`; their mean, a robot
+        radius farther from us) is within the goal tolerance (the visit radius) +
+        COVERED_MARGIN_M of the goal vertex, or COVERED_MARGIN_M nearer to it than we are.
+        Of two robots after the same vertex, side by side, only the farther gives it up."""
         if unmapped is None or self.route is None:
             return False
         gx, gy = self.route.next_position()
         r = self.controller.config.robot_radius
-        reach = self.goal_tolerance + COVERED_MARGIN_M
-        rim = unmapped[np.hypot(unmapped[:, 0] - gx, unmapped[:, 1] - gy) <= r + reach]
+        near = max(self.near_goal_m or 0.0, self.goal_tolerance + COVERED_MARGIN_M)
+        rim = unmapped[np.hypot(unmapped[:, 0] - gx, unmapped[:, 1] - gy) <= r + near]
         if len(rim) == 0:
             return False
         cx, cy = rim.mean(axis=0)
         d = math.hypot(cx - pose[0], cy - pose[1]) or 1.0
         cx, cy = cx + r * (cx - pose[0]) / d, cy + r * (cy - pose[1]) / d
-        return math.hypot(cx - gx, cy - gy) <= reach
+        other = math.hypot(cx - gx, cy - gy)
+        mine = math.hypot(pose[0] - gx, pose[1] - gy)
+        return other <= min(near, max(self.goal_tolerance + COVERED_MARGIN_M,
+                                      mine - COVERED_MARGIN_M))
 
     def _end_short(self, goal: int) -> tuple[Command, Event, int]:
         self.short_arrivals += 1
@@ -607,7 +611,8 @@ OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a 
 UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
 HELD_M = 0.05  # [m] a robot that has not come this much closer to its aim is held
 REVERSE_LOOK_M = 0.2  # [m] the way to a refuge starts toward its first corner this far off
-COVERED_MARGIN_M = 0.05  # [m] another robot's centre within the goal tolerance + this covers it
+COVERED_MARGIN_M = 0.05  # [m] another robot's centre within the goal tolerance + this of the
+# goal, or this nearer to it than we are, covers it
 BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
 
 
