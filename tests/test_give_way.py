@@ -20,7 +20,7 @@ from tpuaf.navigation import (
     Scan,
     scan_points,
 )
-from tpuaf.navigation.controller import SLOW_FLOOR_M
+from tpuaf.navigation.controller import SLOW_FLOOR_M, Status
 from tpuaf.navigation.planner import PathPlanner
 
 RES = 0.05  # [m per cell]
@@ -280,3 +280,23 @@ def test_a_route_ends_short_only_when_another_robot_covers_the_goal(rooms, other
         assert nav.short_arrivals == 1
     else:
         assert not events and nav.short_arrivals == 0
+
+
+def test_a_replan_round_what_holds_the_robot_does_not_restart_the_stuck_timer():
+    """The held watch replans round the robot ahead every yield time; those replans keep the
+    controller's stuck timer running (keep_clock), so a robot that never gets on still backs
+    off and retries (and gives the goal up in the end). With the timer restarted by each replan
+    four robots in the lab's aisles (lanes off) stood for the last 400 s of a run, replanning
+    every 2 s, none ever stuck."""
+    config = ControllerConfig(max_linear_speed=SPEED, robot_radius=RADIUS, stuck_timeout_s=6.0)
+    controller = LocalController(config)
+    controller.set_target((2.0, 0.0), 0.1, 0.0)
+    pose, t = (0.0, 0.0, 0.0), 0.0
+    wall = disc_points(0.3, 0.0)  # a robot right ahead: no progress
+    statuses = []
+    while t < 8.0:
+        if t in (2.0, 4.0, 6.0):  # a replan: the same aim, a new target all the same
+            controller.set_target((2.0, 0.05 * t), 0.1, t, new_goal=False, keep_clock=True)
+        statuses.append(controller.step(t, pose, wall).status)
+        t = round(t + 0.1, 6)
+    assert Status.RECOVERING in statuses and controller.retries == 1

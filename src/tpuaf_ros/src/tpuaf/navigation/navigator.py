@@ -141,21 +141,25 @@ class Navigator(LaneGate):
         self._leg_from = from_vertex
         self._plan_pending = self.planner is not None
 
-    def _aim(self, t: float, new_goal: bool) -> None:
+    def _aim(self, t: float, new_goal: bool, keep_clock: bool = False) -> None:
         route = self.route
         if self._corners:
             tol = TIGHT_CORNER_M if self._corner_tight else self.corner_tolerance
-            self.controller.set_target(self._corners[0], tol, t, new_goal=new_goal)
+            self.controller.set_target(self._corners[0], tol, t, new_goal=new_goal,
+                                       keep_clock=keep_clock)
             return
         tol = self._gate_tolerance(route, self.goal_tolerance if route.is_last
                                    else self.waypoint_tolerance)
-        self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
+        self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal,
+                                   keep_clock=keep_clock)
 
     def _plan_leg(self, t: float, pose: tuple[float, float, float],
-                  points: np.ndarray | None = None, keep_obstacles: bool = False) -> None:
+                  points: np.ndarray | None = None, keep_obstacles: bool = False,
+                  keep_clock: bool = False) -> None:
         """The corners from the pose to the next vertex of the route. `points`: map-frame
         laser points, temporary obstacles (only those the map does not explain, unless
-        `keep_obstacles`: already filtered)."""
+        `keep_obstacles`: already filtered). `keep_clock`: the controller's stuck timer runs
+        on (a replan round a robot that holds us: the robot may still be stuck)."""
         self._plan_pending = False
         route = self.route
         goal = route.next_waypoint
@@ -191,7 +195,7 @@ class Navigator(LaneGate):
         while (corners and math.hypot(corners[0][0] - x, corners[0][1] - y) <= tol
                and self._corner_passable(pose)):
             corners.pop(0)
-        self._aim(t, new_goal=False)
+        self._aim(t, new_goal=False, keep_clock=keep_clock)
 
     def _corner_passable(self, pose: tuple[float, float, float]) -> bool:
         """Whether the first corner may be left behind: the point after it is in line of
@@ -263,7 +267,7 @@ class Navigator(LaneGate):
             detour = None  # a way round through a lane we do not hold: not taken
         if detour is not None and (free is None or _reasonable_detour(detour, free)):
             self.replans += 1
-            self._plan_leg(t, pose, ahead, keep_obstacles=True)
+            self._plan_leg(t, pose, ahead, keep_obstacles=True, keep_clock=True)
             return
         if self._give_ways_this_leg < MAX_GIVE_WAYS_PER_LEG and self._start_give_way(
                 t, pose, ahead, parked=False, others=unmapped):
@@ -271,7 +275,7 @@ class Navigator(LaneGate):
             return
         if detour is not None:  # a long way round is still better than none
             self.replans += 1
-            self._plan_leg(t, pose, ahead, keep_obstacles=True)
+            self._plan_leg(t, pose, ahead, keep_obstacles=True, keep_clock=True)
 
     def _gap_ahead(self, pose: tuple[float, float, float], points: np.ndarray | None,
                    aim: tuple[float, float], origin: tuple[float, float]):
