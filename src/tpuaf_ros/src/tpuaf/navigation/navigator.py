@@ -9,7 +9,14 @@ from enum import Enum
 import numpy as np
 
 from tpuaf.navigation.controller import GOAL_TOLERANCE_M, Command, LocalController, Status
-from tpuaf.navigation.give_way import GiveWay, find_refuge
+from tpuaf.navigation.give_way import (
+    BLOCKING_RANGE_M,
+    HELD_M,
+    GiveWay,
+    GivingWay,
+    map_points,
+    obstacle_discs,
+)
 from tpuaf.navigation.lane_gate import LaneGate
 from tpuaf.navigation.route import GraphRoute, polyline_length
 
@@ -24,7 +31,7 @@ class Event(Enum):
     FAILED = 3  # gave up on the goal
 
 
-class Navigator(LaneGate):
+class Navigator(LaneGate, GivingWay):
     """Follows a `GraphRoute` with a `LocalController`, along planned paths when it has a
     `PathPlanner` (navigation/planner.py), else along the straight edges.
 
@@ -175,7 +182,7 @@ class Navigator(LaneGate):
             if math.hypot(x - p[0], y - p[1]) <= self.corner_tolerance:
                 path = self.planner.edge_path(u, goal)
         if path is None:
-            obstacles = _obstacle_discs(points if keep_obstacles else self._unmapped(points))
+            obstacles = obstacle_discs(points if keep_obstacles else self._unmapped(points))
             path = self.planner.plan((x, y), target, obstacles)
             if obstacles is not None:
                 # Round another robot only when that is not much longer than the free way:
@@ -207,13 +214,13 @@ class Navigator(LaneGate):
         after = self._corners[1] if len(self._corners) > 1 else self.route.next_position()
         return clear(pose[:2], after, self.sight_clearance_m)
 
-    def _unmapped(self, map_points: np.ndarray | None) -> np.ndarray | None:
+    def _unmapped(self, xy: np.ndarray | None) -> np.ndarray | None:
         """The map-frame laser points the map does not explain (farther than
         UNMAPPED_DISTANCE_M from every mapped obstacle): other robots, unmapped obstacles."""
-        if map_points is None or len(map_points) == 0:
+        if xy is None or len(xy) == 0:
             return None
-        keep = self.planner.distances_to_obstacle(map_points) > UNMAPPED_DISTANCE_M
-        return map_points[keep] if keep.any() else None
+        keep = self.planner.distances_to_obstacle(xy) > UNMAPPED_DISTANCE_M
+        return xy[keep] if keep.any() else None
 
     def _watch_blocked(self, t: float, pose: tuple[float, float, float],
                        points: np.ndarray | None, cmd: Command) -> None:
@@ -259,7 +266,7 @@ class Navigator(LaneGate):
             return
         self.yields += 1
         x, y = pose[0], pose[1]
-        obstacles = _obstacle_discs(ahead)
+        obstacles = obstacle_discs(ahead)
         target = self.route.next_position()
         detour = self.planner.plan((x, y), target, obstacles)
         free = self._remaining_path(pose)
@@ -282,7 +289,7 @@ class Navigator(LaneGate):
         """(distance [m] from `origin` to the nearest point the map does not explain within
         BLOCKING_RANGE_M of the pose toward `aim` (inf: none), all such points near (map
         frame), those of them ahead; None for none)."""
-        unmapped = self._unmapped(_map_points(pose, points))
+        unmapped = self._unmapped(map_points(pose, points))
         if unmapped is None:
             return math.inf, None, None
         # Ahead: toward the point we aim at (not the heading, which may be turning), in range.
@@ -302,172 +309,6 @@ class Navigator(LaneGate):
         if self.route is None:
             return None
         return np.array([pose[:2], *self._corners, self.route.next_position()], dtype=float)
-
-    # -- giving way ---------------------------------------------------------------------------
-
-    @property
-    def giving_way(self) -> bool:
-        """Driving to, or waiting in, a refuge to let another robot pass."""
-        return self._give_way is not None
-
-    def _pass_clearance_m(self) -> float:
-        """[m] between the centre of a robot in a refuge and the other's way: two robot radii,
-        the controller's safety margin and a little more."""
-        c = self.controller.config
-        return 2.0 * c.robot_radius + c.safety_margin + PASS_MARGIN_M
-
-    def _start_give_way(self, t: float, pose: tuple[float, float, float],
-                        blocking: np.ndarray, parked: bool,
-                        others: np.ndarray | None = None) -> bool:
-        """Look for a refuge off the way of the robot whose points (map frame) are
-        `blocking`, reachable round `others` (every unmapped point near); start driving there
-        if there is one."""
-        if self.planner is None or blocking is None or len(blocking) == 0:
-            return False
-        me = (float(pose[0]), float(pose[1]))
-        near = blocking[np.argsort(np.hypot(blocking[:, 0] - me[0],
-                                            blocking[:, 1] - me[1]))[:8]]
-        cx, cy = near.mean(axis=0)
-        d = math.hypot(cx - me[0], cy - me[1]) or 1.0
-        r = self.controller.config.robot_radius
-        # the other robot's centre: behind the points we see of it
-        blocker = (float(cx + r * (cx - me[0]) / d), float(cy + r * (cy - me[1]) / d))
-        seen = blocking if others is None else others
-        obstacles = np.vstack((_obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
-        aim = None if parked else self.controller.target
-        path = find_refuge(self.planner, me, blocker, [] if parked else self._trail,
-                           self._pass_clearance_m(), obstacles, aim, self._lane_free,
-                           behind_first=self.sees_behind)
-        if path is None or (self.lanes is not None and self.lanes.one_way
-                            and not self._lane_free_path(path)):
-            return False  # with one-way lanes: never through a lane (against its flow)
-        speed = self.controller.config.max_linear_speed
-        # [s] the other robot drives past us and on: a few metres at its speed, at least 10 s
-        wait = max(GIVE_WAY_MIN_S, (polyline_length(path) + GIVE_WAY_PASS_M) / speed)
-        corners = [(float(px), float(py)) for px, py in path[1:]]
-        # Backward when the way to the refuge starts behind the robot (no turning round, and
-        # it faces the way it was going when it drives on); only with a laser that sees there.
-        th = pose[2]
-        first = next((c for c in corners if math.hypot(c[0] - me[0], c[1] - me[1])
-                      >= REVERSE_LOOK_M), corners[-1])  # the path's cells next to us: no use
-        reverse = self.sees_behind and (
-            (first[0] - me[0]) * math.cos(th) + (first[1] - me[1]) * math.sin(th) < 0.0)
-        self._give_way = GiveWay(refuge=corners[-1], corners=corners, blocker=blocker,
-                                 started_s=t, deadline_s=t + wait + polyline_length(path) / speed,
-                                 parked=parked, reverse=reverse)
-        self.give_ways += 1
-        self.reversals += int(reverse)
-        self._blocked_since = None
-        self._held_aim = None
-        self._aim_give_way(t)
-        return True
-
-    def _aim_give_way(self, t: float) -> None:
-        gw = self._give_way
-        last = len(gw.corners) == 1
-        self.controller.set_target(gw.corners[0], REFUGE_TOLERANCE_M if last
-                                   else min(self.corner_tolerance, CORNER_GIVE_WAY_M), t,
-                                   new_goal=False, reverse=gw.reverse)
-
-    def _end_give_way(self, t: float, pose: tuple[float, float, float]) -> None:
-        """Back to the route (a plan from the pose), or to standing still when parked."""
-        self._give_way = None
-        self._blocked_since = None
-        self._held_aim = None
-        self.controller.resume_driving(t)
-        self.controller.reverse = False
-        if self.route is None:
-            self.controller.target = None
-            return
-        self._leg_from = None
-        self.replans += 1
-        self._plan_leg(t, pose)
-
-    def _step_give_way(self, t: float, pose: tuple[float, float, float],
-                       points: np.ndarray | None) -> Command:
-        gw = self._give_way
-        ctl = self.controller
-        if gw.arrived_s is None:
-            cmd = ctl.step(t, pose, points)
-            if cmd.status in (Status.RECOVERING, Status.FAILED) or t > gw.deadline_s:
-                self._end_give_way(t, pose)  # cannot get there: back to the route
-                return Command(0.0, 0.0, Status.DRIVING)
-            while cmd.status == Status.REACHED and len(gw.corners) > 1:
-                gw.corners.pop(0)
-                self._aim_give_way(t)
-                cmd = ctl.step(t, pose, points)
-            if cmd.status != Status.REACHED:
-                return cmd
-            gw.arrived_s = t
-        # In the refuge: wait until nothing the map does not explain is near for a while
-        # (the other robot has passed), at least GIVE_WAY_WAIT_S, at most until the deadline.
-        near = _map_points(pose, points)
-        near = self._unmapped(near) if near is not None else None
-        me = np.array(pose[:2])
-        busy = near is not None and bool(
-            (np.hypot(*(near - me).T) <= self._pass_clearance_m() + CLEAR_MARGIN_M).any())
-        if busy:
-            gw.clear_since_s = None
-        elif gw.clear_since_s is None:
-            gw.clear_since_s = t
-        # The other robot standing still near us (not passing: it waits for us, or has
-        # arrived): waiting on achieves nothing.
-        centre = near.mean(axis=0) if busy else None
-        if centre is None or gw.other_at is None or math.hypot(
-                centre[0] - gw.other_at[0], centre[1] - gw.other_at[1]) > HELD_M:
-            gw.other_at, gw.other_since_s = centre, t
-        waited = t - gw.arrived_s >= GIVE_WAY_WAIT_S
-        clear = gw.clear_since_s is not None and t - gw.clear_since_s >= GIVE_WAY_CLEAR_S
-        standing = gw.other_at is not None and t - gw.other_since_s >= GIVE_WAY_STILL_S
-        if (waited and (clear or standing)) or t >= gw.deadline_s:
-            self._end_give_way(t, pose)
-            if self.route is None:
-                return Command(0.0, 0.0, Status.REACHED)
-            return ctl.step(t, pose, points)
-        return Command(0.0, 0.0, Status.DRIVING)
-
-    def _remember(self, pose: tuple[float, float, float]) -> None:
-        """The trail: positions TRAIL_STEP_M apart, the last TRAIL_POINTS of them."""
-        xy = (float(pose[0]), float(pose[1]))
-        if not self._trail or math.hypot(xy[0] - self._trail[-1][0],
-                                         xy[1] - self._trail[-1][1]) >= TRAIL_STEP_M:
-            self._trail.append(xy)
-            if len(self._trail) > TRAIL_POINTS:
-                del self._trail[0]
-
-    def park_step(self, t: float, pose: tuple[float, float, float],
-                  points: np.ndarray | None) -> tuple[float, float]:
-        """A robot standing without a route (no goal, or waiting to decide): it makes room
-        (drives to a refuge, waits, stays there) when another robot within BLOCKING_RANGE_M
-        has not moved away for PARKED_YIELD_S (+ 0.05 s per robot index, mod 8): sooner than
-        a driving robot held still acts (yield_after_s), so the one that has a goal keeps it.
-        Returns (v [m/s], w [rad/s])."""
-        if self.planner is None:
-            return 0.0, 0.0
-        if self._give_way is not None:
-            cmd = self._step_give_way(t, pose, points)
-            return cmd.v, cmd.w
-        near = self._unmapped(_map_points(pose, points))
-        nearest = math.inf
-        if near is not None:
-            d = np.hypot(near[:, 0] - pose[0], near[:, 1] - pose[1])
-            near = near[d <= BLOCKING_RANGE_M]
-            nearest = float(d.min())
-        if near is None or len(near) == 0:
-            self._near_since = None
-            return 0.0, 0.0
-        if self._near_since is None or nearest > self._near_d + HELD_M:
-            # first seen, or moving away (passing by): start watching again
-            self._near_since, self._near_d = t, nearest
-            return 0.0, 0.0
-        self._near_d = min(self._near_d, nearest)
-        if t - self._near_since < PARKED_YIELD_S + 0.05 * (self.robot_index % 8):
-            return 0.0, 0.0
-        self._near_since = None
-        if not self._start_give_way(t, pose, near, parked=True):
-            return 0.0, 0.0
-        cmd = self._step_give_way(t, pose, points)
-        return cmd.v, cmd.w
 
     def step(self, t: float, pose: tuple[float, float, float],
              points: np.ndarray | None) -> tuple[Command, Event, int]:
@@ -489,12 +330,12 @@ class Navigator(LaneGate):
             # Back from a recovery: another way round what blocked us, if there is one.
             self._retries_seen = ctl.retries
             self.replans += 1
-            self._plan_leg(t, pose, _map_points(pose, points))
+            self._plan_leg(t, pose, map_points(pose, points))
         cmd = ctl.step(t, pose, points)
         if cmd.status == Status.FAILED:
             goal = route.goal
             if route.is_last and self._near_goal(pose) and self._goal_covered(pose, self._unmapped(
-                    _map_points(pose, points))):
+                    map_points(pose, points))):
                 return self._end_short(goal)
             self.cancel()
             return cmd, Event.FAILED, goal
@@ -562,7 +403,7 @@ class Navigator(LaneGate):
             if advance:
                 return self._pass_waypoint(t, pose, points, Command(0.0, 0.0, Status.REACHED))
             return None
-        obstacles = _obstacle_discs(self._unmapped(_map_points(pose, points)))
+        obstacles = obstacle_discs(self._unmapped(map_points(pose, points)))
         return self._gate_wait(t, pose, points, u, nxt, obstacles), Event.NONE, -1
 
     def _near_goal(self, pose: tuple[float, float, float]) -> bool:
@@ -610,56 +451,19 @@ class Navigator(LaneGate):
 
 SIGHT_MARGIN_M = 0.02  # [m] beyond the robot's radius: a line of sight past a wall's end
 TIGHT_CORNER_M = 0.05  # [m] tolerance of a corner whose next point is not in sight
-OBSTACLE_RADIUS_M = 0.05  # [m] of one laser point as a temporary obstacle of a replan
-OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a replan
 UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
-HELD_M = 0.05  # [m] a robot that has not come this much closer to its aim is held
-REVERSE_LOOK_M = 0.2  # [m] the way to a refuge starts toward its first corner this far off
 COVERED_MARGIN_M = 0.05  # [m] another robot's centre within the goal tolerance + this of the
 # goal, or this nearer to it than we are, covers it
-BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
 
 
 MAX_DETOUR_FACTOR = 1.5  # a way round another robot may be this much longer than the free way
 MAX_DETOUR_EXTRA_M = 1.0  # [m] ... plus this
 MAX_GIVE_WAYS_PER_LEG = 2  # then the usual recovery decides (a robot that does not move)
-PASS_MARGIN_M = 0.05  # [m] added to the clearance two passing robots need
-CLEAR_MARGIN_M = 0.3  # [m] the other robot is past when farther than the pass clearance + this
-REFUGE_TOLERANCE_M = 0.08  # [m] a refuge is reached within this
-CORNER_GIVE_WAY_M = 0.15  # [m] corners on the way to a refuge are reached within this
-GIVE_WAY_WAIT_S = 2.0  # [s] in a refuge at least this long
-GIVE_WAY_CLEAR_S = 1.0  # [s] ... and nothing unmapped near for this long
-GIVE_WAY_STILL_S = 3.0  # [s] ... or the other robot near has stood still this long
-GIVE_WAY_MIN_S = 10.0  # [s] least waiting budget of a give-way
-GIVE_WAY_PASS_M = 2.0  # [m] the other robot drives this far to be past (the waiting budget)
-PARKED_YIELD_S = 0.5  # [s] a parked robot makes room after another has been near this long
-TRAIL_STEP_M = 0.1  # [m] between the remembered positions
-TRAIL_POINTS = 30  # remembered positions (3 m)
 
 
 def _reasonable_detour(detour: np.ndarray, free: np.ndarray) -> bool:
     """A way round another robot worth taking instead of waiting for it to move."""
     return polyline_length(detour) <= MAX_DETOUR_FACTOR * polyline_length(free) + MAX_DETOUR_EXTRA_M
-
-
-def _map_points(pose: tuple[float, float, float], points: np.ndarray | None):
-    """Laser points (robot frame) within OBSTACLE_RANGE_M, in the map frame [m]."""
-    if points is None or len(points) == 0:
-        return None
-    near = points[np.hypot(points[:, 0], points[:, 1]) <= OBSTACLE_RANGE_M]
-    if len(near) == 0:
-        return None
-    x, y, th = pose
-    c, s = math.cos(th), math.sin(th)
-    return np.column_stack((x + c * near[:, 0] - s * near[:, 1],
-                            y + s * near[:, 0] + c * near[:, 1]))
-
-
-def _obstacle_discs(map_points: np.ndarray | None):
-    """(k, 3) discs (x, y, radius) of map-frame points, or None."""
-    if map_points is None or len(map_points) == 0:
-        return None
-    return np.column_stack((map_points, np.full(len(map_points), OBSTACLE_RADIUS_M)))
 
 
 # ---------------------------------------------------------------------------------------------
