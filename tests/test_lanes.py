@@ -376,14 +376,14 @@ def test_agent_lanes_parameter_is_checked():
     with pytest.raises(NodeParamError, match="needs ~navigation builtin"):
         check_agent_params(parse(AgentParams, {**base, "lanes": "locks",
                                                "navigation": "move_base"}, "patrol_agent"), True)
-    with pytest.raises(NodeParamError, match="one_way does not support strategy cgg"):
-        check_agent_params(parse(AgentParams, {**base, "lanes": "one_way", "strategy": "cgg"},
+    for strategy in ("cgg", "msp"):  # their tours follow the arcs too
+        check_agent_params(parse(AgentParams, {**base, "lanes": "one_way", "strategy": strategy},
                                  "patrol_agent"), True)
 
 
 def test_the_agents_default_lane_mode_is_auto():
     """auto: one_way where lanes can be found (built-in navigation on planned paths), off for
-    the two-way tour strategies and for move_base (no planned paths to find lanes on)."""
+    msp (params.AUTO_LANES_OFF_STRATEGIES) and for move_base (no planned paths to find lanes on)."""
     from tpuaf.params import AgentParams, parse
     from tpuaf.runtimes.agent_setup import agent_lane_mode, check_agent_params
 

@@ -4,6 +4,7 @@ cycles, the directed patrol graph it gives, and robots that follow it."""
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -181,8 +182,8 @@ def test_lane_modes_are_checked_and_auto_resolves_per_strategy():
     with pytest.raises(ConfigError, match="lane locks need the physics runtime"):
         RunConfig(map="lab", lanes="locks").validate()
     PhysicsConfig(map="lab", lanes="locks").validate()
-    for strategy, mode in (("tpuaf", "one_way"), ("tpuaf_plus", "one_way"), ("cgg", "off"),
-                           ("msp", "off")):
+    for strategy, mode in (("tpuaf", "one_way"), ("tpuaf_plus", "one_way"), ("cgg", "one_way"),
+                           ("msp", "off"), ("dtap", "off"), ("sebs", "off")):
         for config in (RunConfig(map="lab", strategy=strategy, robot="burger"),
                        PhysicsConfig(map="lab", strategy=strategy)):  # the default: auto
             config.validate()
@@ -275,3 +276,72 @@ def test_the_graph_runtime_drives_one_way_lanes_their_way(tmp_path, capsys):
     assert main(["run", "--map", str(tmp_path / "ring"), "--robots", "2", "--duration", "60",
                  "--lanes", "one_way", "--quiet"]) == 0
     capsys.readouterr()
+
+
+def test_a_robot_holds_the_one_way_lane_it_drives_and_paths_off_its_route_are_checked_along():
+    """Off its route a robot keeps out of the lanes it does not hold, checked at every point of
+    a path, not only at its corners: a straight path down a whole aisle from one corner to the
+    next has both ends outside the lane (before: a refuge down aisle 0, past the robot's goal,
+    and back against the flow). The one-way lane its leg drives counts as held by it."""
+    from tpuaf.navigation.route import GraphRoute
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    run = PhysicsRun(PhysicsConfig(map="lab", strategy="tpuaf", robots=1, seed=1,
+                                   duration_s=10.0, robot="burger", lanes="one_way"))
+    agent = run.agents[0]
+    nav, lanes = agent.navigator, run.lane_map
+    down_aisle_0 = np.array([(0.31, 0.34), (2.51, 0.34)])  # corner 0 to corner 4, straight
+    inside_aisle_0 = np.array([(0.9, 0.3), (1.5, 0.3)])
+    up_rail_1 = np.array([(0.3, 0.45), (0.3, 1.15)])
+    assert lanes.lane_at(down_aisle_0).tolist() == [-1, -1]  # both ends outside every lane
+    assert lanes.lane_at(inside_aisle_0).tolist() == [0, 0]
+    assert not nav._lane_free_path(down_aisle_0)  # no route: every lane is someone else's
+    assert not nav._lane_free_path(inside_aisle_0)
+    assert not nav._lane_free(inside_aisle_0[:1]).any()
+    nav.set_route(GraphRoute(agent._graph, agent._positions, 0, 2), 0.0)  # 0 -> 1 -> 2: lane 0
+    assert nav._driven_lane() == 0
+    assert nav._lane_free_path(inside_aisle_0) and nav._lane_free_path(down_aisle_0)
+    assert nav._lane_free(inside_aisle_0).all()
+    assert not nav._lane_free_path(up_rail_1)  # rail 5 -> 0 (lane 1): not driven, not held
+    nav.set_route(GraphRoute(agent._graph, agent._positions, 5, 0), 0.0)  # down rail 1
+    assert nav._driven_lane() == 1 and not nav._lane_free_path(inside_aisle_0)
+
+
+def test_four_robots_on_the_lab_one_way_never_drive_back_against_the_flow_in_physics():
+    """4 tpuaf Burgers, lab, one-way, 600 s (seed 1): no goal fails and no robot drives back
+    along a one-way lane (before: a robot at corner 0 gave way down aisle 0 to corner 4, past
+    its goal 1, drove back against the flow and met a robot head-on: 2 goal failures by 570 s,
+    3.2 m against the flow)."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    run = PhysicsRun(PhysicsConfig(map="lab", strategy="tpuaf", robots=4, seed=1,
+                                   duration_s=600.0, robot="burger", lanes="one_way"))
+    lanes, positions = run.lane_map, run.agents[0]._positions
+    arcs = [(u, v) for u, v in run.orientation.arcs if lanes.lane_of(u, v) >= 0]
+    last: dict[int, np.ndarray] = {}
+    against = np.zeros(4)  # [m] driven against the arc of the lane the robot is in
+
+    def watch(t: float) -> None:
+        for i, agent in enumerate(run.agents):
+            p = np.array(agent.pose[:2])
+            q = last.get(i)
+            last[i] = p
+            lane = -1 if q is None else int(lanes.lane_at(q[None])[0])
+            if lane < 0:
+                continue
+            best = (math.inf, None)
+            for u, v in arcs:  # the lane's arc nearest to where the robot was
+                if lanes.lane_of(u, v) == lane:
+                    a, ab = positions[u], positions[v] - positions[u]
+                    f = np.clip((q - a) @ ab / (ab @ ab), 0.0, 1.0)
+                    best = min(best, (float(np.hypot(*(q - a - f * ab))), tuple(ab)),
+                               key=lambda b: b[0])
+            ab = np.asarray(best[1])
+            against[i] += max(0.0, -float((p - q) @ ab) / float(np.hypot(*ab)))
+
+    summary = run.run(watch)
+    assert summary["goal_failures"] == 0, summary
+    assert against.max() < 1.0, against
+    assert summary["visits"] >= 300

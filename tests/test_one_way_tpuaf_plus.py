@@ -90,13 +90,38 @@ def test_lab_figure_eight_is_driven_one_way_and_spaced_so_no_two_robots_meet():
         assert any(min(abs(L / 2 - a), L - abs(L / 2 - a)) < clearance for a in apart)
 
 
-def test_one_way_runs_tpuaf_plus_and_still_refuses_cgg_and_msp():
-    from tpuaf.runtimes.config import ConfigError, PhysicsConfig
+def test_msp_takes_fewer_parts_where_one_way_arcs_leave_no_n_strongly_connected_ones():
+    """The lab's every directed cycle runs through the middle aisle: no 2 or 4 strongly
+    connected parts, so msp's partition is the one part (the figure eight); on the ring with
+    one arc a partition into 3 parts exists and is kept."""
+    from tpuaf.maps import tours
 
-    PhysicsConfig(map="lab", strategy="tpuaf_plus", lanes="one_way").validate()
-    for strategy in ("cgg", "msp"):
-        with pytest.raises(ConfigError, match=f"one_way lanes do not support strategy {strategy}"):
-            PhysicsConfig(map="lab", strategy=strategy, lanes="one_way").validate()
+    pm, _ = lab_one_way()
+    assert tours.partition_tours(pm, 4).parts == []
+    partition = tours.tourable_partition(pm, 4)
+    assert len(partition.parts) == 1 and sorted(partition.parts[0]) == list(range(pm.graph.num_vertices))
+    assert partition.robots_per_part == [4]
+    ring_map = replace(ring(6), one_way=((1, 0),))
+    assert len(tours.tourable_partition(ring_map, 3).parts) == 3
+    with pytest.raises(ValueError, match="parts must be in 1..4"):
+        tours.partition_tours(pm, 4, parts=5)
+
+
+@pytest.mark.parametrize("strategy", ["cgg", "msp"])
+def test_cgg_and_msp_drive_the_lab_one_way(strategy):
+    """Their tours follow the arcs (cgg: the directed cycle; msp: the parts that exist): in
+    physics no leg of any route drives a one-way lane backwards, and every robot visits."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    PhysicsConfig(map="lab", strategy=strategy, lanes="one_way").validate()
+    run = PhysicsRun(PhysicsConfig(map="lab", strategy=strategy, robots=2, seed=1,
+                                   duration_s=150.0, robot="burger", lanes="one_way"))
+    back = {(v, u) for u, v in run.orientation.arcs}
+    legs = record_legs(run)
+    run.run()
+    assert legs and not [leg for leg in legs if leg in back]
+    assert all(a.machine.visits >= 3 for a in run.agents), [a.machine.visits for a in run.agents]
 
 
 def run_and_count(run, windows):
@@ -143,3 +168,14 @@ def test_four_burgers_with_tpuaf_plus_keep_visiting_on_the_lab_one_way():
     summary, visits = run_and_count(run, [(0.0, 100.0), (100.0, 200.0), (200.0, 300.0)])
     assert all(v > 0 for window in visits for v in window), visits
     assert summary["lane_waits"] == 0
+
+
+def test_dtap_counts_hops_along_the_arcs():
+    """On a ring of 6 whose edge 0-1 is one way (1 -> 0), vertex 1 is one edge from 0 but five
+    hops away driving the arcs; without arcs the graph's own hop matrix."""
+    from tpuaf.policies.common import travel_hops
+
+    two_way = ring(6)
+    assert (travel_hops(two_way) == two_way.graph.hop_matrix).all()
+    hops = travel_hops(replace(ring(6), one_way=((1, 0),)))
+    assert hops[1, 0] == 1 and hops[0, 1] == 5 and hops[2, 0] == 2 and hops[0, 2] == 4

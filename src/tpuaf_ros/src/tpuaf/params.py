@@ -160,19 +160,21 @@ MAP_PARAMS: dict[str, tuple[str, str]] = {
 # runs as off.
 LANE_MODES = ("auto", "off", "locks", "one_way")
 LANE_DEFAULT = "auto"
-# Strategies whose plans assume every edge driven both ways: never run on one-way lanes
-# (tpuaf_plus's tours follow the arcs, tours_directed.cpp; cgg's and msp's do not yet).
-UNDIRECTED_TOUR_STRATEGIES = ("cgg", "msp")
+# Strategies that auto runs without lanes, as measured (lab, 4 Burgers, physics, 900 s, 3 seeds,
+# I_ins off / one-way; lanes_strategies_seeds.md): their robots rarely meet (msp's keep to their
+# parts, of which one-way arcs leave fewer; sebs's spread) or their goals are several hops away
+# and one-way makes them loops away (dtap). Every other strategy gains from one-way lanes there.
+AUTO_LANES_OFF_STRATEGIES = ("dtap", "msp", "sebs")
 
 
 def resolve_lane_mode(mode: str, strategy: str) -> str:
     """The lane mode a run of `strategy` uses for `mode` (auto: one_way, or off for the
-    strategies of UNDIRECTED_TOUR_STRATEGIES); ValueError naming the modes."""
+    strategies of AUTO_LANES_OFF_STRATEGIES); ValueError naming the modes."""
     if mode not in LANE_MODES:
         raise ValueError(f"lane mode must be one of {', '.join(LANE_MODES)}, got {mode!r}")
     if mode != "auto":
         return mode
-    return "off" if strategy.lower() in UNDIRECTED_TOUR_STRATEGIES else "one_way"
+    return "off" if strategy.lower() in AUTO_LANES_OFF_STRATEGIES else "one_way"
 
 
 @dataclass

@@ -188,11 +188,6 @@ def check_options(args: argparse.Namespace) -> None:
     robots = [r for r, _ in args.fail]
     if len(set(robots)) != len(robots):
         raise CliError("--fail: each robot can die once")
-    from tpuaf.params import UNDIRECTED_TOUR_STRATEGIES
-
-    if args.lanes == "one_way" and args.strategy.lower() in UNDIRECTED_TOUR_STRATEGIES:
-        raise CliError(f"--lanes one_way does not support strategy {args.strategy} yet: its tour "
-                       "search assumes two-way edges (docs/LANES.md)")
     record_regex(args.record)
 
 

@@ -102,11 +102,11 @@ def add_teammate_timeout(p: argparse.ArgumentParser) -> None:
 def add_lanes(p: argparse.ArgumentParser, where: str) -> None:
     """--lanes MODE (`tpuaf run --runtime physics`, `fleet`): the lane layer (docs/LANES.md),
     modes and default from tpuaf.params.LANE_MODES."""
-    from tpuaf.params import LANE_DEFAULT, LANE_MODES, UNDIRECTED_TOUR_STRATEGIES
+    from tpuaf.params import AUTO_LANES_OFF_STRATEGIES, LANE_DEFAULT, LANE_MODES
 
     p.add_argument("--lanes", choices=LANE_MODES, default=LANE_DEFAULT,
                    help=f"lane layer for aisles one robot wide ({where}): auto (default: "
-                        f"one_way, off for {' and '.join(UNDIRECTED_TOUR_STRATEGIES)} and for "
+                        f"one_way, off for {', '.join(AUTO_LANES_OFF_STRATEGIES)} and for "
                         "the graph runtime without --robot); off; "
                         "locks (a robot enters such a lane only holding its lock, asked for at "
                         "a waiting spot outside it); one_way (the lanes on cycles driven one "

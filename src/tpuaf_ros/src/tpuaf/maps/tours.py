@@ -296,17 +296,23 @@ def default_max_moves(k: int, n_vertices: int) -> int:
     return moves
 
 
-def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None) -> Partition:
-    """min(N, |V|) connected parts balanced by tour length; each part's closed walk (cached per
-    map object, and on disk when $TPUAF_PLAN_CACHE names a folder). The search (C++ core):
-    nearest-seed parts from farthest-point seeds (above DENSE_TOUR_MAX vertices: parts grown
-    together to equal spanning-tree lengths), then single-vertex moves off the part of the
-    longest walk while that lowers it. With one-way arcs the parts are strongly connected and
-    their walks follow the arcs; no parts (an empty Partition) when none were found."""
+def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None,
+                    parts: int | None = None) -> Partition:
+    """`parts` (default min(N, |V|)) connected parts balanced by tour length, each part's closed
+    walk and the robots per part (cached per map object, and on disk when $TPUAF_PLAN_CACHE
+    names a folder). The search (C++ core): nearest-seed parts from farthest-point seeds (above
+    DENSE_TOUR_MAX vertices: parts grown together to equal spanning-tree lengths), then
+    single-vertex moves off the part of the longest walk while that lowers it. With one-way arcs
+    the parts are strongly connected and their walks follow the arcs; no parts (an empty
+    Partition) when none were found."""
     if n_robots < 1:
         raise ValueError(f"n_robots must be >= 1, got {n_robots}")
     graph = patrol_map.graph
     k = min(n_robots, graph.num_vertices)
+    if parts is not None:
+        if not 1 <= parts <= k:
+            raise ValueError(f"parts must be in 1..{k}, got {parts}")
+        k = parts
     moves = default_max_moves(k, graph.num_vertices) if max_moves is None else max_moves
     large = graph.num_vertices > LARGE_PART * k  # parts scored by spanning-tree length
 
@@ -323,9 +329,11 @@ def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None
                  for part in parts]
         return Partition(parts, tours, robots_per_part([t.length for t in tours], n_robots))
 
+    key = ("partition", n_robots, moves) + (() if k == min(n_robots, graph.num_vertices) else (k,))
+
     def compute() -> Partition:
         return _disk_cached(
-            graph, ("partition", n_robots, moves), search,
+            graph, key, search,
             lambda p: {"parts": p.parts, "walks": [t.walk for t in p.tours],
                        "lengths": [t.length for t in p.tours], "robots": p.robots_per_part},
             lambda d: Partition([[int(v) for v in q] for q in d["parts"]],
@@ -333,7 +341,18 @@ def partition_tours(patrol_map: Any, n_robots: int, max_moves: int | None = None
                                  for w, x in zip(d["walks"], d["lengths"], strict=True)],
                                 [int(m) for m in d["robots"]]))
 
-    return _cached(("partition", n_robots, moves), patrol_map, compute)
+    return _cached(key, patrol_map, compute)
+
+
+def tourable_partition(patrol_map: Any, n_robots: int) -> Partition:
+    """partition_tours with the most parts (at most min(N, |V|)) that the one-way arcs let be
+    toured each inside itself: one part, the whole strongly connected graph, always can."""
+    k = min(n_robots, patrol_map.graph.num_vertices)
+    partition = partition_tours(patrol_map, n_robots)
+    while not partition.parts and k > 1:
+        k -= 1
+        partition = partition_tours(patrol_map, n_robots, parts=k)
+    return partition
 
 
 def assign_parts(

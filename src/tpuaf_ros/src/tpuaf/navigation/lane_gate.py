@@ -20,6 +20,16 @@ GATE_TOLERANCE_M = 0.15  # [m] a lane's waiting spot is reached within this (at 
 LANE_MOUTH_M = 0.5  # [m] along the lane from its waiting spot: where a robot comes out of it
 GATE_REFUGE_TOLERANCE_M = 0.08  # [m] the waiting point off the way is reached within this
 FOLLOW_MAX_S = 30.0  # [s] longest wait behind a robot ahead in a one-way lane, in a row
+LANE_CHECK_STEP_M = 0.05  # [m] between the checked points of a path off the route
+
+
+def along(path: np.ndarray, step: float) -> np.ndarray:
+    """The points of a polyline (k, 2) [m] after its first, at most `step` [m] apart."""
+    out = []
+    for a, b in zip(path[:-1], path[1:], strict=True):
+        n = max(1, int(np.ceil(np.hypot(*(b - a)) / step)))
+        out.append(a + (b - a) * (np.arange(1, n + 1) / n)[:, None])
+    return np.vstack(out) if out else path[1:]
 
 
 def around(route: GraphRoute) -> tuple[int | None, int, int | None]:
@@ -42,16 +52,31 @@ class LaneGate:
             return min(tol, max(self.goal_tolerance, GATE_TOLERANCE_M))
         return tol
 
+    def _driven_lane(self) -> int:
+        """The one-way lane the robot's current leg drives along its arc (held by the driver:
+        it may wait, give way or go round inside it), -1 when none."""
+        if self.lanes is None or self.route is None or self.route.done:
+            return -1
+        prev, nxt, _ = around(self.route)
+        return self.lanes.driven(prev, nxt)
+
     @property
     def _lane_free(self):
         """Where the robot may stand or drive off its route: outside the lanes it does not
         hold (a mask function of points (k, 2) [m]); None without lanes."""
-        return None if self.lanes is None else self.lanes.allowed
+        if self.lanes is None:
+            return None
+        driven = self._driven_lane()
+        return lambda points: self.lanes.allowed(points, driven)
 
     def _lane_free_path(self, path: np.ndarray) -> bool:
-        """Whether a path off the route (a way round another robot) keeps out of the lanes
-        the robot does not hold."""
-        return self.lanes is None or bool(self.lanes.allowed(np.asarray(path)[1:]).all())
+        """Whether a path off the route (a way round another robot, a refuge) keeps out of
+        the lanes the robot does not hold: every point along it, LANE_CHECK_STEP_M apart
+        (a straight path's two ends can lie outside the lane it runs through)."""
+        if self.lanes is None:
+            return True
+        points = along(np.asarray(path, dtype=float), LANE_CHECK_STEP_M)
+        return bool(self.lanes.allowed(points, self._driven_lane()).all())
 
     def _gate_wait(self, t: float, pose: tuple[float, float, float], points, u: int, nxt: int,
                    obstacles) -> Command:

@@ -109,7 +109,8 @@ class MultilevelSubgraphPolicy(_RouteFollower):
     parameters = {}
 
     def _route(self, ctx):
-        part = tours.partition_tours(ctx.patrol_map, ctx.n_robots)
+        # one-way lanes: fewer parts when N strongly connected ones do not exist
+        part = tours.tourable_partition(ctx.patrol_map, ctx.n_robots)
         dist = ctx.patrol_map.graph.distances
         starts = team_start_vertices(ctx)
         if starts:

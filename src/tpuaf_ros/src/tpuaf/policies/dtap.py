@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tpuaf.policies.base import Parameter, Policy, register
-from tpuaf.policies.common import neighbours, pick_max, wait_nowhere_to_go
+from tpuaf.policies.common import neighbours, pick_max, travel_hops, wait_nowhere_to_go
 from tpuaf.policies.dtag import SharedEstimate
 from tpuaf.team.messages import IdlenessEstimate, TaskBid, TaskRequest
 
@@ -80,7 +80,7 @@ class DynamicTaskAssignmentPartition(Policy):
         init = self.params["initial_estimate"]
         self.estimate = SharedEstimate(n, 2.0 * n if init is None else init, ctx.now)
         # views of the graph's one matrix of each (no copy per robot: 8 n^2 bytes each)
-        self.hops = g.hop_matrix
+        self.hops = travel_hops(ctx.patrol_map)  # directed on one-way lanes
         self.dist = g.distances
         self.bids: dict[int, dict[int, tuple[float, float]]] = {}  # v -> robot -> (bid m, time s)
         self.goal: int | None = None  # the vertex the robot is heading to ("next")

@@ -5,7 +5,8 @@ The navigator asks `may_start(u, v, now)` before every leg u -> v that starts at
 `arrive(u, now)` at a route's goal: reaching a vertex outside the held lane (a waiting spot)
 releases it; a leg into a lane not held asks for the lane and waits at u until it is granted.
 With one-way lanes (navigation/one_way.py) only the lanes that stay two-way (`locked`: the
-bridges) are locked; a one-way lane is entered without a lock (robots in it only follow).
+bridges) are locked; a one-way lane is entered without a lock (robots in it only follow), and
+the robot whose leg drives it holds it off its route too (`driven`, `allowed`).
 """
 
 from __future__ import annotations
@@ -141,10 +142,19 @@ class LaneAccess:
             return False
         return bool((self.lane_map.lane_at(points) == lane).any())
 
-    def allowed(self, points) -> np.ndarray:
-        """Mask of map-frame points (k, 2) [m] outside every lane but the one held."""
+    def driven(self, u: int | None, v: int | None) -> int:
+        """The one-way lane of the leg u -> v when the leg drives it along its arc, -1 when
+        none: the robot holds the one-way lane it drives (docs/LANES.md, section 2b)."""
+        if u is None or v is None or not self.one_way:
+            return -1
+        lane = self.lane_map.lane_of(u, v)
+        return lane if lane >= 0 and lane not in self.locked else -1
+
+    def allowed(self, points, driven: int = -1) -> np.ndarray:
+        """Mask of map-frame points (k, 2) [m] outside every lane but the one held and the
+        one-way lane `driven` (the lane of the robot's leg, -1: none)."""
         lanes = self.lane_map.lane_at(points)
-        return (lanes < 0) | (lanes == self.locks.held)
+        return (lanes < 0) | (lanes == self.locks.held) | ((lanes == driven) & (driven >= 0))
 
     def withdraw(self) -> None:
         """The route changed: a request not granted yet is dropped (a held lane is kept)."""

@@ -11,7 +11,6 @@ from tpuaf.maps import start_vertices
 from tpuaf.navigation import ControllerConfig, retry_wait_for
 from tpuaf.params import (
     LANE_MODES,
-    UNDIRECTED_TOUR_STRATEGIES,
     AgentParams,
     NodeParamError,
     resolve_lane_mode,
@@ -55,9 +54,6 @@ def check_agent_params(p: AgentParams, sim: bool) -> None:
         raise NodeParamError("~lockstep needs ~navigation builtin (move_base drives the robot)")
     if p.lanes not in LANE_MODES:
         raise NodeParamError(f"~lanes must be one of {', '.join(LANE_MODES)}, got {p.lanes!r}")
-    if p.lanes == "one_way" and p.strategy.lower() in UNDIRECTED_TOUR_STRATEGIES:
-        raise NodeParamError(f"~lanes one_way does not support strategy {p.strategy} yet: its "
-                             "tour search assumes two-way edges (docs/LANES.md)")
     if p.lanes not in ("auto", "off") and not finds_lanes(p):
         raise NodeParamError(f"~lanes {p.lanes} needs ~navigation builtin with ~global_planner "
                              "true (lanes are found on the planned paths)")

@@ -16,7 +16,6 @@ from tpuaf.params import (
     LANE_DEFAULT,
     LANE_MODES,
     LIVENESS_DEFAULTS,
-    UNDIRECTED_TOUR_STRATEGIES,
     resolve_lane_mode,
 )
 from tpuaf.policies import REGISTRY
@@ -137,9 +136,6 @@ class RunConfig:
             raise ConfigError(f"travel must be one of {', '.join(TRAVELS)}, got {self.travel!r}")
         if self.lanes not in LANE_MODES:
             raise ConfigError(f"lanes must be one of {', '.join(LANE_MODES)}, got {self.lanes!r}")
-        if self.lanes == "one_way" and self.strategy in UNDIRECTED_TOUR_STRATEGIES:
-            raise ConfigError(f"one_way lanes do not support strategy {self.strategy} yet: its "
-                              "tour search assumes two-way edges (docs/LANES.md)")
         if self.lanes == "locks" and not self.lanes_share_widths:
             raise ConfigError("lane locks need the physics runtime (--runtime physics): the "
                               "graph runtime drives edges without widths, so no lane is shared "
