@@ -138,7 +138,8 @@ def one(case: dict) -> dict:
     from tpuaf.runtimes.physics import PhysicsRun
 
     common = dict(map=map_ref(case["map"]), strategy=case["strategy"], robots=case["robots"],
-                  duration_s=case["duration"], seed=case["seed"], robot=case["robot"])
+                  duration_s=case["duration"], seed=case["seed"], robot=case["robot"],
+                  lanes=case.get("lanes", "auto"))
     out = dict(case)
     try:
         graph = make_run(RunConfig(**common))
@@ -341,6 +342,8 @@ def main() -> int:
     ap.add_argument("--case", action="append", default=[], metavar="MAP:STRATEGY:N[:ROBOT]",
                     help="one case (repeatable; ROBOT default auto; builtin maps as "
                          "builtin:NAME); replaces the cross product of the other options")
+    ap.add_argument("--lanes", default="auto",
+                    help="lane mode of both runtimes (params.LANE_MODES; default auto)")
     ap.add_argument("--out", default="fidelity",
                     help="name of the results files in benchmarks/results (default fidelity)")
     ap.add_argument("--quick", action="store_true", help="print, do not write the results")
@@ -375,7 +378,7 @@ def main() -> int:
     for c in cases:
         if c["strategy"] not in REGISTRY.names():
             ap.error(f"unknown strategy {c['strategy']!r}")
-        c.update(duration=args.duration, seed=args.seed)
+        c.update(duration=args.duration, seed=args.seed, lanes=args.lanes)
     try:
         cases = [c for c in cases if holds(c["map"], c["robots"])]
     except (TpuafError, OSError, ValueError) as err:

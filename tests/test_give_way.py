@@ -20,7 +20,7 @@ from tpuaf.navigation import (
     Scan,
     scan_points,
 )
-from tpuaf.navigation.controller import SLOW_FLOOR_M
+from tpuaf.navigation.controller import SLOW_FLOOR_M, Status
 from tpuaf.navigation.planner import PathPlanner
 
 RES = 0.05  # [m per cell]
@@ -86,11 +86,14 @@ def navigator(planner, robot: int, speed: float = SPEED) -> Navigator:
                      robot_index=robot)
 
 
-def run(world, navs, t_end: float, parked=()):
-    """Step every robot at 10 Hz (those in `parked` without a route: park_step) until every
-    other robot's route is done or t_end [s]; the events (t, robot, event, vertex)."""
-    events, t = [], 0.0
+def run(world, navs, t_end: float, parked=(), t0: float = 0.0, until=None):
+    """Step every robot at 10 Hz from t0 [s] (those in `parked` without a route: park_step)
+    until every other robot's route is done, `until(events)` holds, or t_end [s]; the events
+    (t, robot, event, vertex)."""
+    events, t = [], t0
     while t < t_end and any(n.route is not None for i, n in enumerate(navs) if i not in parked):
+        if until is not None and until(events):
+            break
         poses = world.poses()
         for i, nav in enumerate(navs):
             points = scan_points(Scan(world.scan(i), 0.0, DEG, 0.12, 3.5))
@@ -190,3 +193,110 @@ def test_a_robot_touching_another_moves_straight_away_from_it():
     # A point 5 cm off the disc is no contact: the robot drives on toward the target.
     point = np.array([[0.0, -(0.165 + 0.05)]])
     assert controller.step(0.2, (0.0, 0.0, 0.0), point).v > 0
+
+
+# ---------------------------------------------------------------------------------------------
+# Jams (issue 32/35): held = no progress toward the aim; short only on a covered goal; give way
+# backward, into a refuge behind the robot.
+
+
+def disc_points(rel_x: float, rel_y: float, radius: float = RADIUS, k: int = 12) -> np.ndarray:
+    """Robot-frame points (k, 2) [m] of the rim of a robot's disc centred at (rel_x, rel_y):
+    the side facing us (within 70 degrees of the line of sight), as the laser sees it."""
+    a = math.atan2(-rel_y, -rel_x) + np.radians(np.linspace(-70.0, 70.0, k))
+    return np.column_stack((rel_x + radius * np.cos(a), rel_y + radius * np.sin(a)))
+
+
+def test_head_on_in_a_corridor_one_robot_backs_into_a_refuge_the_other_drives_through(rooms):
+    """The two robots of the head-on test: one (the first whose timer fires) gives way
+    *backward* to a refuge behind it, in its own room; the other, seeing it move away, waits
+    on instead of giving way too, then drives through. Before, both gave way (forward, turning
+    round in the corridor) and met again: 1 give-way each at least, both arrivals later."""
+    pm, planner = rooms
+    pos = pm.positions
+    world = world_of(pm, [(pos[0][0], AXIS_Y, 0.0), (pos[2][0], AXIS_Y, math.pi)])
+    navs = [navigator(planner, 0), navigator(planner, 1)]
+    navs[0].set_route(GraphRoute(pm.graph, pos, 0, 2), 0.0)
+    navs[1].set_route(GraphRoute(pm.graph, pos, 2, 0), 0.0)
+    events, t1 = run(world, navs, 150.0, until=lambda ev: (1, Event.ARRIVED, 0) in [e[1:] for e in ev])
+    assert (1, Event.ARRIVED, 0) in [e[1:] for e in events], events
+    # robot 0 acts first (shorter retry wait), backward; robot 1 waits on
+    assert [n.give_ways for n in navs] == [1, 0] and navs[0].reversals == 1
+    more, t_end = run(world, navs, 150.0, parked=(1,), t0=t1)  # robot 1 parked on its goal
+    assert (0, Event.ARRIVED, 2) in [e[1:] for e in more], more
+    assert sum(world.contact_counts()) == 0
+    assert t_end < 60.0  # about 22 s each alone; one wait in between
+
+
+def hold(nav, pose_at, points, t_end: float = 6.0):
+    """Step `nav` at 10 Hz for t_end [s] with the pose `pose_at(k)` at tick k and fixed
+    robot-frame laser points; the events (t, event, vertex)."""
+    events, t, k = [], 0.0, 0
+    while t < t_end and nav.route is not None and not nav.giving_way:
+        _, event, vertex = nav.step(t, pose_at(k), points)
+        if event != Event.NONE:
+            events.append((round(t, 1), event, vertex))
+        t, k = round(t + 0.1, 6), k + 1
+    return events
+
+
+def test_a_robot_dithering_in_front_of_another_is_held_and_gives_way(rooms):
+    """A robot in the corridor, another robot 0.35 m ahead, which it cannot pass: it moves
+    back and forth by 6 cm (more than the 5 cm the old criterion took for moving) but comes no
+    nearer to its aim. That is being held: it gives way after its yield time (here backward,
+    to its room). With 'held = not moved 5 cm' the watch restarted at every swing and the robot
+    only ever reached the controller's recovery."""
+    pm, planner = rooms
+    pos = pm.positions
+    nav = navigator(planner, 0)
+    nav.set_route(GraphRoute(pm.graph, pos, 0, 2), 0.0)
+    x0 = ROOM_W + 0.6  # [m] in the corridor, facing +x
+    events = hold(nav, lambda k: (x0 - 0.06 * (k % 2), AXIS_Y, 0.0), disc_points(0.35, 0.0))
+    assert not events
+    assert nav.giving_way and nav.give_ways == 1 and nav.reversals == 1
+    refuge = nav._give_way.refuge
+    assert refuge[0] < x0  # behind the robot, back the way it came
+
+
+@pytest.mark.parametrize("other, covered", [((0.3, 0.0), True), ((0.2, -0.3), False),
+                                            ((0.3, 0.25), False)])
+def test_a_route_ends_short_only_when_another_robot_covers_the_goal(rooms, other, covered):
+    """A robot 0.3 m before its goal (within the map's 0.4 m goal tolerance), held by another
+    robot ahead. Standing on the goal, the other robot covers it: the route ends short
+    (ARRIVED, a dwell). Off the goal (its rim 0.25 m from it), or beside it (its centre 0.25 m
+    from it, its rim 0.15 m: two robots after the same vertex, where both used to give up)
+    it does not: the robot keeps to its goal (gives way or goes round) instead of giving the
+    visit up."""
+    pm, planner = rooms
+    pos = pm.positions
+    nav = navigator(planner, 0)
+    nav.near_goal_m = 0.4
+    nav.set_route(GraphRoute(pm.graph, pos, 1, 0), 0.0)
+    gx = pos[0][0]
+    pose = (gx + 0.3, AXIS_Y, math.pi)  # facing the goal, -x
+    events = hold(nav, lambda k: pose, disc_points(*other))
+    if covered:
+        assert [(e, v) for _, e, v in events] == [(Event.ARRIVED, 0)]
+        assert nav.short_arrivals == 1
+    else:
+        assert not events and nav.short_arrivals == 0
+
+
+def test_a_replan_round_what_holds_the_robot_does_not_restart_the_stuck_timer():
+    """The held watch replans round the robot ahead every yield time; those replans keep the
+    controller's stuck timer running (keep_clock), so a robot that never gets on still backs
+    off and retries (and gives the goal up in the end). With the timer restarted by each replan
+    four robots in the lab's aisles (lanes off) stood for the last 400 s of a run, replanning
+    every 2 s, none ever stuck."""
+    config = ControllerConfig(max_linear_speed=SPEED, robot_radius=RADIUS, stuck_timeout_s=6.0)
+    controller = LocalController(config)
+    controller.set_target((2.0, 0.0), 0.1, 0.0)
+    pose, t = (0.0, 0.0, 0.0), 0.0
+    wall = disc_points(0.3, 0.0)  # a robot right ahead: no progress
+    statuses = []
+    while t < 8.0:
+        if t in (2.0, 4.0, 6.0):  # a replan: the same aim, a new target all the same
+            controller.set_target((2.0, 0.05 * t), 0.1, t, new_goal=False, keep_clock=True)
+        statuses.append(controller.step(t, pose, wall).status)
+        t = round(t + 0.1, 6)
+    assert Status.RECOVERING in statuses and controller.retries == 1

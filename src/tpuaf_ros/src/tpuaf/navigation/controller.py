@@ -107,27 +107,37 @@ class LocalController:
         self._headings = wrap_angle_array(-math.pi + 2.0 * math.pi * k / c.n_headings)
         self.target: tuple[float, float] | None = None
         self.tolerance = GOAL_TOLERANCE_M
+        self.reverse = False  # drive to the target backward (giving way: back the way we came)
         self.retries = 0
         self._state = self._DRIVE
         self._state_t = 0.0
         self._best = math.inf
         self._best_t = 0.0
+        self._keep_clock = False  # the next target's first distance keeps _best_t
         self._back_w = 0.0
 
     def set_target(self, xy: tuple[float, float], tolerance_m: float, t: float,
-                   new_goal: bool = True) -> None:
+                   new_goal: bool = True, reverse: bool = False,
+                   keep_clock: bool = False) -> None:
+        """`reverse`: drive to it backward (the rear as the front: same rules, v negated).
+        `keep_clock`: the stuck timer runs on from the last progress (a replan round what
+        holds the robot is no progress)."""
         self.target = (float(xy[0]), float(xy[1]))
         self.tolerance = float(tolerance_m)
+        self.reverse = bool(reverse)
         if new_goal:
             self.retries = 0
             self._state = self._DRIVE
         self._best = math.inf
-        self._best_t = float(t)
+        self._keep_clock = bool(keep_clock) and not new_goal
+        if not self._keep_clock:
+            self._best_t = float(t)
 
     def restart_progress(self, t: float) -> None:
         """Forget the progress made so far toward the target (the stuck timer restarts at t)."""
         self._best = math.inf
         self._best_t = float(t)
+        self._keep_clock = False
         if self._state in (self._BACK, self._WAIT):
             self._state_t = float(t)
 
@@ -137,6 +147,7 @@ class LocalController:
             self._state = self._DRIVE
         self._best = math.inf
         self._best_t = float(t)
+        self._keep_clock = False
 
     # -- geometry ---------------------------------------------------------------------------
 
@@ -201,6 +212,15 @@ class LocalController:
 
     def step(self, t: float, pose: tuple[float, float, float],
              points: np.ndarray | None) -> Command:
+        if self.reverse:  # the robot turned round on paper: its rear leads
+            x, y, th = pose
+            flipped = None if points is None else -np.asarray(points)
+            cmd = self._step(t, (x, y, wrap_angle(th + math.pi)), flipped)
+            return Command(-cmd.v, cmd.w, cmd.status)
+        return self._step(t, pose, points)
+
+    def _step(self, t: float, pose: tuple[float, float, float],
+              points: np.ndarray | None) -> Command:
         if self.target is None:
             return Command(0.0, 0.0, Status.REACHED)
         c = self.config
@@ -227,7 +247,9 @@ class LocalController:
         # Progress watch: progress_m, or half of what is left to the tolerance (the last
         # centimetres next to a wall are driven slowly).
         needed = min(c.progress_m, 0.5 * max(self._best - self.tolerance, 0.0) + 0.01)
-        if dist < self._best - needed or self._best == math.inf:
+        if self._best == math.inf and self._keep_clock:
+            self._best, self._keep_clock = dist, False  # the clock runs on (set_target)
+        elif dist < self._best - needed or self._best == math.inf:
             self._best, self._best_t = dist, t
         elif t - self._best_t > c.stuck_timeout_s:
             if self.retries >= c.max_retries:

@@ -9,7 +9,14 @@ from enum import Enum
 import numpy as np
 
 from tpuaf.navigation.controller import GOAL_TOLERANCE_M, Command, LocalController, Status
-from tpuaf.navigation.give_way import GiveWay, find_refuge
+from tpuaf.navigation.give_way import (
+    BLOCKING_RANGE_M,
+    HELD_M,
+    GiveWay,
+    GivingWay,
+    map_points,
+    obstacle_discs,
+)
 from tpuaf.navigation.lane_gate import LaneGate
 from tpuaf.navigation.route import GraphRoute, polyline_length
 
@@ -24,7 +31,7 @@ class Event(Enum):
     FAILED = 3  # gave up on the goal
 
 
-class Navigator(LaneGate):
+class Navigator(LaneGate, GivingWay):
     """Follows a `GraphRoute` with a `LocalController`, along planned paths when it has a
     `PathPlanner` (navigation/planner.py), else along the straight edges.
 
@@ -34,13 +41,14 @@ class Navigator(LaneGate):
     After a recovery (the controller was stuck and backed off) the leg is replanned from the
     pose, with the laser's points as obstacles for that plan (another robot, an unmapped
     obstacle), so the robot takes another way when there is a reasonable one. A robot held
-    still by another robot gives way (a refuge off the other's way) when there is no way round;
+    by another robot (no progress toward its aim) gives way when there is no way round: it
+    backs to a refuge behind it, off the other's way (or another refuge when none is behind);
     a robot without a route makes room for one that comes up to it (`park_step`). Pass-through waypoints count as
     reached within `waypoint_tolerance` [m], the goal within `goal_tolerance` [m] (the agents:
     the map's visit radius). A robot within `near_goal_m` [m] of its goal (the map's goal
-    tolerance; None: never) that another robot holds still there, or whose controller gave up
-    there, ends the route short (ARRIVED; `short_arrivals` counts them): the visit rule then
-    makes it a dwell, not a visit.
+    tolerance; None: never) whose goal another robot covers (stands on it), held there or
+    with its controller given up, ends the route short (ARRIVED; `short_arrivals` counts
+    them): the visit rule then makes it a dwell, not a visit. Not covered, it keeps trying.
     `step` returns (Command, Event, vertex): the vertex is the waypoint or goal reached, or the
     goal that failed."""
 
@@ -62,8 +70,11 @@ class Navigator(LaneGate):
         self._retries_seen = 0
         self.replans = 0  # legs replanned (after a recovery, or to give way)
         self.yields = 0  # replans round a robot (or unmapped obstacle) that held us still
-        self._blocked_since: float | None = None
-        self._blocked_at: tuple[float, float] | None = None  # [m] where the hold watch started
+        self._blocked_since: float | None = None  # [s] no progress toward the aim since
+        self._held_aim: tuple[float, float] | None = None  # [m] the aim point watched
+        self._held_best = math.inf  # [m] the nearest the robot came to it meanwhile
+        # (where the robot stood, [m] from there to the robot ahead) half way to acting
+        self._held_gap: tuple[tuple[float, float], float] | None = None
         # [s] held still this long by an unmapped obstacle ahead: replan round it or give way
         # (1.5-3 s, staggered with the controller's retry wait, and by 0.1 s per four robot
         # indices: two robots held by each other do not act at the same instant)
@@ -71,6 +82,9 @@ class Navigator(LaneGate):
         self.yield_after_s = (1.0 + controller.config.retry_wait_s
                               + 0.1 * min(self.robot_index // 4, 4))
         self.give_ways = 0  # refuges driven to (to let another robot pass)
+        self.reversals = 0  # ... of them driven backward (the refuge behind the robot)
+        # the laser sees behind the robot (a full circle): refuges behind are reversed into
+        self.sees_behind = True
         self._give_way: GiveWay | None = None
         self._give_ways_this_leg = 0
         self._trail: list[tuple[float, float]] = []  # [m] recent positions, newest last
@@ -134,21 +148,25 @@ class Navigator(LaneGate):
         self._leg_from = from_vertex
         self._plan_pending = self.planner is not None
 
-    def _aim(self, t: float, new_goal: bool) -> None:
+    def _aim(self, t: float, new_goal: bool, keep_clock: bool = False) -> None:
         route = self.route
         if self._corners:
             tol = TIGHT_CORNER_M if self._corner_tight else self.corner_tolerance
-            self.controller.set_target(self._corners[0], tol, t, new_goal=new_goal)
+            self.controller.set_target(self._corners[0], tol, t, new_goal=new_goal,
+                                       keep_clock=keep_clock)
             return
         tol = self._gate_tolerance(route, self.goal_tolerance if route.is_last
                                    else self.waypoint_tolerance)
-        self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal)
+        self.controller.set_target(route.next_position(), tol, t, new_goal=new_goal,
+                                   keep_clock=keep_clock)
 
     def _plan_leg(self, t: float, pose: tuple[float, float, float],
-                  points: np.ndarray | None = None, keep_obstacles: bool = False) -> None:
+                  points: np.ndarray | None = None, keep_obstacles: bool = False,
+                  keep_clock: bool = False) -> None:
         """The corners from the pose to the next vertex of the route. `points`: map-frame
         laser points, temporary obstacles (only those the map does not explain, unless
-        `keep_obstacles`: already filtered)."""
+        `keep_obstacles`: already filtered). `keep_clock`: the controller's stuck timer runs
+        on (a replan round a robot that holds us: the robot may still be stuck)."""
         self._plan_pending = False
         route = self.route
         goal = route.next_waypoint
@@ -164,7 +182,7 @@ class Navigator(LaneGate):
             if math.hypot(x - p[0], y - p[1]) <= self.corner_tolerance:
                 path = self.planner.edge_path(u, goal)
         if path is None:
-            obstacles = _obstacle_discs(points if keep_obstacles else self._unmapped(points))
+            obstacles = obstacle_discs(points if keep_obstacles else self._unmapped(points))
             path = self.planner.plan((x, y), target, obstacles)
             if obstacles is not None:
                 # Round another robot only when that is not much longer than the free way:
@@ -184,7 +202,7 @@ class Navigator(LaneGate):
         while (corners and math.hypot(corners[0][0] - x, corners[0][1] - y) <= tol
                and self._corner_passable(pose)):
             corners.pop(0)
-        self._aim(t, new_goal=False)
+        self._aim(t, new_goal=False, keep_clock=keep_clock)
 
     def _corner_passable(self, pose: tuple[float, float, float]) -> bool:
         """Whether the first corner may be left behind: the point after it is in line of
@@ -196,13 +214,13 @@ class Navigator(LaneGate):
         after = self._corners[1] if len(self._corners) > 1 else self.route.next_position()
         return clear(pose[:2], after, self.sight_clearance_m)
 
-    def _unmapped(self, map_points: np.ndarray | None) -> np.ndarray | None:
+    def _unmapped(self, xy: np.ndarray | None) -> np.ndarray | None:
         """The map-frame laser points the map does not explain (farther than
         UNMAPPED_DISTANCE_M from every mapped obstacle): other robots, unmapped obstacles."""
-        if map_points is None or len(map_points) == 0:
+        if xy is None or len(xy) == 0:
             return None
-        keep = self.planner.distances_to_obstacle(map_points) > UNMAPPED_DISTANCE_M
-        return map_points[keep] if keep.any() else None
+        keep = self.planner.distances_to_obstacle(xy) > UNMAPPED_DISTANCE_M
+        return xy[keep] if keep.any() else None
 
     def _watch_blocked(self, t: float, pose: tuple[float, float, float],
                        points: np.ndarray | None, cmd: Command) -> None:
@@ -213,37 +231,42 @@ class Navigator(LaneGate):
         other's way and waits there, give_way.py), without waiting to be stuck. The other then
         finds its way clear."""
         x, y = pose[0], pose[1]
-        # Held still: not HELD_M away from where the watch started (turning on the spot, or
-        # dithering, is still being held).
-        anchor = self._blocked_at
-        if anchor is None or math.hypot(x - anchor[0], y - anchor[1]) > HELD_M:
-            self._blocked_at, self._blocked_since = (x, y), t
-            self._follow_since = None  # moving again: a new wait behind a robot starts anew
+        # Held: no progress toward the point we aim at (HELD_M closer than the nearest we came
+        # since the watch started); turning on the spot, dithering or stepping aside is still
+        # being held. A new aim point starts the watch anew.
+        aim = self.controller.target or self.route.next_position()
+        d = math.hypot(aim[0] - x, aim[1] - y)
+        if (self._blocked_since is None or self._held_aim != aim
+                or d < self._held_best - HELD_M):
+            self._held_aim, self._held_best, self._blocked_since = aim, d, t
+            self._held_gap = None
+            self._follow_since = None  # moving on: a new wait behind a robot starts anew
             return
-        if t - self._blocked_since < self.yield_after_s:
+        held = t - self._blocked_since
+        if held < 0.5 * self.yield_after_s:
+            return
+        if self._held_gap is None:  # half way: how far the robot ahead is (from here)
+            self._held_gap = ((x, y), self._gap_ahead(pose, points, aim, (x, y))[0])
+            return
+        if held < self.yield_after_s:
             return
         self._blocked_since = t  # at most one such replan per yield_after_s
-        unmapped = self._unmapped(_map_points(pose, points))
-        if unmapped is None:
+        origin, gap0 = self._held_gap
+        self._held_gap = None
+        gap, unmapped, ahead = self._gap_ahead(pose, points, aim, origin)
+        if gap > gap0 + HELD_M:  # it moves away (gives way itself): wait on
             return
-        # Ahead: toward the point we aim at (not the heading, which may be turning), in range.
-        aim = self.controller.target or self.route.next_position()
-        ux, uy = aim[0] - x, aim[1] - y
-        rel = unmapped - np.array([x, y])
-        keep = ((rel[:, 0] * ux + rel[:, 1] * uy > 0.0)
-                & (np.hypot(rel[:, 0], rel[:, 1]) <= BLOCKING_RANGE_M))
-        if not keep.any():
+        if ahead is None:
             return
-        ahead = unmapped[keep]
-        if self._near_goal(pose):  # another robot stands on our goal: end the route short
-            self._short = True
+        if self._near_goal(pose) and self._goal_covered(pose, unmapped):
+            self._short = True  # another robot stands on our goal: end the route short
             return
         if self._following(t, pose, ahead):  # behind a robot in a one-way lane: wait, not stuck
             self.controller.restart_progress(t)
             return
         self.yields += 1
         x, y = pose[0], pose[1]
-        obstacles = _obstacle_discs(ahead)
+        obstacles = obstacle_discs(ahead)
         target = self.route.next_position()
         detour = self.planner.plan((x, y), target, obstacles)
         free = self._remaining_path(pose)
@@ -251,7 +274,7 @@ class Navigator(LaneGate):
             detour = None  # a way round through a lane we do not hold: not taken
         if detour is not None and (free is None or _reasonable_detour(detour, free)):
             self.replans += 1
-            self._plan_leg(t, pose, ahead, keep_obstacles=True)
+            self._plan_leg(t, pose, ahead, keep_obstacles=True, keep_clock=True)
             return
         if self._give_ways_this_leg < MAX_GIVE_WAYS_PER_LEG and self._start_give_way(
                 t, pose, ahead, parked=False, others=unmapped):
@@ -259,169 +282,33 @@ class Navigator(LaneGate):
             return
         if detour is not None:  # a long way round is still better than none
             self.replans += 1
-            self._plan_leg(t, pose, ahead, keep_obstacles=True)
+            self._plan_leg(t, pose, ahead, keep_obstacles=True, keep_clock=True)
+
+    def _gap_ahead(self, pose: tuple[float, float, float], points: np.ndarray | None,
+                   aim: tuple[float, float], origin: tuple[float, float]):
+        """(distance [m] from `origin` to the nearest point the map does not explain within
+        BLOCKING_RANGE_M of the pose toward `aim` (inf: none), all such points near (map
+        frame), those of them ahead; None for none)."""
+        unmapped = self._unmapped(map_points(pose, points))
+        if unmapped is None:
+            return math.inf, None, None
+        # Ahead: toward the point we aim at (not the heading, which may be turning), in range.
+        x, y = pose[0], pose[1]
+        ux, uy = aim[0] - x, aim[1] - y
+        rel = unmapped - np.array([x, y])
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        keep = (rel[:, 0] * ux + rel[:, 1] * uy > 0.0) & (dist <= BLOCKING_RANGE_M)
+        if not keep.any():
+            return math.inf, unmapped, None
+        ahead = unmapped[keep]
+        gap = np.hypot(ahead[:, 0] - origin[0], ahead[:, 1] - origin[1]).min()
+        return float(gap), unmapped, ahead
 
     def _remaining_path(self, pose: tuple[float, float, float]) -> np.ndarray | None:
         """The polyline [m] still ahead on this leg: pose, corners, next vertex."""
         if self.route is None:
             return None
         return np.array([pose[:2], *self._corners, self.route.next_position()], dtype=float)
-
-    # -- giving way ---------------------------------------------------------------------------
-
-    @property
-    def giving_way(self) -> bool:
-        """Driving to, or waiting in, a refuge to let another robot pass."""
-        return self._give_way is not None
-
-    def _pass_clearance_m(self) -> float:
-        """[m] between the centre of a robot in a refuge and the other's way: two robot radii,
-        the controller's safety margin and a little more."""
-        c = self.controller.config
-        return 2.0 * c.robot_radius + c.safety_margin + PASS_MARGIN_M
-
-    def _start_give_way(self, t: float, pose: tuple[float, float, float],
-                        blocking: np.ndarray, parked: bool,
-                        others: np.ndarray | None = None) -> bool:
-        """Look for a refuge off the way of the robot whose points (map frame) are
-        `blocking`, reachable round `others` (every unmapped point near); start driving there
-        if there is one."""
-        if self.planner is None or blocking is None or len(blocking) == 0:
-            return False
-        me = (float(pose[0]), float(pose[1]))
-        near = blocking[np.argsort(np.hypot(blocking[:, 0] - me[0],
-                                            blocking[:, 1] - me[1]))[:8]]
-        cx, cy = near.mean(axis=0)
-        d = math.hypot(cx - me[0], cy - me[1]) or 1.0
-        r = self.controller.config.robot_radius
-        # the other robot's centre: behind the points we see of it
-        blocker = (float(cx + r * (cx - me[0]) / d), float(cy + r * (cy - me[1]) / d))
-        seen = blocking if others is None else others
-        obstacles = np.vstack((_obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
-        aim = None if parked else self.controller.target
-        path = find_refuge(self.planner, me, blocker, [] if parked else self._trail,
-                           self._pass_clearance_m(), obstacles, aim, self._lane_free)
-        if path is None or (self.lanes is not None and self.lanes.one_way
-                            and not self._lane_free_path(path)):
-            return False  # with one-way lanes: never through a lane (against its flow)
-        speed = self.controller.config.max_linear_speed
-        # [s] the other robot drives past us and on: a few metres at its speed, at least 10 s
-        wait = max(GIVE_WAY_MIN_S, (polyline_length(path) + GIVE_WAY_PASS_M) / speed)
-        corners = [(float(px), float(py)) for px, py in path[1:]]
-        self._give_way = GiveWay(refuge=corners[-1], corners=corners, blocker=blocker,
-                                 started_s=t, deadline_s=t + wait + polyline_length(path) / speed,
-                                 parked=parked)
-        self.give_ways += 1
-        self._blocked_since = None
-        self._blocked_at = None
-        self._aim_give_way(t)
-        return True
-
-    def _aim_give_way(self, t: float) -> None:
-        gw = self._give_way
-        last = len(gw.corners) == 1
-        self.controller.set_target(gw.corners[0], REFUGE_TOLERANCE_M if last
-                                   else min(self.corner_tolerance, CORNER_GIVE_WAY_M), t,
-                                   new_goal=False)
-
-    def _end_give_way(self, t: float, pose: tuple[float, float, float]) -> None:
-        """Back to the route (a plan from the pose), or to standing still when parked."""
-        self._give_way = None
-        self._blocked_since = None
-        self._blocked_at = None
-        self.controller.resume_driving(t)
-        if self.route is None:
-            self.controller.target = None
-            return
-        self._leg_from = None
-        self.replans += 1
-        self._plan_leg(t, pose)
-
-    def _step_give_way(self, t: float, pose: tuple[float, float, float],
-                       points: np.ndarray | None) -> Command:
-        gw = self._give_way
-        ctl = self.controller
-        if gw.arrived_s is None:
-            cmd = ctl.step(t, pose, points)
-            if cmd.status in (Status.RECOVERING, Status.FAILED) or t > gw.deadline_s:
-                self._end_give_way(t, pose)  # cannot get there: back to the route
-                return Command(0.0, 0.0, Status.DRIVING)
-            while cmd.status == Status.REACHED and len(gw.corners) > 1:
-                gw.corners.pop(0)
-                self._aim_give_way(t)
-                cmd = ctl.step(t, pose, points)
-            if cmd.status != Status.REACHED:
-                return cmd
-            gw.arrived_s = t
-        # In the refuge: wait until nothing the map does not explain is near for a while
-        # (the other robot has passed), at least GIVE_WAY_WAIT_S, at most until the deadline.
-        near = _map_points(pose, points)
-        near = self._unmapped(near) if near is not None else None
-        me = np.array(pose[:2])
-        busy = near is not None and bool(
-            (np.hypot(*(near - me).T) <= self._pass_clearance_m() + CLEAR_MARGIN_M).any())
-        if busy:
-            gw.clear_since_s = None
-        elif gw.clear_since_s is None:
-            gw.clear_since_s = t
-        # The other robot standing still near us (not passing: it waits for us, or has
-        # arrived): waiting on achieves nothing.
-        centre = near.mean(axis=0) if busy else None
-        if centre is None or gw.other_at is None or math.hypot(
-                centre[0] - gw.other_at[0], centre[1] - gw.other_at[1]) > HELD_M:
-            gw.other_at, gw.other_since_s = centre, t
-        waited = t - gw.arrived_s >= GIVE_WAY_WAIT_S
-        clear = gw.clear_since_s is not None and t - gw.clear_since_s >= GIVE_WAY_CLEAR_S
-        standing = gw.other_at is not None and t - gw.other_since_s >= GIVE_WAY_STILL_S
-        if (waited and (clear or standing)) or t >= gw.deadline_s:
-            self._end_give_way(t, pose)
-            if self.route is None:
-                return Command(0.0, 0.0, Status.REACHED)
-            return ctl.step(t, pose, points)
-        return Command(0.0, 0.0, Status.DRIVING)
-
-    def _remember(self, pose: tuple[float, float, float]) -> None:
-        """The trail: positions TRAIL_STEP_M apart, the last TRAIL_POINTS of them."""
-        xy = (float(pose[0]), float(pose[1]))
-        if not self._trail or math.hypot(xy[0] - self._trail[-1][0],
-                                         xy[1] - self._trail[-1][1]) >= TRAIL_STEP_M:
-            self._trail.append(xy)
-            if len(self._trail) > TRAIL_POINTS:
-                del self._trail[0]
-
-    def park_step(self, t: float, pose: tuple[float, float, float],
-                  points: np.ndarray | None) -> tuple[float, float]:
-        """A robot standing without a route (no goal, or waiting to decide): it makes room
-        (drives to a refuge, waits, stays there) when another robot within BLOCKING_RANGE_M
-        has not moved away for PARKED_YIELD_S (+ 0.05 s per robot index, mod 8): sooner than
-        a driving robot held still acts (yield_after_s), so the one that has a goal keeps it.
-        Returns (v [m/s], w [rad/s])."""
-        if self.planner is None:
-            return 0.0, 0.0
-        if self._give_way is not None:
-            cmd = self._step_give_way(t, pose, points)
-            return cmd.v, cmd.w
-        near = self._unmapped(_map_points(pose, points))
-        nearest = math.inf
-        if near is not None:
-            d = np.hypot(near[:, 0] - pose[0], near[:, 1] - pose[1])
-            near = near[d <= BLOCKING_RANGE_M]
-            nearest = float(d.min())
-        if near is None or len(near) == 0:
-            self._near_since = None
-            return 0.0, 0.0
-        if self._near_since is None or nearest > self._near_d + HELD_M:
-            # first seen, or moving away (passing by): start watching again
-            self._near_since, self._near_d = t, nearest
-            return 0.0, 0.0
-        self._near_d = min(self._near_d, nearest)
-        if t - self._near_since < PARKED_YIELD_S + 0.05 * (self.robot_index % 8):
-            return 0.0, 0.0
-        self._near_since = None
-        if not self._start_give_way(t, pose, near, parked=True):
-            return 0.0, 0.0
-        cmd = self._step_give_way(t, pose, points)
-        return cmd.v, cmd.w
 
     def step(self, t: float, pose: tuple[float, float, float],
              points: np.ndarray | None) -> tuple[Command, Event, int]:
@@ -443,18 +330,23 @@ class Navigator(LaneGate):
             # Back from a recovery: another way round what blocked us, if there is one.
             self._retries_seen = ctl.retries
             self.replans += 1
-            self._plan_leg(t, pose, _map_points(pose, points))
+            self._plan_leg(t, pose, map_points(pose, points))
         cmd = ctl.step(t, pose, points)
         if cmd.status == Status.FAILED:
             goal = route.goal
-            if self._near_goal(pose):
+            if route.is_last and self._near_goal(pose) and self._goal_covered(pose, self._unmapped(
+                    map_points(pose, points))):
                 return self._end_short(goal)
             self.cancel()
             return cmd, Event.FAILED, goal
         if self.planner is not None and cmd.status == Status.DRIVING:
             self._watch_blocked(t, pose, points, cmd)
-            if self._short:
+            if self._short and route.is_last:
                 return self._end_short(route.goal)
+            if self._short:  # a lane's waiting spot another robot stands on: reached here
+                self._short = False
+                self._corners = []
+                cmd = Command(0.0, 0.0, Status.REACHED)
             if self._give_way is not None:
                 return self._step_give_way(t, pose, points), Event.NONE, -1
         for _ in range(2 * len(self._corners)):
@@ -511,16 +403,43 @@ class Navigator(LaneGate):
             if advance:
                 return self._pass_waypoint(t, pose, points, Command(0.0, 0.0, Status.REACHED))
             return None
-        obstacles = _obstacle_discs(self._unmapped(_map_points(pose, points)))
+        obstacles = obstacle_discs(self._unmapped(map_points(pose, points)))
         return self._gate_wait(t, pose, points, u, nxt, obstacles), Event.NONE, -1
 
     def _near_goal(self, pose: tuple[float, float, float]) -> bool:
-        """On the route's last leg, within `near_goal_m` of the goal vertex."""
+        """Within `near_goal_m` of the goal, or of a lane's waiting spot next on the route,
+        within the clearance of two robots side by side at least (the other waypoints count
+        as reached farther off: waypoint_tolerance)."""
         route = self.route
-        if self.near_goal_m is None or route is None or not route.is_last:
+        if self.near_goal_m is None or route is None:
             return False
+        near = self.near_goal_m if route.is_last else max(self.near_goal_m,
+                                                          self._pass_clearance_m())
         gx, gy = route.next_position()
-        return math.hypot(pose[0] - gx, pose[1] - gy) <= self.near_goal_m
+        return math.hypot(pose[0] - gx, pose[1] - gy) <= near
+
+    def _goal_covered(self, pose: tuple[float, float, float],
+                      unmapped: np.ndarray | None) -> bool:
+        """Another robot stands on the goal: the centre of what the map does not explain near
+        the goal (map-frame points [m] within a radius of `near_goal_m`; their mean, a robot
+        radius farther from us) is within the goal tolerance (the visit radius) +
+        COVERED_MARGIN_M of the goal vertex, or COVERED_MARGIN_M nearer to it than we are.
+        Of two robots after the same vertex, side by side, only the farther gives it up."""
+        if unmapped is None or self.route is None:
+            return False
+        gx, gy = self.route.next_position()
+        r = self.controller.config.robot_radius
+        near = max(self.near_goal_m or 0.0, self.goal_tolerance + COVERED_MARGIN_M)
+        rim = unmapped[np.hypot(unmapped[:, 0] - gx, unmapped[:, 1] - gy) <= r + near]
+        if len(rim) == 0:
+            return False
+        cx, cy = rim.mean(axis=0)
+        d = math.hypot(cx - pose[0], cy - pose[1]) or 1.0
+        cx, cy = cx + r * (cx - pose[0]) / d, cy + r * (cy - pose[1]) / d
+        other = math.hypot(cx - gx, cy - gy)
+        mine = math.hypot(pose[0] - gx, pose[1] - gy)
+        return other <= min(near, max(self.goal_tolerance + COVERED_MARGIN_M,
+                                      mine - COVERED_MARGIN_M))
 
     def _end_short(self, goal: int) -> tuple[Command, Event, int]:
         self.short_arrivals += 1
@@ -532,53 +451,19 @@ class Navigator(LaneGate):
 
 SIGHT_MARGIN_M = 0.02  # [m] beyond the robot's radius: a line of sight past a wall's end
 TIGHT_CORNER_M = 0.05  # [m] tolerance of a corner whose next point is not in sight
-OBSTACLE_RADIUS_M = 0.05  # [m] of one laser point as a temporary obstacle of a replan
-OBSTACLE_RANGE_M = 1.5  # [m] laser points farther than this are not added to a replan
 UNMAPPED_DISTANCE_M = 0.1  # [m] a laser point this close to a mapped wall is that wall
-HELD_M = 0.05  # [m] a robot that has not moved this far is held still
-BLOCKING_RANGE_M = 1.0  # [m] unmapped points ahead within this hold the robot
+COVERED_MARGIN_M = 0.05  # [m] another robot's centre within the goal tolerance + this of the
+# goal, or this nearer to it than we are, covers it
 
 
 MAX_DETOUR_FACTOR = 1.5  # a way round another robot may be this much longer than the free way
 MAX_DETOUR_EXTRA_M = 1.0  # [m] ... plus this
 MAX_GIVE_WAYS_PER_LEG = 2  # then the usual recovery decides (a robot that does not move)
-PASS_MARGIN_M = 0.05  # [m] added to the clearance two passing robots need
-CLEAR_MARGIN_M = 0.3  # [m] the other robot is past when farther than the pass clearance + this
-REFUGE_TOLERANCE_M = 0.08  # [m] a refuge is reached within this
-CORNER_GIVE_WAY_M = 0.15  # [m] corners on the way to a refuge are reached within this
-GIVE_WAY_WAIT_S = 2.0  # [s] in a refuge at least this long
-GIVE_WAY_CLEAR_S = 1.0  # [s] ... and nothing unmapped near for this long
-GIVE_WAY_STILL_S = 3.0  # [s] ... or the other robot near has stood still this long
-GIVE_WAY_MIN_S = 10.0  # [s] least waiting budget of a give-way
-GIVE_WAY_PASS_M = 2.0  # [m] the other robot drives this far to be past (the waiting budget)
-PARKED_YIELD_S = 0.5  # [s] a parked robot makes room after another has been near this long
-TRAIL_STEP_M = 0.1  # [m] between the remembered positions
-TRAIL_POINTS = 30  # remembered positions (3 m)
 
 
 def _reasonable_detour(detour: np.ndarray, free: np.ndarray) -> bool:
     """A way round another robot worth taking instead of waiting for it to move."""
     return polyline_length(detour) <= MAX_DETOUR_FACTOR * polyline_length(free) + MAX_DETOUR_EXTRA_M
-
-
-def _map_points(pose: tuple[float, float, float], points: np.ndarray | None):
-    """Laser points (robot frame) within OBSTACLE_RANGE_M, in the map frame [m]."""
-    if points is None or len(points) == 0:
-        return None
-    near = points[np.hypot(points[:, 0], points[:, 1]) <= OBSTACLE_RANGE_M]
-    if len(near) == 0:
-        return None
-    x, y, th = pose
-    c, s = math.cos(th), math.sin(th)
-    return np.column_stack((x + c * near[:, 0] - s * near[:, 1],
-                            y + s * near[:, 0] + c * near[:, 1]))
-
-
-def _obstacle_discs(map_points: np.ndarray | None):
-    """(k, 3) discs (x, y, radius) of map-frame points, or None."""
-    if map_points is None or len(map_points) == 0:
-        return None
-    return np.column_stack((map_points, np.full(len(map_points), OBSTACLE_RADIUS_M)))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -56,6 +56,7 @@ NODE = "patrol_agent"
 # lock-step: the order of one sender's messages of one stamp (team topics, then its events)
 TOPIC_RANK = {name: k for k, name in enumerate(topics.TEAM_TOPICS)}
 WARN_PERIOD_S = 5.0  # [s wall] throttle of repeated warnings
+FULL_CIRCLE_RAD = 2.0 * math.pi - 0.1  # [rad] a scan this wide sees behind the robot
 warnings.filterwarnings("ignore", message="The publisher should be created with an explicit")
 
 
@@ -488,6 +489,10 @@ class AgentNode:
             mount = LaserMount(*self.laser_pose) if self.laser_pose is not None else LaserMount()
             pts = scan_points(Scan(s.ranges, s.angle_min, s.angle_increment, s.range_min,
                                    s.range_max), mount, self.p.scan_beams, self.points_within_m)
+            # a laser that does not see behind the robot: give way forward (navigator.py)
+            nav = self.runtime.navigator
+            if hasattr(nav, "sees_behind"):
+                nav.sees_behind = len(s.ranges) * abs(s.angle_increment) >= FULL_CIRCLE_RAD
             self.points = pts
             self.points_pose = self.runtime.pose  # as the physics runtime: motion-compensated
         v, w = self.runtime.tick(t, self.points,
