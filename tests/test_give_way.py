@@ -112,17 +112,23 @@ def run(world, navs, t_end: float, parked=(), t0: float = 0.0, until=None):
     return events, t
 
 
-def test_two_robots_head_on_in_a_corridor_one_robot_wide_both_get_through(rooms):
-    """Robot 0 from the left room to the right one, robot 1 the other way: they meet in the
-    corridor, where they cannot pass. One gives way (backs out into its room, off the other's
-    way), the other passes, and both reach their goals. Before giving way (replan round the
-    other robot, back off, retry) both gave their goals up."""
-    pm, planner = rooms
+def head_on(pm, planner):
+    """Robot 0 in the left room bound for the right one (vertex 0 -> 2), robot 1 the other way:
+    the world and the two navigators with their routes set."""
     pos = pm.positions
     world = world_of(pm, [(pos[0][0], AXIS_Y, 0.0), (pos[2][0], AXIS_Y, math.pi)])
     navs = [navigator(planner, 0), navigator(planner, 1)]
     navs[0].set_route(GraphRoute(pm.graph, pos, 0, 2), 0.0)
     navs[1].set_route(GraphRoute(pm.graph, pos, 2, 0), 0.0)
+    return world, navs
+
+
+def test_two_robots_head_on_in_a_corridor_one_robot_wide_both_get_through(rooms):
+    """Robot 0 from the left room to the right one, robot 1 the other way: they meet in the
+    corridor, where they cannot pass. One gives way (backs out into its room, off the other's
+    way), the other passes, and both reach their goals. Before giving way (replan round the
+    other robot, back off, retry) both gave their goals up."""
+    world, navs = head_on(*rooms)
     events, t_end = run(world, navs, 150.0)
     arrived = {(i, v) for _, i, e, v in events if e == Event.ARRIVED}
     assert arrived == {(0, 2), (1, 0)}, events
@@ -212,12 +218,7 @@ def test_head_on_in_a_corridor_one_robot_backs_into_a_refuge_the_other_drives_th
     *backward* to a refuge behind it, in its own room; the other, seeing it move away, waits
     on instead of giving way too, then drives through. Before, both gave way (forward, turning
     round in the corridor) and met again: 1 give-way each at least, both arrivals later."""
-    pm, planner = rooms
-    pos = pm.positions
-    world = world_of(pm, [(pos[0][0], AXIS_Y, 0.0), (pos[2][0], AXIS_Y, math.pi)])
-    navs = [navigator(planner, 0), navigator(planner, 1)]
-    navs[0].set_route(GraphRoute(pm.graph, pos, 0, 2), 0.0)
-    navs[1].set_route(GraphRoute(pm.graph, pos, 2, 0), 0.0)
+    world, navs = head_on(*rooms)
     events, t1 = run(world, navs, 150.0, until=lambda ev: (1, Event.ARRIVED, 0) in [e[1:] for e in ev])
     assert (1, Event.ARRIVED, 0) in [e[1:] for e in events], events
     # robot 0 acts first (shorter retry wait), backward; robot 1 waits on

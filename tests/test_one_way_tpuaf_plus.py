@@ -173,7 +173,7 @@ def test_four_burgers_with_tpuaf_plus_keep_visiting_on_the_lab_one_way():
 def test_dtap_counts_hops_along_the_arcs():
     """On a ring of 6 whose edge 0-1 is one way (1 -> 0), vertex 1 is one edge from 0 but five
     hops away driving the arcs; without arcs the graph's own hop matrix."""
-    from tpuaf.policies.common import travel_hops
+    from tpuaf.maps.tours import travel_hops
 
     two_way = ring(6)
     assert (travel_hops(two_way) == two_way.graph.hop_matrix).all()

@@ -253,6 +253,32 @@ def _cached(key: tuple, patrol_map: Any, compute):
     return value
 
 
+def travel_hops(patrol_map: Any) -> np.ndarray:
+    """All-pairs hop counts along the arcs a robot may drive (n x n): the graph's own (two-way)
+    hop matrix, or on a map with one-way lanes the directed ones, where a vertex one edge away
+    can be a loop away (graph.neighbours follows the arcs). Cached per map object: one matrix
+    for the whole team."""
+    graph = patrol_map.graph
+    if not patrol_map.one_way:
+        return graph.hop_matrix
+    return _cached(("travel_hops",), patrol_map, lambda: _directed_hops(graph))
+
+
+def _directed_hops(graph: Any) -> np.ndarray:
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import shortest_path
+
+    n = graph.num_vertices
+    rows, cols = [], []
+    for v in range(n):
+        for w in graph.neighbours(v):
+            if int(w) != v:
+                rows.append(v)
+                cols.append(int(w))
+    arcs = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    return shortest_path(arcs, directed=True, unweighted=True).astype(np.int32)
+
+
 def cyclic_tour(patrol_map: Any) -> Tour:
     """Shortest closed walk found through all vertices (cached per map object, and on disk
     when $TPUAF_PLAN_CACHE names a folder)."""

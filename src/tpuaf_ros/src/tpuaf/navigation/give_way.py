@@ -192,11 +192,8 @@ class GivingWay:
         me = (float(pose[0]), float(pose[1]))
         near = blocking[np.argsort(np.hypot(blocking[:, 0] - me[0],
                                             blocking[:, 1] - me[1]))[:8]]
-        cx, cy = near.mean(axis=0)
-        d = math.hypot(cx - me[0], cy - me[1]) or 1.0
         r = self.controller.config.robot_radius
-        # the other robot's centre: behind the points we see of it
-        blocker = (float(cx + r * (cx - me[0]) / d), float(cy + r * (cy - me[1]) / d))
+        blocker = robot_centre(near, me, r)
         seen = blocking if others is None else others
         obstacles = np.vstack((obstacle_discs(seen), [(blocker[0], blocker[1], r)]))
         aim = None if parked else self.controller.target
@@ -333,6 +330,14 @@ class GivingWay:
             return 0.0, 0.0
         cmd = self._step_give_way(t, pose, points)
         return cmd.v, cmd.w
+
+
+def robot_centre(seen: np.ndarray, me: tuple[float, float], radius: float) -> tuple[float, float]:
+    """Another robot's centre [m] from the map-frame points we see of it: their mean, a robot
+    radius farther from us (the laser sees the side facing us)."""
+    cx, cy = seen.mean(axis=0)
+    d = math.hypot(cx - me[0], cy - me[1]) or 1.0
+    return float(cx + radius * (cx - me[0]) / d), float(cy + radius * (cy - me[1]) / d)
 
 
 def map_points(pose: tuple[float, float, float], points: np.ndarray | None):

@@ -16,6 +16,7 @@ from tpuaf.navigation.give_way import (
     GivingWay,
     map_points,
     obstacle_discs,
+    robot_centre,
 )
 from tpuaf.navigation.lane_gate import LaneGate
 from tpuaf.navigation.route import GraphRoute, polyline_length
@@ -433,9 +434,7 @@ class Navigator(LaneGate, GivingWay):
         rim = unmapped[np.hypot(unmapped[:, 0] - gx, unmapped[:, 1] - gy) <= r + near]
         if len(rim) == 0:
             return False
-        cx, cy = rim.mean(axis=0)
-        d = math.hypot(cx - pose[0], cy - pose[1]) or 1.0
-        cx, cy = cx + r * (cx - pose[0]) / d, cy + r * (cy - pose[1]) / d
+        cx, cy = robot_centre(rim, (pose[0], pose[1]), r)
         other = math.hypot(cx - gx, cy - gy)
         mine = math.hypot(pose[0] - gx, pose[1] - gy)
         return other <= min(near, max(self.goal_tolerance + COVERED_MARGIN_M,

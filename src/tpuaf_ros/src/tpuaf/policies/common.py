@@ -27,27 +27,6 @@ def neighbours(ctx: Any, vertex: int | None = None) -> list[int]:
     return sorted({int(w) for w in ctx.patrol_map.graph.neighbours(v) if int(w) != v})
 
 
-def travel_hops(patrol_map: Any) -> np.ndarray:
-    """All-pairs hop counts along the arcs a robot may drive (n x n): the graph's own (two-way)
-    hop matrix, or on a map with one-way lanes the directed ones, where a vertex one edge away
-    can be a loop away (graph.neighbours follows the arcs)."""
-    graph = patrol_map.graph
-    if not patrol_map.one_way:
-        return graph.hop_matrix
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import shortest_path
-
-    n = graph.num_vertices
-    rows, cols = [], []
-    for v in range(n):
-        for w in graph.neighbours(v):
-            if int(w) != v:
-                rows.append(v)
-                cols.append(int(w))
-    arcs = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    return shortest_path(arcs, directed=True, unweighted=True).astype(np.int32)
-
-
 def wait_nowhere_to_go(ctx: Any) -> None:
     """A single-vertex graph: no goal other than the current vertex; decide again later."""
     ctx.wake_at(ctx.now + IDLE_RETRY_S)

@@ -20,8 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tpuaf.maps.tours import travel_hops
 from tpuaf.policies.base import Parameter, Policy, register
-from tpuaf.policies.common import neighbours, pick_max, travel_hops, wait_nowhere_to_go
+from tpuaf.policies.common import neighbours, pick_max, wait_nowhere_to_go
 from tpuaf.policies.dtag import SharedEstimate
 from tpuaf.team.messages import IdlenessEstimate, TaskBid, TaskRequest
 
