@@ -239,7 +239,9 @@ def test_a_robot_follows_only_in_one_way_lanes_along_their_leg():
     assert one_way.one_way and one_way.follows(9, 8, middle_aisle)
     assert not one_way.follows(4, 9, middle_aisle)  # the blocker is in another lane
     assert not one_way.follows(None, 8, middle_aisle)
-    assert one_way.may_start(9, 8, 0.0) and locks.mine.lane < 0  # no lock asked
+    # no lock asked: the one-way lane is announced as where the robot is (held, no wait)
+    assert one_way.may_start(9, 8, 0.0) and locks.mine.held and locks.mine.leg == (9, 8)
+    assert locks.waits == 0
     all_locked = LaneAccess(lanes, LaneLocks(1, lambda claim: None, lambda robot: False))
     assert not all_locked.one_way and not all_locked.follows(9, 8, middle_aisle)
 

@@ -194,6 +194,20 @@ PlusRoute route_from_python(py::handle item) {
   return route;
 }
 
+// A Python plan function `plans(team) -> (routes, route_of, schedule)` as TPUAF+'s PlanSource.
+TpuafPlusStrategy::PlanSource plan_source(py::function plans) {
+  return [plans](const std::vector<int>& team) {
+    py::tuple t = plans(team);
+    auto plan = std::make_shared<PlusPlan>();
+    for (py::handle item : py::reinterpret_borrow<py::list>(t[0])) {
+      plan->routes.push_back(route_from_python(item));
+    }
+    plan->route_of = t[1].cast<std::vector<int>>();
+    plan->schedule = t[2].cast<std::vector<std::pair<int, double>>>();
+    return std::shared_ptr<const PlusPlan>(std::move(plan));
+  };
+}
+
 void wrap_tpuaf_plus(py::module_& m) {
   m.def("walk_worst_idleness", &walk_worst_idleness, py::arg("graph"), py::arg("walk"),
         py::arg("n_robots"), py::arg("speed_mps"),
@@ -227,19 +241,17 @@ void wrap_tpuaf_plus(py::module_& m) {
       m, "TpuafPlusStrategy", "TPUAF+'s decision path in C++ (tpuaf.policies.tpuaf_plus).")
       .def(
           py::init([](const TpuafKnowledge& knowledge, TpuafPlusParams params, py::function plans) {
-            auto plan_source = [plans](const std::vector<int>& team) {
-              py::tuple t = plans(team);
-              auto plan = std::make_shared<PlusPlan>();
-              for (py::handle item : py::reinterpret_borrow<py::list>(t[0])) {
-                plan->routes.push_back(route_from_python(item));
-              }
-              plan->route_of = t[1].cast<std::vector<int>>();
-              plan->schedule = t[2].cast<std::vector<std::pair<int, double>>>();
-              return std::shared_ptr<const PlusPlan>(std::move(plan));
-            };
-            return std::make_unique<TpuafPlusStrategy>(knowledge, std::move(params), plan_source);
+            return std::make_unique<TpuafPlusStrategy>(knowledge, std::move(params),
+                                                       plan_source(plans));
           }),
           py::arg("knowledge"), py::arg("params"), py::arg("plans"))
+      .def(
+          "replan",
+          [](TpuafPlusStrategy& s, PolicyHost& h, py::function plans) {
+            s.replan(h, h.robot(), plan_source(plans));
+          },
+          py::arg("host"), py::arg("plans"),
+          "The host's graph changed (a lane blocked): plan on `plans` and the host's graph.")
       .def("walk", &TpuafPlusStrategy::walk, py::arg("robot"), "Robot `robot`'s current walk.")
       .def("team", &TpuafPlusStrategy::team, py::arg("robot"),
            "The robots `robot` believes alive (itself included).");

@@ -16,6 +16,7 @@ TpuafStrategy::TpuafStrategy(const TpuafKnowledge& knowledge, UtilityForm form, 
       rngs_(std::move(rngs)),
       colocation_(colocation) {
   colocated_.resize(rngs_.size());
+  failed_.resize(rngs_.size());
   prototype_.share_visit_results();  // the team hears the same visits: one Eq. 2 per visit
   knowledge_.assign(rngs_.size(), prototype_);
 }
@@ -43,6 +44,7 @@ void TpuafStrategy::start(StrategyHost& host, int robot) {
   }
   Colocation& c = colocated_[static_cast<std::size_t>(robot)];
   c = Colocation{};
+  failed_[static_cast<std::size_t>(robot)].clear();
   c.shadows.assign(static_cast<std::size_t>(host.robots()), 0);
 }
 
@@ -155,6 +157,15 @@ int TpuafStrategy::decide(StrategyHost& host, int robot) {
   } else {
     candidates_ = graph.neighbours(here);
   }
+  auto& failed = failed_[static_cast<std::size_t>(robot)];
+  if (!failed.empty()) {  // goals given up on lately are no candidates, unless all are
+    std::vector<int> kept;
+    for (int v : candidates_) {
+      auto it = failed.find(v);
+      if (it == failed.end() || now - it->second >= kFailedGoalHoldS) kept.push_back(v);
+    }
+    if (!kept.empty()) candidates_.swap(kept);
+  }
   if (candidates_.empty()) {  // a one-vertex graph: stay
     host.send(robot, TeamMessage::visit(robot, here, now, here));
     return here;
@@ -175,6 +186,10 @@ int TpuafStrategy::decide(StrategyHost& host, int robot) {
   host.send(robot, TeamMessage::intention(robot, here, target, result.arrival_s[chosen],
                                           result.travel_time_s[chosen], now));
   return target;
+}
+
+void TpuafStrategy::on_goal_failed(StrategyHost& host, int robot, int vertex) {
+  failed_[static_cast<std::size_t>(robot)][vertex] = host.now();
 }
 
 bool TpuafStrategy::on_team_message(StrategyHost& /*host*/, int sender,

@@ -371,6 +371,14 @@ void TpuafPlusStrategy::update_team(StrategyHost& host, int robot) {
   install_plan(host, robot, false);
 }
 
+void TpuafPlusStrategy::replan(StrategyHost& host, int robot, PlanSource plans) {
+  graph_ = &host.graph();
+  std::fill(lengths_.begin(), lengths_.end(), KnownLength{});
+  plans_ = std::move(plans);
+  plan_cache_.clear();
+  if (state(robot).started) install_plan(host, robot, false);
+}
+
 // ------------------------------------------------------------------ decisions
 
 void TpuafPlusStrategy::announce(StrategyHost& host, int robot, int here, int next,
@@ -513,11 +521,23 @@ int TpuafPlusStrategy::repair_hop(StrategyHost& host, int robot, int here, int t
   return on_path[static_cast<std::size_t>(pick)];
 }
 
-void TpuafPlusStrategy::on_goal_failed(StrategyHost& host, int robot, int /*vertex*/) {
+void TpuafPlusStrategy::on_goal_failed(StrategyHost& host, int robot, int vertex) {
   Robot& r = state(robot);
   r.idx = -1;
   r.holding = false;
-  r.entry = nearest_entry(*graph_, route_of(r), host.current_vertex(robot));
+  const PlusRoute& route = route_of(r);
+  r.entry = nearest_entry(*graph_, route, host.current_vertex(robot));
+  // The goal given up on is no way back onto the walk: when it is the entry or the vertex
+  // after it, join the walk after it, so that a vertex no robot can reach (a dead robot's body
+  // on it) is skipped, not tried again and again.
+  const std::size_t n = route.walk.size();
+  for (std::size_t s = 0; n > 1 && s < 2; ++s) {
+    const std::size_t k = (static_cast<std::size_t>(r.entry) + s) % n;
+    if (route.walk[k] == vertex) {
+      r.entry = static_cast<int>((k + 1) % n);
+      break;
+    }
+  }
 }
 
 }  // namespace tpuaf

@@ -28,6 +28,11 @@ class TpuafStrategy : public TeamStrategy {
   void on_message(StrategyHost& host, int robot, const TeamMessage& message) override;
   // As Tpuaf.on_teammate_lost: forget its intention, it is no longer my shadow.
   void on_teammate_lost(StrategyHost& host, int robot, int lost) override;
+  // The navigator gave up on `vertex` (physics, robots): it is no candidate for
+  // kFailedGoalHoldS, so that a vertex no robot can reach (a dead robot's body on it) is not
+  // chosen again and again; when every candidate failed lately, all are candidates.
+  void on_goal_failed(StrategyHost& host, int robot, int vertex) override;
+  static constexpr double kFailedGoalHoldS = 60.0;  // [s]
   bool messages_are_local() const override { return true; }
   bool on_team_message(StrategyHost& host, int sender, const TeamMessage& message) override;
   // What robot `robot` knows (a copy; the team's knowledge without its own intention when
@@ -58,6 +63,7 @@ class TpuafStrategy : public TeamStrategy {
   std::vector<TpuafKnowledge> knowledge_;  // per robot, or the team's
   std::vector<Colocation> colocated_;
   std::vector<int> candidates_;
+  std::vector<std::unordered_map<int, double>> failed_;  // per robot: vertex -> failure [s]
 };
 
 }  // namespace tpuaf

@@ -129,6 +129,9 @@ class TpuafPlusStrategy : public TeamStrategy {
   using PlanSource = std::function<std::shared_ptr<const PlusPlan>(const std::vector<int>&)>;
 
   TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params, PlanSource plans);
+  // The host's graph changed (a lane edge dropped: a dead robot's body on it, robot/lanes.py):
+  // distances from it from now on, plans from `plans` (for it), robot `robot`'s re-installed.
+  void replan(StrategyHost& host, int robot, PlanSource plans);
   void start(StrategyHost& host, int robot) override;
   int decide(StrategyHost& host, int robot) override;
   void on_message(StrategyHost& host, int robot, const TeamMessage& message) override;

@@ -309,6 +309,9 @@ def format_summary(summary: dict) -> str:
         else:
             text = f"{value:,}"
         lines.append(f"  {label:<{width}}  {text:>12} {unit}")
+    if summary.get("lane_edges_blocked"):  # a dead robot's body in a lane (docs/LANES.md)
+        edges = ", ".join(f"{u}-{v}" for u, v in summary["lane_edges_blocked"])
+        lines.append(f"  lane edges blocked by a dead robot's body: {edges}")
     faults = format_faults(summary)
     return "\n".join(lines) + ("\n" + faults if faults else "")
 

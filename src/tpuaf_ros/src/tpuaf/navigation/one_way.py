@@ -136,7 +136,17 @@ def _cost(n, lengths, chains, flips) -> float:
         for a, b in zip(seq[:-1], seq[1:], strict=True):
             arcs[(min(a, b), max(a, b))] = a < b
     d = _distances(n, lengths, arcs)
+    live = _live(n, lengths)  # vertices without edges (a blocked one, robot/lanes.py) aside
+    d = d[np.ix_(live, live)]
     return float(d.sum()) if np.isfinite(d).all() else math.inf
+
+
+def _live(n: int, lengths: dict[tuple[int, int], float]) -> np.ndarray:
+    """Mask of the vertices with at least one edge."""
+    live = np.zeros(n, dtype=bool)
+    for u, v in lengths:
+        live[u] = live[v] = True
+    return live
 
 
 def _dfs_flips(n, lengths, chains) -> list[bool]:
@@ -164,17 +174,33 @@ def _dfs_flips(n, lengths, chains) -> list[bool]:
     return [(chain[0], chain[1]) not in down for chain in chains]
 
 
-def orient_lanes(lane_map, patrol_map) -> Orientation:
-    """The orientation of `lane_map`'s lanes on `patrol_map` (see the module docstring)."""
+def _orientable(lane_map, patrol_map) -> tuple[int, dict, list, frozenset[int]]:
+    """(vertices, {edge (u < v): length [m]}, the lanes off the bridges, the others' indices)."""
     n = patrol_map.num_vertices
     graph = patrol_map.graph
     lengths = {(min(int(u), int(v)), max(int(u), int(v))): graph.edge_length(int(u), int(v))
                for u, v, _ in patrol_map.edges}
     cut = bridges(n, list(lengths))
-    orientable = [lane for lane in lane_map.lanes if not any(e in cut for e in lane.edges)]
-    locked = frozenset(lane.index for lane in lane_map.lanes if lane not in orientable)
+    lanes = [lane for lane in lane_map.lanes if lane.edges]  # a blocked lane may have none
+    orientable = [lane for lane in lanes if not any(e in cut for e in lane.edges)]
+    locked = frozenset(lane.index for lane in lanes if lane not in orientable)
+    return n, lengths, orientable, locked
+
+
+def orient_lanes(lane_map, patrol_map, keep: Orientation | None = None) -> Orientation:
+    """The orientation of `lane_map`'s lanes on `patrol_map` (see the module docstring).
+    `keep`: an orientation in force (robots drive it now): when driving each of its one-way
+    lanes that is still orientable its way, and choosing only the others, gives a strongly
+    connected plan, the best such orientation is taken, so that no lane a robot may be in
+    changes its direction."""
+    if keep is not None:
+        kept = _orient_keeping(lane_map, patrol_map, keep)
+        if kept is not None:
+            return kept
+    n, lengths, orientable, locked = _orientable(lane_map, patrol_map)
     chains = [lane_chain(lane) for lane in orientable]
-    two_way = float(_distances(n, lengths, {}).sum())
+    live = _live(n, lengths)
+    two_way = float(_distances(n, lengths, {})[np.ix_(live, live)].sum())
     if not chains:
         return Orientation({}, locked, two_way, two_way)
     if len(chains) <= EXHAUSTIVE_LANES:
@@ -200,3 +226,33 @@ def orient_lanes(lane_map, patrol_map) -> Orientation:
     ordered = {lane.index: (chain[::-1] if flip else chain)
                for lane, chain, flip in zip(orientable, chains, best, strict=True)}
     return Orientation(ordered, locked, cost, two_way)
+
+
+def _orient_keeping(lane_map, patrol_map, keep: Orientation) -> Orientation | None:
+    """`orient_lanes` with `keep`'s directions fixed where they apply (None: not strongly
+    connected that way)."""
+    n, lengths, orientable, locked = _orientable(lane_map, patrol_map)
+    chains = [lane_chain(lane) for lane in orientable]
+    fixed = {}  # position in chains -> flip that drives it as `keep` does
+    for k, (lane, chain) in enumerate(zip(orientable, chains, strict=True)):
+        old = keep.chains.get(lane.index)
+        if old is not None and set(old) == set(chain):
+            fixed[k] = tuple(old) != tuple(chain)
+    free = [k for k in range(len(chains)) if k not in fixed]
+    if len(free) > EXHAUSTIVE_LANES:
+        return None
+    best, cost = None, math.inf
+    for choice in itertools.product((False, True), repeat=len(free)):
+        flips = [fixed.get(k, False) for k in range(len(chains))]
+        for k, flip in zip(free, choice, strict=True):
+            flips[k] = flip
+        trial = _cost(n, lengths, chains, flips) if chains else 0.0
+        if trial < cost:
+            best, cost = flips, trial
+    if best is None or not math.isfinite(cost):
+        return None
+    live = _live(n, lengths)
+    two_way = float(_distances(n, lengths, {})[np.ix_(live, live)].sum())
+    ordered = {lane.index: (chain[::-1] if flip else chain)
+               for lane, chain, flip in zip(orientable, chains, best, strict=True)}
+    return Orientation(ordered, locked, cost if chains else two_way, two_way)

@@ -165,6 +165,11 @@ class Policy(ABC):
         """`ctx.patrol_map` now holds learned edge travel times (robot/learning.py); a
         strategy that cached distances updates them here."""
 
+    def replan(self, ctx: RobotContext) -> None:
+        """`ctx.patrol_map`'s graph lost edges (a lane blocked by a dead robot's body,
+        robot/lanes.py): plan on it from now on. By default as a re-timing."""
+        self.retime(ctx)
+
     def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:  # noqa: B027
         """Teammate `robot` has gone silent (the runtime's liveness timeout): forget what it
         announced (its intentions). It counts as heard again at its next message."""

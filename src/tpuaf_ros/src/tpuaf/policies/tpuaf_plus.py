@@ -425,14 +425,8 @@ class TpuafPlus(CoreStrategyPolicy):
         """The core's TpuafPlusStrategy (policies_tpuaf_plus.cpp: spacing, dwelling, faults,
         repair); its plans are `make_plan`'s, asked for when a robot's view of the team
         changes."""
-        import types
-
-        from tpuaf.policies.cyclic import team_start_vertices
-
         del streams  # TPUAF+ draws no random numbers
         speed = float(patrol_map.settings.nominal_speed)
-        ctx = types.SimpleNamespace(patrol_map=patrol_map, n_robots=n_robots)
-        all_starts = tuple(team_start_vertices(ctx))
         out = tpuaf_core.TpuafPlusParams()
         out.speed_mps = speed
         out.gain = float(params["gain"])
@@ -440,6 +434,21 @@ class TpuafPlus(CoreStrategyPolicy):
         out.deadband_s = float(params["deadband_s"])
         out.dwell_revisit_s = float(params["dwell_revisit_s"])
         out.stay_s = STAY_S
+
+        knowledge = new_knowledge(patrol_map, INTENTION_TIMEOUT_S)
+        return tpuaf_core.TpuafPlusStrategy(knowledge, out,
+                                            cls.plan_source(params, patrol_map, n_robots))
+
+    @staticmethod
+    def plan_source(params: dict, patrol_map, n_robots: int):
+        """`plans(team)`: `make_plan`'s plan for the robots `team` on `patrol_map`, as the
+        core asks for it."""
+        import types
+
+        from tpuaf.policies.cyclic import team_start_vertices
+
+        ctx = types.SimpleNamespace(patrol_map=patrol_map, n_robots=n_robots)
+        all_starts = tuple(team_start_vertices(ctx))
 
         def plans(team: list[int]):
             plan = make_plan(patrol_map, tuple(team), all_starts, params["plan"],
@@ -450,8 +459,14 @@ class TpuafPlus(CoreStrategyPolicy):
             schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n_robots)]
             return routes, route_of, schedule
 
-        knowledge = new_knowledge(patrol_map, INTENTION_TIMEOUT_S)
-        return tpuaf_core.TpuafPlusStrategy(knowledge, out, plans)
+        return plans
+
+    def replan(self, ctx) -> None:
+        # A lane edge dropped (a dead robot's body on it): the walks are planned again on the
+        # new map, for the team this robot believes alive.
+        self.host.set_graph(ctx.patrol_map.graph)
+        self._call(ctx, self.strategy.replan,
+                   self.plan_source(self.params, ctx.patrol_map, ctx.n_robots))
 
     @property
     def walk(self) -> list[int]:

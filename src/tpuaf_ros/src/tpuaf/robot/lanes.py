@@ -7,17 +7,25 @@ releases it; a leg into a lane not held asks for the lane and waits at u until i
 With one-way lanes (navigation/one_way.py) only the lanes that stay two-way (`locked`: the
 bridges) are locked; a one-way lane is entered without a lock (robots in it only follow), and
 the robot whose leg drives it holds it off its route too (`driven`, `allowed`).
+
+A robot that dies inside a lane blocks it with its body. Its last claim says which edge it drove
+(team/lane_locks.py, `lost_in`); when the liveness rule reports it lost, every survivor drops
+that edge from its plan (`blocked_layer`: the rest of the lane becomes a dead end, locked, and
+the one-way lanes keep their direction where the plan stays strongly connected), re-routes and
+re-times its policy on it. An edge whose loss would cut the plan in two is not dropped (the far
+side would be unreachable): the lane's lock is freed as before (docs/LANES.md).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from tpuaf.navigation.lanes import LaneMap, find_lanes
+from tpuaf.navigation.lanes import Lane, LaneMap, find_lanes
 from tpuaf.navigation.one_way import Orientation, orient_lanes
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
@@ -63,6 +71,106 @@ def lane_layer(planner: Any, world_map: Any, plan_map: Any, one_way: bool) -> La
     return LaneLayer(lane_map, orientation, plan_map)
 
 
+BLOCK_LOST_BODIES = True  # a lost teammate's body blocks the lane edge it drove (False: the
+# lane's lock is only freed, as before; benchmarks/bench_lane_death.py compares the two)
+_BLOCKED: dict[tuple, tuple[LaneLayer, LaneLayer | None]] = {}
+
+
+def body_blocks(layer: LaneLayer, claim: LaneClaim) -> tuple[tuple[int, int], tuple[int, ...]]:
+    """Where a lost teammate's body lies, from its last claim: the edge of its leg, and the
+    leg's end vertices it stands too near for a robot to reach (closer than two robots side
+    by side plus the visit radius [m]; none when the claim has no position)."""
+    u, v = claim.leg
+    x, y = claim.position
+    positions = np.asarray(layer.plan_map.positions, dtype=float)
+    reach = layer.lane_map.pass_band_m + float(layer.plan_map.visit_radius_m)
+    occupied = tuple(sorted(w for w in {u, v}
+                            if math.hypot(positions[w][0] - x, positions[w][1] - y) < reach))
+    return (min(u, v), max(u, v)), occupied
+
+
+def blocked_layer(layer: LaneLayer, edge: tuple[int, int],
+                  occupied: tuple[int, ...] = ()) -> LaneLayer | None:
+    """`layer` with the edge u-v blocked (a dead robot's body on it): the plan's graph without
+    it, the lanes without it (the rest of that lane is a dead end: a bridge, locked) and
+    re-oriented keeping their directions where they can (one_way.orient_lanes). A vertex of
+    `occupied` (the body too near it to reach) keeps one edge, to its nearest neighbour, so
+    that no route passes through it (the plan's graph stays connected; goals there fail at
+    once, runtimes/agent.py). None when the edge is not in a lane or dropping it would leave
+    some vertex unreachable (then occupied vertices keep their edges if that would). The same
+    on every robot (cached per layer, edge and occupied vertices)."""
+    u, v = min(edge), max(edge)
+    key = (id(layer), (u, v), tuple(occupied))
+    if key in _BLOCKED:
+        return _BLOCKED[key][1]
+    plan = replace(layer.plan_map, one_way=())
+    pairs = [(min(int(a), int(b)), max(int(a), int(b))) for a, b, _ in plan.edges]
+    result = None
+    if layer.lane_map.lane_of(u, v) >= 0:
+        cut = _cut_edges(plan, pairs, (u, v), occupied)
+        if cut is None and occupied:
+            cut = _cut_edges(plan, pairs, (u, v), ())
+        if cut is not None:
+            result = _without(layer, plan, pairs, cut)
+    _BLOCKED[key] = (layer, result)
+    return result
+
+
+def _cut_edges(plan, pairs: list[tuple[int, int]], edge: tuple[int, int],
+               occupied: tuple[int, ...]) -> set[tuple[int, int]] | None:
+    """The edges to drop: `edge`, and every edge of an occupied vertex but its tether (the
+    shortest, then the lowest far end); None when the other vertices would not all reach
+    each other."""
+    cut = {edge} | {pair for pair in pairs if set(pair) & set(occupied)}
+    if not _connected(plan.num_vertices, [p for p in pairs if p not in cut], set(occupied)):
+        return None
+    graph = plan.graph
+    for w in occupied:
+        ties = [p for p in pairs if w in p and p != edge and not set(p) - {w} & set(occupied)]
+        if ties:
+            cut.discard(min(ties, key=lambda p: (graph.edge_length(*p), sum(p) - w)))
+        elif not any(w in p for p in pairs if p not in cut):
+            return None  # no tether: w would be cut off (a PatrolGraph is connected)
+    return cut
+
+
+def _without(layer: LaneLayer, plan, pairs: list[tuple[int, int]],
+             cut: set[tuple[int, int]]) -> LaneLayer:
+    """The layer on `plan` without the edges `cut` (lanes keep their indices: claims name
+    them; a lane cut away has no edge left)."""
+    plan = replace(plan, edges=[e for e, pair in zip(plan.edges, pairs, strict=True)
+                                if pair not in cut])
+    old = layer.lane_map
+    lanes = [Lane(lane.index, tuple(e for e in lane.edges if e not in cut), lane.interior,
+                  lane.spots, lane.min_width_m) for lane in old.lanes]
+    lane_map = LaneMap(lanes, {e: w for e, w in old.edge_width_m.items() if e not in cut},
+                       old.narrow_vertices, old.pass_band_m, old.region)
+    orientation = None
+    if layer.orientation is not None:
+        orientation = orient_lanes(lane_map, plan, keep=layer.orientation)
+        if orientation.chains:
+            plan = replace(plan, one_way=tuple(orientation.arcs))
+    return LaneLayer(lane_map, orientation, plan)
+
+
+def _connected(n: int, edges: list[tuple[int, int]], aside: set[int]) -> bool:
+    """Do the vertices not `aside` all reach each other along `edges`?"""
+    adjacency: dict[int, list[int]] = {w: [] for w in range(n)}
+    for a, b in edges:
+        adjacency[a].append(b)
+        adjacency[b].append(a)
+    rest = [w for w in range(n) if w not in aside]
+    if not rest:
+        return False
+    seen, stack = {rest[0]}, [rest[0]]
+    while stack:
+        for w in adjacency[stack.pop()]:
+            if w not in seen:
+                seen.add(w)
+                stack.append(w)
+    return len(seen) == len(rest)
+
+
 class LaneAccess:
     """One robot's lanes and locks (see the module docstring)."""
 
@@ -79,6 +187,8 @@ class LaneAccess:
                        else frozenset(locked))
         self.one_way = len(self.locked) < len(lane_map.lanes)  # some lanes driven one way
         self.started = False  # start_at called: the start's lane is held
+        self.blocked: list[tuple[int, int]] = []  # edges dropped: a lost teammate's body on them
+        self.occupied: list[int] = []  # vertices cut off: a lost teammate's body too near them
 
     def start_at(self, vertex: int, now: float) -> None:
         """The robot starts at `vertex` [index] at run time `now` [s]: inside a locked lane, it
@@ -112,6 +222,9 @@ class LaneAccess:
         self.arrive(u, now)
         lane = self.locked_lane(u, v)
         if lane < 0:
+            one_way = self.lane_map.lane_of(u, v)
+            if one_way >= 0:  # entered without a lock: announced, as where we are
+                self.locks.drive(one_way, (u, v), now)
             return True
         locks = self.locks
         waits, waited = locks.waits, locks.wait_s
@@ -121,6 +234,8 @@ class LaneAccess:
                 self.report(LANE_WAIT, u, locks.mine.stamp)
             if locks.wait_s > waited:
                 self.report(LANE_ENTER, u, now)
+        if granted:
+            locks.drive(lane, (u, v), now)
         return granted
 
     def queued_behind_waiter(self, u: int, v: int) -> bool:
@@ -156,22 +271,39 @@ class LaneAccess:
         lanes = self.lane_map.lane_at(points)
         return (lanes < 0) | (lanes == self.locks.held) | ((lanes == driven) & (driven >= 0))
 
+    def use(self, lane_map: LaneMap, locked: frozenset[int] | None, position, now: float) -> None:
+        """Drive on another lane map from now on (a lane blocked): inside a lane that is now
+        locked, the robot holds it at once (it drives out, or on, as at the start)."""
+        self.lane_map = lane_map
+        self.locked = (frozenset(lane.index for lane in lane_map.lanes) if locked is None
+                       else frozenset(locked))
+        self.one_way = len(self.locked) < len(lane_map.lanes)
+        inside = int(lane_map.lane_at(position)[0])
+        if inside in self.locked and self.locks.held != inside:
+            self.locks.hold(inside, now)
+
     def withdraw(self) -> None:
         """The route changed: a request not granted yet is dropped (a held lane is kept)."""
         if self.locks.mine.lane >= 0 and not self.locks.mine.held:
             self.locks.release(self.now)
 
-    def tick(self, now: float) -> None:
+    def tick(self, now: float, position: tuple[float, float] | None = None) -> None:
+        """Re-announce the claim when due, with the robot's `position` [m]."""
         self.now = now
+        if position is not None:
+            self.locks.position = (float(position[0]), float(position[1]))
         self.locks.tick(now)
 
 
 def attach_lanes(agent: Any, lane_map: LaneMap, start_vertex: int | None,
-                 locked: frozenset[int] | None = None) -> LaneAccess:
+                 locked: frozenset[int] | None = None,
+                 layer: LaneLayer | None = None) -> LaneAccess:
     """Give an `AgentRuntime` the lane layer: its machine hears the claims, its navigator asks
     at lane entries, its ticks re-announce the claim; a robot that starts inside a locked lane
     holds it (`start_vertex` [index]; None: not known yet, then when the runtime begins).
-    `locked`: the lanes entered with a lock (None: all; with one-way lanes the two-way ones)."""
+    `locked`: the lanes entered with a lock (None: all; with one-way lanes the two-way ones).
+    `layer`: the team's lane layer (lane_map and locked are its own): a teammate lost inside a
+    lane then blocks the edge it was on (`blocked_layer`)."""
     machine = agent.machine
 
     def send(claim: LaneClaim) -> None:
@@ -186,6 +318,24 @@ def attach_lanes(agent: Any, lane_map: LaneMap, start_vertex: int | None,
     access = LaneAccess(lane_map, locks, locked, report)
     machine.lane_locks = locks
     agent.navigator.lanes = access
+    if layer is not None and BLOCK_LOST_BODIES:
+        current = [layer]
+
+        def teammate_lost(robot: int) -> None:
+            claim = locks.lost_in(robot)
+            if claim is None:
+                return
+            edge, occupied = body_blocks(current[0], claim)
+            new = blocked_layer(current[0], edge, occupied)
+            if new is None:
+                return
+            current[0] = new
+            access.blocked.append(edge)
+            access.occupied.extend(occupied)
+            access.use(new.lane_map, new.locked, agent.position, machine.now)
+            agent.replan(new.plan_map, access.occupied)
+
+        machine.on_teammate_lost_first = teammate_lost
     if start_vertex is not None:
         access.start_at(start_vertex, 0.0)
     return access

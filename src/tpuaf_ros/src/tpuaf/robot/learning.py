@@ -76,6 +76,16 @@ class LearnedTravel:
         self.plan_map = replace(self.plan_map, edges=edges)
         return self.plan_map
 
+    def rebase(self, plan_map: Any) -> None:
+        """The plan's graph changed (a lane blocked, robot/lanes.py): re-time `plan_map` from
+        the next decision on (its model durations are the plan's until then)."""
+        graph = plan_map.graph
+        self.plan_map = plan_map
+        self._planned = {(min(int(i), int(j)), max(int(i), int(j))):
+                         graph.edge_length(int(i), int(j)) / self.speed
+                         for i, j, _ in plan_map.edges}
+        self._last_retime = -math.inf
+
     def summary(self) -> dict:
         """How far the learned durations moved from the model's (for summaries)."""
         learned = [e for e in self.durations.model

@@ -113,6 +113,9 @@ class RobotMachine(RobotContextBase):
         # The team's measured edge durations; the plan is re-timed on them (robot/learning.py).
         self.learned = LearnedTravel(patrol_map)
         self.lane_locks = None  # team.lane_locks.LaneLocks on maps with lanes (robot/lanes.py)
+        # Called with a lost teammate's index before the policy hears of it (the lane layer:
+        # a body blocking a lane changes the plan the policy then re-plans on).
+        self.on_teammate_lost_first: Callable[[int], None] | None = None
 
     # --- the protocol's state ---
     @property
@@ -269,7 +272,16 @@ class RobotMachine(RobotContextBase):
     def _policy_goal_failed(self, vertex: int) -> None:
         self.policy.on_goal_failed(vertex, self)
 
+    def replan(self, plan_map: Any) -> None:
+        """The plan's map lost edges (a lane blocked): the policy re-plans on it from now on,
+        and learned travel times re-time it from the next decision."""
+        self.patrol_map = plan_map
+        self.learned.rebase(plan_map)
+        self.policy.replan(self)
+
     def _policy_teammate_lost(self, robot: int) -> None:
+        if self.on_teammate_lost_first is not None:
+            self.on_teammate_lost_first(int(robot))
         hook = getattr(self.policy, "on_teammate_lost", None)
         if hook is not None:
             hook(int(robot), self)

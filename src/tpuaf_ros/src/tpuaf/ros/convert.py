@@ -119,6 +119,8 @@ class Converter:
         elif isinstance(message, m.LaneClaim):  # a lane index, not a vertex
             out.lane, out.held = int(message.lane), bool(message.held)
             out.request_time = float(message.stamp)
+            out.leg_from, out.leg_to = self.vid(message.leg[0]), self.vid(message.leg[1])
+            out.x, out.y = float(message.position[0]), float(message.position[1])
         else:  # TaskRequest, TaskBid
             out.vertex, out.bid = self.vid(message.vertex), float(message.bid)
         return out
@@ -154,5 +156,7 @@ class Converter:
             return m.TaskBid(r, self.index(ros_msg.vertex), float(ros_msg.bid), t)
         if kind == "LaneClaim":
             return m.LaneClaim(r, int(ros_msg.lane), float(ros_msg.request_time),
-                               bool(ros_msg.held), t)
+                               bool(ros_msg.held), t,
+                               (self.index(ros_msg.leg_from), self.index(ros_msg.leg_to)),
+                               (float(ros_msg.x), float(ros_msg.y)))
         raise TypeError(f"not a team message: {type(ros_msg).__name__}")

@@ -80,6 +80,8 @@ class AgentRuntime:
         self._pose: tuple[float, float, float] | None = None
         self._stay_until: float | None = None
         self._stay_vertex = -1  # the vertex visited when the stay ends
+        self._unreachable: int | None = None  # a goal no route reaches: it fails next tick
+        self._cut_off: frozenset[int] = frozenset()  # vertices a dead robot's body blocks
         self._wakes: list[float] = []  # requested wake-up times [s] (a heap)
         self._decide_pending = False
         self._next_heartbeat = -math.inf
@@ -140,9 +142,36 @@ class AgentRuntime:
             self._stay_vertex = int(goal)
             return
         start = self._route_start(from_vertex, goal) if self._graph.one_way else from_vertex
+        if int(goal) in self._cut_off or not math.isfinite(self._graph.distance(start, goal)):
+            # cut off (a dead robot's body next to it, robot/lanes.py): the goal fails at the
+            # next tick, without moving
+            self.navigator.cancel()
+            self._unreachable = int(goal)
+            return
         route = GraphRoute(self._graph, self._positions, start, goal,
                            from_position=self.position, snap_m=self.navigator.waypoint_tolerance)
         self.navigator.set_route(route, self._now)
+
+    def replan(self, plan_map: Any, cut_off=()) -> None:
+        """Route on `plan_map`'s graph from now on (a lane blocked: robot/lanes.py), and the
+        policy re-plans on it; a route under way is re-planned from where the robot is. Goals
+        at the vertices `cut_off` (a dead robot's body too near them) fail at once."""
+        self._graph = plan_map.graph
+        self._cut_off = frozenset(int(v) for v in cut_off)
+        self.machine.replan(plan_map)
+        goal = self.machine.goal
+        if self.navigator.route is not None and goal is not None and self._stay_until is None:
+            self.drive(self.machine.robot, self.machine.current_vertex, goal)
+
+    def _nearest_vertex(self) -> int:
+        """The vertex nearest the robot that the route graph connects (not one cut off)."""
+        near = self.machine.nearest_vertex(*self.position)
+        if self._graph.neighbours(near):
+            return near
+        x, y = self.position
+        d = np.hypot(self._positions[:, 0] - x, self._positions[:, 1] - y)
+        return min((int(v) for v in range(len(d)) if self._graph.neighbours(int(v))),
+                   key=lambda v: d[v], default=near)
 
     def _route_start(self, from_vertex: int, goal: int) -> int:
         """With one-way lanes: the vertex a route starts from when the robot stands away from
@@ -242,7 +271,7 @@ class AgentRuntime:
             return 0.0, 0.0
         lanes = getattr(self.navigator, "lanes", None)
         if lanes is not None:  # the lane claim, re-announced when due
-            lanes.tick(self._now)
+            lanes.tick(self._now, self.position)
         if self._now >= self._next_heartbeat:  # also before the start: "ready"
             self._event(HEARTBEAT, m.goal if m.goal is not None else -1, m.current_vertex)
             self._next_heartbeat = self._now + self.heartbeat_period_s
@@ -265,6 +294,10 @@ class AgentRuntime:
                 return 0.0, 0.0
             self._stay_until = None
             m.on_vertex(self._stay_vertex, True)
+        if self._unreachable is not None:
+            goal, self._unreachable = self._unreachable, None
+            m.on_goal_failed(goal, self._nearest_vertex())
+            return 0.0, 0.0
         if points_pose is not None:
             points = moved_points(points, points_pose, self._pose)
         if self.navigator.route is None:
@@ -285,7 +318,7 @@ class AgentRuntime:
                 m.on_vertex(vertex, True)
                 continue
             elif event == Event.FAILED:
-                m.on_goal_failed(vertex, m.nearest_vertex(*self.position))
+                m.on_goal_failed(vertex, self._nearest_vertex())
                 return 0.0, 0.0
             break
         else:

@@ -107,7 +107,7 @@ class PhysicsRun(TeamRun):
                                    else LIVENESS_DEFAULTS.heartbeat_period_s)
         self._liveness_checks: list[tuple[float, int, int]] = []  # heap: (t [s], robot, token)
         self._team([a.machine for a in self.agents])
-        self.lane_access = ([attach_lanes(a, layer.lane_map, starts[i], layer.locked)
+        self.lane_access = ([attach_lanes(a, layer.lane_map, starts[i], layer.locked, layer)
                              for i, a in enumerate(self.agents)] if layer is not None else [])
         self.steps_per_control = round(config.control_period_s / config.physics_step_s)
         # Scans at the laser rate, on control ticks (LDS-01 5 Hz: every other 10 Hz tick).
@@ -233,4 +233,10 @@ class PhysicsRun(TeamRun):
                 summary["one_way_lanes"] = len(self.orientation.chains)
             summary["lane_waits"] = int(sum(lk.waits for lk in locks))
             summary["lane_wait_s"] = round(float(sum(lk.wait_s for lk in locks)), 3)
+            # edges dropped from the plan: a lost teammate's body on them (robot/lanes.py),
+            # by vertex id
+            ids = self.patrol_map.vertex_ids
+            summary["lane_edges_blocked"] = [
+                [ids[u], ids[v]] for u, v in sorted({e for access in self.lane_access
+                                                     for e in access.blocked})]
         return summary

@@ -51,20 +51,23 @@ class LaneLocks:
         self.wait_s = 0.0  # [s] from those requests to their grant
         self.entries = 0  # lanes entered (granted)
         self._waiting = False
+        self.position = (math.nan, math.nan)  # [m] the robot's, sent with every claim
 
     @property
     def held(self) -> int:
         """The lane held, -1 when none."""
         return self.mine.lane if self.mine.held else -1
 
-    def _set(self, lane: int, stamp: float, held: bool, now: float) -> None:
-        self.mine = LaneClaim(self.robot, int(lane), float(stamp), bool(held), float(now))
+    def _set(self, lane: int, stamp: float, held: bool, now: float,
+             leg: tuple[int, int] = (-1, -1)) -> None:
+        self.mine = LaneClaim(self.robot, int(lane), float(stamp), bool(held), float(now),
+                              (int(leg[0]), int(leg[1])), self.position)
         self.announce(now)
 
     def announce(self, now: float) -> None:
         """Send the claim (stamped now) and schedule the next re-announcement."""
         m = self.mine
-        self.mine = LaneClaim(m.robot, m.lane, m.stamp, m.held, float(now))
+        self.mine = LaneClaim(m.robot, m.lane, m.stamp, m.held, float(now), m.leg, self.position)
         self._next_announce = now + self.reannounce_s
         self._send(self.mine)
 
@@ -76,6 +79,26 @@ class LaneLocks:
     def hold(self, lane: int, now: float) -> None:
         """Hold `lane` at once (a robot that starts inside it)."""
         self._set(lane, -math.inf if lane >= 0 else 0.0, lane >= 0, now)
+
+    def drive(self, lane: int, leg: tuple[int, int], now: float) -> None:
+        """The robot drives the edge `leg` (u, v) of `lane`: announce it (a held lane's leg, or
+        a one-way lane entered without a lock, then held: no teammate asks for it)."""
+        m = self.mine
+        if m.lane == lane and m.held:
+            if m.leg != tuple(leg):
+                self._set(lane, m.stamp, True, now, leg)
+        elif m.lane < 0 or not m.held:
+            if self._waiting:
+                self._waiting = False
+            self._set(lane, now, True, now, leg)
+
+    def lost_in(self, robot: int) -> LaneClaim | None:
+        """Teammate `robot`'s last claim when it held a lane, driving a known leg (where its
+        body lies if it died), else None."""
+        claim = self.claims.get(int(robot))
+        if claim is None or not claim.held or claim.lane < 0 or min(claim.leg) < 0:
+            return None
+        return claim
 
     def release(self, now: float) -> None:
         """Leave every lane (at a waiting spot): the claim becomes 'none'."""
@@ -118,5 +141,5 @@ class LaneLocks:
             self.wait_s += now - m.stamp
             self._waiting = False
         self.entries += 1
-        self._set(lane, m.stamp, True, now)
+        self._set(lane, m.stamp, True, now, m.leg)
         return True

@@ -65,14 +65,19 @@ class TaskBid:
 @dataclass(frozen=True)
 class LaneClaim:
     """Robot `robot`'s lane lock (docs/LANES.md): it asks for `lane` since `stamp` [s], or
-    holds it (`held`); `lane` -1: none. Sent on every change and re-announced periodically;
-    the lane layer's own message, not handed to policies."""
+    holds it (`held`); `lane` -1: none. A robot inside a one-way lane announces it as held too
+    (no lock: it tells where a robot that dies lies). `leg`: the edge (u, v) the robot drives
+    in the held lane (vertex indices; (-1, -1): none) and `position` where the robot was when
+    the claim was sent ([m] map frame; NaN: not known). Sent on every change and re-announced
+    periodically; the lane layer's own message, not handed to policies."""
 
     robot: int
     lane: int
     stamp: float  # [s] run time of the request (the queue's order)
     held: bool
     time: float
+    leg: tuple[int, int] = (-1, -1)
+    position: tuple[float, float] = (math.nan, math.nan)
 
 
 TeamMessage = Visit | Intention | IdlenessEstimate | TaskRequest | TaskBid
@@ -103,7 +108,7 @@ def problem(message: object, n_robots: int, n_vertices: int, n_lanes: int = 0) -
     robot runs no lane layer). The one structural check of every transport (agent runtime, ROS
     inbox)."""
     if isinstance(message, LaneClaim):
-        return lane_claim_problem(message, n_robots, n_lanes)
+        return lane_claim_problem(message, n_robots, n_lanes, n_vertices)
     if not isinstance(message, TEAM_MESSAGES):
         return f"not a team message: {type(message).__name__}"
     r = message.robot
@@ -134,7 +139,8 @@ def problem(message: object, n_robots: int, n_vertices: int, n_lanes: int = 0) -
     return None
 
 
-def lane_claim_problem(message: LaneClaim, n_robots: int, n_lanes: int) -> str | None:
+def lane_claim_problem(message: LaneClaim, n_robots: int, n_lanes: int,
+                       n_vertices: int) -> str | None:
     """Why a lane claim cannot be used (None: it can): the check of `problem` for LaneClaim."""
     r = message.robot
     if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r < n_robots:
@@ -145,7 +151,22 @@ def lane_claim_problem(message: LaneClaim, n_robots: int, n_lanes: int) -> str |
         return "lane claim time or stamp is not finite"
     if n_lanes <= 0 and message.lane != -1:
         return f"lane {message.lane!r} claimed, but we run no lane layer"
-    return _index_problem(message.lane, "lane", n_lanes, allow_none=True)
+    why = _index_problem(message.lane, "lane", n_lanes, allow_none=True)
+    if why:
+        return why
+    leg = message.leg
+    if not isinstance(leg, tuple) or len(leg) != 2:
+        return f"lane claim leg {leg!r} is not a pair of vertices"
+    for v in leg:
+        why = _index_problem(v, "leg vertex", n_vertices, allow_none=True)
+        if why:
+            return why
+    position = message.position
+    if (not isinstance(position, tuple) or len(position) != 2
+            or not all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in position)
+            or any(math.isinf(c) for c in position)):
+        return f"lane claim position {position!r} is not a point (x, y) [m] or (nan, nan)"
+    return None
 
 
 def well_formed(message: object, n_robots: int, n_vertices: int, n_lanes: int = 0) -> bool:
