@@ -173,7 +173,8 @@ void wrap_heartbeats(py::module_& m) {
 }
 
 // TPUAF+'s decision path; its plans come from a Python callable (TpuafPlus.core_strategy):
-// plans(team) -> (routes, route_of, schedule) with routes [(walk, arc [m], L [m], robots[,
+// plans(team, timing) -> (routes, route_of, schedule) (timing: None, or the re-timed
+// PatrolGraph whose edge lengths the same walks are re-timed on) with routes [(walk, arc [m], L [m], robots[,
 // gaps [m]])],
 // route_of [route index or -1 per robot], schedule [(entry index or -1, departure [s]) per
 // robot]. It is called with the GIL held (the run keeps it: is_native() is false).
@@ -227,8 +228,10 @@ void wrap_tpuaf_plus(py::module_& m) {
       m, "TpuafPlusStrategy", "TPUAF+'s decision path in C++ (tpuaf.policies.tpuaf_plus).")
       .def(
           py::init([](const TpuafKnowledge& knowledge, TpuafPlusParams params, py::function plans) {
-            auto plan_source = [plans](const std::vector<int>& team) {
-              py::tuple t = plans(team);
+            auto plan_source = [plans](const std::vector<int>& team, const PatrolGraph* timing) {
+              py::tuple t = timing == nullptr
+                                ? plans(team, py::none())
+                                : plans(team, py::cast(timing, py::return_value_policy::reference));
               auto plan = std::make_shared<PlusPlan>();
               for (py::handle item : py::reinterpret_borrow<py::list>(t[0])) {
                 plan->routes.push_back(route_from_python(item));

@@ -18,6 +18,21 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kWait = -1;    // decide(): wait (a wake-up is set)
 constexpr int kDepart = -2;  // hold(): the dwell is over, depart
 
+// Arc position a [m] on `from` carried to the same place on `to` (the same walk on other edge
+// lengths): the same share of the same walk edge.
+double carry_arc(const PlusRoute& from, const PlusRoute& to, double a) {
+  const std::size_t n = from.walk.size();
+  if (n < 2 || !(from.length > 0) || to.walk != from.walk) return a;
+  a = py_mod(a, from.length);
+  const auto after = std::upper_bound(from.arc.begin(), from.arc.end(), a);
+  const auto i = static_cast<std::size_t>(std::max<std::ptrdiff_t>(after - from.arc.begin() - 1, 0));
+  const double end_from = i + 1 < n ? from.arc[i + 1] : from.length;
+  const double end_to = i + 1 < n ? to.arc[i + 1] : to.length;
+  const double span = end_from - from.arc[i];
+  const double share = span > 0 ? (a - from.arc[i]) / span : 0.0;
+  return to.arc[i] + share * (end_to - to.arc[i]);
+}
+
 }  // namespace
 
 TpuafPlusStrategy::TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params,
@@ -64,7 +79,7 @@ std::vector<int> TpuafPlusStrategy::team(int robot) const {
 std::shared_ptr<const PlusPlan> TpuafPlusStrategy::plan_for(const std::vector<int>& team) {
   auto it = plan_cache_.find(team);
   if (it != plan_cache_.end()) return it->second;
-  std::shared_ptr<const PlusPlan> plan = plans_(team);
+  std::shared_ptr<const PlusPlan> plan = plans_(team, timing_);
   if (!plan || plan->route_of.size() < robots_.size()) {
     throw std::invalid_argument("the TPUAF+ planner returned no route per robot");
   }
@@ -106,6 +121,31 @@ void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
   r.last_announce = -kInf;
   r.started = true;
   install_plan(host, robot, true);
+}
+
+void TpuafPlusStrategy::retime(StrategyHost& host, int robot) {
+  Robot& r = state(robot);
+  graph_ = &host.graph();
+  timing_ = graph_;
+  std::fill(lengths_.begin(), lengths_.end(), KnownLength{});  // distances on the new edges
+  plan_cache_.clear();
+  if (!r.plan) return;  // not started: start() plans on the new times
+  const std::shared_ptr<const PlusPlan> old_plan = r.plan;
+  const PlusRoute& old = route_of(r);
+  r.plan = plan_for(team(robot));
+  const PlusRoute& route = route_of(r);
+  if (route.walk != old.walk) {  // not the walk I drove (a plan source that re-plans): enter it
+    install_plan(host, robot, false);
+    return;
+  }
+  for (std::size_t k = 0; k < r.mate_arc.size(); ++k) {
+    if (r.has_mate_arc[k]) r.mate_arc[k] = carry_arc(old, route, r.mate_arc[k]);
+  }
+  if (r.respacing) r.respace_target = carry_arc(old, route, r.respace_target);
+  // paces [m/s] along the walk: the lap's metres changed by L' / L (a sample is at most v)
+  const double scale = old.length > 0 ? route.length / old.length : 1.0;
+  for (double& pace : r.pace) pace = std::min(pace * scale, params_.speed_mps);
+  if (r.mate_index_route == &old) r.mate_index_route = &route;  // the same walk indices
 }
 
 void TpuafPlusStrategy::install_plan(StrategyHost& host, int robot, bool initial) {

@@ -70,7 +70,9 @@ std::unique_ptr<TpuafPlusStrategy> strategy(std::vector<std::pair<int, double>> 
                            30.0);
   return std::make_unique<TpuafPlusStrategy>(
       knowledge, TpuafPlusParams{},
-      [plan](const std::vector<int>&) { return std::shared_ptr<const PlusPlan>(plan); });
+      [plan](const std::vector<int>&, const PatrolGraph*) {
+        return std::shared_ptr<const PlusPlan>(plan);
+      });
 }
 
 TEST(TpuafPlus, PaceIsARunningAverageClampedToThePlanSpeed) {

@@ -125,8 +125,11 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, con
 
 class TpuafPlusStrategy : public TeamStrategy {
  public:
-  // The plan for `team` (sorted robot indices believed alive): tpuaf_plus.make_plan.
-  using PlanSource = std::function<std::shared_ptr<const PlusPlan>(const std::vector<int>&)>;
+  // The plan for `team` (sorted robot indices believed alive): tpuaf_plus.make_plan. timing:
+  // null, or a re-timed graph (learned travel times): the same walks, their arc positions,
+  // lengths and target gaps on its edge lengths.
+  using PlanSource = std::function<std::shared_ptr<const PlusPlan>(const std::vector<int>&,
+                                                                   const PatrolGraph* timing)>;
 
   TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params, PlanSource plans);
   void start(StrategyHost& host, int robot) override;
@@ -134,6 +137,11 @@ class TpuafPlusStrategy : public TeamStrategy {
   void on_message(StrategyHost& host, int robot, const TeamMessage& message) override;
   void on_goal_failed(StrategyHost& host, int robot, int vertex) override;
   void on_teammate_lost(StrategyHost& host, int robot, int lost) override;
+  // Learned travel times: the walks stay (every robot keeps the one it drives and its place on
+  // it); their arcs, lengths and target gaps follow host.graph()'s edge lengths (plan speed x
+  // learned duration [m]), so the spacing evens the gaps in time; the mates' estimated
+  // arcs, a re-spacing target and the paces [m/s] are carried over to the new arcs.
+  void retime(StrategyHost& host, int robot) override;
   bool is_native() const override { return false; }  // plans are made in Python
   bool messages_are_local() const override { return true; }
   // Robot `robot`'s current walk (its vertices) and the robots it believes alive.
@@ -244,6 +252,7 @@ class TpuafPlusStrategy : public TeamStrategy {
   PlanSource plans_;
   std::map<std::vector<int>, std::shared_ptr<const PlusPlan>> plan_cache_;
   const PatrolGraph* graph_ = nullptr;
+  const PatrolGraph* timing_ = nullptr;  // the re-timed graph (retime), null: the plan's own
   std::vector<Robot> robots_;
 };
 

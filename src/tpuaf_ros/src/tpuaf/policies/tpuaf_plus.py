@@ -290,6 +290,14 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     return Plan(kind, routes, route_of, float(worst), schedule)
 
 
+def retimed_routes(plan: Plan, graph) -> tuple[Route, ...]:
+    """The plan's walks, each with its robots, re-timed on `graph` (a re-timed plan map's:
+    lengths = plan speed x learned duration [m]): arc positions, length and uneven target gaps
+    on its edge lengths. The walks themselves stay: every robot keeps the one it drives, and
+    robots whose learned times differ a little still agree on the plan."""
+    return tuple(_route(graph, r.walk, r.robots) for r in plan.routes)
+
+
 def _assign_start_parts(graph, part, starts: list[int]) -> list[int]:
     """Part index per robot at the start: each part gets its `robots_per_part` robots, matched
     so that the longest (drive to the part + L_p / m_p) is short: the time [m at v] until the
@@ -441,11 +449,13 @@ class TpuafPlus(CoreStrategyPolicy):
         out.dwell_revisit_s = float(params["dwell_revisit_s"])
         out.stay_s = STAY_S
 
-        def plans(team: list[int]):
+        def plans(team: list[int], timing=None):
             plan = make_plan(patrol_map, tuple(team), all_starts, params["plan"],
                              params["repair"])
+            # re-timed (learned travel times): the same walks, on the timing graph's lengths
+            chosen = plan.routes if timing is None else retimed_routes(plan, timing)
             routes = [(list(r.walk), list(r.arc), r.length, list(r.robots), list(r.gaps))
-                      for r in plan.routes]
+                      for r in chosen]
             route_of = [plan.route_of.get(k, -1) for k in range(n_robots)]
             schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n_robots)]
             return routes, route_of, schedule
