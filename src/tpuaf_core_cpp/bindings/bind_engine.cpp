@@ -216,6 +216,15 @@ void wrap_tpuaf_plus(py::module_& m) {
       "TPUAF+'s start schedule on route (walk, arc [m], L [m], robots): per robot of the route, "
       "(entry walk index, departure [s]); starts and late_m [m] per robot of the route, idle_s "
       "[s] per graph vertex (after a loss) or None.");
+  m.def(
+      "retime_gap_change",
+      [](py::tuple from, py::tuple to) {
+        return retime_gap_change(route_from_python(from), route_from_python(to));
+      },
+      py::arg("before"), py::arg("after"),
+      "Re-timing a walk (walk, arc [m], L [m], robots[, gaps [m]]) to the same walk on other "
+      "edge lengths: the largest change of a target gap between consecutive robots, as a share "
+      "of the even gap L' / m (TPUAF+ re-times above TpuafPlusParams.retime_tolerance).");
   py::class_<TpuafPlusParams>(m, "TpuafPlusParams", "TPUAF+'s resolved parameters (SI units).")
       .def(py::init<>())
       .def_readwrite("speed_mps", &TpuafPlusParams::speed_mps)
@@ -223,7 +232,9 @@ void wrap_tpuaf_plus(py::module_& m) {
       .def_readwrite("pace_weight", &TpuafPlusParams::pace_weight)
       .def_readwrite("deadband_s", &TpuafPlusParams::deadband_s)
       .def_readwrite("dwell_revisit_s", &TpuafPlusParams::dwell_revisit_s)
-      .def_readwrite("stay_s", &TpuafPlusParams::stay_s);
+      .def_readwrite("stay_s", &TpuafPlusParams::stay_s)
+      .def_readwrite("retime", &TpuafPlusParams::retime)
+      .def_readwrite("retime_tolerance", &TpuafPlusParams::retime_tolerance);
   py::class_<TpuafPlusStrategy, TeamStrategy>(
       m, "TpuafPlusStrategy", "TPUAF+'s decision path in C++ (tpuaf.policies.tpuaf_plus).")
       .def(
@@ -244,6 +255,15 @@ void wrap_tpuaf_plus(py::module_& m) {
           }),
           py::arg("knowledge"), py::arg("params"), py::arg("plans"))
       .def("walk", &TpuafPlusStrategy::walk, py::arg("robot"), "Robot `robot`'s current walk.")
+      .def(
+          "timing",
+          [](const TpuafPlusStrategy& s, int robot) {
+            const PlusRoute& r = s.route(robot);
+            return py::make_tuple(r.arc, r.length, r.gaps);
+          },
+          py::arg("robot"),
+          "Robot `robot`'s walk timing: (arc position [m] of each walk entry, L [m], target "
+          "gaps [m] or [] for even).")
       .def("team", &TpuafPlusStrategy::team, py::arg("robot"),
            "The robots `robot` believes alive (itself included).");
 }

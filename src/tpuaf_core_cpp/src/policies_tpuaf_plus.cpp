@@ -35,6 +35,28 @@ double carry_arc(const PlusRoute& from, const PlusRoute& to, double a) {
 
 }  // namespace
 
+double retime_gap_change(const PlusRoute& from, const PlusRoute& to) {
+  const std::size_t m = from.robots.size();
+  if (m < 2 || to.walk != from.walk || !(from.length > 0) || !(to.length > 0)) return 0.0;
+  const auto targets = [m](const PlusRoute& r) {
+    return r.gaps.size() == m ? r.gaps
+                              : std::vector<double>(m, r.length / static_cast<double>(m));
+  };
+  const std::vector<double> before = targets(from), after = targets(to);
+  const double even = to.length / static_cast<double>(m);
+  double worst = 0;
+  for (const double first : from.arc) {  // the team's phases from each walk entry on
+    double phase = first, at = carry_arc(from, to, first);
+    for (std::size_t j = 0; j < m; ++j) {
+      phase += before[j];
+      const double next = carry_arc(from, to, phase);
+      worst = std::max(worst, std::abs(py_mod(next - at, to.length) - after[j]) / even);
+      at = next;
+    }
+  }
+  return worst;
+}
+
 TpuafPlusStrategy::TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params,
                                      PlanSource plans)
     : prototype_(knowledge), params_(std::move(params)), plans_(std::move(plans)) {
@@ -56,13 +78,15 @@ TpuafPlusStrategy::Robot& TpuafPlusStrategy::state(int robot) {
   return robots_[static_cast<std::size_t>(robot)];
 }
 
-std::vector<int> TpuafPlusStrategy::walk(int robot) const {
+const PlusRoute& TpuafPlusStrategy::route(int robot) const {
   if (robot < 0 || robot >= static_cast<int>(robots_.size()) ||
       !robots_[static_cast<std::size_t>(robot)].plan) {
     throw std::out_of_range("robot " + std::to_string(robot) + " has no plan yet");
   }
-  return route_of(robots_[static_cast<std::size_t>(robot)]).walk;
+  return route_of(robots_[static_cast<std::size_t>(robot)]);
 }
+
+std::vector<int> TpuafPlusStrategy::walk(int robot) const { return route(robot).walk; }
 
 std::vector<int> TpuafPlusStrategy::team(int robot) const {
   if (robot < 0 || robot >= static_cast<int>(robots_.size())) {
@@ -124,15 +148,32 @@ void TpuafPlusStrategy::start(StrategyHost& host, int robot) {
 }
 
 void TpuafPlusStrategy::retime(StrategyHost& host, int robot) {
+  if (!params_.retime) return;  // the model's times, on the graph the robot started with
   Robot& r = state(robot);
+  if (!r.plan) {  // not started: start() plans on the new times
+    graph_ = &host.graph();
+    timing_ = graph_;
+    plan_cache_.clear();
+    return;
+  }
+  const std::vector<int> mates = team(robot);
+  const std::shared_ptr<const PlusPlan> candidate = plans_(mates, &host.graph());
+  const PlusRoute& old = route_of(r);
+  const int index = candidate && static_cast<std::size_t>(robot) < candidate->route_of.size()
+                        ? candidate->route_of[static_cast<std::size_t>(robot)]
+                        : -1;
+  if (index < 0 || index >= static_cast<int>(candidate->routes.size())) return;
+  const PlusRoute& next = candidate->routes[static_cast<std::size_t>(index)];
+  // a lone robot, or targets that move less than the tolerance: the timing I have (re-spacing
+  // on noise in the learned times, teammates' waits, would only disturb the team)
+  if (next.walk == old.walk && retime_gap_change(old, next) <= params_.retime_tolerance) return;
   graph_ = &host.graph();
   timing_ = graph_;
   std::fill(lengths_.begin(), lengths_.end(), KnownLength{});  // distances on the new edges
   plan_cache_.clear();
-  if (!r.plan) return;  // not started: start() plans on the new times
-  const std::shared_ptr<const PlusPlan> old_plan = r.plan;
-  const PlusRoute& old = route_of(r);
-  r.plan = plan_for(team(robot));
+  const std::shared_ptr<const PlusPlan> old_plan = r.plan;  // keeps `old` alive
+  r.plan = plan_for(mates);
+  r.route = r.plan->route_of[static_cast<std::size_t>(robot)];
   const PlusRoute& route = route_of(r);
   if (route.walk != old.walk) {  // not the walk I drove (a plan source that re-plans): enter it
     install_plan(host, robot, false);

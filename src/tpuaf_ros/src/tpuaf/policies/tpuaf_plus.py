@@ -426,6 +426,13 @@ class TpuafPlus(CoreStrategyPolicy):
             _CORE_DEFAULTS.dwell_revisit_s,
             "a dwelling robot re-visits its vertex and re-announces every this [s]", _positive,
         ),
+        "retime": Parameter(
+            _CORE_DEFAULTS.retime,
+            "follow learned travel times (physics, robots): the walks' arcs, lap lengths and "
+            "spacing targets re-timed on the team's measured edge durations when that moves a "
+            "target gap by over 10 % of L / m (off: the model's times; docs/STRATEGIES.md)",
+            lambda v: isinstance(v, bool),
+        ),
     }
 
     @classmethod
@@ -448,6 +455,7 @@ class TpuafPlus(CoreStrategyPolicy):
         out.deadband_s = float(params["deadband_s"])
         out.dwell_revisit_s = float(params["dwell_revisit_s"])
         out.stay_s = STAY_S
+        out.retime = bool(params["retime"])
 
         def plans(team: list[int], timing=None):
             plan = make_plan(patrol_map, tuple(team), all_starts, params["plan"],
