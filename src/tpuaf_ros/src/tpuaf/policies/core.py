@@ -98,8 +98,9 @@ class CoreStrategyPolicy(Policy):
 
     def retime(self, ctx: RobotContext) -> None:
         # Strategies that read the host's graph at each call (tpuaf, ...) use the new times;
-        # tpuaf_plus keeps the tours it planned at the start and re-times them: its walks' arcs,
-        # lap lengths and spacing targets follow the learned times (TeamStrategy.retime).
+        # tpuaf_plus keeps the tours it planned at the start and, with its `retime` parameter,
+        # re-times them (TeamStrategy.retime: walks' arcs, lap lengths, spacing targets);
+        # without it, the model's times.
         self.host.set_graph(ctx.patrol_map.graph)
         self._call(ctx, self.strategy.retime)
 
