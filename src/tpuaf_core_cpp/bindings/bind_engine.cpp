@@ -174,10 +174,10 @@ void wrap_heartbeats(py::module_& m) {
 
 // TPUAF+'s decision path; its plans come from a Python callable (TpuafPlus.core_strategy):
 // plans(team, timing) -> (routes, route_of, schedule) (timing: None, or the re-timed
-// PatrolGraph whose edge lengths the same walks are re-timed on) with routes [(walk, arc [m], L [m], robots[,
-// gaps [m]])],
-// route_of [route index or -1 per robot], schedule [(entry index or -1, departure [s]) per
-// robot]. It is called with the GIL held (the run keeps it: is_native() is false).
+// PatrolGraph whose edge lengths the same walks are re-timed on) with routes [(walk, arc [m],
+// L [m], robots[, gaps [m]])], route_of [route index or -1 per robot], schedule [(entry index
+// or -1, departure [s]) per robot]. It is called with the GIL held (the run keeps it:
+// is_native() is false).
 PlusRoute route_from_python(py::handle item) {
   py::tuple t = py::reinterpret_borrow<py::tuple>(item);
   PlusRoute route;
