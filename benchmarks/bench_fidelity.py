@@ -139,7 +139,8 @@ def one(case: dict) -> dict:
 
     common = dict(map=map_ref(case["map"]), strategy=case["strategy"], robots=case["robots"],
                   duration_s=case["duration"], seed=case["seed"], robot=case["robot"],
-                  lanes=case.get("lanes", "auto"))
+                  lanes=case.get("lanes", "auto"),
+                  strategy_params=dict(case.get("strategy_params", {})))
     out = dict(case)
     try:
         graph = make_run(RunConfig(**common))
@@ -344,6 +345,9 @@ def main() -> int:
                          "builtin:NAME); replaces the cross product of the other options")
     ap.add_argument("--lanes", default="auto",
                     help="lane mode of both runtimes (params.LANE_MODES; default auto)")
+    ap.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                    help="a strategy parameter of every case (repeatable; as `tpuaf run "
+                         "--param`), e.g. retime=true for tpuaf_plus")
     ap.add_argument("--out", default="fidelity",
                     help="name of the results files in benchmarks/results (default fidelity)")
     ap.add_argument("--quick", action="store_true", help="print, do not write the results")
@@ -372,13 +376,21 @@ def main() -> int:
     if not cases:
         cases = [dict(map=m, robot=rb, strategy=s, robots=n) for m in args.maps
                  for rb in args.robot_models for s in args.strategies for n in args.robots]
+    from tpuaf.cli.run import parse_params
     from tpuaf.errors import TpuafError
     from tpuaf.policies import REGISTRY
+
+    try:
+        params = parse_params(args.param)
+    except TpuafError as err:
+        ap.error(str(err))
 
     for c in cases:
         if c["strategy"] not in REGISTRY.names():
             ap.error(f"unknown strategy {c['strategy']!r}")
         c.update(duration=args.duration, seed=args.seed, lanes=args.lanes)
+        if params:
+            c["strategy_params"] = params
     try:
         cases = [c for c in cases if holds(c["map"], c["robots"])]
     except (TpuafError, OSError, ValueError) as err:

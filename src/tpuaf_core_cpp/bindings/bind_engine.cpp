@@ -173,10 +173,11 @@ void wrap_heartbeats(py::module_& m) {
 }
 
 // TPUAF+'s decision path; its plans come from a Python callable (TpuafPlus.core_strategy):
-// plans(team) -> (routes, route_of, schedule) with routes [(walk, arc [m], L [m], robots[,
-// gaps [m]])],
-// route_of [route index or -1 per robot], schedule [(entry index or -1, departure [s]) per
-// robot]. It is called with the GIL held (the run keeps it: is_native() is false).
+// plans(team, timing) -> (routes, route_of, schedule) (timing: None, or the re-timed
+// PatrolGraph whose edge lengths the same walks are re-timed on) with routes [(walk, arc [m],
+// L [m], robots[, gaps [m]])], route_of [route index or -1 per robot], schedule [(entry index
+// or -1, departure [s]) per robot]. It is called with the GIL held (the run keeps it:
+// is_native() is false).
 PlusRoute route_from_python(py::handle item) {
   py::tuple t = py::reinterpret_borrow<py::tuple>(item);
   PlusRoute route;
@@ -194,10 +195,13 @@ PlusRoute route_from_python(py::handle item) {
   return route;
 }
 
-// A Python plan function `plans(team) -> (routes, route_of, schedule)` as TPUAF+'s PlanSource.
+// A Python plan function `plans(team, timing) -> (routes, route_of, schedule)` as TPUAF+'s
+// PlanSource (timing: the re-timed graph, or None).
 TpuafPlusStrategy::PlanSource plan_source(py::function plans) {
-  return [plans](const std::vector<int>& team) {
-    py::tuple t = plans(team);
+  return [plans](const std::vector<int>& team, const PatrolGraph* timing) {
+    py::tuple t = timing == nullptr
+                      ? plans(team, py::none())
+                      : plans(team, py::cast(timing, py::return_value_policy::reference));
     auto plan = std::make_shared<PlusPlan>();
     for (py::handle item : py::reinterpret_borrow<py::list>(t[0])) {
       plan->routes.push_back(route_from_python(item));
@@ -229,6 +233,15 @@ void wrap_tpuaf_plus(py::module_& m) {
       "TPUAF+'s start schedule on route (walk, arc [m], L [m], robots): per robot of the route, "
       "(entry walk index, departure [s]); starts and late_m [m] per robot of the route, idle_s "
       "[s] per graph vertex (after a loss) or None.");
+  m.def(
+      "retime_gap_change",
+      [](py::tuple from, py::tuple to) {
+        return retime_gap_change(route_from_python(from), route_from_python(to));
+      },
+      py::arg("before"), py::arg("after"),
+      "Re-timing a walk (walk, arc [m], L [m], robots[, gaps [m]]) to the same walk on other "
+      "edge lengths: the largest change of a target gap between consecutive robots, as a share "
+      "of the even gap L' / m (TPUAF+ re-times above TpuafPlusParams.retime_tolerance).");
   py::class_<TpuafPlusParams>(m, "TpuafPlusParams", "TPUAF+'s resolved parameters (SI units).")
       .def(py::init<>())
       .def_readwrite("speed_mps", &TpuafPlusParams::speed_mps)
@@ -236,7 +249,9 @@ void wrap_tpuaf_plus(py::module_& m) {
       .def_readwrite("pace_weight", &TpuafPlusParams::pace_weight)
       .def_readwrite("deadband_s", &TpuafPlusParams::deadband_s)
       .def_readwrite("dwell_revisit_s", &TpuafPlusParams::dwell_revisit_s)
-      .def_readwrite("stay_s", &TpuafPlusParams::stay_s);
+      .def_readwrite("stay_s", &TpuafPlusParams::stay_s)
+      .def_readwrite("retime", &TpuafPlusParams::retime)
+      .def_readwrite("retime_tolerance", &TpuafPlusParams::retime_tolerance);
   py::class_<TpuafPlusStrategy, TeamStrategy>(
       m, "TpuafPlusStrategy", "TPUAF+'s decision path in C++ (tpuaf.policies.tpuaf_plus).")
       .def(
@@ -253,6 +268,15 @@ void wrap_tpuaf_plus(py::module_& m) {
           py::arg("host"), py::arg("plans"),
           "The host's graph changed (a lane blocked): plan on `plans` and the host's graph.")
       .def("walk", &TpuafPlusStrategy::walk, py::arg("robot"), "Robot `robot`'s current walk.")
+      .def(
+          "timing",
+          [](const TpuafPlusStrategy& s, int robot) {
+            const PlusRoute& r = s.route(robot);
+            return py::make_tuple(r.arc, r.length, r.gaps);
+          },
+          py::arg("robot"),
+          "Robot `robot`'s walk timing: (arc position [m] of each walk entry, L [m], target "
+          "gaps [m] or [] for even).")
       .def("team", &TpuafPlusStrategy::team, py::arg("robot"),
            "The robots `robot` believes alive (itself included).");
 }

@@ -72,5 +72,10 @@ void tpuaf::bindings::bind_strategy_calls(py::class_<TeamStrategy>& strategy) {
       .def(
           "on_teammate_lost",
           [](TeamStrategy& s, PolicyHost& h, int lost) { s.on_teammate_lost(h, h.robot(), lost); },
-          py::arg("host"), py::arg("lost"));
+          py::arg("host"), py::arg("lost"))
+      .def(
+          "retime", [](TeamStrategy& s, PolicyHost& h) { s.retime(h, h.robot()); },
+          py::arg("host"),
+          "The host's graph holds learned travel times (set_graph): re-time what the strategy "
+          "keeps from the graph.");
 }

@@ -41,13 +41,15 @@ TpuafPlusStrategy::Robot& TpuafPlusStrategy::state(int robot) {
   return robots_[static_cast<std::size_t>(robot)];
 }
 
-std::vector<int> TpuafPlusStrategy::walk(int robot) const {
+const PlusRoute& TpuafPlusStrategy::route(int robot) const {
   if (robot < 0 || robot >= static_cast<int>(robots_.size()) ||
       !robots_[static_cast<std::size_t>(robot)].plan) {
     throw std::out_of_range("robot " + std::to_string(robot) + " has no plan yet");
   }
-  return route_of(robots_[static_cast<std::size_t>(robot)]).walk;
+  return route_of(robots_[static_cast<std::size_t>(robot)]);
 }
+
+std::vector<int> TpuafPlusStrategy::walk(int robot) const { return route(robot).walk; }
 
 std::vector<int> TpuafPlusStrategy::team(int robot) const {
   if (robot < 0 || robot >= static_cast<int>(robots_.size())) {
@@ -64,7 +66,7 @@ std::vector<int> TpuafPlusStrategy::team(int robot) const {
 std::shared_ptr<const PlusPlan> TpuafPlusStrategy::plan_for(const std::vector<int>& team) {
   auto it = plan_cache_.find(team);
   if (it != plan_cache_.end()) return it->second;
-  std::shared_ptr<const PlusPlan> plan = plans_(team);
+  std::shared_ptr<const PlusPlan> plan = plans_(team, timing_);
   if (!plan || plan->route_of.size() < robots_.size()) {
     throw std::invalid_argument("the TPUAF+ planner returned no route per robot");
   }
@@ -373,6 +375,7 @@ void TpuafPlusStrategy::update_team(StrategyHost& host, int robot) {
 
 void TpuafPlusStrategy::replan(StrategyHost& host, int robot, PlanSource plans) {
   graph_ = &host.graph();
+  if (timing_ != nullptr) timing_ = graph_;  // re-timed (retime): on the new graph's lengths
   std::fill(lengths_.begin(), lengths_.end(), KnownLength{});
   plans_ = std::move(plans);
   plan_cache_.clear();

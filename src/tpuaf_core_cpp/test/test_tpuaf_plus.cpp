@@ -70,7 +70,9 @@ std::unique_ptr<TpuafPlusStrategy> strategy(std::vector<std::pair<int, double>> 
                            30.0);
   return std::make_unique<TpuafPlusStrategy>(
       knowledge, TpuafPlusParams{},
-      [plan](const std::vector<int>&) { return std::shared_ptr<const PlusPlan>(plan); });
+      [plan](const std::vector<int>&, const PatrolGraph*) {
+        return std::shared_ptr<const PlusPlan>(plan);
+      });
 }
 
 TEST(TpuafPlus, PaceIsARunningAverageClampedToThePlanSpeed) {
@@ -136,6 +138,59 @@ TEST(TpuafPlus, SpacingRuleExact) {
   s->on_message(host, 0, TeamMessage::visit(1, 3, 5.0, 0));
   s->on_message(host, 0, TeamMessage::intention(1, 3, 0, 15.0, 10.0, 5.0));
   EXPECT_EQ(TpuafPlusProbe::spacing_wait(*s, 0, 5.0), 0.0);
+}
+
+// Two robots on the square whose plan source re-times the walk on a timing graph (as
+// tpuaf_plus.retimed_routes does): arcs and L from its edge lengths.
+std::unique_ptr<TpuafPlusStrategy> retiming_strategy(bool retime) {
+  TpuafKnowledge knowledge(Eigen::VectorXd::Ones(4), Eigen::VectorXd::Ones(4), {}, 8.0 / 15.0, 10.0,
+                           30.0);
+  TpuafPlusParams params;
+  params.retime = retime;
+  return std::make_unique<TpuafPlusStrategy>(
+      knowledge, params, [](const std::vector<int>&, const PatrolGraph* timing) {
+        auto plan = std::make_shared<PlusPlan>();
+        PlusRoute route = square_walk({0, 1});
+        if (timing != nullptr) {
+          double s = 0;
+          for (std::size_t i = 0; i < route.walk.size(); ++i) {
+            route.arc[i] = s;
+            s += timing->edge_length(route.walk[i], route.walk[(i + 1) % route.walk.size()]);
+          }
+          route.length = s;
+        }
+        plan->routes = {route};
+        plan->route_of = {0, 0};
+        plan->schedule = {{0, 0.0}, {2, 0.0}};
+        return std::shared_ptr<const PlusPlan>(plan);
+      });
+}
+
+TEST(TpuafPlus, RetimedSpacingFollowsTheLearnedDurations) {
+  // Edge 0-1 learned twice as slow: 20 m of plan travel. The mate left vertex 1 at t = 0: on the
+  // model it is 10 m ahead of L / 2 = 20 m (e = 5 m, dwell 2 gain e = 3.5 s); re-timed it is
+  // 20 m ahead of L' / 2 = 25 m (e = 2.5 m, dwell 1.75 s). Without re-timing: 3.5 s still.
+  const PatrolGraph graph = square();
+  Points p(4, 2);
+  p << 0, 0, 10, 0, 10, 10, 0, 10;
+  const PatrolGraph slow(p, {{0, 1, 20.0}, {1, 2, 10.0}, {2, 3, 10.0}, {3, 0, 10.0}});
+  EXPECT_NEAR(retime_gap_change(square_walk({0, 1}),
+                                PlusRoute{{0, 1, 2, 3}, {0.0, 20.0, 30.0, 40.0}, 50.0, {0, 1}}),
+              0.2, 1e-12);  // robots 20 m apart from vertex 0: 30 m, 20 m against 25 m
+  for (const bool retime : {true, false}) {
+    auto s = retiming_strategy(retime);
+    PolicyHost host(graph, 2, 0);
+    host.set_state(0.0, 0, 1.0);
+    s->start(host, 0);
+    TpuafPlusProbe::robot(*s, 0).idx = 0;
+    s->on_message(host, 0, TeamMessage::intention(1, 1, 2, 10.0, 10.0, 0.0));
+    EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 0, 0.0), 3.5, 1e-9);
+    host.set_graph(slow);
+    s->retime(host, 0);
+    EXPECT_EQ(s->walk(0), (std::vector<int>{0, 1, 2, 3}));  // the tour stays
+    EXPECT_DOUBLE_EQ(s->route(0).length, retime ? 50.0 : 40.0);
+    EXPECT_NEAR(TpuafPlusProbe::spacing_wait(*s, 0, 0.0), retime ? 1.75 : 3.5, 1e-9);
+  }
 }
 
 TEST(TpuafPlus, MatesAreExtrapolatedAtTheirMeasuredPace) {

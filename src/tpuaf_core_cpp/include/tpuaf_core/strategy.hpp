@@ -111,6 +111,9 @@ class TeamStrategy {
   virtual void on_goal_failed(StrategyHost& /*host*/, int /*robot*/, int /*vertex*/) {}
   // Teammate `lost` went silent for the liveness timeout (runs with faults).
   virtual void on_teammate_lost(StrategyHost& /*host*/, int /*robot*/, int /*lost*/) {}
+  // host.graph() now holds learned edge travel times (PolicyHost::set_graph; lengths = plan
+  // speed x learned duration): a strategy that keeps timings from the graph re-times them here.
+  virtual void retime(StrategyHost& /*host*/, int /*robot*/) {}
   // True if the strategy never calls back into Python (the run may release the GIL).
   virtual bool is_native() const { return true; }
   // True if on_message only changes the recipient's own state and never sends: the engine may

@@ -64,6 +64,12 @@ struct TpuafPlusParams {
   double deadband_s = 0.5;       // no dwell below this
   double dwell_revisit_s = 5.0;  // a dwelling robot re-visits its vertex this often
   double stay_s = 1.0;           // the runtimes' dwell for a goal equal to the vertex
+  // follow learned travel times (TpuafPlusStrategy::retime); off: the walks keep the model's
+  // times (measured: docs/STRATEGIES.md, benchmarks/results/retime_tpuaf_plus.md)
+  bool retime = false;
+  // re-time only when a target gap would move by more than this share of the even gap L / m
+  // (retime_gap_change)
+  double retime_tolerance = 0.10;
 };
 
 // Python's float a % b (np.mod): the result takes the sign of b.
@@ -100,6 +106,12 @@ double spacing_dwell(std::vector<MatePlace> mates, double length_m, double pace_
 double spacing_dwell_gaps(std::vector<MatePlace> mates, const std::vector<double>& gaps, int robot,
                           double length_m, double pace_mps, double gain, double deadband_s);
 
+// Re-timing a walk (learned travel times): robots on their target phases on `from` carried to
+// `to` (the same walk on other edge lengths; the same share of the same walk edge), the largest
+// difference of a gap between consecutive robots from `to`'s target gap, as a share of the even
+// gap L' / m, over the team's phases from each walk entry on; 0 for a lone robot.
+double retime_gap_change(const PlusRoute& from, const PlusRoute& to);
+
 // The walk index where a robot at `vertex` joins `route`: its nearest walk vertex (ties to the
 // lowest vertex index), first occurrence (tpuaf_plus._entry_index).
 int nearest_entry(const PatrolGraph& graph, const PlusRoute& route, int vertex);
@@ -125,8 +137,11 @@ std::vector<std::pair<int, double>> start_schedule(const PatrolGraph& graph, con
 
 class TpuafPlusStrategy : public TeamStrategy {
  public:
-  // The plan for `team` (sorted robot indices believed alive): tpuaf_plus.make_plan.
-  using PlanSource = std::function<std::shared_ptr<const PlusPlan>(const std::vector<int>&)>;
+  // The plan for `team` (sorted robot indices believed alive): tpuaf_plus.make_plan. timing:
+  // null, or a re-timed graph (learned travel times): the same walks, their arc positions,
+  // lengths and target gaps on its edge lengths.
+  using PlanSource = std::function<std::shared_ptr<const PlusPlan>(const std::vector<int>&,
+                                                                   const PatrolGraph* timing)>;
 
   TpuafPlusStrategy(const TpuafKnowledge& knowledge, TpuafPlusParams params, PlanSource plans);
   // The host's graph changed (a lane edge dropped: a dead robot's body on it, robot/lanes.py):
@@ -137,10 +152,18 @@ class TpuafPlusStrategy : public TeamStrategy {
   void on_message(StrategyHost& host, int robot, const TeamMessage& message) override;
   void on_goal_failed(StrategyHost& host, int robot, int vertex) override;
   void on_teammate_lost(StrategyHost& host, int robot, int lost) override;
+  // Learned travel times: the walks stay (every robot keeps the one it drives and its place on
+  // it); their arcs, lengths and target gaps follow host.graph()'s edge lengths (plan speed x
+  // learned duration [m]), so the spacing evens the gaps in time; the mates' estimated
+  // arcs, a re-spacing target and the paces [m/s] are carried over to the new arcs. Only when
+  // that moves a target gap by more than params.retime_tolerance of L / m (retime_gap_change);
+  // else the robot keeps the timing it has. Nothing unless params.retime.
+  void retime(StrategyHost& host, int robot) override;
   bool is_native() const override { return false; }  // plans are made in Python
   bool messages_are_local() const override { return true; }
   // Robot `robot`'s current walk (its vertices) and the robots it believes alive.
   std::vector<int> walk(int robot) const;
+  const PlusRoute& route(int robot) const;  // its walk with timing (arcs, length, gaps)
   std::vector<int> team(int robot) const;
 
  private:
@@ -247,6 +270,7 @@ class TpuafPlusStrategy : public TeamStrategy {
   PlanSource plans_;
   std::map<std::vector<int>, std::shared_ptr<const PlusPlan>> plan_cache_;
   const PatrolGraph* graph_ = nullptr;
+  const PatrolGraph* timing_ = nullptr;  // the re-timed graph (retime), null: the plan's own
   std::vector<Robot> robots_;
 };
 

@@ -98,8 +98,11 @@ class CoreStrategyPolicy(Policy):
 
     def retime(self, ctx: RobotContext) -> None:
         # Strategies that read the host's graph at each call (tpuaf, ...) use the new times;
-        # tpuaf_plus keeps the tours it planned at the start on the model's times.
+        # tpuaf_plus keeps the tours it planned at the start and, with its `retime` parameter,
+        # re-times them (TeamStrategy.retime: walks' arcs, lap lengths, spacing targets);
+        # without it, the model's times.
         self.host.set_graph(ctx.patrol_map.graph)
+        self._call(ctx, self.strategy.retime)
 
     def on_teammate_lost(self, robot: int, ctx: RobotContext) -> None:
         self._call(ctx, self.strategy.on_teammate_lost, int(robot))

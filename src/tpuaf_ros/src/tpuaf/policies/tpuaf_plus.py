@@ -290,6 +290,14 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     return Plan(kind, routes, route_of, float(worst), schedule)
 
 
+def retimed_routes(plan: Plan, graph) -> tuple[Route, ...]:
+    """The plan's walks, each with its robots, re-timed on `graph` (a re-timed plan map's:
+    lengths = plan speed x learned duration [m]): arc positions, length and uneven target gaps
+    on its edge lengths. The walks themselves stay: every robot keeps the one it drives, and
+    robots whose learned times differ a little still agree on the plan."""
+    return tuple(_route(graph, r.walk, r.robots) for r in plan.routes)
+
+
 def _assign_start_parts(graph, part, starts: list[int]) -> list[int]:
     """Part index per robot at the start: each part gets its `robots_per_part` robots, matched
     so that the longest (drive to the part + L_p / m_p) is short: the time [m at v] until the
@@ -418,6 +426,13 @@ class TpuafPlus(CoreStrategyPolicy):
             _CORE_DEFAULTS.dwell_revisit_s,
             "a dwelling robot re-visits its vertex and re-announces every this [s]", _positive,
         ),
+        "retime": Parameter(
+            _CORE_DEFAULTS.retime,
+            "follow learned travel times (physics, robots): the walks' arcs, lap lengths and "
+            "spacing targets re-timed on the team's measured edge durations when that moves a "
+            "target gap by over 10 % of L / m (off: the model's times; docs/STRATEGIES.md)",
+            lambda v: isinstance(v, bool),
+        ),
     }
 
     @classmethod
@@ -434,6 +449,7 @@ class TpuafPlus(CoreStrategyPolicy):
         out.deadband_s = float(params["deadband_s"])
         out.dwell_revisit_s = float(params["dwell_revisit_s"])
         out.stay_s = STAY_S
+        out.retime = bool(params["retime"])
 
         knowledge = new_knowledge(patrol_map, INTENTION_TIMEOUT_S)
         return tpuaf_core.TpuafPlusStrategy(knowledge, out,
@@ -441,8 +457,8 @@ class TpuafPlus(CoreStrategyPolicy):
 
     @staticmethod
     def plan_source(params: dict, patrol_map, n_robots: int):
-        """`plans(team)`: `make_plan`'s plan for the robots `team` on `patrol_map`, as the
-        core asks for it."""
+        """`plans(team, timing)`: `make_plan`'s plan for the robots `team` on `patrol_map`, as
+        the core asks for it (timing: a re-timed graph, learned travel times, or None)."""
         import types
 
         from tpuaf.policies.cyclic import team_start_vertices
@@ -450,11 +466,13 @@ class TpuafPlus(CoreStrategyPolicy):
         ctx = types.SimpleNamespace(patrol_map=patrol_map, n_robots=n_robots)
         all_starts = tuple(team_start_vertices(ctx))
 
-        def plans(team: list[int]):
+        def plans(team: list[int], timing=None):
             plan = make_plan(patrol_map, tuple(team), all_starts, params["plan"],
                              params["repair"])
+            # re-timed (learned travel times): the same walks, on the timing graph's lengths
+            chosen = plan.routes if timing is None else retimed_routes(plan, timing)
             routes = [(list(r.walk), list(r.arc), r.length, list(r.robots), list(r.gaps))
-                      for r in plan.routes]
+                      for r in chosen]
             route_of = [plan.route_of.get(k, -1) for k in range(n_robots)]
             schedule = [plan.schedule.get(k, (-1, 0.0)) for k in range(n_robots)]
             return routes, route_of, schedule
