@@ -45,7 +45,7 @@ def test_a_plan_without_a_walk_for_a_robot_is_refused():
     route = (walk, [float(i) for i in walk], float(len(walk)), [0])
     strategy = tpuaf_core.TpuafPlusStrategy(
         new_knowledge(patrol_map, 30.0), tpuaf_core.TpuafPlusParams(),
-        lambda team: ([route], [0, -1], [(-1, 0.0), (-1, 0.0)]))
+        lambda team, timing: ([route], [0, -1], [(-1, 0.0), (-1, 0.0)]))
     run._engine.set_strategy(strategy)
     with pytest.raises(ValueError, match="no walk for robot 1"):
         run._engine.run()
