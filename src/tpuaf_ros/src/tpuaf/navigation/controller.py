@@ -71,8 +71,8 @@ SLOW_FLOOR_M = 0.3  # [m] the slow-down zone is never shorter
 CONTACT_M = 0.01  # [m] a laser point this close to the disc is touching it
 APPROACH_MPS = 0.05  # [m/s] least speed toward a target nearer than any obstacle ahead
 SNUG_MARGIN_M = 0.01  # [m] clearance of the last-resort (slow) headings
-PASS_HORIZON_S = 2.0  # [s] another robot ahead within this many seconds at top speed: keep right
-PASS_BIAS_RAD = 0.35  # [rad] ... by aiming this much right of the target
+PASS_HORIZON_S = 2.0  # [s] another robot ahead within this many seconds at top speed: pass it
+PASS_BIAS_RAD = 0.35  # [rad] ... aiming this much beside the target, away from it
 _NON_NEGATIVE = ("keep_right", "retry_wait_s", "max_retries", "safety_margin", "plan_margin")
 
 
@@ -117,9 +117,9 @@ class LocalController:
         self._best_t = 0.0
         self._keep_clock = False  # the next target's first distance keeps _best_t
         self._back_w = 0.0
-        # Robot-frame laser points of things that may move toward us (other robots: the
-        # navigator's points the map does not explain) at the time of `set_movers`; their free
-        # length counts half (they close in at up to our speed). None: none or not known.
+        # Robot-frame laser points of other robots (the navigator's points the map does not
+        # explain: they may move toward us) at the time of `set_movers`: one in the way ahead
+        # bends the way to the target (`_pass_bias`). None: none or not known.
         self.movers: np.ndarray | None = None
         self._movers_t: float | None = None
         self._shared: np.ndarray | None = None  # the movers of the current step (its frame)
@@ -300,9 +300,9 @@ class LocalController:
         return Command(-speed if ahead else speed, 0.0, Status.DRIVING)
 
     def _pass_bias(self, dist: float, bearing: float) -> float:
-        """[rad] added to the target's bearing: -PASS_BIAS_RAD (keep right) while another
-        robot (a mover) is in the way ahead, nearer than the target and within PASS_HORIZON_S
-        at top speed, so that two robots meeting head-on start passing each other early
+        """[rad] added to the target's bearing while another robot (a mover) is in the way
+        ahead, nearer than the target and within PASS_HORIZON_S at top speed: PASS_BIAS_RAD
+        away from it, so that two robots meeting head-on start passing each other early
         instead of meeting nose to nose; else 0."""
         movers = self._shared
         if movers is None or len(movers) == 0:
@@ -314,12 +314,16 @@ class LocalController:
         horizon = min(dist, PASS_HORIZON_S * c.max_linear_speed)
         way = (along > 0.0) & (along < horizon) & (np.abs(lat) < 2.0 * c.robot_radius
                                                       + c.plan_margin)
-        return -PASS_BIAS_RAD if way.any() else 0.0
+        if not way.any():
+            return 0.0
+        # Away from the side it is on (both robots then turn the same way: to their right
+        # when each sees the other on its left), to the right when it is straight ahead.
+        return -PASS_BIAS_RAD if lat[way].mean() >= 0.0 else PASS_BIAS_RAD
 
     def _drive(self, dist: float, bearing: float, points: np.ndarray | None) -> Command:
         c = self.config
         bias = self._pass_bias(dist, bearing)
-        bearing = wrap_angle(bearing + bias)  # keep right of another robot: beside the target
+        bearing = wrap_angle(bearing + bias)  # beside the target, away from another robot
         to_target = None if bias else dist  # [m] along the heading straight to the target
         need = min(dist, c.lookahead)
         # Snug: the bare disc plus 1 cm. A robot already closer to a wall beside it than the
@@ -329,7 +333,6 @@ class LocalController:
         # Fast path: the straight line to the target is open with the plan margin.
         safe, wide, _ = self._free(points, np.array([bearing]), margins)
         if wide[0] >= need:
-            self._branch = "fast"
             return self._command(bearing, float(safe[0]), to_target)
         headings = np.append(self._headings, bearing)
         safe, wide, snug = self._free(points, headings, margins)
@@ -340,19 +343,14 @@ class LocalController:
         forward = np.abs(rel) <= 0.5 * math.pi + 1e-9
         room = safe
         ok = (wide >= need) & forward
-        self._branch = "wide"
         if not ok.any():
             ok = (safe >= need) & forward
-            self._branch = "safe"
         if not ok.any():  # step aside: any direction with a little room
             ok = safe >= min(need, 0.5)
-            self._branch = "aside"
         if not ok.any():
             ok, room = (snug >= need) & forward, 0.5 * snug
-            self._branch = "snug"
         if not ok.any():
             ok, room = snug >= min(need, 0.5), 0.5 * snug
-            self._branch = "snug_aside"
         if ok.any():
             k = int(np.argmin(np.where(ok, cost, np.inf)))
             return self._command(float(headings[k]), float(room[k]),
