@@ -71,6 +71,8 @@ SLOW_FLOOR_M = 0.3  # [m] the slow-down zone is never shorter
 CONTACT_M = 0.01  # [m] a laser point this close to the disc is touching it
 APPROACH_MPS = 0.05  # [m/s] least speed toward a target nearer than any obstacle ahead
 SNUG_MARGIN_M = 0.01  # [m] clearance of the last-resort (slow) headings
+PASS_HORIZON_S = 2.0  # [s] another robot ahead within this many seconds at top speed: pass it
+PASS_BIAS_RAD = 0.35  # [rad] ... aiming this much beside the target, away from it
 _NON_NEGATIVE = ("keep_right", "retry_wait_s", "max_retries", "safety_margin", "plan_margin")
 
 
@@ -115,6 +117,12 @@ class LocalController:
         self._best_t = 0.0
         self._keep_clock = False  # the next target's first distance keeps _best_t
         self._back_w = 0.0
+        # Robot-frame laser points of other robots (the navigator's points the map does not
+        # explain: they may move toward us) at the time of `set_movers`: one in the way ahead
+        # bends the way to the target (`_pass_bias`). None: none or not known.
+        self.movers: np.ndarray | None = None
+        self._movers_t: float | None = None
+        self._shared: np.ndarray | None = None  # the movers of the current step (its frame)
 
     def set_target(self, xy: tuple[float, float], tolerance_m: float, t: float,
                    new_goal: bool = True, reverse: bool = False,
@@ -132,6 +140,11 @@ class LocalController:
         self._keep_clock = bool(keep_clock) and not new_goal
         if not self._keep_clock:
             self._best_t = float(t)
+
+    def set_movers(self, t: float, points: np.ndarray | None) -> None:
+        """The points (k, 2) [m, robot frame] of the scan of the steps at time t [s] that may
+        move toward the robot (steps at another time see none)."""
+        self.movers, self._movers_t = points, float(t)
 
     def restart_progress(self, t: float) -> None:
         """Forget the progress made so far toward the target (the stuck timer restarts at t)."""
@@ -212,11 +225,14 @@ class LocalController:
 
     def step(self, t: float, pose: tuple[float, float, float],
              points: np.ndarray | None) -> Command:
+        movers = self.movers if self._movers_t == float(t) else None
         if self.reverse:  # the robot turned round on paper: its rear leads
             x, y, th = pose
             flipped = None if points is None else -np.asarray(points)
+            self._shared = None if movers is None else -np.asarray(movers)
             cmd = self._step(t, (x, y, wrap_angle(th + math.pi)), flipped)
             return Command(-cmd.v, cmd.w, cmd.status)
+        self._shared = movers
         return self._step(t, pose, points)
 
     def _step(self, t: float, pose: tuple[float, float, float],
@@ -283,8 +299,32 @@ class LocalController:
             return None  # wedged: the usual headings and recovery decide
         return Command(-speed if ahead else speed, 0.0, Status.DRIVING)
 
+    def _pass_bias(self, dist: float, bearing: float) -> float:
+        """[rad] added to the target's bearing while another robot (a mover) is in the way
+        ahead, nearer than the target and within PASS_HORIZON_S at top speed: PASS_BIAS_RAD
+        away from it, so that two robots meeting head-on start passing each other early
+        instead of meeting nose to nose; else 0."""
+        movers = self._shared
+        if movers is None or len(movers) == 0:
+            return 0.0
+        c = self.config
+        ux, uy = math.cos(bearing), math.sin(bearing)
+        along = movers[:, 0] * ux + movers[:, 1] * uy
+        lat = movers[:, 1] * ux - movers[:, 0] * uy
+        horizon = min(dist, PASS_HORIZON_S * c.max_linear_speed)
+        way = (along > 0.0) & (along < horizon) & (np.abs(lat) < 2.0 * c.robot_radius
+                                                      + c.plan_margin)
+        if not way.any():
+            return 0.0
+        # Away from the side it is on (both robots then turn the same way: to their right
+        # when each sees the other on its left), to the right when it is straight ahead.
+        return -PASS_BIAS_RAD if lat[way].mean() >= 0.0 else PASS_BIAS_RAD
+
     def _drive(self, dist: float, bearing: float, points: np.ndarray | None) -> Command:
         c = self.config
+        bias = self._pass_bias(dist, bearing)
+        bearing = wrap_angle(bearing + bias)  # beside the target, away from another robot
+        to_target = None if bias else dist  # [m] along the heading straight to the target
         need = min(dist, c.lookahead)
         # Snug: the bare disc plus 1 cm. A robot already closer to a wall beside it than the
         # safety margin (a narrow aisle, a Burger 7 cm off its centre) may still drive along
@@ -293,7 +333,7 @@ class LocalController:
         # Fast path: the straight line to the target is open with the plan margin.
         safe, wide, _ = self._free(points, np.array([bearing]), margins)
         if wide[0] >= need:
-            return self._command(bearing, float(safe[0]), dist)
+            return self._command(bearing, float(safe[0]), to_target)
         headings = np.append(self._headings, bearing)
         safe, wide, snug = self._free(points, headings, margins)
         rel = wrap_angle_array(headings - bearing)
@@ -314,7 +354,7 @@ class LocalController:
         if ok.any():
             k = int(np.argmin(np.where(ok, cost, np.inf)))
             return self._command(float(headings[k]), float(room[k]),
-                                 dist if k == len(headings) - 1 else None)
+                                 to_target if k == len(headings) - 1 else None)
         k = int(np.argmax(safe - 0.1 * np.abs(rel)))  # the most open direction: turn there
         w = max(-c.max_angular_speed, min(c.max_angular_speed, c.heading_gain * headings[k]))
         return Command(0.0, float(w), Status.DRIVING)

@@ -340,11 +340,13 @@ def robot_centre(seen: np.ndarray, me: tuple[float, float], radius: float) -> tu
     return float(cx + radius * (cx - me[0]) / d), float(cy + radius * (cy - me[1]) / d)
 
 
-def map_points(pose: tuple[float, float, float], points: np.ndarray | None):
-    """Laser points (robot frame) within OBSTACLE_RANGE_M, in the map frame [m]."""
+def map_points(pose: tuple[float, float, float], points: np.ndarray | None,
+               range_m: float = OBSTACLE_RANGE_M):
+    """Laser points (robot frame) within `range_m` [m], in the map frame [m]."""
     if points is None or len(points) == 0:
         return None
-    near = points[np.hypot(points[:, 0], points[:, 1]) <= OBSTACLE_RANGE_M]
+    near = points if math.isinf(range_m) else points[
+        np.hypot(points[:, 0], points[:, 1]) <= range_m]
     if len(near) == 0:
         return None
     x, y, th = pose

@@ -223,6 +223,19 @@ class Navigator(LaneGate, GivingWay):
         keep = self.planner.distances_to_obstacle(xy) > UNMAPPED_DISTANCE_M
         return xy[keep] if keep.any() else None
 
+    def _movers(self, pose: tuple[float, float, float],
+                points: np.ndarray | None) -> np.ndarray | None:
+        """The robot-frame laser points within the controller's reach that the map does not
+        explain (other robots: they may move toward us), or None."""
+        if self.planner is None:
+            return None
+        near = self.controller.relevant(points)
+        if near is None:
+            return None
+        keep = (self.planner.distances_to_obstacle(map_points(pose, near, math.inf))
+                > UNMAPPED_DISTANCE_M)
+        return near[keep] if keep.any() else None
+
     def _watch_blocked(self, t: float, pose: tuple[float, float, float],
                        points: np.ndarray | None, cmd: Command) -> None:
         """The right of way between robots: a robot held still for `yield_after_s` (staggered
@@ -318,6 +331,7 @@ class Navigator(LaneGate, GivingWay):
             return Command(0.0, 0.0, Status.REACHED), Event.NONE, -1
         ctl = self.controller
         self._remember(pose)
+        ctl.set_movers(t, self._movers(pose, points))
         if self._give_way is not None:
             return self._step_give_way(t, pose, points), Event.NONE, -1
         if self._gate is not None:

@@ -1,0 +1,148 @@
+"""Fast robots meeting head-on where two can pass (issue 32/35: 1r5 and ctcv jammed at 1 m/s):
+closed-loop on the C++ world with the navigator the physics runtime and the agent node use, its
+5 Hz scans motion-compensated as there. Each robot steers away from the other from 2 s off at
+its top speed, so they pass at speed instead of swerving late, 1 m apart, and meeting nose to
+nose (where both turned in place round each other, for seconds in crowds)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tpuaf_core
+from tpuaf.maps import load_map
+from tpuaf.navigation import (
+    ControllerConfig,
+    Event,
+    GraphRoute,
+    LocalController,
+    Navigator,
+    Scan,
+    scan_points,
+)
+from tpuaf.navigation.planner import PathPlanner
+from tpuaf.navigation.scan import moved_points
+
+RES = 0.05  # [m per cell]
+RADIUS = 0.165  # [m] the patrolling_sim robot
+SPEED = 1.0  # [m/s]
+TURN = 1.57  # [rad/s]
+DEG = math.radians(1.0)
+LENGTH, WIDTH = 8.0, 1.75  # [m] a corridor as 1r5's: two such robots pass with room to spare
+AXIS_Y = 0.975  # [m] the corridor's centre line (the middle of its middle row of cells)
+
+
+def corridor(folder: Path) -> Path:
+    """A straight corridor LENGTH x WIDTH; vertices 0 and 1 on its axis, 0.5 m from its ends."""
+    w = round(LENGTH / RES) + 2
+    h = round(WIDTH / RES) + 2
+    occ = np.zeros((h, w), dtype=bool)  # row 0 at the bottom
+    occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = True
+    folder.mkdir(parents=True, exist_ok=True)
+    pixels = np.where(occ, 0, 254).astype(np.uint8)[::-1]
+    (folder / "occupancy.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + pixels.tobytes())
+    (folder / "occupancy.yaml").write_text(
+        f"image: occupancy.pgm\nresolution: {RES}\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    (folder / "map.yaml").write_text(
+        "name: corridor\ngraph: graph.yaml\noccupancy: occupancy.yaml\nsettings:\n"
+        f"  nominal_speed: {SPEED}\n  goal_tolerance: 0.15\n  robot_radius: {RADIUS}\n")
+    (folder / "graph.yaml").write_text(
+        "vertices:\n"
+        f"  - {{id: 0, x: 0.55, y: {AXIS_Y}}}\n  - {{id: 1, x: {LENGTH - 0.45}, y: {AXIS_Y}}}\n"
+        "edges:\n  - [0, 1]\n")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def hall(tmp_path_factory):
+    pm = load_map(str(corridor(tmp_path_factory.mktemp("corridor") / "corridor")))
+    return pm, PathPlanner(pm, RADIUS)
+
+
+def head_on(pm, planner):
+    """Robot 0 at vertex 0 bound for vertex 1, robot 1 the other way, on the same line."""
+    occ = pm.occupancy_grid()
+    world = tpuaf_core.World(occ.occupied, occ.resolution, occ.origin, 0)
+    spec = tpuaf_core.RobotSpec()
+    spec.radius_m, spec.max_linear_speed, spec.max_angular_speed = RADIUS, SPEED, TURN
+    spec.max_linear_accel = spec.max_angular_accel = math.inf  # as the preset
+    pos = pm.positions
+    world.add_robot((pos[0][0], AXIS_Y, 0.0), spec)
+    world.add_robot((pos[1][0], AXIS_Y, math.pi), spec)
+    navs = []
+    for i in range(2):
+        config = ControllerConfig(max_linear_speed=SPEED, max_angular_speed=TURN,
+                                  robot_radius=RADIUS, retry_wait_s=0.5 + 0.5 * i)
+        nav = Navigator(LocalController(config), goal_tolerance=0.15, planner=planner,
+                        robot_index=i)
+        nav.set_route(GraphRoute(pm.graph, pos, i, 1 - i), 0.0)
+        navs.append(nav)
+    return world, navs
+
+
+def drive(world, navs, t_end: float):
+    """10 Hz control, scans at 5 Hz (every other tick, moved to the pose of each tick, as the
+    physics runtime), until both routes are done or t_end [s]: (arrivals {robot: t [s]},
+    robot-seconds standing and turning in place)."""
+    arrived, turning, t, tick = {}, 0.0, 0.0, 0
+    scans: list = [None, None]
+    while t < t_end and any(n.route is not None for n in navs):
+        poses = world.poses()
+        if tick % 2 == 0:
+            scans = [(scan_points(Scan(world.scan(i), 0.0, DEG, 0.12, 3.5)), tuple(poses[i]))
+                     for i in range(len(navs))]
+        tick += 1
+        for i, nav in enumerate(navs):
+            if nav.route is None:
+                world.set_command(i, 0.0, 0.0)
+                continue
+            points = moved_points(scans[i][0], scans[i][1], tuple(poses[i]))
+            cmd, event, _ = nav.step(t, tuple(poses[i]), points)
+            if event == Event.ARRIVED:
+                arrived[i] = t
+            turning += 0.1 * (cmd.v == 0.0 and abs(cmd.w) > 0.0)
+            world.set_command(i, cmd.v, cmd.w)
+        for _ in range(2):
+            world.step(0.05)
+        t = round(t + 0.1, 6)
+    return arrived, turning
+
+
+def test_two_fast_robots_meeting_head_on_pass_each_other_without_stopping(hall):
+    """Two 1 m/s robots on the same line in a 1.75 m corridor, head-on: both keep right from
+    2 m off and pass at speed, arriving when they would alone (7 m at 1 m/s: 7.4 s), without
+    touching and without standing to turn round each other. Before, they swerved only 1 m
+    apart, stood to turn round each other (0.2 robot-seconds) and arrived at 7.9 and 8.1 s."""
+    world, navs = head_on(*hall)
+    arrived, turning = drive(world, navs, 60.0)
+    assert sorted(arrived) == [0, 1]
+    assert max(arrived.values()) < 7.7, arrived
+    assert turning == 0.0, turning  # robot-seconds turning in place
+    assert sum(world.contact_counts()) == 0
+    assert sum(n.give_ways for n in navs) == 0 and sum(n.controller.retries for n in navs) == 0
+
+
+def test_the_robot_steers_away_from_another_in_its_way_only():
+    """Another robot (a mover) in the way, nearer than the target and within 2 s at top speed,
+    bends the way: to the right when it is on our left or dead ahead, to the left when on our
+    right. A wall (the same points, not movers) or a robot beyond the target does not."""
+    controller = LocalController(ControllerConfig(max_linear_speed=SPEED, robot_radius=RADIUS,
+                                                  max_angular_speed=TURN))
+    controller.set_target((5.0, 0.0), 0.15, 0.0)
+    ahead = np.array([[1.5, 0.0], [1.5, 0.1], [1.5, -0.1]])  # another robot 1.5 m ahead
+    free = controller.step(0.1, (0.0, 0.0, 0.0), None)
+    assert free.w == 0.0
+    controller.set_movers(0.2, ahead)
+    right = controller.step(0.2, (0.0, 0.0, 0.0), ahead)
+    assert right.v > 0.5 and right.w < 0.0  # on, turning right
+    wall = controller.step(0.3, (0.0, 0.0, 0.0), ahead)  # the same points, not movers now
+    assert wall.w >= 0.0 or abs(wall.w) < abs(right.w)
+    on_right = ahead - np.array([0.0, 0.2])
+    controller.set_movers(0.35, on_right)
+    assert controller.step(0.35, (0.0, 0.0, 0.0), on_right).w > 0.0
+    controller.set_target((1.0, 0.0), 0.15, 0.4)  # the target before the other robot
+    controller.set_movers(0.4, ahead)
+    assert controller.step(0.4, (0.0, 0.0, 0.0), ahead).w == 0.0
