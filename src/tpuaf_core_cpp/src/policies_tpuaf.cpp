@@ -158,11 +158,15 @@ int TpuafStrategy::decide(StrategyHost& host, int robot) {
     candidates_ = graph.neighbours(here);
   }
   auto& failed = failed_[static_cast<std::size_t>(robot)];
-  if (!failed.empty()) {  // goals given up on lately are no candidates, unless all are
+  failed.erase(here);     // reached: its failures are forgotten
+  if (!failed.empty()) {  // goals given up on twice lately are no candidates, unless all are
     std::vector<int> kept;
     for (int v : candidates_) {
       auto it = failed.find(v);
-      if (it == failed.end() || now - it->second >= kFailedGoalHoldS) kept.push_back(v);
+      if (it == failed.end() || it->second.first < 2 ||
+          now - it->second.second >= kFailedGoalHoldS) {
+        kept.push_back(v);
+      }
     }
     if (!kept.empty()) candidates_.swap(kept);
   }
@@ -189,7 +193,10 @@ int TpuafStrategy::decide(StrategyHost& host, int robot) {
 }
 
 void TpuafStrategy::on_goal_failed(StrategyHost& host, int robot, int vertex) {
-  failed_[static_cast<std::size_t>(robot)][vertex] = host.now();
+  const double now = host.now();
+  auto& [count, last] = failed_[static_cast<std::size_t>(robot)][vertex];
+  count = count > 0 && now - last < kFailedGoalHoldS ? count + 1 : 1;
+  last = now;
 }
 
 bool TpuafStrategy::on_team_message(StrategyHost& /*host*/, int sender,

@@ -28,9 +28,11 @@ class TpuafStrategy : public TeamStrategy {
   void on_message(StrategyHost& host, int robot, const TeamMessage& message) override;
   // As Tpuaf.on_teammate_lost: forget its intention, it is no longer my shadow.
   void on_teammate_lost(StrategyHost& host, int robot, int lost) override;
-  // The navigator gave up on `vertex` (physics, robots): it is no candidate for
+  // The navigator gave up on `vertex` (physics, robots): after a second failure there with no
+  // visit between, within kFailedGoalHoldS of each other, it is no candidate for
   // kFailedGoalHoldS, so that a vertex no robot can reach (a dead robot's body on it) is not
-  // chosen again and again; when every candidate failed lately, all are candidates.
+  // chosen again and again (one failure, e.g. in a jam, holds nothing back); when every
+  // candidate is held back, all are candidates.
   void on_goal_failed(StrategyHost& host, int robot, int vertex) override;
   static constexpr double kFailedGoalHoldS = 60.0;  // [s]
   bool messages_are_local() const override { return true; }
@@ -63,7 +65,8 @@ class TpuafStrategy : public TeamStrategy {
   std::vector<TpuafKnowledge> knowledge_;  // per robot, or the team's
   std::vector<Colocation> colocated_;
   std::vector<int> candidates_;
-  std::vector<std::unordered_map<int, double>> failed_;  // per robot: vertex -> failure [s]
+  // per robot: vertex -> (failures in a row, the last one's time [s])
+  std::vector<std::unordered_map<int, std::pair<int, double>>> failed_;
 };
 
 }  // namespace tpuaf
