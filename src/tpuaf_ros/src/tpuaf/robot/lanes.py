@@ -177,15 +177,11 @@ class LaneAccess:
     def __init__(self, lane_map: LaneMap, locks: LaneLocks,
                  locked: frozenset[int] | None = None,
                  report: Callable[[int, int, float], None] | None = None):
-        self.lane_map = lane_map
         self.locks = locks
         # report(kind, waiting spot, t [s]): LANE_WAIT (stamped at the request) and LANE_ENTER
         self.report = report
         self.now = 0.0  # [s] the last time asked
-        # the lanes entered holding a lock (None: every lane)
-        self.locked = (frozenset(lane.index for lane in lane_map.lanes) if locked is None
-                       else frozenset(locked))
-        self.one_way = len(self.locked) < len(lane_map.lanes)  # some lanes driven one way
+        self._set_map(lane_map, locked)
         self.started = False  # start_at called: the start's lane is held
         self.blocked: list[tuple[int, int]] = []  # edges dropped: a lost teammate's body on them
         self.occupied: list[int] = []  # vertices cut off: a lost teammate's body too near them
@@ -271,13 +267,17 @@ class LaneAccess:
         lanes = self.lane_map.lane_at(points)
         return (lanes < 0) | (lanes == self.locks.held) | ((lanes == driven) & (driven >= 0))
 
-    def use(self, lane_map: LaneMap, locked: frozenset[int] | None, position, now: float) -> None:
-        """Drive on another lane map from now on (a lane blocked): inside a lane that is now
-        locked, the robot holds it at once (it drives out, or on, as at the start)."""
+    def _set_map(self, lane_map: LaneMap, locked: frozenset[int] | None) -> None:
+        """The lanes, and those entered holding a lock (None: every lane)."""
         self.lane_map = lane_map
         self.locked = (frozenset(lane.index for lane in lane_map.lanes) if locked is None
                        else frozenset(locked))
-        self.one_way = len(self.locked) < len(lane_map.lanes)
+        self.one_way = len(self.locked) < len(lane_map.lanes)  # some lanes driven one way
+
+    def use(self, lane_map: LaneMap, locked: frozenset[int] | None, position, now: float) -> None:
+        """Drive on another lane map from now on (a lane blocked): inside a lane that is now
+        locked, the robot holds it at once (it drives out, or on, as at the start)."""
+        self._set_map(lane_map, locked)
         inside = int(lane_map.lane_at(position)[0])
         if inside in self.locked and self.locks.held != inside:
             self.locks.hold(inside, now)
