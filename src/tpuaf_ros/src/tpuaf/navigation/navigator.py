@@ -220,8 +220,13 @@ class Navigator(LaneGate, GivingWay):
         UNMAPPED_DISTANCE_M from every mapped obstacle): other robots, unmapped obstacles."""
         if xy is None or len(xy) == 0:
             return None
-        keep = self.planner.distances_to_obstacle(xy) > UNMAPPED_DISTANCE_M
+        keep = self._unexplained(xy)
         return xy[keep] if keep.any() else None
+
+    def _unexplained(self, xy: np.ndarray) -> np.ndarray:
+        """Mask of the map-frame points (k, 2) [m] farther than UNMAPPED_DISTANCE_M from every
+        mapped obstacle."""
+        return self.planner.distances_to_obstacle(xy) > UNMAPPED_DISTANCE_M
 
     def _movers(self, pose: tuple[float, float, float],
                 points: np.ndarray | None) -> np.ndarray | None:
@@ -232,8 +237,7 @@ class Navigator(LaneGate, GivingWay):
         near = self.controller.relevant(points)
         if near is None:
             return None
-        keep = (self.planner.distances_to_obstacle(map_points(pose, near, math.inf))
-                > UNMAPPED_DISTANCE_M)
+        keep = self._unexplained(map_points(pose, near, math.inf))
         return near[keep] if keep.any() else None
 
     def _watch_blocked(self, t: float, pose: tuple[float, float, float],

@@ -136,17 +136,7 @@ def _cost(n, lengths, chains, flips) -> float:
         for a, b in zip(seq[:-1], seq[1:], strict=True):
             arcs[(min(a, b), max(a, b))] = a < b
     d = _distances(n, lengths, arcs)
-    live = _live(n, lengths)  # vertices without edges (a blocked one, robot/lanes.py) aside
-    d = d[np.ix_(live, live)]
     return float(d.sum()) if np.isfinite(d).all() else math.inf
-
-
-def _live(n: int, lengths: dict[tuple[int, int], float]) -> np.ndarray:
-    """Mask of the vertices with at least one edge."""
-    live = np.zeros(n, dtype=bool)
-    for u, v in lengths:
-        live[u] = live[v] = True
-    return live
 
 
 def _dfs_flips(n, lengths, chains) -> list[bool]:
@@ -193,14 +183,13 @@ def orient_lanes(lane_map, patrol_map, keep: Orientation | None = None) -> Orien
     lanes that is still orientable its way, and choosing only the others, gives a strongly
     connected plan, the best such orientation is taken, so that no lane a robot may be in
     changes its direction."""
-    if keep is not None:
-        kept = _orient_keeping(lane_map, patrol_map, keep)
-        if kept is not None:
-            return kept
     n, lengths, orientable, locked = _orientable(lane_map, patrol_map)
     chains = [lane_chain(lane) for lane in orientable]
-    live = _live(n, lengths)
-    two_way = float(_distances(n, lengths, {})[np.ix_(live, live)].sum())
+    two_way = float(_distances(n, lengths, {}).sum())
+    kept = _kept_flips(n, lengths, orientable, chains, keep) if keep is not None else None
+    if kept is not None:
+        best, cost = kept
+        return _orientation(orientable, chains, best, locked, cost, two_way)
     if not chains:
         return Orientation({}, locked, two_way, two_way)
     if len(chains) <= EXHAUSTIVE_LANES:
@@ -223,36 +212,34 @@ def orient_lanes(lane_map, patrol_map, keep: Orientation | None = None) -> Orien
                 break
     if not math.isfinite(cost):  # cannot happen on lanes off the bridges (Robbins); be safe
         return Orientation({}, frozenset(lane.index for lane in lane_map.lanes), two_way, two_way)
+    return _orientation(orientable, chains, best, locked, cost, two_way)
+
+
+def _orientation(orientable, chains, flips, locked, cost, two_way) -> Orientation:
+    """The Orientation of the orientable lanes' chains, each reversed where `flips` says."""
     ordered = {lane.index: (chain[::-1] if flip else chain)
-               for lane, chain, flip in zip(orientable, chains, best, strict=True)}
+               for lane, chain, flip in zip(orientable, chains, flips, strict=True)}
     return Orientation(ordered, locked, cost, two_way)
 
 
-def _orient_keeping(lane_map, patrol_map, keep: Orientation) -> Orientation | None:
-    """`orient_lanes` with `keep`'s directions fixed where they apply (None: not strongly
-    connected that way)."""
-    n, lengths, orientable, locked = _orientable(lane_map, patrol_map)
-    chains = [lane_chain(lane) for lane in orientable]
+def _kept_flips(n, lengths, orientable, chains, keep: Orientation):
+    """(flips, cost) of the best orientation driving `keep`'s one-way lanes its way where they
+    are still orientable, None when that is not strongly connected (or too many lanes are
+    free to try them all)."""
     fixed = {}  # position in chains -> flip that drives it as `keep` does
     for k, (lane, chain) in enumerate(zip(orientable, chains, strict=True)):
         old = keep.chains.get(lane.index)
         if old is not None and set(old) == set(chain):
             fixed[k] = tuple(old) != tuple(chain)
     free = [k for k in range(len(chains)) if k not in fixed]
-    if len(free) > EXHAUSTIVE_LANES:
+    if not chains or len(free) > EXHAUSTIVE_LANES:
         return None
     best, cost = None, math.inf
     for choice in itertools.product((False, True), repeat=len(free)):
         flips = [fixed.get(k, False) for k in range(len(chains))]
         for k, flip in zip(free, choice, strict=True):
             flips[k] = flip
-        trial = _cost(n, lengths, chains, flips) if chains else 0.0
+        trial = _cost(n, lengths, chains, flips)
         if trial < cost:
             best, cost = flips, trial
-    if best is None or not math.isfinite(cost):
-        return None
-    live = _live(n, lengths)
-    two_way = float(_distances(n, lengths, {})[np.ix_(live, live)].sum())
-    ordered = {lane.index: (chain[::-1] if flip else chain)
-               for lane, chain, flip in zip(orientable, chains, best, strict=True)}
-    return Orientation(ordered, locked, cost if chains else two_way, two_way)
+    return (best, cost) if best is not None and math.isfinite(cost) else None

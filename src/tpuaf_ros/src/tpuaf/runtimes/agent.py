@@ -143,7 +143,8 @@ class AgentRuntime:
             return
         start = self._route_start(from_vertex, goal) if self._graph.one_way else from_vertex
         if int(goal) in self._cut_off or not math.isfinite(self._graph.distance(start, goal)):
-            # cut off (a dead robot's body next to it, robot/lanes.py): the goal fails at the
+            # cut off (a dead robot's body next to it, robot/lanes.py; a route to it would end
+            # at the body) or, never on a connected plan, unreachable: the goal fails at the
             # next tick, without moving
             self.navigator.cancel()
             self._unreachable = int(goal)
@@ -162,16 +163,6 @@ class AgentRuntime:
         goal = self.machine.goal
         if self.navigator.route is not None and goal is not None and self._stay_until is None:
             self.drive(self.machine.robot, self.machine.current_vertex, goal)
-
-    def _nearest_vertex(self) -> int:
-        """The vertex nearest the robot that the route graph connects (not one cut off)."""
-        near = self.machine.nearest_vertex(*self.position)
-        if self._graph.neighbours(near):
-            return near
-        x, y = self.position
-        d = np.hypot(self._positions[:, 0] - x, self._positions[:, 1] - y)
-        return min((int(v) for v in range(len(d)) if self._graph.neighbours(int(v))),
-                   key=lambda v: d[v], default=near)
 
     def _route_start(self, from_vertex: int, goal: int) -> int:
         """With one-way lanes: the vertex a route starts from when the robot stands away from
@@ -296,7 +287,7 @@ class AgentRuntime:
             m.on_vertex(self._stay_vertex, True)
         if self._unreachable is not None:
             goal, self._unreachable = self._unreachable, None
-            m.on_goal_failed(goal, self._nearest_vertex())
+            m.on_goal_failed(goal, m.nearest_vertex(*self.position))
             return 0.0, 0.0
         if points_pose is not None:
             points = moved_points(points, points_pose, self._pose)
@@ -318,7 +309,7 @@ class AgentRuntime:
                 m.on_vertex(vertex, True)
                 continue
             elif event == Event.FAILED:
-                m.on_goal_failed(vertex, self._nearest_vertex())
+                m.on_goal_failed(vertex, m.nearest_vertex(*self.position))
                 return 0.0, 0.0
             break
         else:
