@@ -295,15 +295,11 @@ class LaneAccess:
         self.locks.tick(now)
 
 
-def attach_lanes(agent: Any, lane_map: LaneMap, start_vertex: int | None,
-                 locked: frozenset[int] | None = None,
-                 layer: LaneLayer | None = None) -> LaneAccess:
-    """Give an `AgentRuntime` the lane layer: its machine hears the claims, its navigator asks
-    at lane entries, its ticks re-announce the claim; a robot that starts inside a locked lane
-    holds it (`start_vertex` [index]; None: not known yet, then when the runtime begins).
-    `locked`: the lanes entered with a lock (None: all; with one-way lanes the two-way ones).
-    `layer`: the team's lane layer (lane_map and locked are its own): a teammate lost inside a
-    lane then blocks the edge it was on (`blocked_layer`)."""
+def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> LaneAccess:
+    """Give an `AgentRuntime` the team's lane `layer`: its machine hears the claims, its
+    navigator asks at lane entries, its ticks re-announce the claim; a robot that starts inside
+    a locked lane holds it (`start_vertex` [index]; None: not known yet, then when the runtime
+    begins). A teammate lost inside a lane then blocks the edge it was on (`blocked_layer`)."""
     machine = agent.machine
 
     def send(claim: LaneClaim) -> None:
@@ -315,10 +311,10 @@ def attach_lanes(agent: Any, lane_map: LaneMap, start_vertex: int | None,
             machine.emit(kind, int(spot), -1, float(t))
 
     locks = LaneLocks(machine.robot, send, lambda r: r in machine.liveness.lost)
-    access = LaneAccess(lane_map, locks, locked, report)
+    access = LaneAccess(layer.lane_map, locks, layer.locked, report)
     machine.lane_locks = locks
     agent.navigator.lanes = access
-    if layer is not None and BLOCK_LOST_BODIES:
+    if BLOCK_LOST_BODIES:
         current = [layer]
 
         def teammate_lost(robot: int) -> None:

@@ -93,7 +93,7 @@ def agent_runtime(p: AgentParams, patrol_map, robot: RobotModel, policy, publish
                            publish_event, cfg, p.heartbeat_period, p.waypoint_tolerance,
                            planner, teammate_timeout_s=p.teammate_timeout)
     if layer is not None:
-        attach_lanes(runtime, layer.lane_map, None, layer.locked, layer)
+        attach_lanes(runtime, layer, None)
     return runtime, plan_map, layer
 
 

@@ -107,7 +107,7 @@ class PhysicsRun(TeamRun):
                                    else LIVENESS_DEFAULTS.heartbeat_period_s)
         self._liveness_checks: list[tuple[float, int, int]] = []  # heap: (t [s], robot, token)
         self._team([a.machine for a in self.agents])
-        self.lane_access = ([attach_lanes(a, layer.lane_map, starts[i], layer.locked, layer)
+        self.lane_access = ([attach_lanes(a, layer, starts[i])
                              for i, a in enumerate(self.agents)] if layer is not None else [])
         self.steps_per_control = round(config.control_period_s / config.physics_step_s)
         # Scans at the laser rate, on control ticks (LDS-01 5 Hz: every other 10 Hz tick).
