@@ -23,6 +23,8 @@ from tpuaf.navigation import (
 from tpuaf.navigation.controller import SLOW_FLOOR_M, Status
 from tpuaf.navigation.planner import PathPlanner
 
+from .map_folders import write_map_folder
+
 RES = 0.05  # [m per cell]
 RADIUS = 0.105  # [m] a TurtleBot3 Burger
 SPEED = 0.22  # [m/s]
@@ -44,21 +46,10 @@ def two_rooms(folder: Path) -> Path:
     r0 = int(AXIS_Y / RES) - CORRIDOR_CELLS // 2  # the corridor's rows: r0 .. r0 + cells - 1
     occ[:r0, c0:c1] = True
     occ[r0 + CORRIDOR_CELLS:, c0:c1] = True
-    folder.mkdir(parents=True, exist_ok=True)
-    pixels = np.where(occ, 0, 254).astype(np.uint8)[::-1]
-    (folder / "occupancy.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + pixels.tobytes())
-    (folder / "occupancy.yaml").write_text(
-        f"image: occupancy.pgm\nresolution: {RES}\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
-        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
-    (folder / "map.yaml").write_text(
-        "name: two_rooms\ngraph: graph.yaml\noccupancy: occupancy.yaml\nsettings:\n"
-        f"  nominal_speed: {SPEED}\n  goal_tolerance: 0.1\n  robot_radius: {RADIUS}\n")
     xs = (0.5 * ROOM_W, ROOM_W + 0.5 * CORRIDOR_L, 1.5 * ROOM_W + CORRIDOR_L)
-    (folder / "graph.yaml").write_text(
-        "vertices:\n" + "".join(f"  - {{id: {i}, x: {x}, y: {AXIS_Y}}}\n"
-                                for i, x in enumerate(xs))
-        + "edges:\n  - [0, 1]\n  - [1, 2]\n")
-    return folder
+    return write_map_folder(folder, occ, [(x, AXIS_Y) for x in xs], [(0, 1), (1, 2)], res=RES,
+                            settings={"nominal_speed": SPEED, "goal_tolerance": 0.1,
+                                      "robot_radius": RADIUS}, name="two_rooms")
 
 
 @pytest.fixture(scope="module")

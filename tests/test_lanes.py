@@ -17,6 +17,8 @@ from tpuaf.navigation.lanes import find_lanes
 from tpuaf.navigation.planner import PathPlanner
 from tpuaf.team.lane_locks import SETTLE_S, LaneLocks, claim_order
 
+from .map_folders import write_map_folder
+
 RES = 0.05  # [m per cell]
 RADIUS = 0.105  # [m] a TurtleBot3 Burger
 
@@ -24,24 +26,11 @@ RADIUS = 0.105  # [m] a TurtleBot3 Burger
 def write_map(folder: Path, size_m: tuple[float, float], free: list[tuple],
               vertices: list[tuple[float, float]], edges: list[tuple[int, int]]) -> Path:
     """A map folder: walls everywhere but the free rectangles (x0, y0, x1, y1) [m]."""
-    w, h = round(size_m[0] / RES), round(size_m[1] / RES)
-    occ = np.ones((h, w), dtype=bool)  # row 0 at the bottom
+    occ = np.ones((round(size_m[1] / RES), round(size_m[0] / RES)), dtype=bool)
     for x0, y0, x1, y1 in free:
         occ[round(y0 / RES):round(y1 / RES), round(x0 / RES):round(x1 / RES)] = False
-    folder.mkdir(parents=True, exist_ok=True)
-    pixels = np.where(occ, 0, 254).astype(np.uint8)[::-1]
-    (folder / "occupancy.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + pixels.tobytes())
-    (folder / "occupancy.yaml").write_text(
-        f"image: occupancy.pgm\nresolution: {RES}\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
-        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
-    (folder / "map.yaml").write_text(
-        f"name: {folder.name}\ngraph: graph.yaml\noccupancy: occupancy.yaml\nsettings:\n"
-        f"  nominal_speed: 0.22\n  goal_tolerance: 0.1\n  robot_radius: {RADIUS}\n")
-    (folder / "graph.yaml").write_text(
-        "vertices:\n" + "".join(f"  - {{id: {i}, x: {x}, y: {y}}}\n"
-                                for i, (x, y) in enumerate(vertices))
-        + "edges:\n" + "".join(f"  - [{u}, {v}]\n" for u, v in edges))
-    return folder
+    return write_map_folder(folder, occ, vertices, edges, res=RES, settings={
+        "nominal_speed": 0.22, "goal_tolerance": 0.1, "robot_radius": RADIUS})
 
 
 def aisle_map(folder: Path) -> Path:

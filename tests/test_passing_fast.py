@@ -25,6 +25,8 @@ from tpuaf.navigation import (
 from tpuaf.navigation.planner import PathPlanner
 from tpuaf.navigation.scan import moved_points
 
+from .map_folders import write_map_folder
+
 RES = 0.05  # [m per cell]
 RADIUS = 0.165  # [m] the patrolling_sim robot
 SPEED = 1.0  # [m/s]
@@ -40,20 +42,9 @@ def corridor(folder: Path) -> Path:
     h = round(WIDTH / RES) + 2
     occ = np.zeros((h, w), dtype=bool)  # row 0 at the bottom
     occ[0, :] = occ[-1, :] = occ[:, 0] = occ[:, -1] = True
-    folder.mkdir(parents=True, exist_ok=True)
-    pixels = np.where(occ, 0, 254).astype(np.uint8)[::-1]
-    (folder / "occupancy.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + pixels.tobytes())
-    (folder / "occupancy.yaml").write_text(
-        f"image: occupancy.pgm\nresolution: {RES}\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
-        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
-    (folder / "map.yaml").write_text(
-        "name: corridor\ngraph: graph.yaml\noccupancy: occupancy.yaml\nsettings:\n"
-        f"  nominal_speed: {SPEED}\n  goal_tolerance: 0.15\n  robot_radius: {RADIUS}\n")
-    (folder / "graph.yaml").write_text(
-        "vertices:\n"
-        f"  - {{id: 0, x: 0.55, y: {AXIS_Y}}}\n  - {{id: 1, x: {LENGTH - 0.45}, y: {AXIS_Y}}}\n"
-        "edges:\n  - [0, 1]\n")
-    return folder
+    return write_map_folder(folder, occ, [(0.55, AXIS_Y), (LENGTH - 0.45, AXIS_Y)], [(0, 1)],
+                            res=RES, settings={"nominal_speed": SPEED, "goal_tolerance": 0.15,
+                                               "robot_radius": RADIUS}, name="corridor")
 
 
 @pytest.fixture(scope="module")

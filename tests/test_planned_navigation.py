@@ -27,6 +27,7 @@ from tpuaf.runtimes.physics import PhysicsRun
 from tpuaf.topics import DWELL
 
 from .conftest import REPO, run_cli
+from .map_folders import write_map_folder
 
 TPUAF = str(REPO / ".venv" / "bin" / "tpuaf")
 RES = 0.05  # [m per cell] of the hand-made maps
@@ -41,21 +42,9 @@ WALL_X0, WALL_X1 = WALL_COL * RES, (WALL_COL + 1) * RES
 def write_map(folder: Path, occupied: np.ndarray, vertices, edges, name: str = "walled",
               extra_settings: str = "") -> Path:
     """A map folder of ours; `occupied[row, col]` with row 0 at the bottom (y up)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    h, w = occupied.shape
-    pixels = np.where(occupied, 0, 254).astype(np.uint8)[::-1]  # the image's first row: the top
-    (folder / "occupancy.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + pixels.tobytes())
-    (folder / "occupancy.yaml").write_text(
-        f"image: occupancy.pgm\nresolution: {RES}\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
-        "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
-    (folder / "map.yaml").write_text(
-        f"name: {name}\ngraph: graph.yaml\noccupancy: occupancy.yaml\nsettings:\n"
-        f"  nominal_speed: 0.5\n  goal_tolerance: 0.4\n  robot_radius: {RADIUS}\n"
-        + extra_settings)
-    text = "vertices:\n" + "".join(f"  - {{id: {i}, x: {x}, y: {y}}}\n" for i, x, y in vertices)
-    text += "edges:\n" + "".join(f"  - [{u}, {v}]\n" for u, v in edges)
-    (folder / "graph.yaml").write_text(text)
-    return folder
+    return write_map_folder(folder, occupied, vertices, edges, res=RES, name=name,
+                            settings={"nominal_speed": 0.5, "goal_tolerance": 0.4,
+                                      "robot_radius": RADIUS}, extra_settings=extra_settings)
 
 
 def room(door: tuple[float, float] | None, width_m: float = 6.0, height_m: float = 5.0):
