@@ -383,3 +383,23 @@ def test_the_agents_default_lane_mode_is_auto():
         p = parse(AgentParams, {**base, **extra}, "patrol_agent")
         check_agent_params(p, True)
         assert agent_lane_mode(p) == mode, extra
+
+
+def test_the_graph_runtime_holds_one_robot_at_a_time_on_the_lanes_narrow_vertices():
+    """With lanes the graph runtime's engine gets the lane map's narrow vertices and the
+    headway (C++ behaviour: test_engine.cpp); its config.yaml says so; without lanes, none."""
+    from tpuaf.robot.lanes import narrow_headway_s
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import make_run
+
+    run = make_run(RunConfig(map="lab", strategy="tpuaf", robots=4, duration_s=120, seed=1,
+                             robot="burger", lanes="one_way"))
+    narrow = run.effective_config()["narrow_vertices"]
+    ids = run.patrol_map.vertex_ids
+    assert narrow["vertices"] == [ids[v] for v in sorted(run.lanes.lane_map.narrow_vertices)]
+    assert len(narrow["vertices"]) == 9  # the lab's rails between corners and junctions
+    assert narrow["headway_s"] == pytest.approx(narrow_headway_s(0.105, 0.1), abs=1e-3)
+    assert run.run()["visits"] > 0
+    plain = make_run(RunConfig(map="lab", strategy="tpuaf", robots=4, duration_s=120, seed=1,
+                               robot="burger", lanes="off"))
+    assert "narrow_vertices" not in plain.effective_config()

@@ -133,7 +133,9 @@ void wrap_config(py::module_& m) {
       .def_readwrite("goal_tolerance_m", &EngineConfig::goal_tolerance_m)
       .def_readwrite("stall_give_up_s", &EngineConfig::stall_give_up_s)
       .def_readwrite("teammate_timeout_s", &EngineConfig::teammate_timeout_s)
-      .def_readwrite("heartbeat_period_s", &EngineConfig::heartbeat_period_s);
+      .def_readwrite("heartbeat_period_s", &EngineConfig::heartbeat_period_s)
+      .def_readwrite("narrow_vertices", &EngineConfig::narrow_vertices)
+      .def_readwrite("narrow_headway_s", &EngineConfig::narrow_headway_s);
 }
 
 // HeartbeatLinks: the heartbeats of runs with faults, of the graph and physics runtimes.

@@ -53,6 +53,26 @@ GraphEngine::GraphEngine(const PatrolGraph& graph, Points positions, EngineConfi
     protocols_.back().place(v);
   }
   scratch_.resize(n, 2);
+  if (config_.narrow_headway_s > 0 && !config_.narrow_vertices.empty()) {
+    if (!std::isfinite(config_.narrow_headway_s)) {
+      throw std::invalid_argument("the narrow headway must be finite");
+    }
+    const auto vertices = static_cast<std::size_t>(graph_.num_vertices());
+    narrow_.assign(vertices, 0);
+    standing_.assign(vertices, -1);
+    slots_.resize(vertices);
+    held_.resize(vertices);
+    for (int v : config_.narrow_vertices) {
+      graph_.check_vertex(v);
+      narrow_[static_cast<std::size_t>(v)] = 1;
+    }
+    for (int i = 0; i < n; ++i) {
+      const int v = config_.start_vertices[static_cast<std::size_t>(i)];
+      if (narrow(v) && standing_[static_cast<std::size_t>(v)] < 0) {
+        standing_[static_cast<std::size_t>(v)] = i;
+      }
+    }
+  }
 }
 
 const GraphEngine::Robot& GraphEngine::robot_at(int robot) const {
@@ -295,8 +315,11 @@ void GraphEngine::start_segment(int robot) {
   if (next == here) {
     duration = config_.stay_s;
   } else {
+    leave(robot, here);
     const double length = graph_.edge_length(here, next);
     duration = length / config_.nominal_speed_mps;
+    // one robot at a time through a narrow vertex: it drives slower to take its passing slot
+    if (narrow(next)) duration = take_slot(next, now_ + duration) - now_;
     r.travelled_m += length;
     r.travel_time_s += duration;
   }
@@ -312,9 +335,61 @@ void GraphEngine::start_segment(int robot) {
 
 void GraphEngine::arrive(int robot) {
   // A vertex of the route reached: the protocol says whether to go on (a pass-through vertex).
+  // A narrow vertex another robot stands on holds it short of it until that robot leaves.
   Robot& r = robots_[static_cast<std::size_t>(robot)];
-  const int vertex = r.route[r.route_k++];
+  const int vertex = r.route[r.route_k];
+  if (blocks(robot, vertex)) {
+    r.held_short_of = vertex;
+    r.pending = 0;
+    held_[static_cast<std::size_t>(vertex)].push_back(robot);
+    return;
+  }
+  ++r.route_k;
+  if (narrow(vertex)) standing_[static_cast<std::size_t>(vertex)] = robot;  // until it leaves
   if (protocol_of(robot).on_vertex(vertex, r.route_k >= r.route.size())) start_segment(robot);
+}
+
+double GraphEngine::take_slot(int vertex, double earliest_s) {
+  // The first time >= earliest_s at least the headway from every passing time taken [s].
+  const double h = config_.narrow_headway_s;
+  std::vector<double>& taken = slots_[static_cast<std::size_t>(vertex)];
+  taken.erase(taken.begin(), std::lower_bound(taken.begin(), taken.end(), now_ - h));
+  double t = earliest_s;
+  for (double s : taken) {
+    if (s >= t + h) break;
+    if (s > t - h) t = s + h;
+  }
+  taken.insert(std::lower_bound(taken.begin(), taken.end(), t), t);
+  return t;
+}
+
+bool GraphEngine::blocks(int robot, int vertex) const {
+  if (!narrow(vertex)) return false;
+  const int other = standing_[static_cast<std::size_t>(vertex)];
+  if (other < 0 || other == robot) return false;
+  const RobotProtocol& p = protocols_[static_cast<std::size_t>(other)];
+  return p.alive() && !p.stalled();  // the graph runtime models no body (docs/LANES.md)
+}
+
+void GraphEngine::leave(int robot, int vertex) {
+  // It drives off `vertex` (or stops for good): the first robot held short of it comes on,
+  // a headway later.
+  if (standing_.empty() || standing_[static_cast<std::size_t>(vertex)] != robot) return;
+  standing_[static_cast<std::size_t>(vertex)] = -1;
+  std::deque<int>& queue = held_[static_cast<std::size_t>(vertex)];
+  if (queue.empty()) return;
+  const int next = queue.front();
+  queue.pop_front();
+  Robot& r = robots_[static_cast<std::size_t>(next)];
+  double x, y;
+  position(next, now_, x, y);
+  r.held_short_of = -1;
+  r.p0x = x;
+  r.p0y = y;
+  r.vx = r.vy = 0.0;
+  r.t0 = now_;
+  r.t1 = take_slot(vertex, now_ + config_.narrow_headway_s);
+  r.pending = push(r.t1, kArrive, next);
 }
 
 void GraphEngine::record_positions(double t) {

@@ -1,5 +1,6 @@
 // The graph runtime's faults: the team's liveness and fault steps (TeamLiveness, shared with the
 // physics runtime) on the loop's events, and a stalled robot's motion and give-ups.
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -68,6 +69,13 @@ void GraphEngine::freeze(int robot) {
   r.vx = r.vy = 0.0;
   r.t0 = r.t1 = now_;
   r.pending = 0;
+  // no body in the graph runtime: it no longer stands on, nor waits for, a narrow vertex
+  if (r.held_short_of >= 0) {
+    std::deque<int>& queue = held_[static_cast<std::size_t>(r.held_short_of)];
+    queue.erase(std::remove(queue.begin(), queue.end(), robot), queue.end());
+    r.held_short_of = -1;
+  }
+  for (int v = 0; v < static_cast<int>(standing_.size()); ++v) leave(robot, v);
 }
 
 void GraphEngine::after_stall(int robot) {

@@ -107,6 +107,59 @@ TEST(Engine, DrivesEdgesAtNominalSpeedDwellsAndRetries) {
   EXPECT_EQ(engine.recorder().timeseries().size(), 40u);  // 1 Hz rows t = 1..40 s
 }
 
+// Arrival times at `vertex` of `robot` in the recorder's visits.
+std::vector<double> visit_times(const GraphEngine& engine, int robot, int vertex) {
+  std::vector<double> out;
+  for (const auto& v : engine.recorder().visits()) {
+    if (v.robot == robot && v.vertex == vertex) out.push_back(v.time_s);
+  }
+  return out;
+}
+
+TEST(Engine, NarrowVerticesSpaceArrivalsByTheHeadway) {
+  // Both robots leave vertex 0 for 3 at once; 1 and 2 are one robot wide, 3 s headway: the
+  // second passes each of them 3 s after the first (5 s edges at 2 m/s).
+  const PatrolGraph g = line_graph();
+  EngineConfig c = config(2, 40.0, {0, 0});
+  c.narrow_vertices = {1, 2};
+  c.narrow_headway_s = 3.0;
+  GraphEngine engine(g, g.positions(), c, field_of(g), numpy_3_1());
+  Script s;
+  s.goals = {{3, -1}, {3, -1}};
+  engine.set_strategy(&s);
+  engine.run();
+  EXPECT_EQ(visit_times(engine, 0, 3), std::vector<double>({15.0}));
+  EXPECT_EQ(visit_times(engine, 1, 3), std::vector<double>({18.0}));
+  // points that pass through each other without the narrow vertices
+  GraphEngine points(g, g.positions(), config(2, 40.0, {0, 0}), field_of(g), numpy_3_1());
+  Script s2;
+  s2.goals = s.goals;
+  points.set_strategy(&s2);
+  points.run();
+  EXPECT_EQ(visit_times(points, 1, 3), std::vector<double>({15.0}));
+}
+
+TEST(Engine, ARobotStandingOnANarrowVertexHoldsTheNextShortOfIt) {
+  // Robot 1 stands on narrow vertex 1 until its tenth decision; robot 0, bound for 3 through
+  // it, waits short of it and passes a headway after robot 1 drove off.
+  const PatrolGraph g = line_graph();
+  EngineConfig c = config(2, 60.0, {0, 1});
+  c.narrow_vertices = {1};
+  c.narrow_headway_s = 3.0;
+  GraphEngine engine(g, g.positions(), c, field_of(g), numpy_3_1());
+  Script s;
+  s.goals = {{3, -1}, std::vector<int>(10, -1)};
+  s.goals[1].push_back(3);
+  s.goals[1].push_back(-1);
+  engine.set_strategy(&s);
+  engine.run();
+  ASSERT_GE(s.decide_times[1].size(), 11u);
+  const double left = s.decide_times[1][10];  // robot 1 drives off vertex 1
+  EXPECT_GT(left, 5.0);                       // after robot 0 reached it at 5 s
+  EXPECT_EQ(visit_times(engine, 1, 3), std::vector<double>({left + 10.0}));
+  EXPECT_EQ(visit_times(engine, 0, 3), std::vector<double>({left + 3.0 + 10.0}));
+}
+
 TEST(Engine, ForgottenVisitsKeepIndicesAndPerVertexTimes) {
   const PatrolGraph g = line_graph();
   GraphEngine engine(g, g.positions(), config(1, 40.0, {0}), field_of(g), numpy_3_1());

@@ -98,6 +98,7 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
     double travelled_m = 0, travel_time_s = 0;
     double p0x = 0, p0y = 0, vx = 0, vy = 0, t0 = 0, t1 = 0;  // current straight segment
     std::uint64_t pending = 0;  // seq of its one awaited ARRIVE or GIVE_UP (0: none)
+    int held_short_of = -1;     // the narrow vertex it waits short of (-1: none)
   };
   struct Event {
     double time;
@@ -129,6 +130,13 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
   void plan_route(Robot& r, int from, int goal);
   void start_segment(int robot);
   void arrive(int robot);
+  // --- aisles one robot wide (EngineConfig::narrow_vertices) ---
+  bool narrow(int vertex) const {
+    return !narrow_.empty() && narrow_[static_cast<std::size_t>(vertex)];
+  }
+  double take_slot(int vertex, double earliest_s);  // the first passing time >= earliest_s
+  void leave(int robot, int vertex);                // it drives off: the next held robot comes
+  bool blocks(int robot, int vertex) const;         // another live robot stands on vertex
   // --- RobotDriver: what the robots' protocols ask of the loop ---
   void position(int robot, double& x, double& y) const override { position(robot, now_, x, y); }
   bool at_vertex(int robot, int vertex) const override;
@@ -170,7 +178,11 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
   std::vector<std::size_t> batch_cursor_;
   Points scratch_;
   std::vector<EngineFault> faults_;
-  std::unique_ptr<TeamLiveness> team_;  // with faults: heartbeats, checks, a fault's steps
+  std::unique_ptr<TeamLiveness> team_;      // with faults: heartbeats, checks, a fault's steps
+  std::vector<char> narrow_;                // per vertex: one robot wide (empty: none)
+  std::vector<int> standing_;               // per vertex: the robot standing on it (-1: none)
+  std::vector<std::vector<double>> slots_;  // per vertex: passing times taken [s], ascending
+  std::vector<std::deque<int>> held_;       // per vertex: robots held short of it, first first
 };
 
 }  // namespace tpuaf

@@ -31,6 +31,12 @@ struct EngineConfig {
   double stall_give_up_s = 60.0;     // a stalled robot's navigator gives up a drive after [s]
   double teammate_timeout_s = 10.0;  // a teammate silent this long is lost [s]
   double heartbeat_period_s = 1.0;   // every live robot sends a heartbeat this often [s]
+  // Aisles one robot wide (the lane map's narrow vertices, docs/LANES.md): one robot on such a
+  // vertex at a time. Arrivals there are at least narrow_headway_s apart [s], and a robot that
+  // stands on one (waiting, dwelling) holds the next arrival short of it until it leaves.
+  // Empty or a headway of 0: robots are points that pass through each other.
+  std::vector<int> narrow_vertices;
+  double narrow_headway_s = 0;
 };
 
 // A robot fault at time_s [s] (tpuaf.runtimes.faults): death, or stall (stops moving for good).

@@ -25,11 +25,14 @@ from typing import Any
 
 import numpy as np
 
+from tpuaf.navigation.controller import ControllerConfig
 from tpuaf.navigation.lanes import Lane, LaneMap, find_lanes
 from tpuaf.navigation.one_way import Orientation, orient_lanes
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
 from tpuaf.topics import LANE_ENTER, LANE_WAIT
+
+CONTROLLER_DEFAULTS = ControllerConfig()
 
 
 @dataclass(frozen=True)
@@ -69,6 +72,13 @@ def lane_layer(planner: Any, world_map: Any, plan_map: Any, one_way: bool) -> La
     if orientation is not None and orientation.chains:
         plan_map = replace(plan_map, one_way=tuple(orientation.arcs))
     return LaneLayer(lane_map, orientation, plan_map)
+
+
+def narrow_headway_s(radius_m: float, speed_mps: float) -> float:
+    """[s] The least time between two robots passing one narrow vertex in the graph runtime
+    (EngineConfig.narrow_headway_s): a body length and the controller's safety margin at
+    cruise speed."""
+    return (2.0 * radius_m + CONTROLLER_DEFAULTS.safety_margin) / speed_mps
 
 
 BLOCK_LOST_BODIES = True  # a lost teammate's body blocks the lane edge it drove (False: the

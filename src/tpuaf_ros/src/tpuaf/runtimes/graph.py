@@ -30,7 +30,9 @@ from tpuaf.measure.metrics import RecorderView, RunRecorder
 from tpuaf.navigation import navigator_give_up_s
 from tpuaf.policies import REGISTRY, RobotContextBase
 from tpuaf.policies.core import CoreStrategyPolicy
+from tpuaf.robot.lanes import narrow_headway_s
 from tpuaf.robot.machine import DEFAULT_RETRY_S, STAY_S, announced_vertex
+from tpuaf.robot.model import AUTO, choose_robot
 from tpuaf.runtimes.base import TeamRun, liveness_summary
 from tpuaf.runtimes.config import RunConfig, run_description, run_robot, travel_map
 from tpuaf.runtimes.faults import DEATH
@@ -49,14 +51,12 @@ def _rng_stream(seed: int, *key: int):
     return tpuaf_core.NumpyPcg64(np.random.default_rng([seed, *key]).bit_generator.state)
 
 
-def one_way_layer(source_map, plan_map, robot):
+def one_way_layer(source_map, plan_map, body):
     """The lane layer with one-way lanes of `source_map` (the geometry) for the footprint of
-    `robot` (None: the map's preset), oriented on `plan_map`'s travel; None without lanes."""
+    `body` (a RobotModel), oriented on `plan_map`'s travel; None without lanes."""
     from tpuaf.navigation.planner import shared_planner
     from tpuaf.robot.lanes import lane_layer
-    from tpuaf.robot.model import AUTO, choose_robot
 
-    body = robot or choose_robot(AUTO, source_map.settings)
     return lane_layer(shared_planner(source_map, body.radius_m), source_map, plan_map, True)
 
 
@@ -232,37 +232,18 @@ class GraphRun:
         self.robot = run_robot(config, self.source_map)  # None: the map's nominal figures
         self.patrol_map = travel_map(config, self.source_map, self.robot)
         self.lanes = None  # robot/lanes.py LaneLayer with config.one_way
+        body = None  # the footprint the lanes are found for (the map's preset without a robot)
         if config.one_way:  # routes follow the one-way lanes, as in physics (no locks here)
-            self.lanes = one_way_layer(self.source_map, self.patrol_map, self.robot)
+            body = self.robot or choose_robot(AUTO, self.source_map.settings)
+            self.lanes = one_way_layer(self.source_map, self.patrol_map, body)
             if self.lanes is not None:
                 self.patrol_map = self.lanes.plan_map
         self.graph = self.patrol_map.graph  # validates the graph (MapError on a bad one)
-        s = self.patrol_map.settings
-        self.speed = float(s.nominal_speed)
+        self.speed = float(self.patrol_map.settings.nominal_speed)
         self.seed = int(config.seed)
         starts = [int(v) for v in start_vertices(self.patrol_map, config.robots)]
         self.start_vertices = starts
-        ec = tpuaf_core.EngineConfig()
-        ec.robots = config.robots
-        ec.duration_s = float(config.duration_s)
-        ec.delay_s = float(config.delay_s)
-        ec.loss = float(config.loss)
-        ec.sample_period_s = float(config.sample_period_s)
-        ec.nominal_speed_mps = self.speed
-        ec.stay_s = STAY_S
-        ec.visit_radius_m = self.patrol_map.visit_radius_m
-        ec.retry_s = DEFAULT_RETRY_S
-        ec.refractory_s = _recorder_default("refractory_s")
-        ec.max_substep_s = _recorder_default("max_substep_s")
-        ec.field_merge_s = _recorder_default("field_merge_s")
-        ec.interference_distance_m = float(s.interference_distance)
-        ec.sensing_peak = float(s.sensing_peak)
-        ec.sensing_radius_m = float(s.sensing_radius)
-        ec.start_vertices = starts
-        ec.goal_tolerance_m = float(s.goal_tolerance)
-        ec.stall_give_up_s = float(navigator_give_up_s())
-        ec.teammate_timeout_s = float(config.teammate_timeout_s)
-        ec.heartbeat_period_s = float(TeamRun.heartbeat_period_s)
+        ec = self._engine_config(config, starts, body)
         positions = np.asarray(self.patrol_map.positions, dtype=float)
         field = tpuaf_core.UncertaintyField(
             positions,
@@ -318,6 +299,39 @@ class GraphRun:
         """(t [s], observer, lost teammate) of every liveness loss (TeamRun.losses)."""
         return self._engine.losses
 
+    def _engine_config(self, config: RunConfig, starts: list[int], body) -> object:
+        """The C++ engine's settings of this run (`body`: the lanes' footprint, or None)."""
+        import tpuaf_core
+
+        s = self.patrol_map.settings
+        ec = tpuaf_core.EngineConfig()
+        ec.robots = config.robots
+        ec.duration_s = float(config.duration_s)
+        ec.delay_s = float(config.delay_s)
+        ec.loss = float(config.loss)
+        ec.sample_period_s = float(config.sample_period_s)
+        ec.nominal_speed_mps = self.speed
+        ec.stay_s = STAY_S
+        ec.visit_radius_m = self.patrol_map.visit_radius_m
+        ec.retry_s = DEFAULT_RETRY_S
+        ec.refractory_s = _recorder_default("refractory_s")
+        ec.max_substep_s = _recorder_default("max_substep_s")
+        ec.field_merge_s = _recorder_default("field_merge_s")
+        ec.interference_distance_m = float(s.interference_distance)
+        ec.sensing_peak = float(s.sensing_peak)
+        ec.sensing_radius_m = float(s.sensing_radius)
+        ec.start_vertices = starts
+        ec.goal_tolerance_m = float(s.goal_tolerance)
+        ec.stall_give_up_s = float(navigator_give_up_s())
+        ec.teammate_timeout_s = float(config.teammate_timeout_s)
+        ec.heartbeat_period_s = float(TeamRun.heartbeat_period_s)
+        if self.lanes is not None:  # one robot at a time on a lane's narrow vertices
+            ec.narrow_vertices = sorted(int(v) for v in self.lanes.lane_map.narrow_vertices)
+            ec.narrow_headway_s = narrow_headway_s(body.radius_m, self.speed)
+        self.narrow = {"vertices": [self.patrol_map.vertex_ids[v] for v in ec.narrow_vertices],
+                       "headway_s": round(ec.narrow_headway_s, 3)}  # by vertex id
+        return ec
+
     def effective_config(self) -> dict:
         """Everything that determines this run, the engine included."""
         return run_description(
@@ -326,7 +340,9 @@ class GraphRun:
                                        else ", Python strategy called back"),
             **({"robot_model": self.robot.describe()} if self.robot is not None else {}),
             motion="straight segments between vertices, edge length / nominal speed each ("
-                   f"travel {self.config.resolved_travel()})")
+                   f"travel {self.config.resolved_travel()})"
+                   + ("; one robot at a time on the lanes' narrow vertices" if self.lanes else ""),
+            **({"narrow_vertices": self.narrow} if self.lanes is not None else {}))
 
     def summary(self) -> dict:
         summary = self.recorder.summary(self.now)
