@@ -403,3 +403,19 @@ def test_the_graph_runtime_holds_one_robot_at_a_time_on_the_lanes_narrow_vertice
     plain = make_run(RunConfig(map="lab", strategy="tpuaf", robots=4, duration_s=120, seed=1,
                                robot="burger", lanes="off"))
     assert "narrow_vertices" not in plain.effective_config()
+
+
+def test_a_death_on_a_one_way_plan_is_summarised():
+    """Regression: the recovery's ideal (reference_tours) on a one-way plan, which has no
+    partition into parts a robot can tour, raised ValueError (a traceback from `tpuaf run`)."""
+    from tpuaf.maps.tours import reference_tours
+    from tpuaf.runtimes.config import RunConfig
+    from tpuaf.runtimes.graph import make_run
+
+    run = make_run(RunConfig(map="lab", strategy="tpuaf", robots=4, duration_s=400, seed=2,
+                             robot="burger", lanes="one_way", fail=[[0, 200]]))
+    tours = reference_tours(run.patrol_map, 3, 0.1)
+    assert tours["partition"]["worst_idleness_s"] == math.inf
+    assert tours["better"] == "cyclic" and math.isfinite(tours["best_worst_idleness_s"])
+    (after,) = run.run()["recovery"]
+    assert math.isfinite(after["ideal_worst_idleness_survivors_s"])

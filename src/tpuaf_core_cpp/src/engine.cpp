@@ -339,9 +339,7 @@ void GraphEngine::arrive(int robot) {
   Robot& r = robots_[static_cast<std::size_t>(robot)];
   const int vertex = r.route[r.route_k];
   if (blocks(robot, vertex)) {
-    r.held_short_of = vertex;
-    r.pending = 0;
-    held_[static_cast<std::size_t>(vertex)].push_back(robot);
+    hold_short(robot, vertex);
     return;
   }
   ++r.route_k;
@@ -371,6 +369,34 @@ bool GraphEngine::blocks(int robot, int vertex) const {
   return p.alive() && !p.stalled();  // the graph runtime models no body (docs/LANES.md)
 }
 
+void GraphEngine::hold_short(int robot, int vertex) {
+  // It waits a headway's drive short of `vertex` (at most half the edge) until the robot on it
+  // leaves; after the navigator's give-up time its goal fails, as a blocked robot's in physics.
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  const int from = protocol_of(robot).current_vertex();
+  const double x = positions_(vertex, 0), y = positions_(vertex, 1);
+  const double dx = positions_(from, 0) - x, dy = positions_(from, 1) - y;
+  const double d = std::hypot(dx, dy);
+  const double back =
+      d > 0 ? std::min(0.5 * d, config_.narrow_headway_s * config_.nominal_speed_mps) / d : 0.0;
+  r.p0x = x + dx * back;
+  r.p0y = y + dy * back;
+  r.vx = r.vy = 0.0;
+  r.t0 = r.t1 = now_;
+  protocol_of(robot).observe(r.p0x, r.p0y);
+  r.held_short_of = vertex;
+  held_[static_cast<std::size_t>(vertex)].push_back(robot);
+  r.pending = push(now_ + config_.stall_give_up_s, kGiveUp, robot);
+}
+
+void GraphEngine::stop_holding(int robot) {
+  Robot& r = robots_[static_cast<std::size_t>(robot)];
+  if (r.held_short_of < 0) return;
+  std::deque<int>& queue = held_[static_cast<std::size_t>(r.held_short_of)];
+  queue.erase(std::remove(queue.begin(), queue.end(), robot), queue.end());
+  r.held_short_of = -1;
+}
+
 void GraphEngine::leave(int robot, int vertex) {
   // It drives off `vertex` (or stops for good): the first robot held short of it comes on,
   // a headway later.
@@ -384,11 +410,12 @@ void GraphEngine::leave(int robot, int vertex) {
   double x, y;
   position(next, now_, x, y);
   r.held_short_of = -1;
-  r.p0x = x;
+  r.p0x = x;  // from where it waited, onto the vertex by its passing slot
   r.p0y = y;
-  r.vx = r.vy = 0.0;
   r.t0 = now_;
   r.t1 = take_slot(vertex, now_ + config_.narrow_headway_s);
+  r.vx = (positions_(vertex, 0) - x) / (r.t1 - r.t0);
+  r.vy = (positions_(vertex, 1) - y) / (r.t1 - r.t0);
   r.pending = push(r.t1, kArrive, next);
 }
 

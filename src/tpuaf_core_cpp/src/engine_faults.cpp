@@ -50,6 +50,7 @@ void GraphEngine::give_up_later(int robot) {
 
 void GraphEngine::give_up(int robot) {
   // The navigator gave up: the protocol hears the goal failed, the robot nearest to a vertex.
+  stop_holding(robot);  // held short of a narrow vertex too long
   RobotProtocol& p = protocol_of(robot);
   const int goal = p.goal();
   if (goal < 0 || !p.alive()) return;
@@ -70,11 +71,7 @@ void GraphEngine::freeze(int robot) {
   r.t0 = r.t1 = now_;
   r.pending = 0;
   // no body in the graph runtime: it no longer stands on, nor waits for, a narrow vertex
-  if (r.held_short_of >= 0) {
-    std::deque<int>& queue = held_[static_cast<std::size_t>(r.held_short_of)];
-    queue.erase(std::remove(queue.begin(), queue.end(), robot), queue.end());
-    r.held_short_of = -1;
-  }
+  stop_holding(robot);
   for (int v = 0; v < static_cast<int>(standing_.size()); ++v) leave(robot, v);
 }
 

@@ -160,6 +160,28 @@ TEST(Engine, ARobotStandingOnANarrowVertexHoldsTheNextShortOfIt) {
   EXPECT_EQ(visit_times(engine, 0, 3), std::vector<double>({left + 3.0 + 10.0}));
 }
 
+TEST(Engine, ARobotHeldShortOfANarrowVertexTooLongFailsItsGoal) {
+  // Robot 1 never leaves narrow vertex 1: robot 0's goal through it fails after the give-up
+  // time (the navigator's in physics), and it decides anew from the vertex nearest to it.
+  const PatrolGraph g = line_graph();
+  EngineConfig c = config(2, 60.0, {0, 1});
+  c.narrow_vertices = {1};
+  c.narrow_headway_s = 3.0;
+  c.stall_give_up_s = 20.0;
+  GraphEngine engine(g, g.positions(), c, field_of(g), numpy_3_1());
+  Script s;
+  s.goals = {{3, 0, -1}, std::vector<int>(200, -1)};
+  engine.set_strategy(&s);
+  engine.run();
+  EXPECT_EQ(engine.protocol(0).failures(), 1);
+  EXPECT_TRUE(visit_times(engine, 0, 3).empty());
+  ASSERT_GE(s.decide_times[0].size(), 2u);
+  EXPECT_DOUBLE_EQ(s.decide_times[0][1], 25.0);  // held at 5 s, gave up 20 s later
+  double x, y;
+  engine.position(0, 60.0, x, y);
+  EXPECT_DOUBLE_EQ(x, 0.0);  // then drove back to vertex 0 (it waited 5 m short of 1)
+}
+
 TEST(Engine, ForgottenVisitsKeepIndicesAndPerVertexTimes) {
   const PatrolGraph g = line_graph();
   GraphEngine engine(g, g.positions(), config(1, 40.0, {0}), field_of(g), numpy_3_1());

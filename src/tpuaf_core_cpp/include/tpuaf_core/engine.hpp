@@ -135,6 +135,8 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
     return !narrow_.empty() && narrow_[static_cast<std::size_t>(vertex)];
   }
   double take_slot(int vertex, double earliest_s);  // the first passing time >= earliest_s
+  void hold_short(int robot, int vertex);           // another robot stands on it: wait short of it
+  void stop_holding(int robot);                     // no longer waiting for a narrow vertex
   void leave(int robot, int vertex);                // it drives off: the next held robot comes
   bool blocks(int robot, int vertex) const;         // another live robot stands on vertex
   // --- RobotDriver: what the robots' protocols ask of the loop ---

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import sys
 import time
@@ -453,8 +454,11 @@ def reference_tours(patrol_map: Any, n_robots: int, speed: float) -> dict[str, A
         for t, m in zip(part.tours, part.robots_per_part, strict=True)
     ]
     n = graph.num_vertices
-    p_time = sum(pi["avg_time"] * len(p) for pi, p in zip(per_part, part.parts, strict=True)) / n
-    p_visit = sum(pi["avg_visit"] * len(p) for pi, p in zip(per_part, part.parts, strict=True)) / n
+    # No partition (a one-way plan cut into parts no robot can tour): its figures are inf.
+    p_time = (sum(pi["avg_time"] * len(p) for pi, p in zip(per_part, part.parts, strict=True))
+              / n if per_part else math.inf)
+    p_visit = (sum(pi["avg_visit"] * len(p) for pi, p in zip(per_part, part.parts, strict=True))
+               / n if per_part else math.inf)
     cyclic = {
         "walk": [ids[v] for v in cyc.walk],
         "length_m": cyc.length,
@@ -467,7 +471,7 @@ def reference_tours(patrol_map: Any, n_robots: int, speed: float) -> dict[str, A
         "walks": [[ids[v] for v in t.walk] for t in part.tours],
         "lengths_m": [t.length for t in part.tours],
         "robots_per_part": list(part.robots_per_part),
-        "worst_idleness_s": max(pi["worst"] for pi in per_part),
+        "worst_idleness_s": max((pi["worst"] for pi in per_part), default=math.inf),
         "avg_idleness_time_s": p_time,
         "avg_idleness_visit_s": p_visit,
     }
