@@ -417,6 +417,19 @@ def _assign_survivors(patrol_map, team, all_starts, part, slots, mode) -> list[i
     return out
 
 
+def plan_from(patrol_map, team: tuple[int, ...], starts: tuple[int, ...], mode: str) -> Plan:
+    """A fresh plan for `team` alone from where its robots are (`starts`: every robot's
+    vertex): `make_plan`'s for a full team of len(team) robots starting there (parts matched
+    to the robots by their drive to them, no start schedule), its robots named as in `team`.
+    A re-planned map: the old plan's parts may lie across a blocked lane, and which robot takes
+    which part should not make robots pass each other in a lane one robot wide."""
+    plan = make_plan(patrol_map, tuple(range(len(team))), tuple(starts[r] for r in team), mode,
+                     "replan")
+    routes = tuple(replace(r, robots=tuple(team[i] for i in r.robots)) for r in plan.routes)
+    return replace(plan, routes=routes, route_of={team[i]: p for i, p in plan.route_of.items()},
+                   schedule={})
+
+
 def replan_starts(ctx) -> tuple[int, ...] | None:
     """Every robot's vertex when the plan map changes (a lane blocked, robot/lanes.py): the
     vertex nearest the position of its last lane claim (re-announced every second, so every
@@ -512,18 +525,20 @@ class TpuafPlus(CoreStrategyPolicy):
     def plan_source(params: dict, patrol_map, n_robots: int, starts=None):
         """`plans(team, timing)`: `make_plan`'s plan for the robots `team` on `patrol_map`, as
         the core asks for it (timing: a re-timed graph, learned travel times, or None).
-        `starts`: every robot's vertex the plan starts from (default: the run's start
-        vertices)."""
+        `starts`: every robot's vertex now (a re-plan on a changed map): each team's plan is
+        then planned afresh from where its robots are (`plan_from`); default: the run's start
+        vertices, and a smaller team's plan repairs the full team's."""
         import types
 
         from tpuaf.policies.cyclic import team_start_vertices
 
         ctx = types.SimpleNamespace(patrol_map=patrol_map, n_robots=n_robots)
-        all_starts = tuple(team_start_vertices(ctx)) if starts is None else tuple(starts)
+        all_starts = tuple(team_start_vertices(ctx))
 
         def plans(team: list[int], timing=None):
-            plan = make_plan(patrol_map, tuple(team), all_starts, params["plan"],
-                             params["repair"])
+            plan = (make_plan(patrol_map, tuple(team), all_starts, params["plan"],
+                              params["repair"]) if starts is None
+                    else plan_from(patrol_map, tuple(team), tuple(starts), params["plan"]))
             # re-timed (learned travel times): the same walks, on the timing graph's lengths
             chosen = plan.routes if timing is None else retimed_routes(plan, timing)
             routes = [(list(r.walk), list(r.arc), r.length, list(r.robots), list(r.gaps))
