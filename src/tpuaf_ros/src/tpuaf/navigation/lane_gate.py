@@ -133,8 +133,4 @@ class LaneGate:
         mouth = tuple(float(c) for c in path[min(k + 1, len(path) - 1)])
         refuge = find_refuge(self.planner, (float(pose[0]), float(pose[1])), mouth, [],
                              self._pass_clearance_m(), obstacles, allowed=self._lane_free)
-        if refuge is None or not self._lane_free_path(refuge):
-            # none, or only through a lane not held (a refuge at its far waiting spot: the
-            # robot would stand in the way of its holder)
-            return []
-        return [(float(x), float(y)) for x, y in refuge[1:]]
+        return [] if refuge is None else [(float(x), float(y)) for x, y in refuge[1:]]
