@@ -7,7 +7,9 @@ it stands next to: robot/lanes.py) and `freed` (the body's lane lock is only fre
 teammate timeout, as before: robot/lanes.py BLOCK_LOST_BODIES off). Per strategy and mode,
 medians over the runs (seeds x deaths) of: visits after the death, the worst idleness after it
 over max(the floor at detection, the survivors' ideal) (the recovery ratio of `tpuaf run`,
-1.00 = as good as the death allows), and the time mean of I_ins.
+1.00 = as good as the death allows), the same ratio over the vertices still reachable
+(`ratio_reachable`: without those the body cuts off, which no reaction can visit), and the time
+mean of I_ins.
 
     .venv/bin/python benchmarks/bench_lane_death.py [--seeds 5] [--deaths 1@150,2@300,0@200]
         [--duration 900] [--workers 2] [--out lane_death]
@@ -49,8 +51,11 @@ def one(case: tuple[str, str, int, str, float]) -> tuple[tuple, dict]:
 
     s = run.run(progress)
     (recovery,) = s["recovery"]
-    return case, {"visits_after": s["visits"] - visits_at_death[0],
-                  "ratio": recovery["worst_idleness_ratio_to_detection_reference"],
+    ratio = recovery["worst_idleness_ratio_to_detection_reference"]
+    return case, {"visits_after": s["visits"] - visits_at_death[0], "ratio": ratio,
+                  # over the vertices still reachable (none closed: every vertex)
+                  "ratio_reachable": recovery.get("worst_idleness_ratio_reachable", ratio),
+                  "closed": s.get("lane_vertices_closed", []),
                   "ins": s["idleness_ins_mean_s"], "blocked": s.get("lane_edges_blocked", []),
                   "failures": s.get("goal_failures", 0)}
 
@@ -80,24 +85,29 @@ def main() -> int:
              "blocked: the survivors drop the body's edge (and cut off a vertex it stands "
              "next to); freed: its lane lock is only freed after the teammate timeout. "
              "Medians over seeds x deaths; ratio: worst idleness after the death over "
-             "max(floor at detection, survivors' ideal), 1.00 = as good as the death allows.",
-             "", "| strategy | mode | visits after the death | ratio | I_ins [s] | goal "
-             "failures | runs with an edge blocked |", "|---|---|---|---|---|---|---|"]
+             "max(floor at detection, survivors' ideal), 1.00 = as good as the death allows; "
+             "ratio_reachable: the same over the vertices still reachable (without those the "
+             "body cuts off: `lane_vertices_closed`, no reaction can visit them; docs/LANES.md).",
+             "", "| strategy | mode | visits after the death | ratio | ratio_reachable | "
+             "I_ins [s] | goal failures | runs with an edge blocked |",
+             "|---|---|---|---|---|---|---|---|"]
     for s in strategies:
         for m in MODES:
             rows = [results[c] for c in cases if c[0] == s and c[1] == m]
             med = {k: statistics.median(r[k] for r in rows)
-                   for k in ("visits_after", "ratio", "ins", "failures")}
+                   for k in ("visits_after", "ratio", "ratio_reachable", "ins", "failures")}
             blocked = sum(1 for r in rows if r["blocked"])
             lines.append(f"| {s} | {m} | {med['visits_after']:.0f} | {med['ratio']:.2f} | "
-                         f"{med['ins']:.1f} | {med['failures']:.0f} | {blocked} / {len(rows)} |")
-    lines += ["", "Per run (visits after the death, ratio):", ""]
+                         f"{med['ratio_reachable']:.2f} | {med['ins']:.1f} | "
+                         f"{med['failures']:.0f} | {blocked} / {len(rows)} |")
+    lines += ["", "Per run (visits after the death, ratio / ratio_reachable):", ""]
     for s in strategies:
         for d in deaths:
             cells = []
             for m in MODES:
                 runs = [results[c] for c in cases if c[0] == s and c[1] == m and c[3] == d]
-                cells.append(f"{m} " + ", ".join(f"{r['visits_after']} ({r['ratio']:.2f})"
+                cells.append(f"{m} " + ", ".join(f"{r['visits_after']} ({r['ratio']:.2f} / "
+                                                 f"{r['ratio_reachable']:.2f})"
                                                  for r in runs))
             lines.append(f"- {s}, robot {d.replace('@', ' dies at ')} s: " + "; ".join(cells))
     write(f"{args.out}.md", "\n".join(lines) + "\n")

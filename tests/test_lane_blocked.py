@@ -140,3 +140,67 @@ def test_blocking_keeps_lock_mode_locked(mode):
     new = blocked_layer(layer, (4, 9))
     assert new is not None and new.orientation is None and new.locked is None  # all locked
     assert not new.plan_map.one_way
+
+
+def body_on_junction_9() -> LaneLayer:
+    """The lab after robot 0 died 4 cm from junction 9 on its leg 9 -> 8: 8-9 dropped, 9 cut
+    off (tethered to 14); the lab is then a tree of dead-end aisles round 5, all locked."""
+    layer = lab_layer()
+    edge, occupied = body_blocks(layer, LaneClaim(0, 3, 10.0, True, 12.0, (9, 8), (2.70, 1.26)))
+    return blocked_layer(layer, edge, occupied)
+
+
+def test_a_cut_off_vertex_is_closed_and_tpuaf_plus_plans_without_it():
+    from tpuaf.policies.tpuaf_plus import make_plan
+
+    new = body_on_junction_9()
+    pm = new.plan_map
+    assert pm.closed == {9}
+    graph = pm.graph
+    for team in [(0, 1, 2, 3), (1, 2, 3), (1, 2)]:
+        plan = make_plan(pm, team, (0, 4, 10, 14), "auto", "auto")
+        walks = [r.walk for r in plan.routes]
+        assert all(9 not in w for w in walks), walks  # no goal at the body
+        assert set().union(*walks) == set(range(15)) - {9}  # every other vertex is planned
+        for w in walks:  # each step one edge of the plan's graph (no detour through a lane)
+            for a, b in zip(w, w[1:] + w[:1], strict=True):
+                assert a == b or b in graph.neighbours(a), (a, b, w)
+
+
+def test_a_replan_gives_each_dead_end_to_a_survivor_already_in_it():
+    """Survivors at 12 and 14 in the lower aisle (now a dead end) and at 0: the one nearer
+    the aisle's mouth leaves it, the deeper one keeps it, the third keeps the upper aisle;
+    the run's start vertices (4, 10, 14) would send robot 1 from 12 to the upper aisle,
+    crossing the others in one-robot lanes."""
+    from tpuaf.policies.tpuaf_plus import plan_from
+
+    pm = body_on_junction_9().plan_map
+    plan = plan_from(pm, (1, 2, 3), (14, 12, 14, 0), "auto")
+    walk = {r: set(plan.routes[plan.route_of[r]].walk) for r in (1, 2, 3)}
+    assert {14, 13, 12, 11} <= walk[2] and 0 in walk[3] and 12 not in walk[1]
+    assert plan.schedule == {} and sorted(plan.route_of) == [1, 2, 3]
+
+
+def test_tpuaf_plus_keeps_patrolling_after_a_body_cuts_a_junction_off():
+    """Lab, tpuaf_plus, robot 0 dies on junction 9 at 200 s (seed 1): before plans skipped
+    the cut-off vertex and were matched to where the survivors stood, they queued in the
+    dead-end aisles (23 visits in the 200 s after the death)."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    run = PhysicsRun(PhysicsConfig(map="lab", strategy="tpuaf_plus", robots=4, duration_s=400.0,
+                                   seed=1, robot="burger", fail=["0@200"], lanes="one_way"))
+    at_death: list[int] = []
+
+    def progress(t: float) -> None:
+        if t >= 200.0 and not at_death:
+            at_death.append(sum(a.machine.visits for a in run.agents))
+
+    s = run.run(progress)
+    assert s["lane_vertices_closed"] == [9]
+    assert s["visits"] - at_death[0] > 60, s["visits"] - at_death[0]
+    (recovery,) = s["recovery"]
+    # 9 is never visited again: the plain ratio counts it, the reachable one does not
+    assert recovery["worst_idleness_ratio_reachable"] < 3.0
+    assert recovery["worst_idleness_ratio_to_detection_reference"] > \
+        recovery["worst_idleness_ratio_reachable"]

@@ -69,6 +69,23 @@ def test_recovery_on_a_hand_log():
     assert r["window_end_s"] == 20.0
 
 
+def test_recovery_over_the_reachable_vertices_on_a_hand_log():
+    """Robot 1 dies at 6 s on the line and v2 cannot be reached after (a body next to it:
+    `closed`): the plain worst idleness after the death counts v2 (2 -> 30 s), the reachable
+    one only v0 and v1 (v1: 15 -> 30 s), against max(floor at detection, ideal 40 s)."""
+    rec = RunRecorder(line_map(), 2, ground_truth=False, teammate_timeout_s=1.0)
+    for t, r, v in [(0, 0, 0), (2, 1, 2), (5, 0, 1), (10, 0, 0), (15, 0, 1), (20, 0, 0)]:
+        rec.record_visit(r, v, t)
+    rec.record_robot_death(1, 6.0)
+    (plain,) = rec.recovery(30.0)
+    assert plain["worst_idleness_after_s"] == 28.0 and "worst_idleness_ratio_reachable" not in plain
+    (r,) = rec.recovery(30.0, closed=[2])
+    assert r["worst_idleness_after_s"] == 28.0  # the plain figures stay
+    assert r["worst_idleness_after_reachable_s"] == 15.0
+    assert r["worst_idleness_ratio_reachable"] == pytest.approx(15.0 / 40.0)
+    assert r["worst_idleness_ratio_to_detection_reference"] == pytest.approx(28.0 / 40.0)
+
+
 def test_death_floor_on_a_square_hand_log():
     """Two robots 20 m apart on a 10 m square (1 m/s); robot 1 dies at 25 s, 5 m past v0.
     The survivor is then mid-way v2-v3 (its visits bound it exactly: 15, 15, 5, 5 m from

@@ -67,6 +67,10 @@ class PatrolMap:
     # One-way arcs (u, v) by index: edges driven only from u to v (a traffic orientation of
     # the lanes, navigation/one_way.py); empty: every edge both ways.
     one_way: tuple[tuple[int, int], ...] = ()
+    # Vertices no robot can reach by index (a dead robot's body next to them, robot/lanes.py):
+    # each keeps one edge (the graph stays connected), plans do not visit them and goals there
+    # fail at once; empty: every vertex can be reached.
+    closed: frozenset[int] = frozenset()
 
     def occupancy_grid(self) -> Any:
         """The occupancy grid: the map's image, or corridors generated from the graph (cached)."""

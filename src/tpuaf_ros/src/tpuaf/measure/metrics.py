@@ -190,7 +190,7 @@ class RecorderView:
 
     # -- results ----------------------------------------------------------------------------
 
-    def recovery(self, end_time: float) -> list[dict]:
+    def recovery(self, end_time: float, closed=()) -> list[dict]:
         """Per death (time order), up to `end_time` [s] (docs/RUNTIMES.md "Recovery"):
 
         - recovery_time_s: time from the death until every vertex has been visited again
@@ -210,11 +210,14 @@ class RecorderView:
         - intentions: the vertices the dead robot had announced as its next destination in
           the team messages it sent since its last visit (what its teammates may count on it
           for); intentions_honoured: how many of them a teammate visited after the death,
-          intention_delays_s: after how long (None: never)."""
+          intention_delays_s: after how long (None: never);
+        - with `closed` (vertex indices no robot can reach after the deaths: a dead robot's
+          body next to them, robot/lanes.py) also worst_idleness_after_reachable_s and
+          worst_idleness_ratio_reachable: the same over the other vertices."""
         return recovery_after_deaths(
             self.patrol_map, self.n_robots, self.speed_mps, self.start_time, self.vertex_times,
             self.visits, self.final_deaths(), self.announcements, end_time,
-            teammate_timeout_s=self.teammate_timeout_s)
+            teammate_timeout_s=self.teammate_timeout_s, closed=closed)
 
     def summary(self, end_time: float) -> dict:
         """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null)."""

@@ -66,10 +66,14 @@ class _VisitFigures:
 
 def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, start_time: float,
                           vertex_times, visits, deaths, announcements, end_time: float,
-                          teammate_timeout_s: float | None = None) -> list[dict]:
+                          teammate_timeout_s: float | None = None,
+                          closed: Sequence[int] = ()) -> list[dict]:
     """RecorderView.recovery from a recorder's figures: vertex_times sorted visit times [s] per
     vertex, visits (t, robot, vertex), deaths (t, robot), announcements (t, robot, vertex);
-    teammate_timeout_s [s]: the survivors' timeout (None: the floor at detection is NaN)."""
+    teammate_timeout_s [s]: the survivors' timeout (None: the floor at detection is NaN).
+    `closed`: vertex indices no robot can reach after the deaths (a dead robot's body next to
+    them, robot/lanes.py); when given, each death also gets the worst idleness after it and
+    its ratio to the detection reference over the other vertices (`..._reachable`)."""
     from tpuaf.maps.tours import reference_tours
 
     end_time = float(end_time)
@@ -104,6 +108,23 @@ def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, star
                                         known, until, survivors_now)
             detect_reference = max(detect_floor, ideal) if ideal == ideal else detect_floor
         intentions, delays = _intentions(log, announced, robot, td, start_time)
+        reachable = {}
+        if closed:
+            keep = np.ones(len(log.counts), dtype=bool)
+            keep[[int(v) for v in closed]] = False
+            worst_open = _worst_after(log, j, log.count_until(until), prev, until, keep)
+            reference_open = math.nan
+            if teammate_timeout_s is not None:
+                known = min(td + float(teammate_timeout_s), until)
+                floor_open = _death_floor(patrol_map, speed, log,
+                                          log.previous(log.count_until(known)), known, until,
+                                          survivors_now, keep)
+                reference_open = max(floor_open, ideal) if ideal == ideal else floor_open
+            reachable = {
+                "worst_idleness_after_reachable_s": worst_open,
+                "worst_idleness_ratio_reachable":
+                    worst_open / reference_open if reference_open > 0 else math.nan,
+            }
         out.append({
             "robot": robot,
             "time_s": td,
@@ -121,6 +142,7 @@ def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, star
             "intentions": [int(ids[v]) for v in intentions],
             "intentions_honoured": sum(1 for d in delays if d == d),
             "intention_delays_s": delays,
+            **reachable,
         })
     return out
 
@@ -137,22 +159,25 @@ def _recovered_at(log: _VisitFigures, j: np.ndarray, death_s: float, end_time: f
 
 
 def _worst_after(log: _VisitFigures, j: np.ndarray, upto: np.ndarray, prev: np.ndarray,
-                 until: float) -> float:
+                 until: float, keep: np.ndarray | None = None) -> float:
     """[s] the worst idleness in (death, until]: the gaps between consecutive visits in the
     window, from the last visit before it (prev) and to its end (j, upto: each vertex's
-    visits up to the death and up to `until`)."""
+    visits up to the death and up to `until`); over the vertices `keep` (a mask; None: all)."""
     flat, first = log.flat, log.first
+    if keep is None:
+        keep = np.ones(len(log.counts), dtype=bool)
     worst = 0.0
-    inner = (log.local > j[log.vertex]) & (log.local < upto[log.vertex])
+    inner = (log.local > j[log.vertex]) & (log.local < upto[log.vertex]) & keep[log.vertex]
     if inner.any():
         worst = max(worst, float(log.gap[inner].max()))
-    seen = upto > j
+    seen = (upto > j) & keep
     if seen.any():
         firsts = flat[first[seen] + j[seen]] - prev[seen]
         lasts = until - flat[first[seen] + upto[seen] - 1]
         worst = max(worst, float(firsts.max()), float(lasts.max()))
-    if (~seen).any():
-        worst = max(worst, float((until - prev[~seen]).max()))
+    unseen = ~(upto > j) & keep
+    if unseen.any():
+        worst = max(worst, float((until - prev[unseen]).max()))
     return worst
 
 
@@ -193,9 +218,10 @@ def death_floor(patrol_map: Any, speed_mps: float, start_time: float, vertex_tim
 
 
 def _death_floor(patrol_map: Any, speed_mps: float, log: _VisitFigures, prev: np.ndarray,
-                 death_s: float, until_s: float, survivors: list[int]) -> float:
+                 death_s: float, until_s: float, survivors: list[int],
+                 keep: np.ndarray | None = None) -> float:
     """death_floor with the visit figures converted (`prev`: [s] each vertex's last visit at
-    the death, or the start time)."""
+    the death, or the start time), over the vertices `keep` (a mask; None: all)."""
     if not survivors:
         return math.nan
     speed = float(speed_mps)
@@ -216,9 +242,10 @@ def _death_floor(patrol_map: Any, speed_mps: float, log: _VisitFigures, prev: np
             known = True
         reach = np.minimum(reach, lower if known else 0.0)
     floor = 0.0
-    if len(prev):
-        worst = float(np.minimum(death_s - prev + reach[:len(prev)] / speed,
-                                 until_s - prev).max())
-        floor = max(floor, worst)
+    each = np.minimum(death_s - prev + reach[:len(prev)] / speed, until_s - prev)
+    if keep is not None:
+        each = each[keep[:len(prev)]]
+    if len(each):
+        floor = max(floor, float(each.max()))
     return float(floor)
 

@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import itertools
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import tpuaf_core
@@ -203,6 +203,7 @@ def start_schedule(graph, route: Route, starts: dict, speed: float, late_m: dict
 
 
 _PLANS: OrderedDict = OrderedDict()
+_OPEN: OrderedDict = OrderedDict()  # id(plan map) -> (map, map without closed, kept, nearest)
 
 
 def make_plan(patrol_map, team: tuple[int, ...], all_starts: tuple[int, ...], mode: str,
@@ -213,11 +214,44 @@ def make_plan(patrol_map, team: tuple[int, ...], all_starts: tuple[int, ...], mo
     hit = _PLANS.get(key)
     if hit is not None and hit[0] is patrol_map:
         return hit[1]
-    plan = _make_plan(patrol_map, team, all_starts, mode, repair)
+    if patrol_map.closed:  # a dead robot's body next to them: planned without them
+        plan = _open_plan(patrol_map, team, all_starts, mode, repair)
+    else:
+        plan = _make_plan(patrol_map, team, all_starts, mode, repair)
     _PLANS[key] = (patrol_map, plan)
     while len(_PLANS) > 64:
         _PLANS.popitem(last=False)
     return plan
+
+
+def _open_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
+    """The plan on `patrol_map` without its closed vertices (robot/lanes.py: each hangs on
+    one edge, so the rest stays connected and no shortest path between the rest passes
+    through one): planned on the map of the other vertices, its walks in `patrol_map`'s
+    indices; a start at a closed vertex counts at the nearest open one."""
+    hit = _OPEN.get(id(patrol_map))
+    if hit is None or hit[0] is not patrol_map:
+        graph = patrol_map.graph
+        keep = [v for v in range(patrol_map.num_vertices) if v not in patrol_map.closed]
+        new = {old: k for k, old in enumerate(keep)}
+        sub = replace(patrol_map, vertex_ids=[patrol_map.vertex_ids[v] for v in keep],
+                      positions=np.asarray(patrol_map.positions)[keep],
+                      edges=[(new[u], new[v], d) for u, v, d in patrol_map.edges
+                             if u in new and v in new],
+                      importance=np.asarray(patrol_map.importance)[keep],
+                      initial_uncertainty=np.asarray(patrol_map.initial_uncertainty)[keep],
+                      one_way=tuple((new[u], new[v]) for u, v in patrol_map.one_way
+                                    if u in new and v in new),
+                      closed=frozenset())
+        near = [new[v] if v in new else new[min(keep, key=lambda w: graph.distance(v, w))]
+                for v in range(patrol_map.num_vertices)]
+        hit = _OPEN[id(patrol_map)] = (patrol_map, sub, keep, near)
+        while len(_OPEN) > 8:
+            _OPEN.popitem(last=False)
+    _, sub, keep, near = hit
+    plan = make_plan(sub, team, tuple(near[s] for s in all_starts), mode, repair)
+    routes = tuple(replace(r, walk=tuple(keep[v] for v in r.walk)) for r in plan.routes)
+    return replace(plan, routes=routes)
 
 
 def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
@@ -383,6 +417,38 @@ def _assign_survivors(patrol_map, team, all_starts, part, slots, mode) -> list[i
     return out
 
 
+def plan_from(patrol_map, team: tuple[int, ...], starts: tuple[int, ...], mode: str) -> Plan:
+    """A fresh plan for `team` alone from where its robots are (`starts`: every robot's
+    vertex): `make_plan`'s for a full team of len(team) robots starting there (parts matched
+    to the robots by their drive to them, no start schedule), its robots named as in `team`.
+    A re-planned map: the old plan's parts may lie across a blocked lane, and which robot takes
+    which part should not make robots pass each other in a lane one robot wide."""
+    plan = make_plan(patrol_map, tuple(range(len(team))), tuple(starts[r] for r in team), mode,
+                     "replan")
+    routes = tuple(replace(r, robots=tuple(team[i] for i in r.robots)) for r in plan.routes)
+    return replace(plan, routes=routes, route_of={team[i]: p for i, p in plan.route_of.items()},
+                   schedule={})
+
+
+def replan_starts(ctx) -> tuple[int, ...] | None:
+    """Every robot's vertex when the plan map changes (a lane blocked, robot/lanes.py): the
+    vertex nearest the position of its last lane claim (re-announced every second, so every
+    survivor reads nearly the same; its own: where it is), the dead robot's too (its body);
+    None without lane claims (the run's start vertices then)."""
+    locks = getattr(ctx, "lane_locks", None)
+    if locks is None:
+        return None
+    pm = ctx.patrol_map
+    out = []
+    for k in range(ctx.n_robots):
+        xy = ctx.position if k == ctx.robot else locks.claims[k].position if k in locks.claims \
+            else (float("nan"), float("nan"))
+        if not all(np.isfinite(xy)):
+            return None
+        out.append(int(pm.nearest_vertex(float(xy[0]), float(xy[1]))))
+    return tuple(out)
+
+
 @register
 class TpuafPlus(CoreStrategyPolicy):
     """TPUAF+: shared tour plan, closed-loop spacing from timed messages (measured paces,
@@ -456,9 +522,12 @@ class TpuafPlus(CoreStrategyPolicy):
                                             cls.plan_source(params, patrol_map, n_robots))
 
     @staticmethod
-    def plan_source(params: dict, patrol_map, n_robots: int):
+    def plan_source(params: dict, patrol_map, n_robots: int, starts=None):
         """`plans(team, timing)`: `make_plan`'s plan for the robots `team` on `patrol_map`, as
-        the core asks for it (timing: a re-timed graph, learned travel times, or None)."""
+        the core asks for it (timing: a re-timed graph, learned travel times, or None).
+        `starts`: every robot's vertex now (a re-plan on a changed map): each team's plan is
+        then planned afresh from where its robots are (`plan_from`); default: the run's start
+        vertices, and a smaller team's plan repairs the full team's."""
         import types
 
         from tpuaf.policies.cyclic import team_start_vertices
@@ -467,8 +536,9 @@ class TpuafPlus(CoreStrategyPolicy):
         all_starts = tuple(team_start_vertices(ctx))
 
         def plans(team: list[int], timing=None):
-            plan = make_plan(patrol_map, tuple(team), all_starts, params["plan"],
-                             params["repair"])
+            plan = (make_plan(patrol_map, tuple(team), all_starts, params["plan"],
+                              params["repair"]) if starts is None
+                    else plan_from(patrol_map, tuple(team), tuple(starts), params["plan"]))
             # re-timed (learned travel times): the same walks, on the timing graph's lengths
             chosen = plan.routes if timing is None else retimed_routes(plan, timing)
             routes = [(list(r.walk), list(r.arc), r.length, list(r.robots), list(r.gaps))
@@ -481,10 +551,12 @@ class TpuafPlus(CoreStrategyPolicy):
 
     def replan(self, ctx) -> None:
         # A lane edge dropped (a dead robot's body on it): the walks are planned again on the
-        # new map, for the team this robot believes alive.
+        # new map, for the team this robot believes alive, from where the robots are (the
+        # old plan's parts may lie across the blocked lanes from them).
         self.host.set_graph(ctx.patrol_map.graph)
         self._call(ctx, self.strategy.replan,
-                   self.plan_source(self.params, ctx.patrol_map, ctx.n_robots))
+                   self.plan_source(self.params, ctx.patrol_map, ctx.n_robots,
+                                    replan_starts(ctx)))
 
     @property
     def walk(self) -> list[int]:

@@ -105,8 +105,8 @@ def blocked_layer(layer: LaneLayer, edge: tuple[int, int],
     it, the lanes without it (the rest of that lane is a dead end: a bridge, locked) and
     re-oriented keeping their directions where they can (one_way.orient_lanes). A vertex of
     `occupied` (the body too near it to reach) keeps one edge, to its nearest neighbour, so
-    that no route passes through it (the plan's graph stays connected; goals there fail at
-    once, runtimes/agent.py). None when the edge is not in a lane or dropping it would leave
+    that no route passes through it (the plan's graph stays connected; its plan map lists it
+    `closed`: plans skip it, goals there fail at once, runtimes/agent.py). None when the edge is not in a lane or dropping it would leave
     some vertex unreachable (then occupied vertices keep their edges if that would). The same
     on every robot (cached per layer, edge and occupied vertices)."""
     u, v = min(edge), max(edge)
@@ -117,10 +117,13 @@ def blocked_layer(layer: LaneLayer, edge: tuple[int, int],
     pairs = [(min(int(a), int(b)), max(int(a), int(b))) for a, b, _ in plan.edges]
     result = None
     if layer.lane_map.lane_of(u, v) >= 0:
-        cut = _cut_edges(plan, pairs, (u, v), occupied)
-        if cut is None and occupied:
-            cut = _cut_edges(plan, pairs, (u, v), ())
+        closed = tuple(occupied)
+        cut = _cut_edges(plan, pairs, (u, v), closed)
+        if cut is None and closed:
+            closed = ()
+            cut = _cut_edges(plan, pairs, (u, v), closed)
         if cut is not None:
+            plan = replace(plan, closed=plan.closed | frozenset(int(w) for w in closed))
             result = _without(layer, plan, pairs, cut)
     _BLOCKED[key] = (layer, result)
     return result
@@ -339,7 +342,7 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
             access.blocked.append(edge)
             access.occupied.extend(occupied)
             access.use(new.lane_map, new.locked, agent.position, machine.now)
-            agent.replan(new.plan_map, access.occupied)
+            agent.replan(new.plan_map)
 
         machine.on_teammate_lost_first = teammate_lost
     if start_vertex is not None:

@@ -153,12 +153,12 @@ class AgentRuntime:
                            from_position=self.position, snap_m=self.navigator.waypoint_tolerance)
         self.navigator.set_route(route, self._now)
 
-    def replan(self, plan_map: Any, cut_off=()) -> None:
+    def replan(self, plan_map: Any) -> None:
         """Route on `plan_map`'s graph from now on (a lane blocked: robot/lanes.py), and the
         policy re-plans on it; a route under way is re-planned from where the robot is. Goals
-        at the vertices `cut_off` (a dead robot's body too near them) fail at once."""
+        at the map's `closed` vertices (a dead robot's body too near them) fail at once."""
         self._graph = plan_map.graph
-        self._cut_off = frozenset(int(v) for v in cut_off)
+        self._cut_off = frozenset(int(v) for v in plan_map.closed)
         self.machine.replan(plan_map)
         goal = self.machine.goal
         if self.navigator.route is not None and goal is not None and self._stay_until is None:
