@@ -99,27 +99,16 @@ def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, star
         survivors_now = [r for r in range(n_robots) if r not in dead]
         floor = _death_floor(patrol_map, speed, log, prev, td, until, survivors_now)
         reference = max(floor, ideal) if ideal == ideal else floor
-        detect_floor = detect_reference = math.nan
-        if teammate_timeout_s is not None:
-            # the survivors can first know at td + timeout (or the window's end, if sooner:
-            # the same survivors, as the next death ends the window)
-            known = min(td + float(teammate_timeout_s), until)
-            detect_floor = _death_floor(patrol_map, speed, log, log.previous(log.count_until(known)),
-                                        known, until, survivors_now)
-            detect_reference = max(detect_floor, ideal) if ideal == ideal else detect_floor
+        detect_floor, detect_reference = _detection_reference(
+            patrol_map, speed, log, td, until, survivors_now, ideal, teammate_timeout_s)
         intentions, delays = _intentions(log, announced, robot, td, start_time)
         reachable = {}
         if closed:
             keep = np.ones(len(log.counts), dtype=bool)
             keep[[int(v) for v in closed]] = False
             worst_open = _worst_after(log, j, log.count_until(until), prev, until, keep)
-            reference_open = math.nan
-            if teammate_timeout_s is not None:
-                known = min(td + float(teammate_timeout_s), until)
-                floor_open = _death_floor(patrol_map, speed, log,
-                                          log.previous(log.count_until(known)), known, until,
-                                          survivors_now, keep)
-                reference_open = max(floor_open, ideal) if ideal == ideal else floor_open
+            _, reference_open = _detection_reference(
+                patrol_map, speed, log, td, until, survivors_now, ideal, teammate_timeout_s, keep)
             reachable = {
                 "worst_idleness_after_reachable_s": worst_open,
                 "worst_idleness_ratio_reachable":
@@ -145,6 +134,20 @@ def recovery_after_deaths(patrol_map: Any, n_robots: int, speed_mps: float, star
             **reachable,
         })
     return out
+
+
+def _detection_reference(patrol_map: Any, speed: float, log: _VisitFigures, death_s: float,
+                         until: float, survivors: list[int], ideal: float,
+                         teammate_timeout_s: float | None, keep=None) -> tuple[float, float]:
+    """(floor at detection, max(it, ideal)) [s] over the vertices `keep` (None: all); NaN
+    without a timeout. The survivors can first know at the death + timeout (or the window's
+    end, if sooner: the same survivors, as the next death ends the window)."""
+    if teammate_timeout_s is None:
+        return math.nan, math.nan
+    known = min(death_s + float(teammate_timeout_s), until)
+    floor = _death_floor(patrol_map, speed, log, log.previous(log.count_until(known)), known,
+                         until, survivors, keep)
+    return floor, (max(floor, ideal) if ideal == ideal else floor)
 
 
 def _recovered_at(log: _VisitFigures, j: np.ndarray, death_s: float, end_time: float) -> float:
