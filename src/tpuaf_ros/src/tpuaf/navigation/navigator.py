@@ -102,9 +102,9 @@ class Navigator(LaneGate, GivingWay):
         self._gate: tuple[int, bool] | None = None  # waiting at: (next vertex, advance route)
         self._gate_corners: list[tuple[float, float]] | None = None  # to a waiting point
         self.gate_waits = 0  # waits at a lane's waiting spot
-        # [m] legs keep this far right of the planned path where the walls leave room (two
-        # robots meeting on an edge then pass each other: half the pass clearance; 0: off)
-        self.keep_right_m = 0.5 * self._pass_clearance_m()
+        # [m] legs keep this far right of the planned path where the walls leave room: two
+        # robots driving an edge in opposite directions meet side by side (0: off)
+        self.keep_right_m = KEEP_RIGHT_SHARE * self._pass_clearance_m()
 
     def set_route(self, route: GraphRoute, t: float) -> None:
         self.route = route
@@ -200,7 +200,7 @@ class Navigator(LaneGate, GivingWay):
             corners: list[tuple[float, float]] = []
         else:
             if self.keep_right_m > 0.0 and points is None:
-                path = keep_right(path, self.keep_right_m, self.planner, self._lane_room_m())
+                path = keep_right(path, self.keep_right_m, self.planner, self._right_room_m())
             corners = [(float(px), float(py)) for px, py in path[1:-1]]
         tol = self.corner_tolerance
         self._corners = corners
@@ -210,9 +210,9 @@ class Navigator(LaneGate, GivingWay):
             corners.pop(0)
         self._aim(t, new_goal=False, keep_clock=keep_clock)
 
-    def _lane_room_m(self) -> float:
+    def _right_room_m(self) -> float:
         """[m] a point kept right stays this far from the walls: the controller's wide
-        clearance (robot radius + plan margin), so walls never slow it there."""
+        clearance (robot radius + plan margin), which it keeps from walls when it can."""
         c = self.controller.config
         return c.robot_radius + max(c.plan_margin, c.safety_margin)
 
@@ -489,6 +489,7 @@ MAX_DETOUR_EXTRA_M = 1.0  # [m] ... plus this
 MAX_GIVE_WAYS_PER_LEG = 2  # then the usual recovery decides (a robot that does not move)
 
 
+KEEP_RIGHT_SHARE = 0.5  # legs keep right by this share of the pass clearance (0: off)
 KEEP_RIGHT_STEP_M = 1.0  # [m] a path kept right has a point at least this often
 
 
@@ -498,9 +499,13 @@ def keep_right(path: np.ndarray, offset_m: float, planner, room_m: float) -> np.
     long segments first split every KEEP_RIGHT_STEP_M. Its ends stay (the vertices). A point
     moves only where it stays `room_m` from the walls, by half the offset else, or not at all;
     a segment that would then come nearer the walls than the planner's lethal radius keeps
-    its points where they were."""
+    its points where they were. Unchanged with a planner that knows no walls."""
+    distances = getattr(planner, "distances_to_obstacle", None)
+    clear = getattr(planner, "segment_clear", None)
+    if distances is None or clear is None:
+        return path
     pts = [path[0]]
-    for a, b in zip(path[:-1], path[1:]):
+    for a, b in zip(path[:-1], path[1:], strict=True):
         n = max(1, int(math.ceil(math.hypot(*(b - a)) / KEEP_RIGHT_STEP_M)))
         pts += [a + (b - a) * (j / n) for j in range(1, n + 1)]
     pts = np.array(pts, dtype=float)
@@ -513,18 +518,17 @@ def keep_right(path: np.ndarray, offset_m: float, planner, room_m: float) -> np.
     moved = pts.copy()
     for f in (1.0, 0.5):
         trial = pts[1:-1] + f * offset_m * right
-        ok = (planner.distances_to_obstacle(trial) >= room_m) & (moved[1:-1] == pts[1:-1]).all(
-            axis=1)
+        ok = (distances(trial) >= room_m) & (moved[1:-1] == pts[1:-1]).all(axis=1)
         moved[1:-1][ok] = trial[ok]
     lethal = planner.inscribed_radius_m
-    for _ in range(len(pts)):
-        bad = [i for i in range(len(pts) - 1)
-               if not planner.segment_clear(moved[i], moved[i + 1], lethal)]
+    for _ in range(len(pts)):  # each round puts back at least one point, or ends
+        shifted = (moved != pts).any(axis=1)
+        bad = [i for i in range(len(pts) - 1) if (shifted[i] or shifted[i + 1])
+               and not clear(moved[i], moved[i + 1], lethal)]
         if not bad:
             break
         for i in bad:
-            moved[i] = pts[i]
-            moved[i + 1] = pts[i + 1]
+            moved[i:i + 2] = pts[i:i + 2]
     return moved
 
 
