@@ -37,8 +37,10 @@ class Navigator(LaneGate, GivingWay):
     `PathPlanner` (navigation/planner.py), else along the straight edges.
 
     Each leg (to the next vertex of the route) is the planner's path: the cached path of the
-    graph edge when the leg starts at a vertex, else a plan from the pose. The controller drives
-    to the path's corners one by one (reached within `corner_tolerance` [m]), then to the vertex.
+    graph edge when the leg starts at a vertex, else a plan from the pose, kept `keep_right_m`
+    [m] right of its way where the walls leave room (`keep_right`: right-hand traffic; not
+    with lanes). The controller drives to the path's corners one by one (reached within
+    `corner_tolerance` [m]), then to the vertex.
     After a recovery (the controller was stuck and backed off) the leg is replanned from the
     pose, with the laser's points as obstacles for that plan (another robot, an unmapped
     obstacle), so the robot takes another way when there is a reasonable one. A robot held
