@@ -1,13 +1,15 @@
-"""Passing another robot early (navigation/controller.py `_pass_bias`), with and without, over
-seeds: fast robots (1 m/s) jammed on 1r5 and ctcv at N = 8-12 (issue 32/35).
+"""Passing another robot: early (navigation/controller.py `_pass_bias`) and keeping right
+(navigation/navigator.py `keep_right`), over seeds: fast robots (1 m/s) jammed on 1r5, ctcv
+and example at N = 8-12 (issue 32/35).
 
 For each case and seed, the graph runtime (the plan, on the robot's travel times) and the
-physics runtime twice: with the passing rule, and without it (`PASS_BIAS_RAD` = 0: the
-navigator as before the rule). Figures per case, medians over the seeds: driven visits ratio
-and I_max ratio (physics / graph, as bench_fidelity.py), world contacts and failed goals
-(sums over the seeds).
+physics runtime three times: `without` either rule (`PASS_BIAS_RAD` = 0 and
+`KEEP_RIGHT_SHARE` = 0: the navigator before both), `bias` (the passing rule only: before
+keeping right) and `with` both (the navigator as it is). Figures per case, medians over the
+seeds: driven visits ratio and I_max ratio (physics / graph, as bench_fidelity.py), world
+contacts and failed goals (sums over the seeds).
 
-    .venv/bin/python benchmarks/bench_passing.py                      # ~15 min on 2 cores
+    .venv/bin/python benchmarks/bench_passing.py                      # ~25 min on 2 cores
     .venv/bin/python benchmarks/bench_passing.py --cases 1r5:tpuaf:12 --seeds 1 2 --quick
 
 Writes benchmarks/results/passing_seeds.md and .json.
@@ -27,9 +29,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_fidelity import map_ref  # noqa: E402
 from common import RESULTS, header, write  # noqa: E402
 
-CASES = ("1r5:tpuaf:8", "1r5:tpuaf:12", "ctcv:tpuaf:12", "ctcv:tpuaf_plus:8",
-         "ctcv:tpuaf_plus:12", "ctcv:tpuaf:12:burger")
-VARIANTS = ("without", "with")
+CASES = ("1r5:tpuaf:4", "1r5:tpuaf_plus:4", "1r5:tpuaf:8", "1r5:tpuaf:12", "ctcv:tpuaf:12",
+         "ctcv:tpuaf_plus:8", "ctcv:tpuaf_plus:12", "example:tpuaf_plus:8",
+         "ctcv:tpuaf:12:burger")
+VARIANTS = ("without", "bias", "with")
 
 
 def parse(case: str) -> dict:
@@ -46,13 +49,15 @@ def one(job: tuple[str, str, int, float]) -> dict:
     """One case, seed and variant: the graph and physics runs' figures. Runs in a fresh
     process (the variant sets a module constant)."""
     variant, case, seed, duration = job
-    from tpuaf.navigation import controller
+    from tpuaf.navigation import controller, navigator
     from tpuaf.runtimes.config import PhysicsConfig, RunConfig
     from tpuaf.runtimes.graph import make_run
     from tpuaf.runtimes.physics import PhysicsRun
 
     if variant == "without":
         controller.PASS_BIAS_RAD = 0.0
+    if variant in ("without", "bias"):
+        navigator.KEEP_RIGHT_SHARE = 0.0
     c = parse(case)
     common = dict(map=map_ref(c["map"]), strategy=c["strategy"], robots=c["robots"],
                   duration_s=duration, seed=seed, robot=c["robot"], lanes="auto")
@@ -65,8 +70,8 @@ def one(job: tuple[str, str, int, float]) -> dict:
 
 
 def table(results: list[dict], cases, seeds) -> str:
-    rows = ["| case | seeds | visits ratio without -> with | I_max ratio without -> with "
-            "| contacts without -> with | failed goals without -> with |",
+    rows = ["| case | seeds | visits ratio without / bias / with | I_max ratio without / bias / "
+            "with | contacts without / bias / with | failed goals without / bias / with |",
             "|---|---|---|---|---|---|"]
     for case in cases:
         figs = {}
@@ -77,10 +82,11 @@ def table(results: list[dict], cases, seeds) -> str:
                 imax=statistics.median(r["imax_s"] / r["graph_imax_s"] for r in rs),
                 contacts=sum(r["contacts"] for r in rs),
                 fails=sum(r["goal_failures"] for r in rs))
-        a, b = figs["without"], figs["with"]
-        rows.append(f"| {case} | {len(seeds)} | {a['visits']:.2f} -> **{b['visits']:.2f}** | "
-                    f"{a['imax']:.2f} -> **{b['imax']:.2f}** | {a['contacts']} -> "
-                    f"{b['contacts']} | {a['fails']} -> {b['fails']} |")
+        a, m, b = figs["without"], figs["bias"], figs["with"]
+        rows.append(f"| {case} | {len(seeds)} | {a['visits']:.2f} / {m['visits']:.2f} / "
+                    f"**{b['visits']:.2f}** | {a['imax']:.2f} / {m['imax']:.2f} / "
+                    f"**{b['imax']:.2f}** | {a['contacts']} / {m['contacts']} / {b['contacts']} | "
+                    f"{a['fails']} / {m['fails']} / {b['fails']} |")
     return "\n".join(rows) + "\n"
 
 
@@ -109,15 +115,16 @@ def main() -> int:
                   f"{r['imax_s'] / r['graph_imax_s']:.2f}x", file=sys.stderr, flush=True)
     wall = time.perf_counter() - start
     cmd = " ".join(sys.argv[1:])
-    text = header("Passing another robot early, with and without, over seeds") + (
+    text = header("Passing another robot (early, keeping right), with and without, over seeds") + (
         f"Cases {', '.join(args.cases)}; seeds {', '.join(map(str, args.seeds))}; "
         f"{args.duration:g} s each; wall {wall:.0f} s with {args.workers} workers. Command: "
         f"`.venv/bin/python benchmarks/bench_passing.py{' ' + cmd if cmd else ''}`.\n\n"
         "Ratios are physics / graph runtime on the same robot model (bench_fidelity.py), "
         "medians over the seeds; contacts (world contact steps) and failed goals are sums. "
-        "`without`: `PASS_BIAS_RAD` = 0, the navigator before the passing rule; `with`: the "
-        "rule (docs/RUNTIMES.md, \"Passing another robot early\"). Targets (issue 32): visits "
-        ">= 0.9, I_max <= 1.2.\n\n") + table(results, args.cases, args.seeds)
+        "`without`: `PASS_BIAS_RAD` = 0 and `KEEP_RIGHT_SHARE` = 0, the navigator before both "
+        "rules; `bias`: the passing rule only (docs/RUNTIMES.md, \"Passing another robot "
+        "early\"); `with`: both, legs kept right too (\"Keeping right\"). Targets (issue 32): "
+        "visits >= 0.9, I_max <= 1.2.\n\n") + table(results, args.cases, args.seeds)
     if args.quick:
         print(text)
         return 0

@@ -22,6 +22,8 @@ from tpuaf.navigation import (
     Scan,
     scan_points,
 )
+from tpuaf.navigation import navigator as navigator_module
+from tpuaf.navigation.navigator import keep_right
 from tpuaf.navigation.planner import PathPlanner
 from tpuaf.navigation.scan import moved_points
 
@@ -137,3 +139,55 @@ def test_the_robot_steers_away_from_another_in_its_way_only():
     controller.set_target((1.0, 0.0), 0.15, 0.4)  # the target before the other robot
     controller.set_movers(0.4, ahead)
     assert controller.step(0.4, (0.0, 0.0, 0.0), ahead).w == 0.0
+
+
+def test_legs_keep_right_of_the_planned_path_where_the_walls_leave_room(hall):
+    """The corridor's edge path, kept right: its ends stay on the vertices, its inner points
+    (one at least every metre) lie the offset to the right of the way in each direction, so
+    two robots driving it in opposite directions are twice the offset apart; a corridor too
+    narrow for the offset keeps the path where it was."""
+    pm, planner = hall
+    offset = 0.23  # [m] the navigator's: half the pass clearance of this robot
+    room = RADIUS + ControllerConfig().plan_margin
+    for u, v, side in ((0, 1, -1.0), (1, 0, 1.0)):  # east: right is -y; west: right is +y
+        path = planner.edge_path(u, v)
+        kept = keep_right(path, offset, planner, room)
+        assert np.allclose(kept[0], path[0]) and np.allclose(kept[-1], path[-1])
+        assert len(kept) >= math.ceil(np.hypot(*(path[-1] - path[0])) / 1.0) + 1
+        inner = kept[1:-1]
+        assert np.allclose(inner[:, 1], AXIS_Y + side * offset, atol=1e-6)
+    narrow = keep_right(planner.edge_path(0, 1), offset, planner, 1.0)  # 1 m from walls
+    assert np.allclose(narrow[:, 1], AXIS_Y, atol=1e-6)
+
+
+def test_fast_robots_on_a_tree_keep_right_and_lose_less_time_to_each_other(shared_maps,
+                                                                          monkeypatch):
+    """1r5 (a 12-vertex tree of 1.4 m corridors), 8 robots at 1 m/s, tpuaf, 200 s, seed 1:
+    keeping right of the planned paths, robots driving an edge in opposite directions meet
+    side by side instead of nose to nose (where each chose its side from its own bearing, both
+    often the same way, and they turned in place round each other). Against the same run
+    without it: over 5 % more visits and under 85 % of the robot-time turning in place
+    (measured: 345 against 316 visits, 283 against 371 robot-seconds)."""
+    from tpuaf.runtimes import agent
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    turning = [0.0]
+    tick = agent.AgentRuntime.tick
+
+    def counted(self, t, points, points_pose=None):
+        v, w = tick(self, t, points, points_pose)
+        turning[0] += 0.1 * (v == 0.0 and w != 0.0)  # [robot-s] one 10 Hz control tick
+        return v, w
+
+    monkeypatch.setattr(agent.AgentRuntime, "tick", counted)
+    figures = {}
+    for share in (0.0, navigator_module.KEEP_RIGHT_SHARE):
+        monkeypatch.setattr(navigator_module, "KEEP_RIGHT_SHARE", share)
+        turning[0] = 0.0
+        summary = PhysicsRun(PhysicsConfig(map=str(shared_maps / "1r5"), strategy="tpuaf",
+                                           robots=8, duration_s=200.0, seed=1)).run()
+        figures[share] = (summary["visits"], turning[0])
+    (visits_off, turning_off), (visits_on, turning_on) = figures.values()
+    assert visits_on > 1.05 * visits_off, figures
+    assert turning_on < 0.85 * turning_off, figures

@@ -37,8 +37,10 @@ class Navigator(LaneGate, GivingWay):
     `PathPlanner` (navigation/planner.py), else along the straight edges.
 
     Each leg (to the next vertex of the route) is the planner's path: the cached path of the
-    graph edge when the leg starts at a vertex, else a plan from the pose. The controller drives
-    to the path's corners one by one (reached within `corner_tolerance` [m]), then to the vertex.
+    graph edge when the leg starts at a vertex, else a plan from the pose, kept `keep_right_m`
+    [m] right of its way where the walls leave room (`keep_right`: right-hand traffic; not
+    with lanes). The controller drives to the path's corners one by one (reached within
+    `corner_tolerance` [m]), then to the vertex.
     After a recovery (the controller was stuck and backed off) the leg is replanned from the
     pose, with the laser's points as obstacles for that plan (another robot, an unmapped
     obstacle), so the robot takes another way when there is a reasonable one. A robot held
@@ -102,6 +104,9 @@ class Navigator(LaneGate, GivingWay):
         self._gate: tuple[int, bool] | None = None  # waiting at: (next vertex, advance route)
         self._gate_corners: list[tuple[float, float]] | None = None  # to a waiting point
         self.gate_waits = 0  # waits at a lane's waiting spot
+        # [m] legs keep this far right of the planned path where the walls leave room: two
+        # robots driving an edge in opposite directions meet side by side (0: off)
+        self.keep_right_m = KEEP_RIGHT_SHARE * self._pass_clearance_m()
 
     def set_route(self, route: GraphRoute, t: float) -> None:
         self.route = route
@@ -196,6 +201,9 @@ class Navigator(LaneGate, GivingWay):
             self.unplanned_legs += 1
             corners: list[tuple[float, float]] = []
         else:
+            if self.keep_right_m > 0.0 and points is None and self.lanes is None:
+                # (not with lanes: their locks and waiting spots order the passing there)
+                path = keep_right(path, self.keep_right_m, self.planner, self._right_room_m())
             corners = [(float(px), float(py)) for px, py in path[1:-1]]
         tol = self.corner_tolerance
         self._corners = corners
@@ -204,6 +212,12 @@ class Navigator(LaneGate, GivingWay):
                and self._corner_passable(pose)):
             corners.pop(0)
         self._aim(t, new_goal=False, keep_clock=keep_clock)
+
+    def _right_room_m(self) -> float:
+        """[m] a point kept right stays this far from the walls: the controller's wide
+        clearance (robot radius + plan margin), which it keeps from walls when it can."""
+        c = self.controller.config
+        return c.robot_radius + max(c.plan_margin, c.safety_margin)
 
     def _corner_passable(self, pose: tuple[float, float, float]) -> bool:
         """Whether the first corner may be left behind: the point after it is in line of
@@ -476,6 +490,49 @@ COVERED_MARGIN_M = 0.05  # [m] another robot's centre within the goal tolerance 
 MAX_DETOUR_FACTOR = 1.5  # a way round another robot may be this much longer than the free way
 MAX_DETOUR_EXTRA_M = 1.0  # [m] ... plus this
 MAX_GIVE_WAYS_PER_LEG = 2  # then the usual recovery decides (a robot that does not move)
+
+
+KEEP_RIGHT_SHARE = 0.5  # legs keep right by this share of the pass clearance (0: off)
+KEEP_RIGHT_STEP_M = 1.0  # [m] a path kept right has a point at least this often
+
+
+def keep_right(path: np.ndarray, offset_m: float, planner, room_m: float) -> np.ndarray:
+    """The path (k, 2) [m] with its inner points moved `offset_m` to the right of the way
+    (right-hand traffic: two robots driving an edge in opposite directions meet side by side),
+    long segments first split every KEEP_RIGHT_STEP_M. Its ends stay (the vertices). A point
+    moves only where it stays `room_m` from the walls, by half the offset else, or not at all;
+    a segment that would then come nearer the walls than the planner's lethal radius keeps
+    its points where they were. Unchanged with a planner that knows no walls."""
+    distances = getattr(planner, "distances_to_obstacle", None)
+    clear = getattr(planner, "segment_clear", None)
+    if distances is None or clear is None:
+        return path
+    pts = [path[0]]
+    for a, b in zip(path[:-1], path[1:], strict=True):
+        n = max(1, int(math.ceil(math.hypot(*(b - a)) / KEEP_RIGHT_STEP_M)))
+        pts += [a + (b - a) * (j / n) for j in range(1, n + 1)]
+    pts = np.array(pts, dtype=float)
+    if len(pts) < 3:
+        return path
+    way = pts[2:] - pts[:-2]  # the direction of travel at each inner point
+    norm = np.hypot(way[:, 0], way[:, 1])
+    norm[norm < 1e-9] = np.inf
+    right = np.column_stack((way[:, 1], -way[:, 0])) / norm[:, None]
+    moved = pts.copy()
+    for f in (1.0, 0.5):
+        trial = pts[1:-1] + f * offset_m * right
+        ok = (distances(trial) >= room_m) & (moved[1:-1] == pts[1:-1]).all(axis=1)
+        moved[1:-1][ok] = trial[ok]
+    lethal = planner.inscribed_radius_m
+    for _ in range(len(pts)):  # each round puts back at least one point, or ends
+        shifted = (moved != pts).any(axis=1)
+        bad = [i for i in range(len(pts) - 1) if (shifted[i] or shifted[i + 1])
+               and not clear(moved[i], moved[i + 1], lethal)]
+        if not bad:
+            break
+        for i in bad:
+            moved[i:i + 2] = pts[i:i + 2]
+    return moved
 
 
 def _reasonable_detour(detour: np.ndarray, free: np.ndarray) -> bool:
