@@ -101,13 +101,15 @@ def test_lane_claim_legs_are_checked():
     assert "not a point" in problem(bad_position, 2, 5, 3)
 
 
-def run_death(block: bool, monkeypatch) -> tuple[dict, list]:
-    """Lab, 4 Burgers, tpuaf one-way, robot 0 dies at 200 s inside a lane (seed 1)."""
+def run_death(block: bool, monkeypatch, strategy: str = "tpuaf",
+              duration_s: float = 600.0) -> tuple[dict, list]:
+    """Lab, 4 Burgers, one-way, robot 0 dies at 200 s inside a lane (seed 1); the summary
+    gains `visits_after_death`."""
     from tpuaf.runtimes.config import PhysicsConfig
     from tpuaf.runtimes.physics import PhysicsRun
 
     monkeypatch.setattr(robot_lanes, "BLOCK_LOST_BODIES", block)
-    run = PhysicsRun(PhysicsConfig(map="lab", strategy="tpuaf", robots=4, duration_s=600.0,
+    run = PhysicsRun(PhysicsConfig(map="lab", strategy=strategy, robots=4, duration_s=duration_s,
                                    seed=1, robot="burger", fail=["0@200"], lanes="one_way"))
     at_death: list[int] = []
 
@@ -181,24 +183,13 @@ def test_a_replan_gives_each_dead_end_to_a_survivor_already_in_it():
     assert plan.schedule == {} and sorted(plan.route_of) == [1, 2, 3]
 
 
-def test_tpuaf_plus_keeps_patrolling_after_a_body_cuts_a_junction_off():
+def test_tpuaf_plus_keeps_patrolling_after_a_body_cuts_a_junction_off(monkeypatch):
     """Lab, tpuaf_plus, robot 0 dies on junction 9 at 200 s (seed 1): before plans skipped
     the cut-off vertex and were matched to where the survivors stood, they queued in the
     dead-end aisles (23 visits in the 200 s after the death)."""
-    from tpuaf.runtimes.config import PhysicsConfig
-    from tpuaf.runtimes.physics import PhysicsRun
-
-    run = PhysicsRun(PhysicsConfig(map="lab", strategy="tpuaf_plus", robots=4, duration_s=400.0,
-                                   seed=1, robot="burger", fail=["0@200"], lanes="one_way"))
-    at_death: list[int] = []
-
-    def progress(t: float) -> None:
-        if t >= 200.0 and not at_death:
-            at_death.append(sum(a.machine.visits for a in run.agents))
-
-    s = run.run(progress)
+    s, _ = run_death(True, monkeypatch, "tpuaf_plus", 400.0)
     assert s["lane_vertices_closed"] == [9]
-    assert s["visits"] - at_death[0] > 60, s["visits"] - at_death[0]
+    assert s["visits_after_death"] > 60, s["visits_after_death"]
     (recovery,) = s["recovery"]
     # 9 is never visited again: the plain ratio counts it, the reachable one does not
     assert recovery["worst_idleness_ratio_reachable"] < 3.0
