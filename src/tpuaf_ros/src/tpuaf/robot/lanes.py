@@ -106,9 +106,10 @@ def blocked_layer(layer: LaneLayer, edge: tuple[int, int],
     re-oriented keeping their directions where they can (one_way.orient_lanes). A vertex of
     `occupied` (the body too near it to reach) keeps one edge, to its nearest neighbour, so
     that no route passes through it (the plan's graph stays connected; its plan map lists it
-    `closed`: plans skip it, goals there fail at once, runtimes/agent.py). None when the edge is not in a lane or dropping it would leave
-    some vertex unreachable (then occupied vertices keep their edges if that would). The same
-    on every robot (cached per layer, edge and occupied vertices)."""
+    `closed`: plans skip it, goals there fail at once, runtimes/agent.py). None when the edge
+    is not in a lane or dropping it would leave some vertex unreachable (then occupied
+    vertices keep their edges if that would). The same on every robot (cached per layer, edge
+    and occupied vertices)."""
     u, v = min(edge), max(edge)
     key = (id(layer), (u, v), tuple(occupied))
     if key in _BLOCKED:
@@ -197,7 +198,8 @@ class LaneAccess:
         self._set_map(lane_map, locked)
         self.started = False  # start_at called: the start's lane is held
         self.blocked: list[tuple[int, int]] = []  # edges dropped: a lost teammate's body on them
-        self.occupied: list[int] = []  # vertices cut off: a lost teammate's body too near them
+        # vertices cut off (a lost teammate's body too near them): the plan map's `closed`
+        self.closed: frozenset[int] = frozenset()
 
     def start_at(self, vertex: int, now: float) -> None:
         """The robot starts at `vertex` [index] at run time `now` [s]: inside a locked lane, it
@@ -340,7 +342,7 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
                 return
             current[0] = new
             access.blocked.append(edge)
-            access.occupied.extend(occupied)
+            access.closed = new.plan_map.closed
             access.use(new.lane_map, new.locked, agent.position, machine.now)
             agent.replan(new.plan_map)
 

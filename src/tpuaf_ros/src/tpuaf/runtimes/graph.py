@@ -243,7 +243,7 @@ class GraphRun:
         self.seed = int(config.seed)
         starts = [int(v) for v in start_vertices(self.patrol_map, config.robots)]
         self.start_vertices = starts
-        ec = self._engine_config(config, starts, body)
+        self.engine_config = ec = self._engine_config(config, starts, body)
         positions = np.asarray(self.patrol_map.positions, dtype=float)
         field = tpuaf_core.UncertaintyField(
             positions,
@@ -328,9 +328,13 @@ class GraphRun:
         if self.lanes is not None:  # one robot at a time on a lane's narrow vertices
             ec.narrow_vertices = sorted(int(v) for v in self.lanes.lane_map.narrow_vertices)
             ec.narrow_headway_s = narrow_headway_s(body.radius_m, self.speed)
-        self.narrow = {"vertices": [self.patrol_map.vertex_ids[v] for v in ec.narrow_vertices],
-                       "headway_s": round(ec.narrow_headway_s, 3)}  # by vertex id
         return ec
+
+    def _narrow(self) -> dict:
+        """The engine's narrow vertices (by vertex id) and headway [s], for config.yaml."""
+        ec = self.engine_config
+        return {"vertices": [self.patrol_map.vertex_ids[v] for v in ec.narrow_vertices],
+                "headway_s": round(ec.narrow_headway_s, 3)}
 
     def effective_config(self) -> dict:
         """Everything that determines this run, the engine included."""
@@ -342,7 +346,7 @@ class GraphRun:
             motion="straight segments between vertices, edge length / nominal speed each ("
                    f"travel {self.config.resolved_travel()})"
                    + ("; one robot at a time on the lanes' narrow vertices" if self.lanes else ""),
-            **({"narrow_vertices": self.narrow} if self.lanes is not None else {}))
+            **({"narrow_vertices": self._narrow()} if self.lanes is not None else {}))
 
     def summary(self) -> dict:
         summary = self.recorder.summary(self.now)

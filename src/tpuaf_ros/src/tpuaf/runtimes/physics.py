@@ -242,7 +242,7 @@ class PhysicsRun(TeamRun):
                                                      for e in access.blocked})]
             # vertices cut off (the body next to them: no robot can reach them), by vertex id;
             # each death's recovery then also over the other vertices (`..._reachable`)
-            closed = sorted({v for access in self.lane_access for v in access.occupied})
+            closed = sorted({v for access in self.lane_access for v in access.closed})
             summary["lane_vertices_closed"] = [ids[v] for v in closed]
             if closed and summary.get("recovery"):
                 for entry, more in zip(summary["recovery"],
