@@ -211,9 +211,10 @@ def test_head_on_in_a_corridor_one_robot_backs_into_a_refuge_the_other_drives_th
     *backward* to a refuge behind it, in its own room; the other, seeing it move away, waits
     on instead of giving way too, then drives through. Before, both gave way (forward, turning
     round in the corridor) and met again: 1 give-way each at least, both arrivals later.
-    Keeping right of the planned path (the default), robot 0 comes to the corridor's mouth on
-    the right of its axis and its refuge lies beside it (driven forward): robot 1 is through
-    sooner (22.6 s against 27.0 s)."""
+    Robot 1 is through in 27.3 s with keeping right of the planned path (the default), 27.5 s
+    without (22.6 and 27.0 s before the controller drove straight into the corridor instead
+    of turning toward the open room at its mouth, test_doors.py: the robots now meet a second
+    sooner, nearer the middle, and robot 0 backs out in both cases)."""
     world, navs = head_on(*rooms)
     if not keep_right:
         for nav in navs:
@@ -222,7 +223,7 @@ def test_head_on_in_a_corridor_one_robot_backs_into_a_refuge_the_other_drives_th
     assert (1, Event.ARRIVED, 0) in [e[1:] for e in events], events
     # robot 0 acts first (shorter retry wait), backward; robot 1 waits on
     assert [n.give_ways for n in navs] == [1, 0]
-    assert navs[0].reversals == 1 if not keep_right else t1 < 25.0
+    assert navs[0].reversals == 1 and t1 < 30.0
     more, t_end = run(world, navs, 150.0, parked=(1,), t0=t1)  # robot 1 parked on its goal
     assert (0, Event.ARRIVED, 2) in [e[1:] for e in more], more
     assert sum(world.contact_counts()) == 0

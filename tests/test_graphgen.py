@@ -16,6 +16,8 @@ from tpuaf.maps.model import MapSettings
 from tpuaf.maps.occupancy import load_occupancy
 from tpuaf.maps.patrolling_sim import load_patrolling_sim
 
+from .map_folders import write_map_server
+
 RES = 0.05  # [m/px]
 ROBOT_RADIUS = 0.105  # [m] burger
 SENSING = 2.5  # [m]
@@ -26,17 +28,8 @@ SIZE = (12.0, 5.0)  # [m]
 
 
 def write_map(folder: Path, free=FREE, name: str = "house") -> Path:
-    """A map_server YAML + PGM: walls black, the FREE rectangles white (first row = top)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    w, h = int(SIZE[0] / RES), int(SIZE[1] / RES)
-    grid = np.zeros((h, w), dtype=np.uint8)  # row 0 = bottom
-    for x0, y0, x1, y1 in free:
-        grid[int(round(y0 / RES)):int(round(y1 / RES)), int(round(x0 / RES)):int(round(x1 / RES))] = 254
-    (folder / f"{name}.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + grid[::-1].tobytes())
-    path = folder / f"{name}.yaml"
-    path.write_text(f"image: {name}.pgm\nresolution: {RES}\norigin: [0.0, 0.0, 0.0]\n"
-                    "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
-    return path
+    """A map_server YAML + PGM: walls black, the FREE rectangles white."""
+    return write_map_server(folder, free, SIZE, name, RES)
 
 
 @pytest.fixture(scope="module")

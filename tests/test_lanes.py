@@ -259,24 +259,36 @@ def test_tpuaf_maps_prints_and_draws_the_lanes(tmp_path, capsys):
 
 
 def test_a_dead_holders_lane_is_freed_in_physics(tmp_path):
-    """Robot 0 dies at 30 s holding the aisle (held up at its end by robot 1, which waits
-    there for the aisle); robot 1 enters once robot 0 is lost (the teammate timeout) and
-    keeps visiting."""
+    """Robot 0 dies holding the aisle, in a room at least 0.5 m from the aisle's mouth (a body
+    in the aisle or its mouth blocks the only way between the rooms); robot 1 enters once
+    robot 0 is lost (the teammate timeout) and keeps visiting. The moment is the first such
+    second of the same run without the death (runs are deterministic)."""
     from tpuaf.params import LIVENESS_DEFAULTS
     from tpuaf.runtimes.config import PhysicsConfig
     from tpuaf.runtimes.physics import PhysicsRun
 
     pm = load_map(str(aisle_map(tmp_path / "aisle")))
-    run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1,
-                                   duration_s=100.0, robot="burger", fail=["0@30"], lanes="locks"),
-                     patrol_map=pm)
-    dead, alive = (access.locks for access in run.lane_access)
-    trace: list[tuple[float, int, int, int]] = []
-    run.run(lambda t: trace.append((t, dead.held, alive.held, run.agents[1].machine.visits)))
-    assert dead.held == 0  # it died holding the aisle
-    granted = next(t for t, _, held, _ in trace if t > 30.0 and held == 0)
-    assert granted >= 30.0 + LIVENESS_DEFAULTS.teammate_timeout_s
-    assert trace[-1][3] > next(v for t, _, _, v in trace if t >= granted)
+
+    def lane_trace(fail):
+        """(t, lane robot 0 holds, lane robot 1 holds, robot 1's visits, robot 0's x [m])."""
+        run = PhysicsRun(PhysicsConfig(map=pm.name, strategy="cr", robots=2, seed=1,
+                                       duration_s=100.0, robot="burger", fail=fail,
+                                       lanes="locks"), patrol_map=pm)
+        first, second = (access.locks for access in run.lane_access)
+        trace: list[tuple[float, int, int, int, float]] = []
+        run.run(lambda t: trace.append((t, first.held, second.held,
+                                        run.agents[1].machine.visits,
+                                        float(run.world.poses()[0][0]))))
+        return trace
+
+    aisle_x = (1.6, 4.2)  # [m] (aisle_map)
+    died = next(t for t, held, _, _, x in lane_trace([])
+                if held == 0 and not aisle_x[0] - 0.5 <= x <= aisle_x[1] + 0.5)
+    trace = lane_trace([f"0@{died:g}"])
+    assert trace[-1][1] == 0  # it died holding the aisle
+    granted = next(t for t, _, held, _, _ in trace if t > died and held == 0)
+    assert granted >= died + LIVENESS_DEFAULTS.teammate_timeout_s
+    assert trace[-1][3] > next(v for t, _, _, v, _ in trace if t >= granted)
 
 
 def test_lane_claims_are_checked_as_every_team_message():

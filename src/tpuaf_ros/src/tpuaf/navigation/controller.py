@@ -73,6 +73,8 @@ APPROACH_MPS = 0.05  # [m/s] least speed toward a target nearer than any obstacl
 SNUG_MARGIN_M = 0.01  # [m] clearance of the last-resort (slow) headings
 PASS_HORIZON_S = 2.0  # [s] another robot ahead within this many seconds at top speed: pass it
 PASS_BIAS_RAD = 0.35  # [rad] ... aiming this much beside the target, away from it
+NARROW_COST_RAD = 0.5  # [rad] extra cost of a heading free with the safety margin only (not the
+# plan margin): a wide heading is chosen over it only if it turns less than this much farther
 _NON_NEGATIVE = ("keep_right", "retry_wait_s", "max_retries", "safety_margin", "plan_margin")
 
 
@@ -342,9 +344,12 @@ class LocalController:
         # Only headings within 90 degrees of the target direction make progress.
         forward = np.abs(rel) <= 0.5 * math.pi + 1e-9
         room = safe
-        ok = (wide >= need) & forward
-        if not ok.any():
-            ok = (safe >= need) & forward
+        # The wide clearance is preferred, but not at any price: a heading with only the
+        # safety margin costs NARROW_COST_RAD more (a door narrower than the plan margin is
+        # driven straight through, not turned away from toward the open room beside it).
+        wide_ok = (wide >= need) & forward
+        ok = wide_ok | ((safe >= need) & forward)
+        cost = cost + np.where(wide_ok, 0.0, NARROW_COST_RAD)
         if not ok.any():  # step aside: any direction with a little room
             ok = safe >= min(need, 0.5)
         if not ok.any():

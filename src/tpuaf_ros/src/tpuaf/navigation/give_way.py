@@ -58,6 +58,7 @@ class GiveWay:
     deadline_s: float  # [s] waiting ends at the latest here
     arrived_s: float | None = None  # [s] at the refuge since
     clear_since_s: float | None = None  # [s] nothing unmapped near since
+    passed: bool = False  # something unmapped came near while we waited (the other robot)
     parked: bool = False  # a robot without a goal making room
     reverse: bool = False  # driven backward (the refuge lies behind the robot)
     other_at: np.ndarray | None = None  # [m] centre of the other robot's points near us
@@ -103,7 +104,8 @@ def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
                 heading_to: tuple[float, float] | None = None,
                 allowed=None, behind_first: bool = False) -> np.ndarray | None:
     """The planned path (k, 2) [m] from `me` to the nearest refuge: a free spot at least
-    `pass_clearance_m` from the other robot's expected way (`other_way`), reachable without
+    `pass_clearance_m` from the other robot's expected way (`other_way`) where the robot stops
+    (REFUGE_TOLERANCE_M short of it at most), reachable without
     crossing `obstacles` (discs (x, y, radius) [m]: the other robots), where `allowed`
     (points (k, 2) -> bool mask; None: anywhere) lets the robot stand, or None. With
     `behind_first` the refuges behind `me` (on the far side from the blocker) come first.
@@ -147,7 +149,8 @@ def find_refuge(planner, me: tuple[float, float], blocker: tuple[float, float],
         return None
     idx = np.flatnonzero(refuge.ravel())
     way = other_way(me, blocker, trail, heading_to)
-    idx = idx[segment_distances(cells[idx], way) >= pass_clearance_m]
+    # the robot may stop REFUGE_TOLERANCE_M short of the refuge, toward the way
+    idx = idx[segment_distances(cells[idx], way) >= pass_clearance_m + REFUGE_TOLERANCE_M]
     if allowed is not None:  # e.g. not inside a lane the robot does not hold (lanes.py)
         idx = idx[allowed(cells[idx])]
     idx = idx[np.argsort(order.ravel()[idx], kind="stable")]
@@ -270,6 +273,7 @@ class GivingWay:
             (np.hypot(*(near - me).T) <= self._pass_clearance_m() + CLEAR_MARGIN_M).any())
         if busy:
             gw.clear_since_s = None
+            gw.passed = True
         elif gw.clear_since_s is None:
             gw.clear_since_s = t
         # The other robot standing still near us (not passing: it waits for us, or has
@@ -279,7 +283,9 @@ class GivingWay:
                 centre[0] - gw.other_at[0], centre[1] - gw.other_at[1]) > HELD_M:
             gw.other_at, gw.other_since_s = centre, t
         waited = t - gw.arrived_s >= GIVE_WAY_WAIT_S
-        clear = gw.clear_since_s is not None and t - gw.clear_since_s >= GIVE_WAY_CLEAR_S
+        # Clear: the other robot came by and has gone (not yet come: it may still be on its way)
+        clear = (gw.passed and gw.clear_since_s is not None
+                 and t - gw.clear_since_s >= GIVE_WAY_CLEAR_S)
         standing = gw.other_at is not None and t - gw.other_since_s >= GIVE_WAY_STILL_S
         if (waited and (clear or standing)) or t >= gw.deadline_s:
             self._end_give_way(t, pose)
