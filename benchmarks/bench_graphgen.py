@@ -52,6 +52,8 @@ def one_map(name: str, robots: int, duration_s: float, pictures: Path) -> dict:
     from tpuaf.experiments.graph_figure import graph_png
     from tpuaf.maps.generate import GraphOptions, coverage_of
     from tpuaf.maps.tours import cyclic_tour
+    from tpuaf.navigation.lanes import find_lanes
+    from tpuaf.navigation.planner import PathPlanner
 
     hand = load(name)
     s = hand.settings
@@ -76,10 +78,13 @@ def one_map(name: str, robots: int, duration_s: float, pictures: Path) -> dict:
     row = {"map": name, "robot_radius_m": s.robot_radius, "sensing_radius_m": s.sensing_radius,
            "generation_s": round(seconds, 2), "work_cell_m": report["work_cell_m"]}
     for key, pm, cover in (("hand", hand, hand_cover), ("gen", gen_pm, gen.coverage)):
+        lanes = find_lanes(PathPlanner(pm, s.robot_radius), pm)
         row[key] = {"vertices": pm.num_vertices, "edges": pm.graph.num_edges,
                     "coverage": round(cover, 4),
                     "tour_m": round(float(cyclic_tour(pm).length), 1),
-                    "i_max_s": round(i_max(pm, robots, duration_s), 1)}
+                    "i_max_s": round(i_max(pm, robots, duration_s), 1),
+                    "narrow_vertices": len(lanes.narrow_vertices),
+                    "lane_edges": sum(len(lane.edges) for lane in lanes.lanes)}
     row["gen"]["dead_ends"] = report["dead_ends"]
     row["gen"]["dropped_edges"] = len(report["dropped_edges"])
     print(json.dumps(row), file=sys.stderr, flush=True)
@@ -88,20 +93,26 @@ def one_map(name: str, robots: int, duration_s: float, pictures: Path) -> dict:
 
 def table(rows: list[dict], robots: int, duration_s: float) -> str:
     lines = ["| map | r [m] | coverage hand / gen [%] | vertices hand / gen | edges hand / gen "
-             "| tour hand / gen [m] | I_max hand / gen [s] | generation [s] |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| tour hand / gen [m] | I_max hand / gen [s] | narrow vertices hand / gen "
+             "| lane edges hand / gen | generation [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         h, g = r["hand"], r["gen"]
         lines.append(
             f"| {r['map']} | {r['sensing_radius_m']:g} | {100 * h['coverage']:.1f} / "
             f"{100 * g['coverage']:.1f} | {h['vertices']} / {g['vertices']} | {h['edges']} / "
             f"{g['edges']} | {h['tour_m']:.1f} / {g['tour_m']:.1f} | {h['i_max_s']:.1f} / "
-            f"{g['i_max_s']:.1f} | {r['generation_s']:.1f} |")
+            f"{g['i_max_s']:.1f} | {h['narrow_vertices']} / {g['narrow_vertices']} | "
+            f"{h['lane_edges']} / {g['lane_edges']} | {r['generation_s']:.1f} |")
     return "\n".join(lines) + (
         f"\n\nI_max: tpuaf_plus, graph runtime, N = {robots}, {duration_s:g} s, seed 0, each "
         "graph's own vertices (edge lengths: hand-made as declared, generated as planned for "
         "the robot). Coverage: reachable free cells seen in line of sight within r from some "
-        "vertex, on the generator's work grid, the same count for both graphs.\n")
+        "vertex, on the generator's work grid, the same count for both graphs. Narrow "
+        "vertices (two robots cannot stand side by side there, every edge from them one robot "
+        "wide) and lane edges: the lane map for the map's robot radius (navigation/lanes.py, "
+        "docs/LANES.md); the generator counts half the cells a candidate in a doorway sees "
+        "(maps/generate.py NARROW_GAIN_SHARE).\n")
 
 
 def main() -> int:

@@ -11,7 +11,9 @@ coarser than the robot's clearance, so that no wall vanishes between two drivabl
 3. targets: the user's fixed points, the dead ends, then greedily the candidate (skeleton, or a
    drivable cell of a lattice) that sees the most free cells not seen yet (line of sight within
    the sensing radius), until `coverage` of the reachable free cells are seen; no two targets
-   closer than `min_spacing_m`;
+   closer than `min_spacing_m`. A candidate where two robots cannot stand side by side (a
+   doorway) counts NARROW_GAIN_SHARE of the cells it sees: a vertex there would make every
+   edge from it a lane one robot wide (navigation/lanes.py), corridor and all;
 4. edges: pairs of targets whose geodesic Voronoi cells in the drivable space touch, minus an
    edge that a path through a third target, each leg shorter, lengthens by at most DETOUR.
 Edge lengths here are geodesic on the work grid; `tpuaf graph` re-plans every edge with the
@@ -28,11 +30,13 @@ import numpy as np
 
 from tpuaf.errors import MapError
 from tpuaf.maps.occupancy import OccupancyGrid
+from tpuaf.navigation.lanes import pass_band_m
 
 # [m] added to the robot radius: >= the planner's 0.05 m margin + its coarser planning cells
 SAFETY_MARGIN_M = 0.15
 MAX_RADIUS_CELLS = 40  # work cells per sensing radius, at most (visibility cost ~ this^2)
 SPUR_FACTOR = 2.0  # a skeleton branch shorter than this x its junction's clearance: no dead end
+NARROW_GAIN_SHARE = 0.5  # share of its new cells a candidate in a doorway counts (step 3)
 DETOUR = 0.25  # an edge is dropped when a 2-edge path via a third target is at most 25 % longer
 LATTICE_PER_RADIUS = 3  # extra candidates: drivable cells every r / 3 [m]
 MAX_CANDIDATES = 4000  # skeleton candidates kept (evenly thinned beyond)
@@ -304,15 +308,20 @@ def choose_targets(grid: WorkGrid, skeleton: np.ndarray, opts: GraphOptions
     seen = [visible_cells(grid, spot[r, c], radius) for r, c in cells]
     seen = [s[region[s]] for s in seen]
     bonus = np.where(np.arange(len(cells)) < on_skeleton, 0.5, 0.0)  # ties: the skeleton's
-    heap = [(-(len(s) - covered[s].sum() + bonus[k]), k) for k, s in enumerate(seen)]
+    # Two robots side by side there: a band of robot centres across the way of at least the
+    # lane map's pass band (a centre at least radius + margin from the walls).
+    side_by_side = opts.robot_radius_m + opts.margin_m + 0.5 * pass_band_m(opts.robot_radius_m)
+    share = np.where(grid.clearance_m[cells[:, 0], cells[:, 1]] >= side_by_side, 1.0,
+                     NARROW_GAIN_SHARE)
+    heap = [(-(len(s) - covered[s].sum() + bonus[k]) * share[k], k) for k, s in enumerate(seen)]
     heapq.heapify(heap)
     while heap and (covered & region).sum() < goal:
         neg, k = heapq.heappop(heap)
-        gain = len(seen[k]) - covered[seen[k]].sum() + bonus[k]
+        gain = (len(seen[k]) - covered[seen[k]].sum() + bonus[k]) * share[k]
         if gain < -neg - 1e-9:  # stale: re-queue with the current gain
             heapq.heappush(heap, (-gain, k))
             continue
-        if gain < 1:
+        if gain < NARROW_GAIN_SHARE:
             break  # the best candidate sees no new cell
         xy = spot[cells[k][0], cells[k][1]]
         if far_enough(xy):
