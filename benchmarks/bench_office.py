@@ -2,7 +2,9 @@
 corridor, five rooms, doors 0.55-0.7 m wide), `tpuaf graph` for a Burger, then TPUAF and
 tpuaf_plus with 4 Burgers in the graph runtime (the promise) and in physics (lanes auto), on
 the graph of the generator as it is and as it was before doorways counted half
-(maps/generate.py NARROW_GAIN_SHARE = 1).
+(maps/generate.py NARROW_GAIN_SHARE = 1), and in physics with the controller as it was before
+its door rule (navigation/controller.py NARROW_COST_RAD = 100 rad: a heading with the wide
+clearance always wins, the old rule exactly).
 
     .venv/bin/python benchmarks/bench_office.py [--duration 900] [--seed 1]
 
@@ -43,7 +45,8 @@ def office_folder(tmp: Path, share: float) -> Path:
     return folder
 
 
-def one(folder: Path, strategy: str, runtime: str, duration: float, seed: int) -> dict:
+def one(folder: Path, strategy: str, runtime: str, duration: float, seed: int,
+        narrow_cost: float | None = None) -> dict:
     from tpuaf.maps import load_map
     from tpuaf.navigation.lanes import find_lanes
     from tpuaf.navigation.planner import PathPlanner
@@ -54,9 +57,15 @@ def one(folder: Path, strategy: str, runtime: str, duration: float, seed: int) -
     config = cls(map="office", strategy=strategy, robots=4, duration_s=duration, seed=seed,
                  robot="burger")
     if runtime == "physics":
+        from tpuaf.navigation import controller
         from tpuaf.runtimes.physics import PhysicsRun
 
-        summary = PhysicsRun(config, pm).run()
+        kept = controller.NARROW_COST_RAD
+        controller.NARROW_COST_RAD = kept if narrow_cost is None else narrow_cost
+        try:
+            summary = PhysicsRun(config, pm).run()
+        finally:
+            controller.NARROW_COST_RAD = kept
     else:
         from tpuaf.runtimes.graph import make_run
 
@@ -80,19 +89,25 @@ def main() -> int:
     start = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for share, graph in ((1.0, "before"), (0.5, "now")):
-            folder = office_folder(Path(tmp), share)
+        # (generator, controller, NARROW_GAIN_SHARE, NARROW_COST_RAD or None: today's)
+        cases = (("before", "before", 1.0, 100.0), ("before", "now", 1.0, None),
+                 ("now", "now", 0.5, None))
+        folders = {share: office_folder(Path(tmp), share) for share in (1.0, 0.5)}
+        for graph, ctrl, share, cost in cases:
             for strategy in ("tpuaf", "tpuaf_plus"):
-                for runtime in ("graph", "physics"):
-                    row = {"graph": graph, **one(folder, strategy, runtime, args.duration,
-                                                 args.seed)}
+                for runtime in ("graph", "physics") if ctrl == "now" else ("physics",):
+                    row = {"graph": graph, "controller": ctrl if runtime == "physics" else "-",
+                           **one(folders[share], strategy, runtime, args.duration,
+                                 args.seed, cost)}
                     print(json.dumps(row), file=sys.stderr, flush=True)
                     rows.append(row)
-    lines = ["| generator | strategy | runtime | vertices (in doorways) | lane edges | I_max [s] "
-             "| I_ins [s] | worst idleness [s] | visits (fewest per vertex) | lane waits [s] "
-             "| failed goals |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| generator | controller | strategy | runtime | vertices (in doorways) "
+             "| lane edges | I_max [s] | I_ins [s] | worst idleness [s] "
+             "| visits (fewest per vertex) | lane waits [s] | failed goals |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['graph']} | {r['strategy']} | {r['runtime']} | {r['vertices']} "
+        lines.append(f"| {r['graph']} | {r['controller']} | {r['strategy']} | {r['runtime']} "
+                     f"| {r['vertices']} "
                      f"({r['narrow_vertices']}) | {r['lane_edges']} | {r['i_max_s']:.1f} | "
                      f"{r['i_ins_s']:.1f} | {r['worst_s']:.1f} | {r['visits']} "
                      f"({r['min_visits']}) | {r['lane_wait_s']:.1f} | {r['goal_failures']} |")
@@ -101,8 +116,10 @@ def main() -> int:
             + f"\nCommand: `.venv/bin/python benchmarks/bench_office.py`. One run per row, "
             f"{args.duration:g} s, seed {args.seed}, lanes auto; wall {wall:.0f} s.\n\n"
             "The office of `tests/test_doors.py` (map frame: corridor y 2.0-3.4 m). "
-            "`before`: the generator with NARROW_GAIN_SHARE = 1 (a vertex in a doorway "
-            "counted like any other); `now`: 0.5. Both with today's controller.\n\n"
+            "Generator `before`: NARROW_GAIN_SHARE = 1 (a vertex in a doorway counted like "
+            "any other), `now`: 0.5. Controller (physics only) `before`: NARROW_COST_RAD = "
+            "100 rad (a wide heading at any angle wins, the rule before the door rule), "
+            "`now`: 0.5 rad.\n\n"
             + "\n".join(lines) + "\n")
     write(RESULTS / "office.md", body)
     (RESULTS / "office.json").write_text(json.dumps(rows, indent=2) + "\n")
