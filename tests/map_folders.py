@@ -33,16 +33,19 @@ def write_map_folder(folder: Path, occupied: np.ndarray, vertices, edges, *, res
 
 
 def write_map_server(folder: Path, free, size_m: tuple[float, float], name: str,
-                     res: float = 0.05, origin: tuple[float, float] = (0.0, 0.0)) -> Path:
+                     res: float = 0.05, origin: tuple[float, float] = (0.0, 0.0),
+                     walls=()) -> Path:
     """A ROS map_server YAML + PGM (what `tpuaf graph` reads): walls everywhere but the free
     rectangles (x0, y0, x1, y1) [m, from the image's lower left corner] of a size_m (width,
-    height) [m] map whose lower left corner is at `origin` [m]."""
+    height) [m] map whose lower left corner is at `origin` [m], then the `walls` rectangles
+    inside them."""
     folder.mkdir(parents=True, exist_ok=True)
     w, h = int(size_m[0] / res), int(size_m[1] / res)
     grid = np.zeros((h, w), dtype=np.uint8)  # row 0 = bottom
-    for x0, y0, x1, y1 in free:
-        grid[int(round(y0 / res)):int(round(y1 / res)),
-             int(round(x0 / res)):int(round(x1 / res))] = 254
+    for value, rects in ((254, free), (0, walls)):
+        for x0, y0, x1, y1 in rects:
+            grid[int(round(y0 / res)):int(round(y1 / res)),
+                 int(round(x0 / res)):int(round(x1 / res))] = value
     (folder / f"{name}.pgm").write_bytes(f"P5\n{w} {h}\n255\n".encode() + grid[::-1].tobytes())
     path = folder / f"{name}.yaml"
     path.write_text(f"image: {name}.pgm\nresolution: {res}\n"

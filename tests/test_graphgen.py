@@ -199,3 +199,21 @@ def test_settings_default_to_the_robot_model(generated):
     pm = load_map(generated[1])
     assert pm.settings.nominal_speed == pytest.approx(0.22)  # burger's limit
     assert pm.settings.goal_tolerance == MapSettings().goal_tolerance
+
+
+def test_no_two_targets_closer_than_a_robots_width(tmp_path):
+    """A warehouse hall with five rows of shelves (aisles 1 m wide), r = 2 m: the greedy's
+    tail covers slivers at the sensing radius's rim, and took spots 0.1 m apart for them (7
+    pairs under 0.5 m); targets are now at least a robot's width, 2 (radius + margin), apart,
+    and every reachable free cell is still seen."""
+    shelves = [(2.5, 1.5 + 1.6 * k, 13.5, 2.1 + 1.6 * k) for k in range(5)]
+    hall = [(0.3, 0.3, 15.7, 9.7)]
+    occ = load_occupancy(write_map_server(tmp_path / "src", hall, (16.0, 10.0), "warehouse",
+                                          RES, walls=shelves))
+    opts = GraphOptions(ROBOT_RADIUS, 2.0)
+    gen = generate_graph(occ, opts)
+    p = np.asarray(gen.positions)
+    d = np.hypot(p[:, None, 0] - p[None, :, 0], p[:, None, 1] - p[None, :, 1])
+    np.fill_diagonal(d, np.inf)
+    assert d.min() >= 2.0 * (ROBOT_RADIUS + opts.margin_m) - 1e-9
+    assert gen.coverage >= 0.995

@@ -49,7 +49,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sensing-radius", type=_number, default=None, metavar="M",
                    help="sensing radius r [m] (default: the robot's laser range)")
     p.add_argument("--min-spacing", type=_number, default=0.0, metavar="M",
-                   help="least distance between two targets [m] (default 0: two work cells)")
+                   help="least distance between two targets [m] (default 0; never under two "
+                        "work cells nor a robot's width, 2 (radius + 0.15 m))")
     p.add_argument("--fixed", type=_point, action="append", default=[], metavar="X,Y",
                    help="a target that must be a vertex [m] (repeatable)")
     p.add_argument("--coverage", type=_number, default=1.0, metavar="F",

@@ -11,8 +11,8 @@ coarser than the robot's clearance, so that no wall vanishes between two drivabl
 3. targets: the user's fixed points, the dead ends, then greedily the candidate (skeleton, or a
    drivable cell of a lattice) that sees the most free cells not seen yet (line of sight within
    the sensing radius), until `coverage` of the reachable free cells are seen; no two targets
-   closer than `min_spacing_m`. A candidate where two robots cannot stand side by side (a
-   doorway) counts NARROW_GAIN_SHARE of the cells it sees: a vertex there would make every
+   closer than `min_spacing_m`, nor than a robot's width with the margin. A candidate where
+   two robots cannot stand side by side (a doorway) counts NARROW_GAIN_SHARE of the cells it sees: a vertex there would make every
    edge from it a lane one robot wide (navigation/lanes.py), corridor and all;
 4. edges: pairs of targets whose geodesic Voronoi cells in the drivable space touch, minus an
    edge that a path through a third target, each leg shorter, lengthens by at most DETOUR.
@@ -289,7 +289,11 @@ def choose_targets(grid: WorkGrid, skeleton: np.ndarray, opts: GraphOptions
     region = grid.region.ravel()
     goal = opts.coverage * max(1, int(region.sum()))
 
-    spacing = max(opts.min_spacing_m, 2.0 * grid.cell_m)  # [m] never two in one cell
+    # [m] never two in one cell, nor closer than a robot's width (radius + margin, twice): a
+    # robot on one would stand on the other (the greedy's tail takes slivers at the sensing
+    # radius's rim from spots a few centimetres apart)
+    spacing = max(opts.min_spacing_m, 2.0 * grid.cell_m,
+                  2.0 * (opts.robot_radius_m + opts.margin_m))
 
     def far_enough(xy) -> bool:
         return all(math.dist(xy, t) >= spacing for t in targets)
