@@ -1,12 +1,13 @@
 """A generated office as a new user would run it: the office of tests/test_doors.py (a 1.4 m
 corridor, five rooms, doors 0.55-0.7 m wide), `tpuaf graph` for a Burger, then TPUAF and
 tpuaf_plus with 4 Burgers in the graph runtime (the promise) and in physics (lanes auto), on
-the graph of the generator as it is and as it was before doorways counted half
-(maps/generate.py NARROW_GAIN_SHARE = 1), and in physics with the controller as it was before
+the graph of the generator as it is and as it was before doorways counted half and targets
+kept a robot's width apart (maps/generate.py NARROW_GAIN_SHARE = 1, SPACING_ROBOT_WIDTHS = 0),
+and in physics with the controller as it was before
 its door rule (navigation/controller.py NARROW_COST_RAD = 100 rad: a heading with the wide
 clearance always wins, the old rule exactly).
 
-    .venv/bin/python benchmarks/bench_office.py [--duration 900] [--seed 1]
+    .venv/bin/python benchmarks/bench_office.py [--duration 900] [--seeds 3]
 
 Writes benchmarks/results/office.md and office.json.
 """
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import statistics
 import sys
 import tempfile
 import time
@@ -26,8 +28,8 @@ sys.path.insert(0, str(ROOT))
 from common import RESULTS, header, write  # noqa: E402
 
 
-def office_folder(tmp: Path, share: float) -> Path:
-    """The office's map folder from `tpuaf graph` with NARROW_GAIN_SHARE = share."""
+def office_folder(tmp: Path, before: bool) -> Path:
+    """The office's map folder from `tpuaf graph`, by the generator of before or of now."""
     import tpuaf.maps.generate as generate
     from tpuaf.cli import main
 
@@ -35,13 +37,15 @@ def office_folder(tmp: Path, share: float) -> Path:
     from tests.test_doors import OFFICE
 
     source = write_map_server(tmp / "src", OFFICE, (14.0, 9.0), "office", origin=(-1.0, -2.0))
-    kept, generate.NARROW_GAIN_SHARE = generate.NARROW_GAIN_SHARE, share
+    kept = generate.NARROW_GAIN_SHARE, generate.SPACING_ROBOT_WIDTHS
+    if before:
+        generate.NARROW_GAIN_SHARE, generate.SPACING_ROBOT_WIDTHS = 1.0, 0.0
     try:
-        folder = tmp / f"office_{share:g}"
+        folder = tmp / ("office_before" if before else "office")
         if main(["graph", str(source), "--robot", "burger", "--out", str(folder)]) != 0:
             raise SystemExit("tpuaf graph failed")
     finally:
-        generate.NARROW_GAIN_SHARE = kept
+        generate.NARROW_GAIN_SHARE, generate.SPACING_ROBOT_WIDTHS = kept
     return folder
 
 
@@ -84,21 +88,23 @@ def one(folder: Path, strategy: str, runtime: str, duration: float, seed: int,
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=900.0)
-    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--seeds", type=int, default=3, help="seeds 1..SEEDS; medians")
     args = ap.parse_args()
     start = time.perf_counter()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        # (generator, controller, NARROW_GAIN_SHARE, NARROW_COST_RAD or None: today's)
-        cases = (("before", "before", 1.0, 100.0), ("before", "now", 1.0, None),
-                 ("now", "now", 0.5, None))
-        folders = {share: office_folder(Path(tmp), share) for share in (1.0, 0.5)}
-        for graph, ctrl, share, cost in cases:
+        # (generator, controller, NARROW_COST_RAD or None: today's)
+        cases = (("before", "before", 100.0), ("before", "now", None), ("now", "now", None))
+        folders = {g: office_folder(Path(tmp), g == "before") for g in ("before", "now")}
+        for graph, ctrl, cost in cases:
             for strategy in ("tpuaf", "tpuaf_plus"):
                 for runtime in ("graph", "physics") if ctrl == "now" else ("physics",):
+                    runs = [one(folders[graph], strategy, runtime, args.duration, seed, cost)
+                            for seed in range(1, args.seeds + 1)]
                     row = {"graph": graph, "controller": ctrl if runtime == "physics" else "-",
-                           **one(folders[share], strategy, runtime, args.duration,
-                                 args.seed, cost)}
+                           **{k: statistics.median(r[k] for r in runs)
+                              if isinstance(runs[0][k], float | int) else runs[0][k]
+                              for k in runs[0]}, "seeds": runs}
                     print(json.dumps(row), file=sys.stderr, flush=True)
                     rows.append(row)
     lines = ["| generator | controller | strategy | runtime | vertices (in doorways) "
@@ -113,11 +119,13 @@ def main() -> int:
                      f"({r['min_visits']}) | {r['lane_wait_s']:.1f} | {r['goal_failures']} |")
     wall = time.perf_counter() - start
     body = (header("A generated office, 4 Burgers: doorway vertices before and now")
-            + f"\nCommand: `.venv/bin/python benchmarks/bench_office.py`. One run per row, "
-            f"{args.duration:g} s, seed {args.seed}, lanes auto; wall {wall:.0f} s.\n\n"
+            + f"\nCommand: `.venv/bin/python benchmarks/bench_office.py`. Medians over seeds "
+            f"1-{args.seeds} per row (fewest visits per vertex: median of each run's fewest), "
+            f"{args.duration:g} s, lanes auto; wall {wall:.0f} s.\n\n"
             "The office of `tests/test_doors.py` (map frame: corridor y 2.0-3.4 m). "
             "Generator `before`: NARROW_GAIN_SHARE = 1 (a vertex in a doorway counted like "
-            "any other), `now`: 0.5. Controller (physics only) `before`: NARROW_COST_RAD = "
+            "any other) and SPACING_ROBOT_WIDTHS = 0 (targets two work cells apart at "
+            "least), `now`: 0.5 and 1. Controller (physics only) `before`: NARROW_COST_RAD = "
             "100 rad (a wide heading at any angle wins, the rule before the door rule), "
             "`now`: 0.5 rad.\n\n"
             + "\n".join(lines) + "\n")

@@ -37,6 +37,7 @@ SAFETY_MARGIN_M = 0.15
 MAX_RADIUS_CELLS = 40  # work cells per sensing radius, at most (visibility cost ~ this^2)
 SPUR_FACTOR = 2.0  # a skeleton branch shorter than this x its junction's clearance: no dead end
 NARROW_GAIN_SHARE = 0.5  # share of its new cells a candidate in a doorway counts (step 3)
+SPACING_ROBOT_WIDTHS = 1.0  # targets at least this many robot widths (with margin) apart
 DETOUR = 0.25  # an edge is dropped when a 2-edge path via a third target is at most 25 % longer
 LATTICE_PER_RADIUS = 3  # extra candidates: drivable cells every r / 3 [m]
 MAX_CANDIDATES = 4000  # skeleton candidates kept (evenly thinned beyond)
@@ -293,7 +294,7 @@ def choose_targets(grid: WorkGrid, skeleton: np.ndarray, opts: GraphOptions
     # robot on one would stand on the other (the greedy's tail takes slivers at the sensing
     # radius's rim from spots a few centimetres apart)
     spacing = max(opts.min_spacing_m, 2.0 * grid.cell_m,
-                  2.0 * (opts.robot_radius_m + opts.margin_m))
+                  SPACING_ROBOT_WIDTHS * 2.0 * (opts.robot_radius_m + opts.margin_m))
 
     def far_enough(xy) -> bool:
         return all(math.dist(xy, t) >= spacing for t in targets)
