@@ -12,8 +12,9 @@ coarser than the robot's clearance, so that no wall vanishes between two drivabl
    drivable cell of a lattice) that sees the most free cells not seen yet (line of sight within
    the sensing radius), until `coverage` of the reachable free cells are seen; no two targets
    closer than `min_spacing_m`, nor than a robot's width with the margin. A candidate where
-   two robots cannot stand side by side (a doorway) counts NARROW_GAIN_SHARE of the cells it sees: a vertex there would make every
-   edge from it a lane one robot wide (navigation/lanes.py), corridor and all;
+   two robots cannot stand side by side (a doorway) counts NARROW_GAIN_SHARE of the cells it
+   sees: a vertex there would make every edge from it a lane one robot wide
+   (navigation/lanes.py), corridor and all;
 4. edges: pairs of targets whose geodesic Voronoi cells in the drivable space touch, minus an
    edge that a path through a third target, each leg shorter, lengthens by at most DETOUR.
 Edge lengths here are geodesic on the work grid; `tpuaf graph` re-plans every edge with the
@@ -322,12 +323,14 @@ def choose_targets(grid: WorkGrid, skeleton: np.ndarray, opts: GraphOptions
     heapq.heapify(heap)
     while heap and (covered & region).sum() < goal:
         neg, k = heapq.heappop(heap)
-        gain = (len(seen[k]) - covered[seen[k]].sum() + bonus[k]) * share[k]
+        new = len(seen[k]) - covered[seen[k]].sum()
+        gain = (new + bonus[k]) * share[k]
         if gain < -neg - 1e-9:  # stale: re-queue with the current gain
             heapq.heappush(heap, (-gain, k))
             continue
-        if gain < NARROW_GAIN_SHARE:
-            break  # the best candidate sees no new cell
+        if new < 1:
+            break  # the best candidate sees no new cell (so none does: one cell outweighs
+            # any bonus)
         xy = spot[cells[k][0], cells[k][1]]
         if far_enough(xy):
             take(xy, "cover")
