@@ -165,6 +165,13 @@ LANE_DEFAULT = "auto"
 # parts, of which one-way arcs leave fewer; sebs's spread) or their goals are several hops away
 # and one-way makes them loops away (dtap). Every other strategy gains from one-way lanes there.
 AUTO_LANES_OFF_STRATEGIES = ("dtap", "msp", "sebs")
+LANE_PASS_MARGIN_M = 0.05  # [m] beyond two footprints side by side (the navigator's pass margin)
+
+
+def pass_band_m(robot_radius_m: float) -> float:
+    """[m] the free band across a robot's way in which two robot centres fit side by side (the
+    lane map's test of a narrow point, navigation/lanes.py; the graph generator's doorways)."""
+    return 2.0 * robot_radius_m + LANE_PASS_MARGIN_M
 
 
 def resolve_lane_mode(mode: str, strategy: str) -> str:

@@ -31,7 +31,7 @@ import numpy as np
 
 from tpuaf.errors import MapError
 from tpuaf.maps.occupancy import OccupancyGrid
-from tpuaf.navigation.lanes import pass_band_m
+from tpuaf.params import pass_band_m
 
 # [m] added to the robot radius: >= the planner's 0.05 m margin + its coarser planning cells
 SAFETY_MARGIN_M = 0.15

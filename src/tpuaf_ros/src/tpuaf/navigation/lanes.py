@@ -3,7 +3,7 @@
 A point of a planned path is *narrow* when two robots cannot pass there side by side: the
 free band across the path through it (the points at least the inscribed radius, robot radius
 + planner safety margin, from walls: the planner's distance transform) is shorter than two
-robot radii + `PASS_MARGIN_M`. An edge is narrow when a point of its planned path is; a vertex
+robot radii + `params.LANE_PASS_MARGIN_M` (`params.pass_band_m`). An edge is narrow when a point of its planned path is; a vertex
 when it is narrow across every edge from it (a corner or junction of corridors is not).
 
 A *lane* is a maximal set of narrow edges joined at *interior* vertices: narrow vertices of
@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-PASS_MARGIN_M = 0.05  # [m] beyond two footprints side by side (the navigator's pass margin)
+from tpuaf.params import pass_band_m
+
 SAMPLE_STEP_M = 0.05  # [m] between the checked points of a planned path
 LATERAL_STEP_M = 0.025  # [m] between the checked points across it
 LANE_REGION_M = 0.2  # [m] points this close to a lane's path are inside the lane ...
@@ -92,11 +93,6 @@ class LaneMap:
             out.append(f"lane {lane.index}: edges {edges}; waiting spots {spots}; "
                        f"narrowest band {lane.min_width_m:.2f} m")
         return out
-
-
-def pass_band_m(robot_radius_m: float) -> float:
-    """[m] the free band across a robot's way in which two robot centres fit side by side."""
-    return 2.0 * robot_radius_m + PASS_MARGIN_M
 
 
 def _sampled(path: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
