@@ -425,7 +425,8 @@ def generate_graph(occ: OccupancyGrid, opts: GraphOptions) -> GeneratedGraph:
     edges = prune_edges(voronoi_edges(grid, targets)) if len(targets) > 1 else []
     fraction = float(covered.sum()) / max(1, int(grid.region.sum()))
     if fraction < opts.coverage - 1e-9:
-        notes.append(f"coverage {fraction:.3f} < the {opts.coverage:g} asked: the rest is out "
-                     "of sight of every drivable spot (or held off by the min spacing)")
+        notes.append(f"coverage {100 * fraction:.2f} % < the {100 * opts.coverage:g} % asked: "
+                     "the rest is out of sight of every drivable spot (or held off by the min "
+                     "spacing)")
     return GeneratedGraph(np.array(targets, dtype=float).reshape(-1, 2), edges, kinds,
                           fraction, covered.reshape(grid.occupied.shape), grid, notes)
