@@ -219,8 +219,9 @@ class RecorderView:
             self.visits, self.final_deaths(), self.announcements, end_time,
             teammate_timeout_s=self.teammate_timeout_s, closed=closed)
 
-    def summary(self, end_time: float) -> dict:
-        """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null)."""
+    def summary(self, end_time: float, closed=()) -> dict:
+        """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null);
+        `closed`: vertices no robot can reach after the deaths (`recovery`)."""
         end_time = float(end_time)
         self.finish(end_time)
         core = self._core
@@ -231,7 +232,7 @@ class RecorderView:
             n_rows=core.row_count, worst=core.worst_idleness(end_time), x_sum=core.x_sum,
             x_count=core.x_count, x_final=x_final, n_interferences=core.interference_count,
             n_visits=core.visit_count, deaths=deaths, stalls=self.stalls,
-            outages=self.outage_list(), recovery=self.recovery(end_time) if deaths else None)
+            outages=self.outage_list(), recovery=self.recovery(end_time, closed) if deaths else None)
 
 
 class RunRecorder(RecorderView):

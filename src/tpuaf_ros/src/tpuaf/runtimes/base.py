@@ -162,8 +162,13 @@ class TeamRun:
         """A stall: the robot no longer moves (its machine keeps deciding)."""
 
     # --- results ---
+    def closed_vertices(self) -> list[int]:
+        """Vertex indices no robot can reach (a dead robot's body next to them: physics with
+        lanes, robot/lanes.py); none here."""
+        return []
+
     def summary(self) -> dict[str, Any]:
-        summary = self.recorder.summary(self.now)
+        summary = self.recorder.summary(self.now, self.closed_vertices())
         summary["messages"] = asdict(self.bus.stats)
         summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
         if self.links is not None:

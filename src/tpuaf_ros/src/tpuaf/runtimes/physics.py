@@ -40,7 +40,6 @@ from tpuaf.navigation import (
 )
 from tpuaf.navigation.planner import shared_planner
 from tpuaf.params import LIVENESS_DEFAULTS
-from tpuaf.plain import plain
 from tpuaf.policies import REGISTRY
 from tpuaf.robot.lanes import attach_lanes, lane_layer
 from tpuaf.robot.model import RobotModel, world_robot
@@ -241,12 +240,9 @@ class PhysicsRun(TeamRun):
                 [ids[u], ids[v]] for u, v in sorted({e for access in self.lane_access
                                                      for e in access.blocked})]
             # vertices cut off (the body next to them: no robot can reach them), by vertex id;
-            # each death's recovery then also over the other vertices (`..._reachable`)
-            closed = sorted({v for access in self.lane_access for v in access.closed})
-            summary["lane_vertices_closed"] = [ids[v] for v in closed]
-            if closed and summary.get("recovery"):
-                for entry, more in zip(summary["recovery"],
-                                       plain(self.recorder.recovery(self.now, closed)),
-                                       strict=True):
-                    entry.update({k: v for k, v in more.items() if "_reachable" in k})
+            # each death's recovery is also over the other vertices (`..._reachable`)
+            summary["lane_vertices_closed"] = [ids[v] for v in self.closed_vertices()]
         return summary
+
+    def closed_vertices(self) -> list[int]:
+        return sorted({v for access in self.lane_access for v in access.closed})
