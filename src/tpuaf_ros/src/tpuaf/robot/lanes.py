@@ -25,14 +25,12 @@ from typing import Any
 
 import numpy as np
 
-from tpuaf.navigation.controller import ControllerConfig
 from tpuaf.navigation.lanes import Lane, LaneMap, find_lanes
 from tpuaf.navigation.one_way import Orientation, orient_lanes
+from tpuaf.params import CONTROLLER_DEFAULTS
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
 from tpuaf.topics import LANE_ENTER, LANE_WAIT
-
-CONTROLLER_DEFAULTS = ControllerConfig()
 
 
 @dataclass(frozen=True)
