@@ -125,6 +125,10 @@ class LocalController:
         self.movers: np.ndarray | None = None
         self._movers_t: float | None = None
         self._shared: np.ndarray | None = None  # the movers of the current step (its frame)
+        # The last scan given to `relevant` and its result: the navigator and the step filter
+        # the same scan once per tick.
+        self._relevant_of: np.ndarray | None = None
+        self._relevant: np.ndarray | None = None
 
     def set_target(self, xy: tuple[float, float], tolerance_m: float, t: float,
                    new_goal: bool = True, reverse: bool = False,
@@ -219,9 +223,12 @@ class LocalController:
         """The points close enough to matter (within reach_m)."""
         if points is None or len(points) == 0:
             return None
+        if points is self._relevant_of:
+            return self._relevant
         r = self.reach_m
         near = points[:, 0] * points[:, 0] + points[:, 1] * points[:, 1] < r * r
-        return points[near] if near.any() else None
+        self._relevant_of, self._relevant = points, (points[near] if near.any() else None)
+        return self._relevant
 
     # -- control ----------------------------------------------------------------------------
 
