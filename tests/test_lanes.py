@@ -1,5 +1,5 @@
-"""Lanes (docs/LANES.md): found on hand-built occupancy maps (an aisle, a T, a dead end, a wide
-room), and the lane locks' guarantee on random request sequences (no wait cycle, one lane
+"""Lanes (docs/LANES.md): found on hand-built occupancy maps (an aisle, a T of corridors, a T
+meeting in a room, a star of dead ends, a dead end, a wide room), and the lane locks' guarantee on random request sequences (no wait cycle, one lane
 per robot, every request served once messages arrive; one holder per lane when they arrive)."""
 
 from __future__ import annotations
@@ -56,17 +56,61 @@ def test_an_aisle_is_one_lane_with_a_waiting_spot_in_each_room(tmp_path):
     assert lanes.edge_width_m[(0, 3)] > lanes.pass_band_m > lanes.edge_width_m[(0, 1)]
 
 
-def test_a_t_is_three_lanes_meeting_at_the_junction(tmp_path):
-    # a corridor 0.45 m wide from the left room to the right one, a stem down from its middle
-    folder = write_map(tmp_path / "tee", (6.0, 4.0),
-                       [(0.05, 2.0, 1.65, 3.95), (1.6, 2.8, 4.4, 3.25), (4.35, 2.0, 5.95, 3.95),
-                        (2.775, 1.6, 3.225, 3.0), (2.0, 0.05, 4.0, 1.65)],
-                       [(0.85, 3.0), (2.2, 3.025), (3.0, 3.025), (3.8, 3.025), (5.15, 3.0),
-                        (3.0, 2.2), (3.0, 0.85)],
+def tee_map(folder: Path) -> Path:
+    """A corridor 0.45 m wide from a left room to a right one, a stem down from its middle to a
+    third room: vertices 0, 4, 6 in the rooms, 2 the junction, 1, 3, 5 in the corridors."""
+    return write_map(folder, (6.0, 4.0),
+                     [(0.05, 2.0, 1.65, 3.95), (1.6, 2.8, 4.4, 3.25), (4.35, 2.0, 5.95, 3.95),
+                      (2.775, 1.6, 3.225, 3.0), (2.0, 0.05, 4.0, 1.65)],
+                     [(0.85, 3.0), (2.2, 3.025), (3.0, 3.025), (3.8, 3.025), (5.15, 3.0),
+                      (3.0, 2.2), (3.0, 0.85)],
+                     [(0, 1), (1, 2), (2, 3), (3, 4), (2, 5), (5, 6)])
+
+
+def test_a_t_of_one_robot_corridors_is_one_lane_through_its_tight_junction(tmp_path):
+    # a robot waiting on junction 2 would shut in the robot coming out of any corridor: the
+    # junction is inside the lane, whose waiting spots are the three rooms
+    found, lanes = lanes_of(tee_map(tmp_path / "tee"))
+    assert lanes.tight_vertices == frozenset({2})
+    assert found == [(((0, 1), (1, 2), (2, 3), (2, 5), (3, 4), (5, 6)), (1, 2, 3, 5), (0, 4, 6))]
+    assert "through tight junction 2" in lanes.describe([str(v) for v in range(7)])[0]
+
+
+def test_a_junction_in_a_room_stays_a_waiting_spot_of_three_lanes(tmp_path):
+    # the same three corridors, but they meet in a 1.6 m room: a robot waiting on its vertex
+    # leaves a way round it, so each corridor is its own lane
+    folder = write_map(tmp_path / "hub", (8.0, 5.6),
+                       [(0.05, 3.6, 1.65, 5.55), (1.6, 4.35, 3.25, 4.8), (3.2, 3.8, 4.8, 5.4),
+                        (4.75, 4.35, 6.4, 4.8), (6.35, 3.6, 7.95, 5.55), (3.775, 1.6, 4.225, 3.85),
+                        (3.0, 0.05, 5.0, 1.65)],
+                       [(0.85, 4.575), (2.4, 4.575), (4.0, 4.6), (5.6, 4.575), (7.15, 4.575),
+                        (4.0, 2.6), (4.0, 0.85)],
                        [(0, 1), (1, 2), (2, 3), (3, 4), (2, 5), (5, 6)])
-    found, _ = lanes_of(folder)
+    found, lanes = lanes_of(folder)
+    assert lanes.tight_vertices == frozenset()
     assert found == [(((0, 1), (1, 2)), (1,), (0, 2)), (((2, 3), (3, 4)), (3,), (2, 4)),
                      (((2, 5), (5, 6)), (5,), (2, 6))]
+
+
+def star_map(folder: Path) -> Path:
+    """Three dead-end corridors 0.45 m wide (east, north, west) from one junction, vertex 0:
+    no room anywhere, so two robots can pass nowhere; two vertices along each corridor."""
+    c, h = 3.0, 0.225
+    free = [(c, c - h, c + 2.6, c + h), (c - h, c, c + h, c + 2.6), (c - 2.6, c - h, c, c + h),
+            (c - h, c - h, c + h, c + h)]
+    vertices = [(c, c), (c + 1.1, c), (c + 2.2, c), (c, c + 1.1), (c, c + 2.2), (c - 1.1, c),
+                (c - 2.2, c)]
+    return write_map(folder, (6.0, 6.0), free, vertices,
+                     [(0, 1), (1, 2), (0, 3), (3, 4), (0, 5), (5, 6)])
+
+
+def test_a_star_of_dead_ends_is_one_lane_without_a_waiting_spot(tmp_path):
+    found, lanes = lanes_of(star_map(tmp_path / "star"))
+    assert lanes.tight_vertices == frozenset({0})
+    assert found == [(((0, 1), (0, 3), (0, 5), (1, 2), (3, 4), (5, 6)), (0, 1, 2, 3, 4, 5, 6),
+                      ())]
+    assert "robots inside it cannot pass each other" in lanes.describe(
+        [str(v) for v in range(7)])[0]
 
 
 def test_a_dead_end_is_a_lane_with_one_waiting_spot(tmp_path):

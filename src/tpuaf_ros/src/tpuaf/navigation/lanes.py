@@ -11,6 +11,12 @@ degree 1 (a dead end) or 2 (a corridor stop). The other vertices of a lane's edg
 *waiting spots*: wide vertices, where two robots fit, and junctions (degree >= 3), where
 lanes meet. A robot enters a lane only from a waiting spot and only holding the lane
 (team/lane_locks.py); a dead end lane has one waiting spot.
+
+A *tight* spot is a corner or junction of one-robot corridors where a robot standing on the
+vertex leaves no way round it from one edge to another (`tight_spots`): a robot waiting there
+would shut the lane's holder in. Where every edge at a tight spot is narrow and a bridge (no
+cycle through it, so the lanes there are locked, not one-way), the spot is interior: the lanes
+meeting there are one lane, whose waiting spots lie beyond (the rooms at the corridors' ends).
 """
 
 from __future__ import annotations
@@ -20,12 +26,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tpuaf.navigation.one_way import bridges
 from tpuaf.params import pass_band_m
 
 SAMPLE_STEP_M = 0.05  # [m] between the checked points of a planned path
 LATERAL_STEP_M = 0.025  # [m] between the checked points across it
 LANE_REGION_M = 0.2  # [m] points this close to a lane's path are inside the lane ...
 SPOT_CLEAR_M = 0.35  # [m] ... except near its waiting spots (a robot waits there)
+TIGHT_WINDOW_M = 1.0  # [m] half-width of the square round a spot searched for a way round it
 
 
 @dataclass(frozen=True)
@@ -48,6 +56,7 @@ class LaneMap:
     edge_width_m: dict[tuple[int, int], float]  # [m] narrowest band along each edge
     narrow_vertices: frozenset[int]
     pass_band_m: float  # [m] a band narrower than this is one robot wide
+    tight_vertices: frozenset[int] = frozenset()  # spots made interior (module docstring)
     region: tuple | None = None  # (lane index per map cell, row 0 at the bottom; origin [m],
     # resolution [m]): where a robot is inside a lane (`lane_at`), None: nowhere
     _edge_lane: dict[tuple[int, int], int] = field(default_factory=dict)
@@ -90,8 +99,12 @@ class LaneMap:
         for lane in self.lanes:
             edges = ", ".join(f"{ids[u]}-{ids[v]}" for u, v in lane.edges)
             spots = ", ".join(str(ids[s]) for s in lane.spots) or "none"
+            tight = [str(ids[v]) for v in lane.interior if v in self.tight_vertices]
             out.append(f"lane {lane.index}: edges {edges}; waiting spots {spots}; "
-                       f"narrowest band {lane.min_width_m:.2f} m")
+                       f"narrowest band {lane.min_width_m:.2f} m"
+                       + (f"; through tight junction {', '.join(tight)}" if tight else "")
+                       + ("" if lane.spots else
+                          " (no waiting spot: robots inside it cannot pass each other)"))
         return out
 
 
@@ -143,10 +156,58 @@ def find_lanes(planner, patrol_map) -> LaneMap:
         at_vertex.setdefault(e[0], []).append(float(bands[0]))
         at_vertex.setdefault(e[1], []).append(float(bands[-1]))
     narrow_v = frozenset(v for v, bands in at_vertex.items() if max(bands) < need)
-    lane_map = group_lanes(widths, narrow_v, need, len(positions))
+    cut = bridges(len(positions), list(widths))
+    candidates = {v for v in at_vertex if v not in narrow_v and len(at_vertex[v]) >= 2}
+    for e, w in widths.items():  # a spot whose every edge is a narrow bridge
+        if w >= need or e not in cut:
+            candidates.difference_update(e)
+    tight = tight_spots(planner, patrol_map, sorted(candidates))
+    lane_map = group_lanes(widths, narrow_v, need, len(positions), tight)
     if lane_map:
         lane_map.region = _region(planner, patrol_map, lane_map, positions)
     return lane_map
+
+
+def tight_spots(planner, patrol_map, vertices) -> frozenset[int]:
+    """The vertices among `vertices` where a robot standing on the vertex cuts every edge's
+    way out from every other's: with its disc and the pass band round it (`pass_band_m`)
+    taken out of the free robot centres within TIGHT_WINDOW_M, no two edges' first path points
+    beyond that disc are joined."""
+    from scipy.ndimage import label
+
+    positions = np.asarray(patrol_map.positions, dtype=float)
+    block = pass_band_m(planner.robot_radius_m)  # [m] a second robot centre is nearer: contact
+    offsets = np.arange(-TIGHT_WINDOW_M, TIGHT_WINDOW_M + 1e-9, LATERAL_STEP_M)
+    size = len(offsets)
+    dx, dy = np.meshgrid(offsets, offsets, indexing="xy")
+    away = np.hypot(dx, dy) > block
+    out = set()
+    for v in vertices:
+        centre = positions[v]
+        grid = np.stack([centre[0] + dx, centre[1] + dy], axis=-1)
+        free = (planner.distances_to_obstacle(grid.reshape(-1, 2)).reshape(size, size)
+                >= planner.inscribed_radius_m) & away
+        parts, _ = label(free)
+        seen = []
+        for w in patrol_map.graph.neighbours(int(v)):
+            path = planner.edge_path(min(v, w), max(v, w))
+            points = np.asarray(positions[[v, w]] if path is None else path, dtype=float)
+            if np.hypot(*(points[0] - centre)) > 1e-6:  # the path as planned from w
+                points = points[::-1]
+            sampled = _sampled(points)[0]
+            d = np.hypot(sampled[:, 0] - centre[0], sampled[:, 1] - centre[1])
+            beyond = np.nonzero((d > block + LATERAL_STEP_M) & (d < TIGHT_WINDOW_M))[0]
+            if len(beyond) == 0:
+                seen.append(0)
+                continue
+            x, y = sampled[beyond[0]] - centre
+            col = int(round((x + TIGHT_WINDOW_M) / LATERAL_STEP_M))
+            row = int(round((y + TIGHT_WINDOW_M) / LATERAL_STEP_M))
+            seen.append(int(parts[min(max(row, 0), size - 1), min(max(col, 0), size - 1)]))
+        joined = [p for p in seen if p > 0]
+        if len(set(joined)) == len(joined):
+            out.add(int(v))
+    return frozenset(out)
 
 
 def _region(planner, patrol_map, lane_map: LaneMap, positions: np.ndarray) -> tuple:
@@ -177,15 +238,20 @@ def _region(planner, patrol_map, lane_map: LaneMap, positions: np.ndarray) -> tu
 
 
 def group_lanes(edge_width_m: dict[tuple[int, int], float], narrow_vertices: frozenset[int],
-                narrow_width_m: float, n_vertices: int) -> LaneMap:
+                narrow_width_m: float, n_vertices: int,
+                tight_vertices: frozenset[int] = frozenset()) -> LaneMap:
     """Lanes from each edge's narrowest free width [m] (edges u < v) and the narrow vertices:
     narrow edges (width below `narrow_width_m`) joined at interior vertices (narrow, degree
-    1 or 2); the lanes numbered by their smallest edge."""
+    1 or 2, and the tight spots of `tight_spots` whose every edge is narrow); the lanes
+    numbered by their smallest edge."""
     degree = [0] * n_vertices
     for u, v in edge_width_m:
         degree[u] += 1
         degree[v] += 1
     interior = {v for v in narrow_vertices if degree[v] <= 2}
+    tight = frozenset(v for v in tight_vertices if all(
+        w < narrow_width_m for e, w in edge_width_m.items() if v in e))
+    interior |= tight
     narrow = sorted(e for e, w in edge_width_m.items() if w < narrow_width_m)
     parent = {e: e for e in narrow}
 
@@ -211,4 +277,4 @@ def group_lanes(edge_width_m: dict[tuple[int, int], float], narrow_vertices: fro
         vs = {v for e in es for v in e}
         lanes.append(Lane(k, tuple(es), tuple(sorted(vs & interior)),
                           tuple(sorted(vs - interior)), min(edge_width_m[e] for e in es)))
-    return LaneMap(lanes, dict(edge_width_m), frozenset(narrow_vertices), narrow_width_m)
+    return LaneMap(lanes, dict(edge_width_m), frozenset(narrow_vertices), narrow_width_m, tight)
