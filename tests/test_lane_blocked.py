@@ -40,6 +40,9 @@ def test_a_blocked_rail_drops_its_edge_keeps_the_other_lanes_directions_and_ever
     edges = {(min(u, v), max(u, v)) for u, v, _ in new.plan_map.edges}
     assert (4, 9) not in edges and len(edges) == len(layer.plan_map.edges) - 1
     assert new.lane_map.lanes[2].edges == ()  # a one-edge lane is gone (its index stays)
+    # where robots are inside lanes is still known (the middle aisle: lane 3), edge by edge
+    assert new.lane_map.lane_at([(1.5, 1.3)]).tolist() == [3]
+    assert new.lane_map.lane_of(4, 9) == -1 and layer.lane_map.lane_of(4, 9) == 2
     # the aisle 0..4 now ends at 4: a dead end, two-way and locked; so is the rail 0-5
     assert {0, 1} <= new.locked and 0 not in new.orientation.chains
     # the lanes still on a cycle keep the direction robots drive them now

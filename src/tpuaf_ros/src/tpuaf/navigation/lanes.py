@@ -56,11 +56,11 @@ class LaneMap:
     edge_width_m: dict[tuple[int, int], float]  # [m] narrowest band along each edge
     narrow_vertices: frozenset[int]
     pass_band_m: float  # [m] a band narrower than this is one robot wide
-    tight_vertices: frozenset[int] = frozenset()  # spots made interior (module docstring)
     region: tuple | None = None  # (lane index per map cell, row 0 at the bottom; origin [m],
     # resolution [m]): where a robot is inside a lane (`lane_at`), None: nowhere
-    _edge_lane: dict[tuple[int, int], int] = field(default_factory=dict)
-    _vertex_lane: dict[int, int] = field(default_factory=dict)
+    tight_vertices: frozenset[int] = frozenset()  # spots made interior (module docstring)
+    _edge_lane: dict[tuple[int, int], int] = field(default_factory=dict, init=False, repr=False)
+    _vertex_lane: dict[int, int] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
         for lane in self.lanes:
@@ -277,4 +277,5 @@ def group_lanes(edge_width_m: dict[tuple[int, int], float], narrow_vertices: fro
         vs = {v for e in es for v in e}
         lanes.append(Lane(k, tuple(es), tuple(sorted(vs & interior)),
                           tuple(sorted(vs - interior)), min(edge_width_m[e] for e in es)))
-    return LaneMap(lanes, dict(edge_width_m), frozenset(narrow_vertices), narrow_width_m, tight)
+    return LaneMap(lanes, dict(edge_width_m), frozenset(narrow_vertices), narrow_width_m,
+                   tight_vertices=tight)

@@ -155,8 +155,8 @@ def _without(layer: LaneLayer, plan, pairs: list[tuple[int, int]],
     old = layer.lane_map
     lanes = [Lane(lane.index, tuple(e for e in lane.edges if e not in cut), lane.interior,
                   lane.spots, lane.min_width_m) for lane in old.lanes]
-    lane_map = LaneMap(lanes, {e: w for e, w in old.edge_width_m.items() if e not in cut},
-                       old.narrow_vertices, old.pass_band_m, old.region)
+    lane_map = replace(old, lanes=lanes, edge_width_m={
+        e: w for e, w in old.edge_width_m.items() if e not in cut})
     orientation = None
     if layer.orientation is not None:
         orientation = orient_lanes(lane_map, plan, keep=layer.orientation)
