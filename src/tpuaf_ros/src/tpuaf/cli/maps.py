@@ -250,7 +250,8 @@ def picture(pm, folder: str, lane_map, orientation=None):
                  for lane in lane_map.lanes]
     return graph_png(pm, out / f"{pm.name}.png", lanes=lanes,
                      arrows=orientation.arcs if orientation is not None else None,
-                     title=f"{pm.name}" + (f": {len(lanes)} lanes" if lanes is not None else "")
+                     title=f"{pm.name}" + (f": {len(lanes)} lane{'' if len(lanes) == 1 else 's'}"
+                                           if lanes is not None else "")
                      + (f", {len(orientation.chains)} one-way" if orientation else ""))
 
 
