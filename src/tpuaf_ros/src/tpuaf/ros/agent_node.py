@@ -70,9 +70,10 @@ class AgentNode:
         self._identity(p, patrol_map, sim)
         self._publishers(p)
         self._runtime(p, patrol_map, sim)
-        self._subscribers(p)
+        # set before the subscribers: their callbacks may run at once (a scan already sent)
         self.control_on_scan = p.localization == "amcl"
         self._t0_wall = time.monotonic()
+        self._subscribers(p)
         self._thread = threading.Thread(target=self.supervise, daemon=True)
         self._thread.start()
 
@@ -174,13 +175,7 @@ class AgentNode:
     def _subscribers(self, p: AgentParams) -> None:
         """Team messages, events, the run start, the scan, /tf_static and the pose source."""
         ns = rospy.get_namespace().strip("/")
-        for cls, ros_cls in self.conv.types.items():
-            rospy.Subscriber(topics.team_topic(p.team_ns, cls), ros_cls, self.on_team,
-                             queue_size=200)
-        rospy.Subscriber(topics.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=200)
-        rospy.Subscriber(topics.START_TOPIC, RunStart, self.on_start, queue_size=10)
-        rospy.Subscriber(topics.SCAN, numpy_msg(LaserScan), self.on_scan, queue_size=1,
-                         tcp_nodelay=True)
+        # every attribute the callbacks read is set first: a callback may run at once
         self.chain = None
         self.base_frame = p.base_frame or (f"{ns}/base_footprint" if ns else "base_footprint")
         # The laser's mounting (base -> laser frame) from /tf_static: scan points are used in
@@ -188,6 +183,15 @@ class AgentNode:
         self._statics = StaticFrames()
         self.laser_pose = None  # (x, y, yaw) of the laser in the base frame, once known
         self._laser_frame = None
+        if p.localization == "tf":
+            self.chain = FrameChain(p.map_frame, self.base_frame)
+        for cls, ros_cls in self.conv.types.items():
+            rospy.Subscriber(topics.team_topic(p.team_ns, cls), ros_cls, self.on_team,
+                             queue_size=200)
+        rospy.Subscriber(topics.EVENTS_TOPIC, AgentEvent, self.on_event, queue_size=200)
+        rospy.Subscriber(topics.START_TOPIC, RunStart, self.on_start, queue_size=10)
+        rospy.Subscriber(topics.SCAN, numpy_msg(LaserScan), self.on_scan, queue_size=1,
+                         tcp_nodelay=True)
         rospy.Subscriber("/tf_static", TFMessage, self.on_tf_static, queue_size=5)
         if p.localization == "ground_truth":
             rospy.Subscriber(topics.GROUND_TRUTH, Odometry, self.on_odom, queue_size=1,
@@ -195,7 +199,6 @@ class AgentNode:
         elif p.localization == "odom":
             rospy.Subscriber(topics.ODOM, Odometry, self.on_odom, queue_size=1, tcp_nodelay=True)
         elif p.localization == "tf":
-            self.chain = FrameChain(p.map_frame, self.base_frame)
             rospy.Subscriber("/tf", TFMessage, self.on_tf, queue_size=5, tcp_nodelay=True)
         else:  # amcl publishes on change only: control runs on the scans then.
             rospy.Subscriber(topics.AMCL_POSE, PoseWithCovarianceStamped, self.on_amcl,
