@@ -65,6 +65,9 @@ class PlainBag:
     duplicate: bool = False  # every message written twice (a bag merged with itself)
     # robot -> [s]: its team messages and events recorded this late (out of bag-time order)
     record_delay: dict = field(default_factory=dict)
+    # (t [s], robot, vertex index): VERTEX_CLOSED events (a survivor reports a vertex cut off
+    # by a lost teammate's body), with events
+    closed: list = field(default_factory=list)
 
     def trajectory(self, r: int):
         """Piecewise-linear (t, x, y) knots of robot r and its arrivals (t, vertex)."""
@@ -151,6 +154,9 @@ class PlainBag:
                         T, "AgentEvent", t, robot=name, robot_index=r, event=1,
                         vertex=ids[nxt], from_vertex=ids[v])))
         if self.events:
+            items += [(t, "/fleet/agent_events", self._team_msg(
+                T, "AgentEvent", t, robot=name, robot_index=r, event=10, vertex=ids[v],
+                from_vertex=-1)) for t, robot, v in self.closed if robot == r]
             for t in np.arange(self.t0 - self.lead_s, end, 1.0):
                 if not self._silent(r, t):
                     items.append((t, "/fleet/agent_events", self._team_msg(
@@ -302,6 +308,22 @@ def test_heartbeats_detect_a_silent_robot(tmp_path):
     # its announced intentions (Intention messages) are in the recovery metrics
     (rec,) = result.summary["recovery"]
     assert rec["robot"] == 1 and rec["intentions"] == [14]
+
+
+@pytest.mark.parametrize("poses", ["tf", "none"])
+def test_a_vertex_cut_off_by_a_body_leaves_the_reachable_recovery(tmp_path, poses):
+    # robot 1 dies at 20 s; robot 0 reports vertex 14 (on robot 1's route only) cut off
+    plain_bag(tmp_path, poses=poses, events=True, silent_after={1: T0 + 20.0},
+              closed=[(T0 + 32.0, 0, 14)])
+    s = analyze(tmp_path / "run.bag", GRID).summary
+    assert s["dead_robots"] == [1] and s["lane_vertices_closed"] == [int(GRID.vertex_ids[14])]
+    (rec,) = s["recovery"]
+    assert rec["worst_idleness_after_reachable_s"] <= rec["worst_idleness_after_s"]
+    plain_bag(tmp_path, name="plain.bag", poses=poses, events=True,
+              silent_after={1: T0 + 20.0})
+    s = analyze(tmp_path / "plain.bag", GRID).summary
+    assert "lane_vertices_closed" not in s
+    assert "worst_idleness_after_reachable_s" not in s["recovery"][0]
 
 
 def test_a_robot_silent_then_heard_again_is_an_outage_not_a_death(tmp_path):

@@ -9,7 +9,7 @@ from tpuaf.measure.traffic import TrafficGuard
 from tpuaf.team import messages as m
 from tpuaf.team.epoch import ADOPTED, CROSS_WINDOW_S, EARLIER, KEPT, RunEpoch
 from tpuaf.team.inbox import TeamInbox
-from tpuaf.topics import GOAL, HEARTBEAT, REACHED, START
+from tpuaf.topics import GOAL, HEARTBEAT, REACHED, START, VERTEX_CLOSED
 
 from tests.test_metrics import line_map
 
@@ -143,11 +143,12 @@ def test_guard_refuses_unknown_robots_vertices_and_counts_by_robot():
     g = TrafficGuard(2, 3, ["a0", "a1"])
     assert g.check(5, HEARTBEAT, -1, -1, 1.0, 1.0) == "unknown_robot"
     assert g.check(0, GOAL, 7, -1, 1.0, 1.0) == "vertex"
+    assert g.check(0, VERTEX_CLOSED, -1, -1, 1.0, 1.0) == "vertex"  # a closure names a vertex
     assert g.check(0, GOAL, 1, -1, float("nan"), 1.0) == "clock"
     assert g.check(0, GOAL, 1, -1, 1.0, 1.0) is None
-    assert g.counts == {(-1, "unknown_robot"): 1, (0, "vertex"): 1, (0, "clock"): 1}
+    assert g.counts == {(-1, "unknown_robot"): 1, (0, "vertex"): 2, (0, "clock"): 1}
     rows = g.summary()["rejected"]["by_robot"]
-    assert rows == [{"robot": -1, "unknown_robot": 1}, {"robot": 0, "clock": 1, "vertex": 1}]
+    assert rows == [{"robot": -1, "unknown_robot": 1}, {"robot": 0, "clock": 1, "vertex": 2}]
 
 
 def test_one_run_start_a_far_earlier_one_is_ignored_and_counted():

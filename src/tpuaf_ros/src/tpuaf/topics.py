@@ -45,11 +45,13 @@ STALLED = "stalled"
 # STUCK: a navigator recovery started; GIVE_WAY: a refuge driven to (robot health, issue 33).
 # LANE_WAIT: a lane request not granted at once (stamped at the request); LANE_ENTER: granted
 # after such a wait (docs/LANES.md; the monitor's lane waits and their seconds).
+# VERTEX_CLOSED: a lost teammate's body cuts `vertex` off (robot/lanes.py): the recovery
+# figures over the reachable vertices leave it out (measure/recovery.py).
 START, GOAL, REACHED, FAILED, HEARTBEAT, DWELL, STUCK, GIVE_WAY = 0, 1, 2, 3, 4, 5, 6, 7
-LANE_WAIT, LANE_ENTER = 8, 9
+LANE_WAIT, LANE_ENTER, VERTEX_CLOSED = 8, 9, 10
 EVENT_NAMES = {START: "START", GOAL: "GOAL", REACHED: "REACHED", FAILED: "FAILED",
                HEARTBEAT: "HEARTBEAT", DWELL: "DWELL", STUCK: "STUCK", GIVE_WAY: "GIVE_WAY",
-               LANE_WAIT: "LANE_WAIT", LANE_ENTER: "LANE_ENTER"}
+               LANE_WAIT: "LANE_WAIT", LANE_ENTER: "LANE_ENTER", VERTEX_CLOSED: "VERTEX_CLOSED"}
 
 
 def team_topic(team_ns: str, message_class: type) -> str:

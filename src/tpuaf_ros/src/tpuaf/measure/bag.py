@@ -76,6 +76,7 @@ from tpuaf.topics import (
     REACHED,
     START,
     START_TOPIC,
+    VERTEX_CLOSED,
 )
 
 REORDER_MARGIN_S = 5.0  # [s] beyond the latest message measured by inspect
@@ -527,6 +528,8 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
             recorder.record_goal(r, vertex, from_vertex, round(t - start, 9))
         elif kind == DWELL and vertex >= 0:
             recorder.record_dwell(r, vertex, round(t - start, 9))
+        elif kind == VERTEX_CLOSED and vertex >= 0:
+            recorder.record_closed(vertex)
     else:  # the bag ends within the span: up to its last report (record times may trail)
         end = min(end, last)
     for r in report_of.off_clock:

@@ -164,11 +164,12 @@ class RawEvent:
 
 _EVENT = struct.Struct("<iBqq")  # robot_index, event, vertex, from_vertex
 # The AgentEvent definitions read raw (md5 sums of version 2, 3: the DWELL constant, 4: STUCK
-# and GIVE_WAY, and 5: LANE_WAIT and LANE_ENTER; the same bytes).
+# and GIVE_WAY, 5: LANE_WAIT and LANE_ENTER, and 6: VERTEX_CLOSED; the same bytes).
 _RAW_EVENTS = {("tpuaf_ros/msg/AgentEvent", "3ce9ce20732c9c9397c66ce50f7f6d89"),
                ("tpuaf_ros/msg/AgentEvent", "7a2f1a3c7ed3c48b38ec6c116f61048a"),
                ("tpuaf_ros/msg/AgentEvent", "28aa1b950cb64e1a91e842f53b0c3fb3"),
-               ("tpuaf_ros/msg/AgentEvent", "5af9a73afa021543d084577e229fe081")}
+               ("tpuaf_ros/msg/AgentEvent", "5af9a73afa021543d084577e229fe081"),
+               ("tpuaf_ros/msg/AgentEvent", "ec65188c2e58526c7238920de09dd12b")}
 
 
 def raw_readers(connections: list) -> dict:

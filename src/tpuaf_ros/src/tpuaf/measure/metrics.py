@@ -82,6 +82,13 @@ class RecorderView:
         self._idleness: list[float] = []
         self._rows: list[dict] = []
         self._interferences: list[tuple[float, int, int]] = []
+        # vertices no robot can reach after a death (VERTEX_CLOSED events: a dead robot's body
+        # next to them, robot/lanes.py); the recovery also counts without them
+        self.closed: set[int] = set()
+
+    def record_closed(self, vertex: int) -> None:
+        """A survivor reported vertex `vertex` (index) cut off by a lost teammate's body."""
+        self.closed.add(int(vertex))
 
     def finish(self, end_time: float) -> None:
         """Bring every accumulator to `end_time` [s] (robots held at their last positions)."""
@@ -219,20 +226,27 @@ class RecorderView:
             self.visits, self.final_deaths(), self.announcements, end_time,
             teammate_timeout_s=self.teammate_timeout_s, closed=closed)
 
-    def summary(self, end_time: float, closed=()) -> dict:
+    def summary(self, end_time: float) -> dict:
         """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null);
-        `closed`: vertices no robot can reach after the deaths (`recovery`)."""
+        with vertices recorded closed (`record_closed`), `lane_vertices_closed` (their ids)
+        and the recovery over the other vertices too."""
         end_time = float(end_time)
         self.finish(end_time)
         core = self._core
         x_final = float(np.mean(core.field_values)) if self.ground_truth else math.nan
         deaths = self.final_deaths()
-        return build_summary(
+        closed = sorted(self.closed)
+        summary = build_summary(
             self, end_time, interval_samples=core.interval_samples, ins_sum=core.ins_sum,
             n_rows=core.row_count, worst=core.worst_idleness(end_time), x_sum=core.x_sum,
             x_count=core.x_count, x_final=x_final, n_interferences=core.interference_count,
             n_visits=core.visit_count, deaths=deaths, stalls=self.stalls,
-            outages=self.outage_list(), recovery=self.recovery(end_time, closed) if deaths else None)
+            outages=self.outage_list(),
+            recovery=self.recovery(end_time, closed) if deaths else None)
+        if closed:
+            ids = self.patrol_map.vertex_ids
+            summary["lane_vertices_closed"] = [ids[v] for v in closed]
+        return summary
 
 
 class RunRecorder(RecorderView):

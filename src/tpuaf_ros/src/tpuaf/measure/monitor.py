@@ -62,7 +62,7 @@ from tpuaf.measure.metrics import RunRecorder, complete_cycles
 from tpuaf.measure.traffic import TrafficGuard
 from tpuaf.params import HEALTH_DEFAULTS, LIVENESS_DEFAULTS
 from tpuaf.plain import plain
-from tpuaf.topics import DWELL, GOAL, HEARTBEAT, REACHED, START
+from tpuaf.topics import DWELL, GOAL, HEARTBEAT, REACHED, START, VERTEX_CLOSED
 
 # [s] stamps closer than this are equal (run times pass through float seconds and integer ns).
 STAMP_EPS_S = 1e-3
@@ -127,6 +127,7 @@ class FleetMonitor:
         # (stamp, robot, vertex, is START) of visits not yet recorded, in stamp order
         self._visits: list[tuple[float, int, int, bool]] = []
         self._announcements: list[tuple[int, int, float]] = []  # until the recorder exists
+        self._closed: set[int] = set()  # VERTEX_CLOSED vertices (indices)
         self._back = np.full(self.n, math.inf)  # first event after an outage began [s]
         # [detection time s, robot, end s (first event heard again) or None]
         self.outages: list[list] = []
@@ -174,6 +175,10 @@ class FleetMonitor:
             q.append((float(t), int(kind), int(vertex), int(from_vertex)))
             if len(q) > 1 and q[-2][0] > q[-1][0]:
                 q.sort(key=lambda e: e[0])
+        if kind == VERTEX_CLOSED:  # cut off by a lost teammate's body (robot/lanes.py)
+            self._closed.add(int(vertex))
+            if self.recorder is not None:
+                self.recorder.record_closed(vertex)
         if kind == START or (kind == REACHED and self.visit_source == "reports"):
             t = float(t)
             if kind == START and self.start_time is not None:
@@ -390,6 +395,8 @@ class FleetMonitor:
         for robot, vertex, stamp in self._announcements:
             self.recorder.record_announcement(robot, vertex, self.run_time(stamp))
         self._announcements.clear()
+        for vertex in self._closed:
+            self.recorder.record_closed(vertex)
         self.now = t
 
     def end(self, end_time: float) -> None:

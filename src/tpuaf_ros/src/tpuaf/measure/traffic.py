@@ -29,10 +29,10 @@ import math
 from collections import deque
 
 from tpuaf.team.inbox import InboxConfig, RateLimit, SenderCheck, clock_problem
-from tpuaf.topics import DWELL, GOAL, LANE_ENTER, LANE_WAIT, REACHED, START
+from tpuaf.topics import DWELL, GOAL, LANE_ENTER, LANE_WAIT, REACHED, START, VERTEX_CLOSED
 
 REASONS = ("unknown_robot", "vertex", "sender", "clock", "duplicate", "rate", "implausible", "start")
-NEEDS_VERTEX = (START, GOAL, REACHED, DWELL, LANE_WAIT, LANE_ENTER)
+NEEDS_VERTEX = (START, GOAL, REACHED, DWELL, LANE_WAIT, LANE_ENTER, VERTEX_CLOSED)
 # [s] how far behind its receipt an event may be stamped: the monitor's callbacks and rosbag's
 # recorder trail a fast lock-step clock by tens of seconds (ahead: the agents' max_skew_s)
 MAX_PAST_S = 300.0

@@ -30,7 +30,7 @@ from tpuaf.navigation.one_way import Orientation, orient_lanes
 from tpuaf.params import CONTROLLER_DEFAULTS
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
-from tpuaf.topics import LANE_ENTER, LANE_WAIT
+from tpuaf.topics import LANE_ENTER, LANE_WAIT, VERTEX_CLOSED
 
 
 @dataclass(frozen=True)
@@ -340,6 +340,8 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
                 return
             current[0] = new
             access.blocked.append(edge)
+            for vertex in sorted(new.plan_map.closed - access.closed):
+                report(VERTEX_CLOSED, vertex, machine.now)  # the monitor's reachable recovery
             access.closed = new.plan_map.closed
             access.use(new.lane_map, new.locked, agent.position, machine.now)
             agent.replan(new.plan_map)

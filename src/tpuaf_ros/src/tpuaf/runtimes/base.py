@@ -36,7 +36,7 @@ from tpuaf.runtimes.config import RunConfig, run_robot, travel_map
 from tpuaf.runtimes.faults import DEATH, Fault
 from tpuaf.team.bus import TeamBus, bus_stream
 from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, heartbeat_links
-from tpuaf.topics import DWELL, GOAL, REACHED, START
+from tpuaf.topics import DWELL, GOAL, REACHED, START, VERTEX_CLOSED
 
 
 class TeamRun:
@@ -100,6 +100,8 @@ class TeamRun:
                 recorder.record_goal(robot, vertex, from_vertex, t)
             elif kind == DWELL:
                 recorder.record_dwell(robot, vertex, t)
+            elif kind == VERTEX_CLOSED:
+                recorder.record_closed(vertex)
 
         return emit
 
@@ -162,13 +164,8 @@ class TeamRun:
         """A stall: the robot no longer moves (its machine keeps deciding)."""
 
     # --- results ---
-    def closed_vertices(self) -> list[int]:
-        """Vertex indices no robot can reach (a dead robot's body next to them: physics with
-        lanes, robot/lanes.py); none here."""
-        return []
-
     def summary(self) -> dict[str, Any]:
-        summary = self.recorder.summary(self.now, self.closed_vertices())
+        summary = self.recorder.summary(self.now)
         summary["messages"] = asdict(self.bus.stats)
         summary["faults"] = [f.to_dict() for f in self.faults if f.time_s <= self.now]
         if self.links is not None:

@@ -234,15 +234,10 @@ class PhysicsRun(TeamRun):
             summary["lane_waits"] = int(sum(lk.waits for lk in locks))
             summary["lane_wait_s"] = round(float(sum(lk.wait_s for lk in locks)), 3)
             # edges dropped from the plan: a lost teammate's body on them (robot/lanes.py),
-            # by vertex id
+            # by vertex id; the vertices it cuts off come as the agents' VERTEX_CLOSED events
+            # (the recorder's `lane_vertices_closed`, as in the fleet monitor)
             ids = self.patrol_map.vertex_ids
             summary["lane_edges_blocked"] = [
                 [ids[u], ids[v]] for u, v in sorted({e for access in self.lane_access
                                                      for e in access.blocked})]
-            # vertices cut off (the body next to them: no robot can reach them), by vertex id;
-            # each death's recovery is also over the other vertices (`..._reachable`)
-            summary["lane_vertices_closed"] = [ids[v] for v in self.closed_vertices()]
         return summary
-
-    def closed_vertices(self) -> list[int]:
-        return sorted({v for access in self.lane_access for v in access.closed})
