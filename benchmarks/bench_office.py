@@ -25,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 sys.path.insert(0, str(ROOT))
-from common import RESULTS, header, write  # noqa: E402
+from common import header, write_report  # noqa: E402
 
 
 def office_folder(tmp: Path, before: bool) -> Path:
@@ -129,8 +129,7 @@ def main() -> int:
             "100 rad (a wide heading at any angle wins, the rule before the door rule), "
             "`now`: 0.5 rad.\n\n"
             + "\n".join(lines) + "\n")
-    write(RESULTS / "office.md", body)
-    (RESULTS / "office.json").write_text(json.dumps(rows, indent=2) + "\n")
+    write_report("office", body, rows)
     return 0
 
 

@@ -13,7 +13,6 @@ Writes benchmarks/results/tight_junctions.md and tight_junctions.json.
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 import tempfile
@@ -24,7 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 sys.path.insert(0, str(ROOT))
-from common import RESULTS, header, write  # noqa: E402
+from common import header, write_report  # noqa: E402
 
 MAPS = {"tee": (2, 3, 4), "star": (2, 3)}  # map -> team sizes
 VARIANTS = ("now", "before", "off", "graph")
@@ -116,8 +115,7 @@ def main() -> int:
             "lane, the junction their waiting spot; `off`: no lanes (give-way only). The graph "
             "runtime's robots are points (no contacts, no lane waits).\n\n"
             + "\n".join(lines) + "\n")
-    write(RESULTS / "tight_junctions.md", body)
-    (RESULTS / "tight_junctions.json").write_text(json.dumps(runs, indent=2) + "\n")
+    write_report("tight_junctions", body, runs)
     return 0
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import json
 import os
 import platform
 import subprocess
@@ -54,6 +55,13 @@ def write(name: str | Path, text: str) -> Path:
     path.write_text(text)
     print(text)
     print(f"written to {path}")
+    return path
+
+
+def write_report(stem: str, text: str, data) -> Path:
+    """RESULTS/stem.md (`text`, printed) and RESULTS/stem.json (`data`, indented)."""
+    path = write(f"{stem}.md", text)
+    (RESULTS / f"{stem}.json").write_text(json.dumps(data, indent=2) + "\n")
     return path
 
 
