@@ -74,19 +74,27 @@ def one_run(case: tuple[str, str, int, int, int, float, dict, str]) -> dict:
     t0 = time.process_time()
     run, summary, _ = death_run(name, strategy, n, k, seed, duration_s, params, runtime)
     rec = summary["recovery"]
-    after = max(r["worst_idleness_after_s"] for r in rec)
+    recorder = run.recorder
+    # physics: vertices a dead robot's body lies on (or a lane body cuts off) no reaction can
+    # visit again; the figures are over the other vertices (the summary's `..._reachable`)
+    closed = recorder.closed | recorder.bodies_closed()
+    after = max(r.get("worst_idleness_after_reachable_s", r["worst_idleness_after_s"])
+                for r in rec)
     ideal = rec[-1]["ideal_worst_idleness_survivors_s"]
     floor = max(r["floor_worst_idleness_after_s"] for r in rec)
-    covered = all(r["recovery_time_s"] is not None for r in rec)
+    last_death = max(r["time_s"] for r in rec)
+    covered = all(any(t > last_death for t in times)
+                  for v, times in enumerate(recorder.vertex_times) if v not in closed)
     # the floor from where the team stood when the survivors could first know: the deaths
     # plus the teammate timeout (no reaction to them can start sooner)
     detect = max(r["detection_floor_worst_idleness_after_s"] for r in rec)
-    recorder = run.recorder
     # the regime the survivors settle into: the worst visit gap over the last half of the time
     # after the deaths (gaps between visits in it, and each vertex's gap still open at the end)
     settle_from = duration_s / 2 + duration_s / 4
     settled = 0.0
-    for times in recorder.vertex_times:
+    for v, times in enumerate(recorder.vertex_times):
+        if v in closed:
+            continue
         late = [t for t in times if t >= settle_from]
         gaps = [b - a for a, b in zip(late[:-1], late[1:], strict=True)]
         settled = max(settled, *gaps, duration_s - (times[-1] if times else 0.0))
@@ -96,7 +104,7 @@ def one_run(case: tuple[str, str, int, int, int, float, dict, str]) -> dict:
     return {"map": name, "strategy": strategy, "N": n, "K": k, "seed": seed, "after_s": after,
             "x_after": float(np.mean(x_after)) if x_after else math.nan,
             "ideal_s": ideal, "floor_s": floor, "detect_floor_s": detect, "covered": covered,
-            "settled_s": settled,
+            "settled_s": settled, "closed": len(closed),
             "cpu_s": time.process_time() - t0}
 
 
@@ -196,7 +204,12 @@ def main() -> None:
              "the survivors' **ideal** alone (issue 19's ratio). `never` = some vertex was not "
              "visited again after a death in some run (the strategy stops covering). Mean X "
              "after: the median over seeds of the mean uncertainty (SPEC's X) over the 1 Hz rows "
-             "after the deaths.", ""]
+             "after the deaths."
+             + (" Physics: the worst idleness after, `settled` and `never` are over the vertices "
+                "no dead robot's body lies on (the summary's `vertices_under_bodies`: its centre "
+                "nearer than 2 radii - the visit radius, so no robot can visit them; "
+                f"{sum(1 for r in rows if r.get('closed'))} of {len(rows)} runs had one)."
+                if args.runtime == "physics" else ""), ""]
     verdicts = []
     ours_settled: list[float] = []
     for m in shown:

@@ -86,6 +86,34 @@ def test_recovery_over_the_reachable_vertices_on_a_hand_log():
     assert r["worst_idleness_ratio_to_detection_reference"] == pytest.approx(28.0 / 40.0)
 
 
+@pytest.mark.parametrize("body_m", [0.165, None])
+def test_a_dead_robots_body_on_a_vertex_is_left_out_of_the_reachable_recovery(body_m):
+    """Robot 1 dies at 6 s standing 5 cm from v2: with bodies (physics, fleets) no robot's
+    centre can come within the visit radius (0.15 m) of v2, since 2 x 0.165 - 0.15 = 0.18 m >
+    5 cm, so the reachable recovery leaves v2 out; point robots (the graph runtime) keep it."""
+    rec = RunRecorder(line_map(), 2, ground_truth=False, teammate_timeout_s=1.0,
+                      body_radius_m=body_m)
+    rec.record_positions(0.0, np.array([[0.0, 0.0], [20.0, 0.0]]))
+    for t, r, v in [(0, 0, 0), (2, 1, 2), (5, 0, 1), (10, 0, 0), (15, 0, 1), (20, 0, 0)]:
+        rec.record_visit(r, v, t)
+    rec.record_positions(6.0, np.array([[6.0, 0.0], [19.95, 0.0]]))
+    rec.record_robot_death(1, 6.0)
+    rec.record_positions(7.0, np.array([[7.0, 0.0], [np.nan, np.nan]]))  # dead: absent
+    s = rec.summary(30.0)
+    (r,) = s["recovery"]
+    assert r["worst_idleness_after_s"] == 28.0  # v2, never visited again, in the plain figure
+    if body_m is None:
+        assert "vertices_under_bodies" not in s and "worst_idleness_after_reachable_s" not in r
+    else:
+        assert s["vertices_under_bodies"] == [12]
+        assert r["worst_idleness_after_reachable_s"] == 15.0  # v1's gap 15 -> 30 s
+    far = RunRecorder(line_map(), 2, ground_truth=False, teammate_timeout_s=1.0,
+                      body_radius_m=0.165)
+    far.record_positions(6.0, np.array([[6.0, 0.0], [19.7, 0.0]]))  # 0.3 m off: reachable
+    far.record_robot_death(1, 6.0)
+    assert far.bodies_closed() == set()
+
+
 def test_death_floor_on_a_square_hand_log():
     """Two robots 20 m apart on a 10 m square (1 m/s); robot 1 dies at 25 s, 5 m past v0.
     The survivor is then mid-way v2-v3 (its visits bound it exactly: 15, 15, 5, 5 m from

@@ -75,6 +75,9 @@ class RecorderView:
     ground_truth: bool
     speed_mps: float
     teammate_timeout_s: float | None
+    # [m] the robots' radius where dead robots' bodies stay in the world (physics, fleets,
+    # robots): `bodies_closed`; None: point robots (the graph runtime)
+    body_radius_m: float | None = None
 
     def _start_view(self) -> None:
         # Python copies of the logs, extended on read (the core only ever appends to them).
@@ -89,6 +92,26 @@ class RecorderView:
     def record_closed(self, vertex: int) -> None:
         """A survivor reported vertex `vertex` (index) cut off by a lost teammate's body."""
         self.closed.add(int(vertex))
+
+    def bodies_closed(self) -> set[int]:
+        """The vertices a dead robot's body lies on: its centre (its last known position)
+        nearer to the vertex than 2 body radii - the visit radius, so that no robot's centre
+        can come within the visit radius of it (walls aside). None without bodies."""
+        deaths = self.final_deaths()
+        last = getattr(self, "last_seen", None)
+        if self.body_radius_m is None or not deaths or last is None:
+            return set()
+        reach = 2.0 * float(self.body_radius_m) - float(self.patrol_map.visit_radius_m)  # [m]
+        if reach <= 0.0:
+            return set()
+        vertices = np.asarray(self.patrol_map.positions, dtype=float)
+        out: set[int] = set()
+        for _, robot in deaths:
+            body = last[int(robot)]
+            if np.isfinite(body).all():
+                near = np.hypot(*(vertices - body).T) < reach
+                out.update(int(v) for v in np.nonzero(near)[0])
+        return out
 
     def finish(self, end_time: float) -> None:
         """Bring every accumulator to `end_time` [s] (robots held at their last positions)."""
@@ -228,14 +251,16 @@ class RecorderView:
 
     def summary(self, end_time: float) -> dict:
         """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null);
-        with vertices recorded closed (`record_closed`), `lane_vertices_closed` (their ids)
-        and the recovery over the other vertices too."""
+        with vertices recorded closed (`record_closed`: `lane_vertices_closed`, their ids) or
+        under a dead robot's body (`bodies_closed`: `vertices_under_bodies`), the recovery
+        over the other vertices too."""
         end_time = float(end_time)
         self.finish(end_time)
         core = self._core
         x_final = float(np.mean(core.field_values)) if self.ground_truth else math.nan
         deaths = self.final_deaths()
-        closed = sorted(self.closed)
+        under = self.bodies_closed()
+        closed = sorted(self.closed | under)
         summary = build_summary(
             self, end_time, interval_samples=core.interval_samples, ins_sum=core.ins_sum,
             n_rows=core.row_count, worst=core.worst_idleness(end_time), x_sum=core.x_sum,
@@ -243,9 +268,11 @@ class RecorderView:
             n_visits=core.visit_count, deaths=deaths, stalls=self.stalls,
             outages=self.outage_list(),
             recovery=self.recovery(end_time, closed) if deaths else None)
-        if closed:
-            ids = self.patrol_map.vertex_ids
-            summary["lane_vertices_closed"] = [ids[v] for v in closed]
+        ids = self.patrol_map.vertex_ids
+        if self.closed:
+            summary["lane_vertices_closed"] = [ids[v] for v in sorted(self.closed)]
+        if under:
+            summary["vertices_under_bodies"] = [ids[v] for v in sorted(under)]
         return summary
 
 
@@ -265,7 +292,7 @@ class RunRecorder(RecorderView):
                  start_time: float = _DEFAULTS.start_time_s,
                  max_substep_s: float = _DEFAULTS.max_substep_s,
                  field_merge_s: float = _DEFAULTS.field_merge_s, speed_mps: float | None = None,
-                 teammate_timeout_s: float | None = None):
+                 teammate_timeout_s: float | None = None, body_radius_m: float | None = None):
         if n_robots <= 0:
             raise ValueError(f"need at least one robot, got {n_robots}")
         if not sample_period_s > 0:
@@ -283,6 +310,7 @@ class RunRecorder(RecorderView):
         # [m/s] the robots' speed, for the survivors' ideal (default: the map's nominal speed)
         self.speed_mps = float(s.nominal_speed if speed_mps is None else speed_mps)
         self.teammate_timeout_s = teammate_timeout_s
+        self.body_radius_m = None if body_radius_m is None else float(body_radius_m)
         self.d_if = float(s.interference_distance)
         config = tpuaf_core.RecorderConfig()
         config.robots = self.n_robots
@@ -303,6 +331,7 @@ class RunRecorder(RecorderView):
         )
         self._core = tpuaf_core.GroundTruthRecorder(config, field)
         self._shape = (self.n_robots, 2)
+        self.last_seen = np.full(self._shape, np.nan)  # [m] each robot's last known position
         self._start_view()
 
     @property
@@ -326,6 +355,8 @@ class RunRecorder(RecorderView):
         p = np.asarray(positions, dtype=float)
         if p.shape != self._shape:
             p = p.reshape(self._shape)
+        seen = np.isfinite(p).all(axis=1)
+        self.last_seen[seen] = p[seen]
         self._core.record_positions(float(time), p)
 
     def record_goal(self, robot: int, vertex: int, from_vertex: int, time: float) -> None:

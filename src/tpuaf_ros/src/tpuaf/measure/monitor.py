@@ -383,8 +383,10 @@ class FleetMonitor:
     def _start(self, start: float, t: float) -> None:
         """The run starts at `start` [s], processed with the pose group at t >= start."""
         self.start_time = start
+        # a dead robot's body stays where it stopped (the simulator's, a real robot's)
         self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s,
-                                    teammate_timeout_s=self.teammate_timeout_s)
+                                    teammate_timeout_s=self.teammate_timeout_s,
+                                    body_radius_m=float(self.patrol_map.settings.robot_radius))
         # START events before the run start: first visits at the start; REACHED before it
         # belong to no run.
         self._visits = sorted((max(s, start) if first else s, r, v, first)

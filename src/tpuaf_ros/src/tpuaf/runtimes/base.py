@@ -65,8 +65,11 @@ class TeamRun:
         """The run's recorder, on the plan's map (the robots' speed and travel times)."""
         self.recorder = RunRecorder(self.patrol_map, self.config.robots,
                                     sample_period_s=self.config.sample_period_s,
-                                    teammate_timeout_s=float(self.config.teammate_timeout_s))
+                                    teammate_timeout_s=float(self.config.teammate_timeout_s),
+                                    body_radius_m=self.body_radius_m)
         return self.recorder
+
+    body_radius_m: float | None = None  # [m] dead robots' bodies stay (physics: its robots')
 
     def _team(self, machines: list[RobotMachine]) -> None:
         """The robots' machines, in index order; their announcements are recorded (recovery

@@ -83,6 +83,7 @@ class PhysicsRun(TeamRun):
             seed=self.seed, map_description=f"patrol map {world_map.name}", robot_preset=preset,
             laser_preset=laser_preset)
         self.world = self.world_config.build()
+        self.body_radius_m = float(robot_model.radius)  # a dead robot stays in the world
         self._record()
         cls = REGISTRY.get(config.strategy)
         # One planner (costmap and edge paths) for the team: they share the footprint.
