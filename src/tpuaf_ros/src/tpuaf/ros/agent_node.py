@@ -70,7 +70,6 @@ class AgentNode:
         self._identity(p, patrol_map, sim)
         self._publishers(p)
         self._runtime(p, patrol_map, sim)
-        # set before the subscribers: their callbacks may run at once (a scan already sent)
         self.control_on_scan = p.localization == "amcl"
         self._t0_wall = time.monotonic()
         self._subscribers(p)
@@ -176,15 +175,13 @@ class AgentNode:
         """Team messages, events, the run start, the scan, /tf_static and the pose source."""
         ns = rospy.get_namespace().strip("/")
         # every attribute the callbacks read is set first: a callback may run at once
-        self.chain = None
         self.base_frame = p.base_frame or (f"{ns}/base_footprint" if ns else "base_footprint")
+        self.chain = FrameChain(p.map_frame, self.base_frame) if p.localization == "tf" else None
         # The laser's mounting (base -> laser frame) from /tf_static: scan points are used in
         # the base frame, as in the physics runtime (LDS-01 on a Burger: 3.2 cm behind).
         self._statics = StaticFrames()
         self.laser_pose = None  # (x, y, yaw) of the laser in the base frame, once known
         self._laser_frame = None
-        if p.localization == "tf":
-            self.chain = FrameChain(p.map_frame, self.base_frame)
         for cls, ros_cls in self.conv.types.items():
             rospy.Subscriber(topics.team_topic(p.team_ns, cls), ros_cls, self.on_team,
                              queue_size=200)
