@@ -517,3 +517,12 @@ def test_messages_come_in_rosbags_order_with_the_same_bytes(tmp_path):
             ours = [(c.id, t, bytes(raw)) for c, t, raw in index_messages(reader, list(conns))]
             theirs = [(c.id, t, bytes(raw)) for c, t, raw in reader.messages(connections=conns)]
             assert ours == theirs and len(ours) > 0
+
+
+def test_analyze_takes_the_runs_robot_radius_from_its_config():
+    # a dead robot's body on a vertex (recovery) is judged with the run's robot, not the map's
+    from tpuaf.cli.analyze import _robot_radius
+
+    assert _robot_radius({"robot": {"radius_m": 0.105}}) == 0.105
+    assert _robot_radius({}) is None and _robot_radius({"robot": "burger"}) is None
+    assert _robot_radius({"robot": {"radius_m": -1.0}}) is None

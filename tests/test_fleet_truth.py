@@ -16,10 +16,10 @@ from tests.test_metrics import line_map
 TPUAF = Path(__file__).resolve().parents[1] / ".venv" / "bin" / "tpuaf"
 
 
-def restart_run(duration_s: float = 60.0) -> tuple[FleetMonitor, list[int]]:
+def restart_run(duration_s: float = 60.0, **kw) -> tuple[FleetMonitor, list[int]]:
     """3 robots: robot 1 silent from 20 s to 35 s (a restart), robot 2 silent from 40 s for
-    good. Returns the monitor and robots_alive at every second."""
-    mon = FleetMonitor(line_map(), 3, duration_s, lag_s=1.0, death_timeout_s=5.0)
+    good (it stands on v2). Returns the monitor and robots_alive at every second."""
+    mon = FleetMonitor(line_map(), 3, duration_s, lag_s=1.0, death_timeout_s=5.0, **kw)
     for r in range(3):
         mon.on_event(r, START, r, 0.0)
     alive = []
@@ -53,6 +53,17 @@ def test_a_robot_heard_again_is_alive_and_only_the_silent_one_dies(tmp_path):
     with ResultsWriter(tmp_path / "run", {"map": "line3"}, plots=False) as writer:
         writer.finish(s, mon.recorder)
     assert open(tmp_path / "run" / "info.csv").read().split(";")[13] == "FAIL"
+
+
+def test_the_monitor_leaves_a_vertex_under_a_dead_body_out_of_the_reachable_recovery():
+    # robot 2 dies standing on v2 (id 12): with the map's robot radius no robot can come
+    # within the visit radius of it; a robot of 5 cm radius leaves room
+    s = restart_run()[0].summary()
+    assert s["vertices_under_bodies"] == [12]
+    assert "worst_idleness_after_reachable_s" in s["recovery"][0]
+    s = restart_run(body_radius_m=0.05)[0].summary()
+    assert "vertices_under_bodies" not in s
+    assert "worst_idleness_after_reachable_s" not in s["recovery"][0]
 
 
 def test_a_restarted_robot_is_no_death(tmp_path):

@@ -262,6 +262,7 @@ class MonitorParams:
     strategy: str = ""  # for config.yaml
     seed: int = 0  # for config.yaml
     pose_source: str = "ground_truth"  # positions for X: ground_truth | tf | odom | amcl
+    robot: str = AgentParams.robot  # the agents' robot preset (its radius: a dead robot's body, recovery)
     map_frame: str = "map"  # tf: the global frame
     base_frame: str = "base_footprint"  # tf: robot i's frame is <robot_prefix><i>/<base_frame>
     announce_start: bool = True  # announce /fleet/start when all agents are ready; false: follow

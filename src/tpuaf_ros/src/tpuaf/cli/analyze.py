@@ -213,12 +213,19 @@ def _config_of(folder: Path) -> dict:
         return {}
 
 
-def _seconds(value) -> float | None:
-    """A finite number of seconds > 0 from config.yaml, else None."""
+def _positive(value) -> float | None:
+    """A finite number > 0 from config.yaml (seconds, metres), else None."""
     if isinstance(value, (int, float)) and not isinstance(value, bool) \
             and math.isfinite(value) and value > 0:
         return float(value)
     return None
+
+
+def _robot_radius(config: dict) -> float | None:
+    """[m] the run's robot radius (config.yaml `robot`: a dead robot's body on a vertex, for the
+    recovery), else None (the map's)."""
+    robot = config.get("robot")
+    return _positive(robot.get("radius_m")) if isinstance(robot, dict) else None
 
 
 def _liveness_timeouts(args: argparse.Namespace, config: dict) -> tuple[float | None, float]:
@@ -227,10 +234,10 @@ def _liveness_timeouts(args: argparse.Namespace, config: dict) -> tuple[float | 
     agents' default (tpuaf.params.LIVENESS_DEFAULTS)."""
     timeout = args.death_timeout
     if timeout is None:
-        timeout = _seconds(config.get("death_timeout_s"))
+        timeout = _positive(config.get("death_timeout_s"))
     mate_timeout = args.teammate_timeout
     if mate_timeout is None:
-        mate_timeout = _seconds(config.get("teammate_timeout_s"))
+        mate_timeout = _positive(config.get("teammate_timeout_s"))
     if mate_timeout is None:
         mate_timeout = _L.teammate_timeout_s
     return timeout, mate_timeout
@@ -274,7 +281,7 @@ def run(args: argparse.Namespace) -> int:
         with _UnknownIds(patrol_map) as ids:
             result = analyze(bag, patrol_map, robots=robots, start_offset_s=args.start,
                              duration_s=args.duration, death_timeout_s=timeout,
-                             teammate_timeout_s=mate_timeout,
+                             teammate_timeout_s=mate_timeout, robot_radius_m=_robot_radius(config),
                              pose_source=None if args.poses == "auto" else args.poses)
         problems = pairing_problems(result, patrol_map, robots, ids.unknown, robots_from)
         if problems and not args.force:

@@ -112,7 +112,8 @@ class Analysis:
 def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
             start_offset_s: float | None = None, duration_s: float | None = None,
             death_timeout_s: float | None = None, pose_source: str | None = None,
-            team_ns: str | None = None, teammate_timeout_s: float | None = None) -> Analysis:
+            team_ns: str | None = None, teammate_timeout_s: float | None = None,
+            robot_radius_m: float | None = None) -> Analysis:
     """Metrics of the run in the bag (see the module docstring).
 
     start_offset_s: the span starts this long after the bag's beginning (default: /fleet/start
@@ -121,16 +122,19 @@ def analyze(path: str | Path, patrol_map: Any, *, robots: int | None = None,
     heartbeat silence that makes a robot dead (default 5 s; off without heartbeats);
     teammate_timeout_s: the agents' teammate timeout, for the recovery's floor at detection
     (default 10 s, the agents' default);
-    pose_source: ground_truth | tf | amcl | odom (default: the best one the bag has)."""
+    pose_source: ground_truth | tf | amcl | odom (default: the best one the bag has);
+    robot_radius_m: the robots' radius, for a dead robot's body on a vertex (the recovery over
+    the reachable vertices; default: the map's robot radius)."""
 
     path = Path(path)
     with open_bag(path) as reader:  # one open: rosbags reads the whole index on opening
         return _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s,
-                        death_timeout_s, pose_source, team_ns, teammate_timeout_s)
+                        death_timeout_s, pose_source, team_ns, teammate_timeout_s,
+                        robot_radius_m)
 
 
 def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death_timeout_s,
-             pose_source, team_ns, teammate_timeout_s=None) -> Analysis:
+             pose_source, team_ns, teammate_timeout_s=None, robot_radius_m=None) -> Analysis:
     info = inspect_reader(path, reader)
     notes: list[str] = []
     n = int(robots) if robots else info.robots
@@ -167,7 +171,7 @@ def _analyze(path, reader, patrol_map, robots, start_offset_s, duration_s, death
         # the announced start is run time 0 itself, as in the live monitor
         exact = start_offset_s is None and start in (info.fleet_start_s, info.first_report_s)
         monitor, reports = _replay(path, reader, store, info, patrol_map, n, start, end,
-                                   timeout, team, source, mate_timeout, exact)
+                                   timeout, team, source, mate_timeout, exact, robot_radius_m)
         recorder = monitor.recorder
     if info.out_of_span:
         notes.append(f"{info.out_of_span} message(s) stamped outside the bag's span ignored")
@@ -403,12 +407,13 @@ def robot_names(info: BagInfo, n: int) -> list[str]:
 
 
 def _replay(path, reader, store, info, patrol_map, n, start, end, timeout, team, source,
-            teammate_timeout_s, exact_start=False):
+            teammate_timeout_s, exact_start=False, robot_radius_m=None):
     """Reports and poses, in bag order, through a FleetMonitor."""
     monitor = FleetMonitor(patrol_map, n, end - start, start_after=start,
                            death_timeout_s=timeout, teammate_timeout_s=teammate_timeout_s,
                            visit_source="poses" if info.visit_events else "reports",
-                           robot_names=robot_names(info, n), exact_start=exact_start)
+                           robot_names=robot_names(info, n), exact_start=exact_start,
+                           body_radius_m=robot_radius_m)
     for _ in range(info.ignored_starts):
         monitor.reject(-1, "start")
     conns = _report_connections(reader, info, team)

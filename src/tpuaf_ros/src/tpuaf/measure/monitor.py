@@ -83,11 +83,15 @@ class FleetMonitor:
                  visit_source: str = "poses",
                  stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s,
                  robot_names: list[str] | None = None, exact_start: bool = False,
-                 hold_s: float = 0.0):
+                 hold_s: float = 0.0, body_radius_m: float | None = None):
         if visit_source not in ("poses", "reports"):
             raise ValueError(f"visit_source must be 'poses' or 'reports', not {visit_source!r}")
         self.visit_source = visit_source
         self.patrol_map = patrol_map
+        # [m] the robots' radius: a dead robot's body stays where it stopped (the simulator's,
+        # a real robot's) and may lie on a vertex (recovery); default: the map's robot radius
+        self.body_radius_m = float(patrol_map.settings.robot_radius if body_radius_m is None
+                                   else body_radius_m)
         self.n = int(n_robots)
         self.duration_s = float(duration_s)
         self.start_after = float(start_after)
@@ -383,10 +387,9 @@ class FleetMonitor:
     def _start(self, start: float, t: float) -> None:
         """The run starts at `start` [s], processed with the pose group at t >= start."""
         self.start_time = start
-        # a dead robot's body stays where it stopped (the simulator's, a real robot's)
         self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s,
                                     teammate_timeout_s=self.teammate_timeout_s,
-                                    body_radius_m=float(self.patrol_map.settings.robot_radius))
+                                    body_radius_m=self.body_radius_m)
         # START events before the run start: first visits at the start; REACHED before it
         # belong to no run.
         self._visits = sorted((max(s, start) if first else s, r, v, first)

@@ -31,10 +31,11 @@ from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from tpuaf.errors import TpuafError
-from tpuaf.maps import MapError, load_map
+from tpuaf.maps import load_map
 from tpuaf.measure.monitor import FleetMonitor
 from tpuaf.measure.poses import POSE_SOURCES, MonitorFeed, chain_pose, feed_chains, robot_chains
 from tpuaf.params import MonitorParams, NodeParamError, parse_monitor
+from tpuaf.robot.model import choose_robot
 from tpuaf.ros import convert
 from tpuaf.ros.node import fatal, private_params, publish, run_node, sender_of
 from tpuaf.team import messages
@@ -80,7 +81,9 @@ class MonitorNode:
                                death_timeout_s=p.death_timeout,
                                teammate_timeout_s=p.teammate_timeout,
                                stuck_after_s=p.stuck_after, robot_names=self.names,
-                               exact_start=True, hold_s=p.death_timeout)
+                               exact_start=True, hold_s=p.death_timeout,
+                               body_radius_m=choose_robot(p.robot, patrol_map.settings,
+                                                          option="~robot").radius_m)
         self.metrics_pub = rospy.Publisher(convert.METRICS_TOPIC, LiveMetrics, queue_size=10,
                                            latch=True)
         self.start_pub = rospy.Publisher(START_TOPIC, RunStart, queue_size=1, latch=True)
@@ -381,7 +384,7 @@ def main():
                                  f"{p.death_timeout:g}")
         patrol_map = load_map(p.map, params=p.map_params, params_origin="~map_params")
         node = MonitorNode(p, patrol_map)
-    except (NodeParamError, MapError, OSError, yaml.YAMLError) as err:
+    except (TpuafError, OSError, yaml.YAMLError) as err:  # params, map, robot preset
         return fatal(err)
     rospy.on_shutdown(lambda: node.finish(interrupted=True))
     rospy.Timer(rospy.Duration(1.0), node.on_timer)
