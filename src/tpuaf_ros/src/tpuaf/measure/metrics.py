@@ -78,6 +78,7 @@ class RecorderView:
     # [m] the robots' radius where dead robots' bodies stay in the world (physics, fleets,
     # robots): `bodies_closed`; None: point robots (the graph runtime)
     body_radius_m: float | None = None
+    last_seen: np.ndarray | None = None  # [m] (n_robots, 2) each robot's last known position
 
     def _start_view(self) -> None:
         # Python copies of the logs, extended on read (the core only ever appends to them).
@@ -98,7 +99,7 @@ class RecorderView:
         nearer to the vertex than 2 body radii - the visit radius, so that no robot's centre
         can come within the visit radius of it (walls aside). None without bodies."""
         deaths = self.final_deaths()
-        last = getattr(self, "last_seen", None)
+        last = self.last_seen
         if self.body_radius_m is None or not deaths or last is None:
             return set()
         reach = 2.0 * float(self.body_radius_m) - float(self.patrol_map.visit_radius_m)  # [m]

@@ -242,16 +242,13 @@ def group_lanes(edge_width_m: dict[tuple[int, int], float], narrow_vertices: fro
                 tight_vertices: frozenset[int] = frozenset()) -> LaneMap:
     """Lanes from each edge's narrowest free width [m] (edges u < v) and the narrow vertices:
     narrow edges (width below `narrow_width_m`) joined at interior vertices (narrow, degree
-    1 or 2, and the tight spots of `tight_spots` whose every edge is narrow); the lanes
-    numbered by their smallest edge."""
+    1 or 2, and `tight_vertices`: the tight spots whose every edge is a narrow bridge, as
+    find_lanes picks them); the lanes numbered by their smallest edge."""
     degree = [0] * n_vertices
     for u, v in edge_width_m:
         degree[u] += 1
         degree[v] += 1
-    interior = {v for v in narrow_vertices if degree[v] <= 2}
-    tight = frozenset(v for v in tight_vertices if all(
-        w < narrow_width_m for e, w in edge_width_m.items() if v in e))
-    interior |= tight
+    interior = {v for v in narrow_vertices if degree[v] <= 2} | set(tight_vertices)
     narrow = sorted(e for e, w in edge_width_m.items() if w < narrow_width_m)
     parent = {e: e for e in narrow}
 
@@ -278,4 +275,4 @@ def group_lanes(edge_width_m: dict[tuple[int, int], float], narrow_vertices: fro
         lanes.append(Lane(k, tuple(es), tuple(sorted(vs & interior)),
                           tuple(sorted(vs - interior)), min(edge_width_m[e] for e in es)))
     return LaneMap(lanes, dict(edge_width_m), frozenset(narrow_vertices), narrow_width_m,
-                   tight_vertices=tight)
+                   tight_vertices=frozenset(tight_vertices))
