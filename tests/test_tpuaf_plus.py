@@ -218,3 +218,48 @@ def test_deaths_that_replan_cumberland_do_not_bunch_the_survivors(shared_maps):
     assert worst <= 2.5 * last["ideal_worst_idleness_survivors_s"]
 
 
+
+
+def test_gapped_worst_idleness_is_the_cores_on_even_spacing(shared_maps):
+    """The Python idleness of a route on its target gaps equals the core's walk idleness when
+    the gaps are even (the plan's walks of several maps and team sizes)."""
+    import tpuaf_core
+    from tpuaf.policies.tpuaf_plus import Route, gapped_worst_idleness
+
+    for name, n in (("ctcv", 8), ("DIAG_labs", 12), ("1r5", 4)):
+        pm = load_map(str(shared_maps / name))
+        speed = float(pm.settings.nominal_speed)
+        plan = make_plan(pm, tuple(range(n)), (), "auto")
+        for r in plan.routes:
+            even = Route(r.walk, r.arc, r.length, r.robots)
+            assert gapped_worst_idleness(even, speed) == pytest.approx(
+                tpuaf_core.walk_worst_idleness(pm.graph, list(r.walk), len(r.robots), speed))
+
+
+def test_two_robots_back_and_forth_do_not_meet_at_the_middle_vertex():
+    """Path 0-1-2 (3 m edges) toured 0-1-2-1 by two robots: evenly spaced (6 m apart) both
+    reach vertex 1 at once, one from each pass (head-on, both aiming at one point). Where the
+    plan has slack the route gets uneven gaps that keep them apart there; where the route is
+    the plan's bottleneck it stays even (its worst idleness would grow)."""
+    from tpuaf.policies.tpuaf_plus import (
+        MEET_CLEARANCE_M,
+        _route,
+        apart_at_meetings,
+        gapped_worst_idleness,
+    )
+
+    pos = np.array([(0, 0), (3, 0), (6, 0)], dtype=float)
+    pm = PatrolMap("path3", [0, 1, 2], pos, [(0, 1, 3.0), (1, 2, 3.0)], np.ones(3), np.ones(3),
+                   MapSettings())
+    route = _route(pm.graph, (0, 1, 2, 1), (0, 1))
+    assert route.gaps == ()  # a two-way map: even unless apart_at_meetings says otherwise
+    even_worst = gapped_worst_idleness(route, 1.0)
+    assert even_worst == pytest.approx(6.0)
+
+    (kept,) = apart_at_meetings(pm.graph, (route,), even_worst, 1.0)
+    assert kept.gaps == ()  # the bottleneck: no slack for uneven gaps
+    (apart,) = apart_at_meetings(pm.graph, (route,), 2.0 * even_worst, 1.0)
+    assert len(apart.gaps) == 2 and sum(apart.gaps) == pytest.approx(12.0)
+    assert gapped_worst_idleness(apart, 1.0) <= 2.0 * even_worst
+    # the phase difference is no longer the 6 m between vertex 1's two passes
+    assert abs(apart.gaps[0] - 6.0) >= MEET_CLEARANCE_M - 1e-9

@@ -99,14 +99,56 @@ class Plan:
     schedule: dict
 
 
-def _route(graph, walk, robots) -> Route:
+def _route(graph, walk, robots, uneven: bool | None = None) -> Route:
+    """The route of `robots` on `walk`; with `uneven` (default: on one-way maps) its target
+    gaps keep robots from reaching a vertex at once from its two passes (`uneven_gaps`)."""
     arc, s = [], 0.0
     for i, v in enumerate(walk):
         arc.append(s)
         if len(walk) > 1:
             s += graph.edge_length(v, walk[(i + 1) % len(walk)])
-    gaps = uneven_gaps(arc, walk, float(s), len(robots)) if graph.one_way else ()
+    if uneven is None:
+        uneven = bool(graph.one_way)
+    gaps = uneven_gaps(arc, walk, float(s), len(robots)) if uneven else ()
     return Route(tuple(int(v) for v in walk), tuple(arc), float(s), tuple(sorted(robots)), gaps)
+
+
+def gapped_worst_idleness(route: Route, speed: float) -> float:
+    """[s] the longest interval between two passes of a vertex of `route` when its robots
+    keep its target gaps (L / m apart without them) at `speed` [m/s]: as
+    tpuaf_core.walk_worst_idleness, on uneven gaps."""
+    m, length = len(route.robots), route.length
+    if m < 1 or length <= 0:
+        return 0.0
+    gaps = route.gaps or (length / m,) * m
+    phases = np.concatenate(([0.0], np.cumsum(gaps[:-1])))
+    passes: dict[int, list[float]] = {}
+    for v, a in zip(route.walk, route.arc, strict=True):
+        passes.setdefault(int(v), []).extend(((a - phases) % length).tolist())
+    worst = 0.0
+    for times in passes.values():
+        t = np.unique(np.round(times, 9))
+        worst = max(worst, float(np.max(np.diff(np.append(t, t[0] + length)))))
+    return worst / speed
+
+
+def apart_at_meetings(graph, routes: tuple[Route, ...], worst_s: float,
+                      speed: float) -> tuple[Route, ...]:
+    """On a two-way map, the routes whose evenly spaced robots would reach a vertex at once
+    from its two passes (a walk back and forth along a corridor: head-on at its middle
+    vertex, where both aim at one point) get uneven target gaps, where those cost the plan
+    nothing: the route's worst idleness on them stays within the plan's `worst_s` [s] (a
+    part with slack; never the bottleneck's)."""
+    if graph.one_way:
+        return routes  # _route spaces them already
+    out = []
+    for route in routes:
+        if len(route.robots) >= 2 and not route.gaps:
+            apart = _route(graph, route.walk, route.robots, uneven=True)
+            if apart.gaps and gapped_worst_idleness(apart, speed) <= worst_s + _EPS:
+                route = apart
+        out.append(route)
+    return tuple(out)
 
 
 MEET_CLEARANCE_M = 1.2  # [m of plan travel] robots reaching one vertex from two passes: apart
@@ -316,6 +358,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
             for p, t in enumerate(part.tours)
         )
         worst = part_worst
+    routes = apart_at_meetings(graph, routes, worst, speed)
     schedule = {}
     if full:
         starts = {r: int(all_starts[r]) for r in team}
@@ -329,7 +372,8 @@ def retimed_routes(plan: Plan, graph) -> tuple[Route, ...]:
     lengths = plan speed x learned duration [m]): arc positions, length and uneven target gaps
     on its edge lengths. The walks themselves stay: every robot keeps the one it drives, and
     robots whose learned times differ a little still agree on the plan."""
-    return tuple(_route(graph, r.walk, r.robots) for r in plan.routes)
+    return tuple(_route(graph, r.walk, r.robots, uneven=bool(graph.one_way or r.gaps))
+                 for r in plan.routes)
 
 
 def _assign_start_parts(graph, part, starts: list[int]) -> list[int]:
@@ -394,6 +438,7 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
     worst = max(
         tpuaf_core.walk_worst_idleness(graph, list(r.walk), len(r.robots), speed) for r in routes
     )
+    routes = apart_at_meetings(graph, routes, worst, speed)
     return Plan("partition", routes, route_of, float(worst), {})
 
 
