@@ -135,7 +135,8 @@ void wrap_config(py::module_& m) {
       .def_readwrite("teammate_timeout_s", &EngineConfig::teammate_timeout_s)
       .def_readwrite("heartbeat_period_s", &EngineConfig::heartbeat_period_s)
       .def_readwrite("narrow_vertices", &EngineConfig::narrow_vertices)
-      .def_readwrite("narrow_headway_s", &EngineConfig::narrow_headway_s);
+      .def_readwrite("narrow_headway_s", &EngineConfig::narrow_headway_s)
+      .def_readwrite("turn_times", &EngineConfig::turn_times);
 }
 
 // HeartbeatLinks: the heartbeats of runs with faults, of the graph and physics runtimes.

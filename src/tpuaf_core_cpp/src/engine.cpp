@@ -53,6 +53,14 @@ GraphEngine::GraphEngine(const PatrolGraph& graph, Points positions, EngineConfi
     protocols_.back().place(v);
   }
   scratch_.resize(n, 2);
+  const std::int64_t nv = graph_.num_vertices();
+  for (const auto& [w, u, v, seconds] : config_.turn_times) {
+    graph_.check_vertex(w);
+    graph_.check_vertex(u);
+    graph_.check_vertex(v);
+    if (!std::isfinite(seconds)) throw std::invalid_argument("a turn time must be finite");
+    turns_[(w * nv + u) * nv + v] = seconds;
+  }
   if (config_.narrow_headway_s > 0 && !config_.narrow_vertices.empty()) {
     if (!std::isfinite(config_.narrow_headway_s)) {
       throw std::invalid_argument("the narrow headway must be finite");
@@ -317,7 +325,11 @@ void GraphEngine::start_segment(int robot) {
   } else {
     leave(robot, here);
     const double length = graph_.edge_length(here, next);
-    duration = length / config_.nominal_speed_mps;
+    const double driven = length / config_.nominal_speed_mps;
+    // the turn at `here` from the way it arrived (a turn back: slower than the edge's mean)
+    duration = driven + turn_s(r.came_from, here, next);
+    if (!(duration > 0)) duration = driven;
+    r.came_from = here;
     // one robot at a time through a narrow vertex: it drives slower to take its passing slot
     if (narrow(next)) duration = take_slot(next, now_ + duration) - now_;
     r.travelled_m += length;
@@ -331,6 +343,13 @@ void GraphEngine::start_segment(int robot) {
   r.vx = (x1 - x0) / duration;  // [m/s] along the straight segment
   r.vy = (y1 - y0) / duration;
   r.pending = push(r.t1, kArrive, robot);
+}
+
+double GraphEngine::turn_s(int from, int at, int to) const {
+  if (from < 0 || turns_.empty()) return 0.0;
+  const std::int64_t nv = graph_.num_vertices();
+  const auto it = turns_.find((from * nv + at) * nv + to);
+  return it == turns_.end() ? 0.0 : it->second;
 }
 
 void GraphEngine::arrive(int robot) {

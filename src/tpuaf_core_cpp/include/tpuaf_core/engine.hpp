@@ -99,6 +99,7 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
     double p0x = 0, p0y = 0, vx = 0, vy = 0, t0 = 0, t1 = 0;  // current straight segment
     std::uint64_t pending = 0;  // seq of its one awaited ARRIVE or GIVE_UP (0: none)
     int held_short_of = -1;     // the narrow vertex it waits short of (-1: none)
+    int came_from = -1;         // the vertex its last edge started from (-1: none yet)
   };
   struct Event {
     double time;
@@ -130,6 +131,7 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
   void plan_route(Robot& r, int from, int goal);
   void start_segment(int robot);
   void arrive(int robot);
+  double turn_s(int from, int at, int to) const;  // [s] added to at -> to after from -> at
   // --- aisles one robot wide (EngineConfig::narrow_vertices) ---
   bool narrow(int vertex) const {
     return !narrow_.empty() && narrow_[static_cast<std::size_t>(vertex)];
@@ -180,8 +182,9 @@ class GraphEngine final : public StrategyHost, private RobotDriver {
   std::vector<std::size_t> batch_cursor_;
   Points scratch_;
   std::vector<EngineFault> faults_;
-  std::unique_ptr<TeamLiveness> team_;      // with faults: heartbeats, checks, a fault's steps
-  std::vector<char> narrow_;                // per vertex: one robot wide (empty: none)
+  std::unique_ptr<TeamLiveness> team_;  // with faults: heartbeats, checks, a fault's steps
+  std::vector<char> narrow_;            // per vertex: one robot wide (empty: none)
+  std::unordered_map<std::int64_t, double> turns_;  // (w, u, v) key -> [s] (turn_times)
   std::vector<int> standing_;               // per vertex: the robot standing on it (-1: none)
   std::vector<std::vector<double>> slots_;  // per vertex: passing times taken [s], ascending
   std::vector<std::deque<int>> held_;       // per vertex: robots held short of it, first first

@@ -1,6 +1,7 @@
 // Settings and faults of one graph-runtime run (SI units: s, m, m/s).
 #pragma once
 
+#include <tuple>
 #include <vector>
 
 #include "tpuaf_core/visit_rule.hpp"
@@ -37,6 +38,10 @@ struct EngineConfig {
   // Empty or a headway of 0: robots are points that pass through each other.
   std::vector<int> narrow_vertices;
   double narrow_headway_s = 0;
+  // Turns at vertices (a timed map's turns, navigation/travel_time.py): (w, u, v, s) adds s [s]
+  // to edge u -> v's duration when the robot arrived at u from w (s < 0: faster than the mean
+  // the edge's length assumes). Empty: every edge in its length / speed.
+  std::vector<std::tuple<int, int, int, double>> turn_times;
 };
 
 // A robot fault at time_s [s] (tpuaf.runtimes.faults): death, or stall (stops moving for good).

@@ -71,6 +71,10 @@ class PatrolMap:
     # each keeps one edge (the graph stays connected), plans do not visit them and goals there
     # fail at once; empty: every vertex can be reached.
     closed: frozenset[int] = frozenset()
+    # [s] added to edge (u, v)'s duration when the robot arrived at u from w, by index
+    # (w, u, v): the turn at u against the mean heading the edge's time assumes (a timed map:
+    # navigation/travel_time.py `turn_times`); empty: none.
+    turns: dict[tuple[int, int, int], float] = field(default_factory=dict)
 
     def occupancy_grid(self) -> Any:
         """The occupancy grid: the map's image, or corridors generated from the graph (cached)."""

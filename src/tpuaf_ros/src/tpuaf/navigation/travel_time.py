@@ -20,7 +20,10 @@ acceleration limits (`RobotKinematics`). Terms, each read off the controller's l
 The robot's arrival heading at the edge's first vertex is not known per edge: a directed edge's
 figure is the mean over the ways of arriving there (the last leg of every other edge of that
 vertex; back along the edge itself at a dead end), as on a walk that does not turn back.
-Edges are undirected: `edge_durations` gives the mean of both directions.
+Edges are undirected: `edge_durations` gives the mean of both directions. A timed map also
+carries, per way of arriving (w, u, v), what it adds to that mean (`turn_times`: a robot that
+turns back at u loses a half turn in place and its speed); the graph runtime's robots and
+tpuaf_plus's walks add it, so a walk back and forth is timed as the robots drive it.
 
 Left out: other robots (waits, give-ways, detours), recoveries, the controller's headings off
 the straight line (it may steer round a wall's corner), laser noise and the laser's offset from
@@ -317,10 +320,12 @@ def _paths(patrol_map: Any, planner: Any) -> dict[tuple[int, int], np.ndarray]:
     return out
 
 
-def directed_durations(patrol_map: Any, robot: Any, planner: Any,
-                       goal_tolerance_m: float | None = None) -> dict[tuple[int, int], float]:
-    """[s] per directed edge (u, v) (vertex indices, both directions): the mean over the ways
-    of arriving at u (see the module docstring) of the modelled traversal time to v."""
+def arrival_durations(patrol_map: Any, robot: Any, planner: Any,
+                      goal_tolerance_m: float | None = None
+                      ) -> dict[tuple[int, int, int], float]:
+    """[s] per directed edge (u, v) and way of arriving at u, from w (the last leg of edge
+    (w, u); w = v: the robot turns back): the modelled traversal time of u -> v (vertex
+    indices). At a start (no arrival) the robot faces the first leg."""
     kin = RobotKinematics.of(robot)
     # A leg ends when the robot is within the visit radius (the navigator's goal tolerance).
     tol = float(patrol_map.visit_radius_m if goal_tolerance_m is None else goal_tolerance_m)
@@ -333,38 +338,69 @@ def directed_durations(patrol_map: Any, robot: Any, planner: Any,
     ends = {e: model.traversal(p)[1:] for e, p in paths.items()}
     out = {}
     for (u, v), path in paths.items():
-        arrivals = [w for w in into[u] if w != v] or [v]
-        times = []
-        for w in arrivals:
+        for w in into[u]:
             end, heading = ends[(w, u)]
-            times.append(model.traversal(path, end, heading)[0])
-        out[(u, v)] = float(statistics.fmean(times))
+            out[(w, u, v)] = model.traversal(path, end, heading)[0]
     return out
 
 
-def edge_durations(patrol_map: Any, robot: Any, planner: Any) -> dict[tuple[int, int], float]:
+def directed_durations(patrol_map: Any, robot: Any, planner: Any,
+                       goal_tolerance_m: float | None = None,
+                       arrivals: dict[tuple[int, int, int], float] | None = None
+                       ) -> dict[tuple[int, int], float]:
+    """[s] per directed edge (u, v) (vertex indices, both directions): the mean over the ways
+    of arriving at u (see the module docstring; `arrival_durations`, given or computed) of the
+    modelled traversal time to v."""
+    if arrivals is None:
+        arrivals = arrival_durations(patrol_map, robot, planner, goal_tolerance_m)
+    ways: dict[tuple[int, int], dict[int, float]] = {}
+    for (w, u, v), seconds in arrivals.items():
+        ways.setdefault((u, v), {})[w] = seconds
+    # not turning back, unless u is a dead end
+    return {e: float(statistics.fmean([s for w, s in by.items() if w != e[1]] or [by[e[1]]]))
+            for e, by in ways.items()}
+
+
+def edge_durations(patrol_map: Any, robot: Any, planner: Any,
+                   arrivals: dict[tuple[int, int, int], float] | None = None
+                   ) -> dict[tuple[int, int], float]:
     """[s] per graph edge (u, v) as in `patrol_map.edges` (vertex indices): the modelled
     travel time of `robot` (RobotKinematics, or a robot model) along the planner's path, the
     mean of both directions."""
-    directed = directed_durations(patrol_map, robot, planner)
+    directed = directed_durations(patrol_map, robot, planner, arrivals=arrivals)
     return {(int(i), int(j)): 0.5 * (directed[(int(i), int(j))] + directed[(int(j), int(i))])
             for i, j, _ in patrol_map.edges}
+
+
+def turn_times(arrivals: dict[tuple[int, int, int], float],
+               durations: dict[tuple[int, int], float]) -> dict[tuple[int, int, int], float]:
+    """[s] per (w, u, v): what arriving at u from w adds to edge u-v's duration (`durations`,
+    undirected): the turn at u, and the direction, against the edge's mean (negative: faster,
+    e.g. straight on). Entries under 1 ms are left out."""
+    out = {}
+    for (w, u, v), seconds in arrivals.items():
+        mean = durations[(u, v)] if (u, v) in durations else durations[(v, u)]
+        if abs(seconds - mean) >= 1e-3:
+            out[(w, u, v)] = float(seconds - mean)
+    return out
 
 
 def timed_map(patrol_map: Any, robot: Any, planner: Any,
               durations: dict[tuple[int, int], float] | None = None) -> Any:
     """A copy of `patrol_map` whose nominal speed is the robot's cruise speed v and whose edge
     lengths are v x the edge's duration (`durations`, default `edge_durations`): every consumer
-    that computes length / speed gets the modelled travel time."""
+    that computes length / speed gets the modelled travel time; its `turns` (`turn_times`) say
+    how each way of arriving at an edge's first vertex changes that time (a turn back)."""
     kin = RobotKinematics.of(robot)
     speed = kin.max_linear_speed
-    times = edge_durations(patrol_map, kin, planner) if durations is None else durations
+    arrivals = arrival_durations(patrol_map, kin, planner)
+    times = edge_durations(patrol_map, kin, planner, arrivals) if durations is None else durations
     edges = []
     for i, j, _ in patrol_map.edges:
         key = (int(i), int(j))
         seconds = times[key] if key in times else times[(key[1], key[0])]
         edges.append((i, j, speed * float(seconds)))
-    return replace(patrol_map, edges=edges,
+    return replace(patrol_map, edges=edges, turns=turn_times(arrivals, times),
                    settings=replace(patrol_map.settings, nominal_speed=speed),
                    notes=[*patrol_map.notes,
                           f"edge lengths: {speed:g} m/s x modelled travel times of a robot of "

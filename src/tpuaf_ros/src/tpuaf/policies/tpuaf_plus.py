@@ -99,14 +99,28 @@ class Plan:
     schedule: dict
 
 
-def _route(graph, walk, robots, uneven: bool | None = None) -> Route:
+def turn_lengths(patrol_map) -> dict[tuple[int, int, int], float]:
+    """[m of plan travel] per (w, u, v): the map's turn times (a timed map's `turns`: arriving
+    at u from w changes edge u-v's time) at its nominal speed."""
+    speed = float(patrol_map.settings.nominal_speed)
+    return {k: speed * float(s) for k, s in patrol_map.turns.items()}
+
+
+def _route(graph, walk, robots, uneven: bool | None = None,
+           turn_m: dict | None = None) -> Route:
     """The route of `robots` on `walk`; with `uneven` (default: on one-way maps) its target
-    gaps keep robots from reaching a vertex at once from its two passes (`uneven_gaps`)."""
+    gaps keep robots from reaching a vertex at once from its two passes (`uneven_gaps`).
+    Arc positions add `turn_m` (`turn_lengths`) at each walk vertex for the way the walk
+    arrives there (a walk back and forth turns back at its ends)."""
     arc, s = [], 0.0
+    n = len(walk)
     for i, v in enumerate(walk):
         arc.append(s)
-        if len(walk) > 1:
-            s += graph.edge_length(v, walk[(i + 1) % len(walk)])
+        if n > 1:
+            after = walk[(i + 1) % n]
+            s += graph.edge_length(v, after)
+            if turn_m:
+                s += turn_m.get((int(walk[i - 1]), int(v), int(after)), 0.0)
     if uneven is None:
         uneven = bool(graph.one_way)
     gaps = uneven_gaps(arc, walk, float(s), len(robots)) if uneven else ()
@@ -116,7 +130,7 @@ def _route(graph, walk, robots, uneven: bool | None = None) -> Route:
 def gapped_worst_idleness(route: Route, speed: float) -> float:
     """[s] the longest interval between two passes of a vertex of `route` when its robots
     keep its target gaps (L / m apart without them) at `speed` [m/s]: as
-    tpuaf_core.walk_worst_idleness, on uneven gaps."""
+    tpuaf_core.walk_worst_idleness, on uneven gaps and the route's arcs (turns included)."""
     m, length = len(route.robots), route.length
     if m < 1 or length <= 0:
         return 0.0
@@ -137,15 +151,18 @@ def apart_at_meetings(graph, routes: tuple[Route, ...], worst_s: float,
     """On a two-way map, the routes whose evenly spaced robots would reach a vertex at once
     from its two passes (a walk back and forth along a corridor: head-on at its middle
     vertex, where both aim at one point) get uneven target gaps, where those cost the plan
-    nothing: the route's worst idleness on them stays within the plan's `worst_s` [s] (a
-    part with slack; never the bottleneck's)."""
+    nothing: the route's worst idleness on them stays within the plan's worst (`worst_s` [s],
+    or its routes' on their arcs, turns included, if higher): a part with slack, never the
+    bottleneck's."""
     if graph.one_way:
         return routes  # _route spaces them already
+    worst_s = max(worst_s, *(gapped_worst_idleness(r, speed) for r in routes))
     out = []
     for route in routes:
         if len(route.robots) >= 2 and not route.gaps:
-            apart = _route(graph, route.walk, route.robots, uneven=True)
-            if apart.gaps and gapped_worst_idleness(apart, speed) <= worst_s + _EPS:
+            gaps = uneven_gaps(route.arc, route.walk, route.length, len(route.robots))
+            apart = replace(route, gaps=gaps)
+            if gaps and gapped_worst_idleness(apart, speed) <= worst_s + _EPS:
                 route = apart
         out.append(route)
     return tuple(out)
@@ -284,6 +301,9 @@ def _open_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
                       initial_uncertainty=np.asarray(patrol_map.initial_uncertainty)[keep],
                       one_way=tuple((new[u], new[v]) for u, v in patrol_map.one_way
                                     if u in new and v in new),
+                      turns={(new[w], new[u], new[v]): t
+                             for (w, u, v), t in patrol_map.turns.items()
+                             if w in new and u in new and v in new},
                       closed=frozenset())
         near = [new[v] if v in new else new[min(keep, key=lambda w: graph.distance(v, w))]
                 for v in range(patrol_map.num_vertices)]
@@ -300,7 +320,11 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     graph = patrol_map.graph
     speed = float(patrol_map.settings.nominal_speed)
     m = len(team)
+    turn_m = turn_lengths(patrol_map)
     cyc = tours.cyclic_tour(patrol_map)
+    # Chosen on the edges' times alone: with the turns in, partitions shared by several robots
+    # that cross head-on on every walk back and forth win, and crossings are not in the model
+    # (docs/STRATEGIES.md, "Turns in the plan").
     cyc_worst = tpuaf_core.walk_worst_idleness(graph, cyc.walk, m, speed)
     # Partitions into k = 2..m parts, robots spread over parts by L_p / m_p (k = m is MSP's).
     part, part_worst = None, np.inf
@@ -340,7 +364,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
                                    + _EPS):
             return merged
     if kind == "cycle" or part is None:
-        route = _route(graph, cyc.walk, team)
+        route = _route(graph, cyc.walk, team, turn_m=turn_m)
         routes = (route,)
         route_of = {r: 0 for r in team}
         worst = cyc_worst
@@ -354,7 +378,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
             assignment = _assign_survivors(patrol_map, team, all_starts, part, slots, mode)
         route_of = {r: assignment[i] for i, r in enumerate(team)}
         routes = tuple(
-            _route(graph, t.walk, [r for r in team if route_of[r] == p])
+            _route(graph, t.walk, [r for r in team if route_of[r] == p], turn_m=turn_m)
             for p, t in enumerate(part.tours)
         )
         worst = part_worst
@@ -367,12 +391,12 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     return Plan(kind, routes, route_of, float(worst), schedule)
 
 
-def retimed_routes(plan: Plan, graph) -> tuple[Route, ...]:
+def retimed_routes(plan: Plan, graph, turn_m: dict | None = None) -> tuple[Route, ...]:
     """The plan's walks, each with its robots, re-timed on `graph` (a re-timed plan map's:
     lengths = plan speed x learned duration [m]): arc positions, length and uneven target gaps
     on its edge lengths. The walks themselves stay: every robot keeps the one it drives, and
     robots whose learned times differ a little still agree on the plan."""
-    return tuple(_route(graph, r.walk, r.robots, uneven=bool(graph.one_way or r.gaps))
+    return tuple(_route(graph, r.walk, r.robots, bool(graph.one_way or r.gaps), turn_m)
                  for r in plan.routes)
 
 
@@ -433,7 +457,8 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
                 progress = True
         if not progress:  # an orphan with no surviving neighbour part: re-plan from scratch
             return None
-    routes = tuple(_route(graph, g[1], g[2]) for g in groups)
+    turn_m = turn_lengths(patrol_map)
+    routes = tuple(_route(graph, g[1], g[2], turn_m=turn_m) for g in groups)
     route_of = {r: i for i, g in enumerate(groups) for r in g[2]}
     worst = max(
         tpuaf_core.walk_worst_idleness(graph, list(r.walk), len(r.robots), speed) for r in routes
@@ -585,7 +610,8 @@ class TpuafPlus(CoreStrategyPolicy):
                               params["repair"]) if starts is None
                     else plan_from(patrol_map, tuple(team), tuple(starts), params["plan"]))
             # re-timed (learned travel times): the same walks, on the timing graph's lengths
-            chosen = plan.routes if timing is None else retimed_routes(plan, timing)
+            chosen = (plan.routes if timing is None
+                      else retimed_routes(plan, timing, turn_lengths(patrol_map)))
             routes = [(list(r.walk), list(r.arc), r.length, list(r.robots), list(r.gaps))
                       for r in chosen]
             route_of = [plan.route_of.get(k, -1) for k in range(n_robots)]

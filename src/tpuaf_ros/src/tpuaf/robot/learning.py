@@ -4,7 +4,10 @@ Every robot hears every teammate's Intention (leaving `from_vertex` for `vertex`
 expected_arrival - travel_time [s]) and Visit (arrived at `vertex` at `time` [s]), and its own.
 An Intention for an edge followed by the same robot's Visit of its far end is one traversal of
 that edge; the team's traversals feed one EdgeDurations (navigation/travel_time.py): its
-measured median replaces the model's duration once an edge was driven MIN_SAMPLES times.
+measured median replaces the model's duration once an edge was driven MIN_SAMPLES times. A
+traversal is measured with the turn at its first vertex; the plan map's `turns` for the way
+the robot arrived there (its previous traversal) are taken off, so that the samples are the
+edge's own time whichever way robots arrive (a robot turning back is not an edge slower).
 When a learned duration differs from the plan's by more than RETIME_TOLERANCE, the robot
 re-times its plan map (lengths = plan speed x duration), at most once per RETIME_PERIOD_S.
 
@@ -37,7 +40,9 @@ class LearnedTravel:
                          graph.edge_length(int(i), int(j)) / self.speed
                          for i, j, _ in plan_map.edges}
         self.durations = EdgeDurations(self._planned, min_samples=min_samples)
-        self._legs: dict[int, tuple[int, int, float]] = {}  # robot -> (u, v, departure [s])
+        # robot -> (u, v, departure [s], the turn at u [s]: plan_map.turns)
+        self._legs: dict[int, tuple[int, int, float, float]] = {}
+        self._arrived: dict[int, tuple[int, int]] = {}  # robot -> its last traversal (w, u)
         self._last_retime = -math.inf
         self.retimes = 0
         self.traversals = 0
@@ -48,15 +53,18 @@ class LearnedTravel:
             u, v = int(message.from_vertex), int(message.vertex)
             if (min(u, v), max(u, v)) in self._planned:
                 departure = float(message.expected_arrival) - float(message.travel_time)
-                self._legs[int(message.robot)] = (u, v, departure)
+                w, at = self._arrived.get(int(message.robot), (-1, -1))
+                turn = self.plan_map.turns.get((w, u, v), 0.0) if at == u else 0.0
+                self._legs[int(message.robot)] = (u, v, departure, turn)
             else:  # a multi-edge leg, or a stay: no single edge to time
                 self._legs.pop(int(message.robot), None)
         elif isinstance(message, Visit):
             leg = self._legs.pop(int(message.robot), None)
             if leg is not None and leg[1] == int(message.vertex):
+                self._arrived[int(message.robot)] = (leg[0], leg[1])
                 seconds = float(message.time) - leg[2]
                 if seconds > 0 and math.isfinite(seconds):
-                    self.durations.add(leg[0], leg[1], seconds)
+                    self.durations.add(leg[0], leg[1], max(seconds - leg[3], 0.5 * seconds))
                     self.traversals += 1
 
     def retimed_map(self, now_s: float) -> Any | None:

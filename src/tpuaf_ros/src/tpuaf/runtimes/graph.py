@@ -325,6 +325,8 @@ class GraphRun:
         ec.stall_give_up_s = float(navigator_give_up_s())
         ec.teammate_timeout_s = float(config.teammate_timeout_s)
         ec.heartbeat_period_s = float(TeamRun.heartbeat_period_s)
+        # a timed map's turns: a robot turning back at a vertex takes longer (travel_time.py)
+        ec.turn_times = [(w, u, v, s) for (w, u, v), s in self.patrol_map.turns.items()]
         if self.lanes is not None:  # one robot at a time on a lane's narrow vertices
             ec.narrow_vertices = sorted(int(v) for v in self.lanes.lane_map.narrow_vertices)
             ec.narrow_headway_s = narrow_headway_s(body.radius_m, self.speed)
