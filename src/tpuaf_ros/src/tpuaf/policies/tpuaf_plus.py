@@ -31,6 +31,9 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    passes a vertex twice, where robots L / m apart would reach it at once from its two passes,
    the targets are uneven gaps instead (`uneven_gaps`; the nearest rotation of them), and each
    mate's walk position is followed from message to message (a step can be on the walk twice).
+   On a two-way map a walk back and forth gets uneven gaps too where the plan has slack
+   (`apart_at_meetings`), and on a timed map the arcs include the walk's turns
+   (`turn_lengths`; the partition is chosen on the edges' times alone).
 4. Dwelling. A dwelling robot re-visits its vertex every `dwell_revisit_s` (goal = its own
    vertex: it is physically there) and re-announces its departure time (a heartbeat).
 5. Faults. A mate the runtime's one liveness rule reports lost (silent for the teammate
