@@ -104,7 +104,11 @@ class Plan:
 
 def turn_lengths(patrol_map) -> dict[tuple[int, int, int], float]:
     """[m of plan travel] per (w, u, v): the map's turn times (a timed map's `turns`: arriving
-    at u from w changes edge u-v's time) at its nominal speed."""
+    at u from w changes edge u-v's time) at its nominal speed; none on a one-way map (on the
+    lab's figure eight at N = 8 the arcs with turns made physics worse in 3 of 3 seeds:
+    docs/STRATEGIES.md, "Turns in the plan")."""
+    if patrol_map.one_way:
+        return {}
     speed = float(patrol_map.settings.nominal_speed)
     return {k: speed * float(s) for k, s in patrol_map.turns.items()}
 
