@@ -149,12 +149,17 @@ def measure(label: str, workers: int) -> None:
     print(f"written to {path}")
 
 
-def report() -> None:
-    before = json.loads((RESULTS / "spacing_before.json").read_text())
-    after = json.loads((RESULTS / "spacing_after.json").read_text())
+def report(before_label: str = "before", after_label: str = "after",
+           out: str = "spacing.md") -> None:
+    before = json.loads((RESULTS / f"spacing_{before_label}.json").read_text())
+    after = json.loads((RESULTS / f"spacing_{after_label}.json").read_text())
     bounds = best_known()
-    lines = [header("tpuaf_plus closed-loop spacing (issue 32, part 4)")]
-    lines.append("Command: `benchmarks/bench_spacing.py` (docstring: before runs the old code). "
+    title = ("tpuaf_plus closed-loop spacing (issue 32, part 4)" if out == "spacing.md"
+             else f"tpuaf_plus quality, {before_label} / {after_label}")
+    lines = [header(title)]
+    lines.append(f"Command: `benchmarks/bench_spacing.py --label {before_label}` on the old code "
+                 f"(docstring), `--label {after_label}` on this, then `--report --compare "
+                 f"{before_label} {after_label} --out {out}`. "
                  f"Before: commit {before.get('_commit', '?')}, after: commit "
                  f"{after.get('_commit', '?')}; wall {before['_wall_s']:.0f} s and "
                  f"{after['_wall_s']:.0f} s, one worker each, side by side.\n")
@@ -214,7 +219,7 @@ def report() -> None:
         cells = [", ".join(f"{x:.2f}" for x in d[key]) if key in d else "-"
                  for d in (before, after)]
         lines.append(f"| {v} | {n} | {1 / n:.2f} | " + " | ".join(cells) + " |")
-    write("spacing.md", "\n".join(lines) + "\n")
+    write(out, "\n".join(lines) + "\n")
 
 
 def main() -> int:
@@ -222,11 +227,14 @@ def main() -> int:
     ap.add_argument("--label", help="measure with this interpreter's code: spacing_LABEL.json")
     ap.add_argument("--report", action="store_true", help="write spacing.md from both labels")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--compare", nargs=2, metavar=("BEFORE", "AFTER"), default=("before", "after"),
+                    help="the labels --report joins (default: before after)")
+    ap.add_argument("--out", default="spacing.md", help="the report's file in results/")
     a = ap.parse_args()
     if a.label:
         measure(a.label, a.workers)
     if a.report:
-        report()
+        report(*a.compare, a.out)
     return 0
 
 
