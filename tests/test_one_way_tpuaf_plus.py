@@ -11,6 +11,7 @@ import pytest
 from tpuaf.maps import load_map
 from tpuaf.maps.model import PatrolMap
 from tpuaf.policies import tpuaf_plus
+from tpuaf.policies.tpuaf_plus_routes import MEET_CLEARANCE_M
 
 from tests.test_one_way import record_legs, ring_of_aisles
 
@@ -64,7 +65,7 @@ def test_lab_figure_eight_is_driven_one_way_and_spaced_so_no_two_robots_meet():
     pair's phase difference at least MEET_CLEARANCE_M from the arc between two passes of a
     vertex; with 3 robots even spacing already does (no gaps)."""
     pm, arcs = lab_one_way()
-    clearance = tpuaf_plus.MEET_CLEARANCE_M
+    clearance = MEET_CLEARANCE_M
     for robots in (1, 2, 3, 4):
         plan = tpuaf_plus.make_plan(pm, tuple(range(robots)), tuple([0] * robots), "auto")
         (route,) = plan.routes

@@ -224,7 +224,7 @@ def test_gapped_worst_idleness_is_the_cores_on_even_spacing(shared_maps):
     """The Python idleness of a route on its target gaps equals the core's walk idleness when
     the gaps are even (the plan's walks of several maps and team sizes)."""
     import tpuaf_core
-    from tpuaf.policies.tpuaf_plus import Route, gapped_worst_idleness
+    from tpuaf.policies.tpuaf_plus_routes import Route, gapped_worst_idleness
 
     for name, n in (("ctcv", 8), ("DIAG_labs", 12), ("1r5", 4)):
         pm = load_map(str(shared_maps / name))
@@ -241,17 +241,17 @@ def test_two_robots_back_and_forth_do_not_meet_at_the_middle_vertex():
     reach vertex 1 at once, one from each pass (head-on, both aiming at one point). Where the
     plan has slack the route gets uneven gaps that keep them apart there; where the route is
     the plan's bottleneck it stays even (its worst idleness would grow)."""
-    from tpuaf.policies.tpuaf_plus import (
+    from tpuaf.policies.tpuaf_plus_routes import (
         MEET_CLEARANCE_M,
-        _route,
         apart_at_meetings,
         gapped_worst_idleness,
+        make_route,
     )
 
     pos = np.array([(0, 0), (3, 0), (6, 0)], dtype=float)
     pm = PatrolMap("path3", [0, 1, 2], pos, [(0, 1, 3.0), (1, 2, 3.0)], np.ones(3), np.ones(3),
                    MapSettings())
-    route = _route(pm.graph, (0, 1, 2, 1), (0, 1))
+    route = make_route(pm.graph, (0, 1, 2, 1), (0, 1))
     assert route.gaps == ()  # a two-way map: even unless apart_at_meetings says otherwise
     even_worst = gapped_worst_idleness(route, 1.0)
     assert even_worst == pytest.approx(6.0)

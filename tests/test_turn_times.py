@@ -17,7 +17,7 @@ from tpuaf.navigation.travel_time import (
     edge_durations,
     timed_map,
 )
-from tpuaf.policies.tpuaf_plus import _route, turn_lengths
+from tpuaf.policies.tpuaf_plus_routes import make_route, turn_lengths
 from tpuaf.robot.learning import LearnedTravel
 from tpuaf.runtimes.config import RunConfig
 from tpuaf.runtimes.graph import GraphRun
@@ -73,7 +73,7 @@ def test_the_graph_runtime_and_tpuaf_plus_time_a_walk_with_its_turns():
     walk = [int(v) for v in run._strategy.walk(0)]
     n = len(walk)
     edges_s = sum(graph.edge_length(walk[i], walk[(i + 1) % n]) for i in range(n)) / speed
-    route = _route(graph, tuple(walk), (0,), turn_m=turn_lengths(run.patrol_map))
+    route = make_route(graph, tuple(walk), (0,), turn_m=turn_lengths(run.patrol_map))
     assert route.length / speed == pytest.approx(edges_s + 5.0)
     times = [t for t, _, v in run.recorder.visits if v == 0]
     gaps = np.diff(times[1:])

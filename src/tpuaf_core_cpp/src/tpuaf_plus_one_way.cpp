@@ -1,7 +1,7 @@
 // TPUAF+ on one-way walks that pass a vertex twice (the lab's figure eight): evenly spaced
 // robots can reach it at once from its two passes, so the plan spaces them unevenly
-// (tpuaf_plus.uneven_gaps) and the spacing aims at those gaps (spacing_dwell_gaps); a step of
-// the walk can be on it twice, so each mate's walk position is followed from message to message
+// (tpuaf_plus_routes.uneven_gaps) and the spacing aims at those gaps (spacing_dwell_gaps); a step
+// of the walk can be on it twice, so each mate's walk position is followed from message to message
 // (track_mate) instead of guessed from its latest step.
 #include <algorithm>
 #include <cmath>

@@ -53,9 +53,8 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
 
 from __future__ import annotations
 
-import itertools
 from collections import OrderedDict
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 import tpuaf_core
@@ -64,8 +63,15 @@ from tpuaf.maps import tours
 from tpuaf.policies.base import Parameter, register
 from tpuaf.policies.core import CoreStrategyPolicy
 from tpuaf.policies.tpuaf import new_knowledge
+from tpuaf.policies.tpuaf_plus_routes import (
+    EPS,
+    Plan,
+    Route,
+    apart_at_meetings,
+    make_route,
+    turn_lengths,
+)
 
-_EPS = 1e-6
 _CORE_DEFAULTS = tpuaf_core.TpuafPlusParams()  # the core declares the spacing defaults
 SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
 FRESH_MARGIN = 1.15  # after a loss, merge unless a fresh plan's worst is lower by more than this
@@ -79,150 +85,6 @@ def _positive(x) -> bool:
 
 def _non_negative(x) -> bool:
     return isinstance(x, int | float) and not isinstance(x, bool) and 0 <= x < 1e9
-
-
-@dataclass(frozen=True)
-class Route:
-    """One closed walk of the plan and the robots that share it."""
-
-    walk: tuple[int, ...]  # vertex indices; consecutive entries adjacent, last -> first too
-    arc: tuple[float, ...]  # [m] arc position of each walk entry from walk[0]
-    length: float  # [m] L
-    robots: tuple[int, ...]  # robot indices on this walk, sorted
-    gaps: tuple[float, ...] = ()  # [m] uneven target gaps (`uneven_gaps`); () = even, L / m
-
-
-@dataclass(frozen=True)
-class Plan:
-    kind: str  # "cycle" or "partition"
-    routes: tuple[Route, ...]
-    route_of: dict  # robot -> route index
-    worst_s: float  # predicted steady-state worst idleness [s]
-    # Start schedule (only for the full team): robot -> (entry walk index, departure time [s]).
-    schedule: dict
-
-
-def turn_lengths(patrol_map) -> dict[tuple[int, int, int], float]:
-    """[m of plan travel] per (w, u, v): the map's turn times (a timed map's `turns`: arriving
-    at u from w changes edge u-v's time) at its nominal speed; none on a one-way map (on the
-    lab's figure eight at N = 8 the arcs with turns made physics worse in 3 of 3 seeds:
-    docs/STRATEGIES.md, "Turns in the plan")."""
-    if patrol_map.one_way:
-        return {}
-    speed = float(patrol_map.settings.nominal_speed)
-    return {k: speed * float(s) for k, s in patrol_map.turns.items()}
-
-
-def _route(graph, walk, robots, uneven: bool | None = None,
-           turn_m: dict | None = None) -> Route:
-    """The route of `robots` on `walk`; with `uneven` (default: on one-way maps) its target
-    gaps keep robots from reaching a vertex at once from its two passes (`uneven_gaps`).
-    Arc positions add `turn_m` (`turn_lengths`) at each walk vertex for the way the walk
-    arrives there (a walk back and forth turns back at its ends)."""
-    arc, s = [], 0.0
-    n = len(walk)
-    for i, v in enumerate(walk):
-        arc.append(s)
-        if n > 1:
-            after = walk[(i + 1) % n]
-            s += graph.edge_length(v, after)
-            if turn_m:
-                s += turn_m.get((int(walk[i - 1]), int(v), int(after)), 0.0)
-    if uneven is None:
-        uneven = bool(graph.one_way)
-    gaps = uneven_gaps(arc, walk, float(s), len(robots)) if uneven else ()
-    return Route(tuple(int(v) for v in walk), tuple(arc), float(s), tuple(sorted(robots)), gaps)
-
-
-def gapped_worst_idleness(route: Route, speed: float) -> float:
-    """[s] the longest interval between two passes of a vertex of `route` when its robots
-    keep its target gaps (L / m apart without them) at `speed` [m/s]: as
-    tpuaf_core.walk_worst_idleness, on uneven gaps and the route's arcs (turns included)."""
-    m, length = len(route.robots), route.length
-    if m < 1 or length <= 0:
-        return 0.0
-    gaps = route.gaps or (length / m,) * m
-    phases = np.concatenate(([0.0], np.cumsum(gaps[:-1])))
-    passes: dict[int, list[float]] = {}
-    for v, a in zip(route.walk, route.arc, strict=True):
-        passes.setdefault(int(v), []).extend(((a - phases) % length).tolist())
-    worst = 0.0
-    for times in passes.values():
-        t = np.unique(np.round(times, 9))
-        worst = max(worst, float(np.max(np.diff(np.append(t, t[0] + length)))))
-    return worst / speed
-
-
-def apart_at_meetings(graph, routes: tuple[Route, ...], worst_s: float,
-                      speed: float) -> tuple[Route, ...]:
-    """On a two-way map, the routes whose evenly spaced robots would reach a vertex at once
-    from its two passes (a walk back and forth along a corridor: head-on at its middle
-    vertex, where both aim at one point) get uneven target gaps, where those cost the plan
-    nothing: the route's worst idleness on them stays within the plan's worst (`worst_s` [s],
-    or its routes' on their arcs, turns included, if higher): a part with slack, never the
-    bottleneck's."""
-    if graph.one_way:
-        return routes  # _route spaces them already
-    worst_s = max(worst_s, *(gapped_worst_idleness(r, speed) for r in routes))
-    out = []
-    for route in routes:
-        if len(route.robots) >= 2 and not route.gaps:
-            gaps = uneven_gaps(route.arc, route.walk, route.length, len(route.robots))
-            apart = replace(route, gaps=gaps)
-            if gaps and gapped_worst_idleness(apart, speed) <= worst_s + _EPS:
-                route = apart
-        out.append(route)
-    return tuple(out)
-
-
-MEET_CLEARANCE_M = 1.2  # [m of plan travel] robots reaching one vertex from two passes: apart
-GAP_STEPS = 3  # uneven_gaps shifts each phase by up to this many half clearances either way
-
-
-def uneven_gaps(arc, walk, length: float, m: int) -> tuple[float, ...]:
-    """Target gaps [m] between m robots on a one-way closed walk that passes some vertex twice
-    (the lab's figure eight: the middle aisle, once per loop). Evenly spaced robots whose
-    phases differ by the arc between two passes of a vertex reach it at once, one from each
-    pass, and merge there in a convoy. The phases j L / m + x_j (x_j in steps of half
-    `MEET_CLEARANCE_M`, at most `GAP_STEPS` of them) are chosen so that no two robots' phases
-    differ by such an arc within the clearance, with the least longest gap (then the least sum
-    of squared gaps): exhaustively up to 4 robots, else one phase at a time. () when even
-    spacing has no such meeting (or m < 2)."""
-    passes: dict[int, list[float]] = {}
-    for v, a in zip(walk, arc, strict=True):
-        passes.setdefault(int(v), []).append(float(a))
-    apart = sorted({(q - p) % length for ps in passes.values() for p in ps for q in ps if p != q})
-    if m < 2 or not apart or length <= 0:
-        return ()
-
-    def meetings(phases) -> int:
-        out = 0
-        for i in range(m):
-            for j in range(i + 1, m):
-                d = phases[j] - phases[i]
-                out += sum(min(abs(d - a), length - abs(d - a)) < MEET_CLEARANCE_M - 1e-9
-                           for a in apart)
-        return out
-
-    def score(shifts):
-        phases = [j * length / m + x for j, x in enumerate(shifts)]
-        gaps = [b - a for a, b in zip(phases, phases[1:] + [phases[0] + length], strict=True)]
-        if min(gaps) <= 0:
-            return (np.inf,), gaps
-        return (meetings(phases), round(max(gaps), 9), round(sum(g * g for g in gaps), 9)), gaps
-
-    steps = [k * MEET_CLEARANCE_M / 2 for k in range(-GAP_STEPS, GAP_STEPS + 1)]
-    best = [0.0] * m
-    if score(best)[0][0] == 0:
-        return ()
-    if m <= 4:
-        best = min(([0.0, *rest] for rest in itertools.product(steps, repeat=m - 1)),
-                   key=lambda shifts: score(shifts)[0])
-    else:
-        for _ in range(3):
-            for j in range(1, m):
-                best[j] = min(steps, key=lambda x: score(best[:j] + [x] + best[j + 1:])[0])
-    return tuple(float(g) for g in score(best)[1])
 
 
 def predicted_mean_uncertainty(patrol_map, walk, n_robots: int, speed: float) -> float:
@@ -349,13 +211,13 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
                 tpuaf_core.walk_worst_idleness(graph, t.walk, j, speed)
                 for t, j in zip(cand.tours, per_part, strict=True)
             )
-            if worst < part_worst - _EPS:
+            if worst < part_worst - EPS:
                 part = tours.Partition(cand.parts, cand.tours, per_part)
                 part_worst = worst
     kind = mode
     if mode == "auto":
-        kind = "partition" if part_worst < cyc_worst - _EPS else "cycle"
-        if part is not None and abs(part_worst - cyc_worst) <= 0.02 * max(cyc_worst, _EPS):
+        kind = "partition" if part_worst < cyc_worst - EPS else "cycle"
+        if part is not None and abs(part_worst - cyc_worst) <= 0.02 * max(cyc_worst, EPS):
             x_cyc = predicted_mean_uncertainty(patrol_map, cyc.walk, m, speed)
             x_part = sum(
                 predicted_mean_uncertainty(patrol_map, t.walk, j, speed) * len(p)
@@ -368,10 +230,10 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
         fresh_worst = part_worst if kind == "partition" else cyc_worst
         # a fresh plan moves every survivor to a new part: it must be clearly better
         if merged is not None and (repair == "merge" or merged.worst_s <= FRESH_MARGIN * fresh_worst
-                                   + _EPS):
+                                   + EPS):
             return merged
     if kind == "cycle" or part is None:
-        route = _route(graph, cyc.walk, team, turn_m=turn_m)
+        route = make_route(graph, cyc.walk, team, turn_m=turn_m)
         routes = (route,)
         route_of = {r: 0 for r in team}
         worst = cyc_worst
@@ -385,7 +247,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
             assignment = _assign_survivors(patrol_map, team, all_starts, part, slots, mode)
         route_of = {r: assignment[i] for i, r in enumerate(team)}
         routes = tuple(
-            _route(graph, t.walk, [r for r in team if route_of[r] == p], turn_m=turn_m)
+            make_route(graph, t.walk, [r for r in team if route_of[r] == p], turn_m=turn_m)
             for p, t in enumerate(part.tours)
         )
         worst = part_worst
@@ -403,7 +265,7 @@ def retimed_routes(plan: Plan, graph, turn_m: dict | None = None) -> tuple[Route
     lengths = plan speed x learned duration [m]): arc positions, length and uneven target gaps
     on its edge lengths. The walks themselves stay: every robot keeps the one it drives, and
     robots whose learned times differ a little still agree on the plan."""
-    return tuple(_route(graph, r.walk, r.robots, bool(graph.one_way or r.gaps), turn_m)
+    return tuple(make_route(graph, r.walk, r.robots, bool(graph.one_way or r.gaps), turn_m)
                  for r in plan.routes)
 
 
@@ -417,7 +279,7 @@ def _assign_start_parts(graph, part, starts: list[int]) -> list[int]:
     rows = {s: np.asarray(graph.distances_from(s)) for s in sorted(set(starts))}
     cost = np.array([[rows[s][part.parts[p]].min() + share[j] for j, p in enumerate(slots)]
                      for s in starts])
-    rows, cols = tpuaf_core.linear_sum_assignment((cost / max(float(cost.max()), _EPS)) ** 4)
+    rows, cols = tpuaf_core.linear_sum_assignment((cost / max(float(cost.max()), EPS)) ** 4)
     out = [0] * len(starts)
     for r, c in zip(rows, cols, strict=True):
         out[r] = slots[c]
@@ -454,7 +316,7 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
                 except ValueError:  # one-way arcs: the merged part cannot be toured inside
                     continue
                 score = length / len(g[2])
-                if best is None or score < best[0] - _EPS:
+                if best is None or score < best[0] - EPS:
                     best = (score, g, walk)
             if best is not None:
                 _, g, _ = best
@@ -465,7 +327,7 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
         if not progress:  # an orphan with no surviving neighbour part: re-plan from scratch
             return None
     turn_m = turn_lengths(patrol_map)
-    routes = tuple(_route(graph, g[1], g[2], turn_m=turn_m) for g in groups)
+    routes = tuple(make_route(graph, g[1], g[2], turn_m=turn_m) for g in groups)
     route_of = {r: i for i, g in enumerate(groups) for r in g[2]}
     worst = max(
         tpuaf_core.walk_worst_idleness(graph, list(r.walk), len(r.robots), speed) for r in routes
