@@ -67,16 +67,13 @@ from tpuaf.team.epoch import CROSS_WINDOW_S
 from tpuaf.topics import (
     AMCL_POSE,
     DEFAULT_TEAM_NS,
-    DWELL,
     EVENTS_TOPIC,
-    GOAL,
     GROUND_TRUTH,
     HEARTBEAT,
     ODOM,
     REACHED,
     START,
     START_TOPIC,
-    VERTEX_CLOSED,
 )
 
 REORDER_MARGIN_S = 5.0  # [s] beyond the latest message measured by inspect
@@ -526,15 +523,9 @@ def _replay_reports(path, reader, store, info, patrol_map, n, start, end, timeou
             alive[r] = True
             recorder.record_robot_back(r, round(t - start, 9))
         heard[r] = max(heard[r], t)
-        if is_visit(kind, vertex):  # as FleetMonitor: a robot's reports count even if silent
-            recorder.record_visit(r, vertex, round(t - start, 9))
+        # as FleetMonitor: a robot's reports count even if silent
+        if recorder.record_event(r, kind, vertex, from_vertex, round(t - start, 9)):
             reports.append((t, kind == START))
-        elif kind == GOAL and vertex >= 0:
-            recorder.record_goal(r, vertex, from_vertex, round(t - start, 9))
-        elif kind == DWELL and vertex >= 0:
-            recorder.record_dwell(r, vertex, round(t - start, 9))
-        elif kind == VERTEX_CLOSED and vertex >= 0:
-            recorder.record_closed(vertex)
     else:  # the bag ends within the span: up to its last report (record times may trail)
         end = min(end, last)
     for r in report_of.off_clock:

@@ -38,6 +38,7 @@ from tpuaf.measure.summary import (
     first_coverage,
     idleness_stats,
 )
+from tpuaf.topics import DWELL, GOAL, REACHED, START, VERTEX_CLOSED
 
 __all__ = ["TIMESERIES_COLUMNS", "RecorderView", "RunRecorder", "acceleration_ratio",
            "build_summary", "complete_cycles", "death_floor", "first_coverage", "idleness_stats",
@@ -369,6 +370,26 @@ class RunRecorder(RecorderView):
         apart, no effect on idleness; the time since its goal counts as standing when that goal
         was the vertex it stood on."""
         self._core.record_dwell(int(robot), int(vertex), float(time))
+
+    def record_event(self, robot: int, kind: int, vertex: int, from_vertex: int,
+                     time: float) -> bool:
+        """One of a robot's events (tpuaf.topics, the agents' `emit` and event topic) at
+        `time` [s] to the record, the same in every runtime and `tpuaf analyze`: START (the
+        start vertex's first visit) and REACHED are visits, GOAL and DWELL go to the goal and
+        dwell logs, VERTEX_CLOSED to the closed vertices; the rest (heartbeats, lanes) and a
+        vertex < 0 are not recorded. Returns True for a visit."""
+        if vertex < 0:
+            return False
+        if kind == REACHED or kind == START:
+            self._core.record_visit(int(robot), int(vertex), float(time))
+            return True
+        if kind == GOAL:
+            self.record_goal(robot, vertex, from_vertex, time)
+        elif kind == DWELL:
+            self.record_dwell(robot, vertex, time)
+        elif kind == VERTEX_CLOSED:
+            self.record_closed(vertex)
+        return False
 
     def record_robot_death(self, robot: int, time: float) -> None:
         """Robot `robot` stopped at `time` [s]: it no longer senses nor interferes."""

@@ -36,7 +36,6 @@ from tpuaf.runtimes.config import RunConfig, run_robot, travel_map
 from tpuaf.runtimes.faults import DEATH, Fault
 from tpuaf.team.bus import TeamBus, bus_stream
 from tpuaf.team.liveness import HEARTBEAT_PERIOD_S, heartbeat_links
-from tpuaf.topics import DWELL, GOAL, REACHED, START, VERTEX_CLOSED
 
 
 class TeamRun:
@@ -93,18 +92,10 @@ class TeamRun:
         """The `emit` of robot `robot`'s machine: its visits (START: the start vertex's first
         visit, REACHED), goals and dwells (DWELL: a goal ended without a visit) go to the
         recorder."""
-        recorder = self.recorder
-        record_visit = recorder.record_visit
+        record = self.recorder.record_event
 
         def emit(kind: int, vertex: int, from_vertex: int, t: float) -> None:
-            if kind == REACHED or kind == START:
-                record_visit(robot, vertex, t)
-            elif kind == GOAL:
-                recorder.record_goal(robot, vertex, from_vertex, t)
-            elif kind == DWELL:
-                recorder.record_dwell(robot, vertex, t)
-            elif kind == VERTEX_CLOSED:
-                recorder.record_closed(vertex)
+            record(robot, kind, vertex, from_vertex, t)
 
         return emit
 
