@@ -98,3 +98,22 @@ def test_learned_traversals_leave_the_turn_out():
         learned.observe(Visit(0, there, t + seconds))
         t, here = t + seconds, there
     assert learned.durations.duration(0, 1) == pytest.approx(1.1 * edge_s, rel=1e-6)
+
+
+def test_two_robots_touring_a_corridor_back_and_forth_do_not_meet_at_its_middle(shared_maps):
+    """ctcv, 12 robots at 1 m/s, tpuaf_plus, physics, 300 s: two robots share the part 7-9-8
+    (a corridor toured 7-9-8-9). Evenly spaced they reached 9 at once from both sides and
+    touched there again and again (24 robot contacts in these 300 s, 38 in 900 s); with the
+    uneven gaps of apart_at_meetings and the walk's turns in its arcs, they do not."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    run = PhysicsRun(PhysicsConfig(map=str(shared_maps / "ctcv"), strategy="tpuaf_plus",
+                                   robots=12, duration_s=300.0, seed=1))
+    from tpuaf.policies.tpuaf_plus import make_plan
+
+    plan = make_plan(run.patrol_map, tuple(range(12)), tuple(run.starts), "auto")
+    (corridor,) = [r for r in plan.routes if set(r.walk) == {7, 8, 9}]
+    assert len(corridor.robots) == 2 and corridor.gaps  # uneven: apart at 9
+    summary = run.run()
+    assert summary["collisions"] <= 3, summary["collisions"]  # 1 at the start
