@@ -304,9 +304,19 @@ void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s
   if (last == nullptr || last->from == last->to || last->to != vertex) return;
   const double drive_s = arrived_s - last->departure;
   if (!(drive_s > kEps)) return;
+  // [m] the drive: a step of my walk by its arcs (a timed map's turns included, as the drive
+  // time is), else the shortest path
+  double drive_m = distance(last->from, vertex);
+  if (r.plan && r.route >= 0) {
+    const PlusRoute& route = route_of(r);
+    for (const int i : route.positions(last->from, vertex)) {
+      const auto j = static_cast<std::size_t>(i);
+      drive_m = (j + 1 < route.arc.size() ? route.arc[j + 1] : route.length) - route.arc[j];
+      break;
+    }
+  }
   double& pace = r.pace[static_cast<std::size_t>(k)];
-  pace = update_pace(pace, distance(last->from, vertex) / drive_s, params_.pace_weight,
-                     params_.speed_mps);
+  pace = update_pace(pace, drive_m / drive_s, params_.pace_weight, params_.speed_mps);
 }
 
 void TpuafPlusStrategy::on_message(StrategyHost& /*host*/, int robot, const TeamMessage& message) {
