@@ -4,12 +4,11 @@ graph runtime's robots, tpuaf_plus's walks and the learned durations use it."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
 import pytest
-from tpuaf.maps import MapSettings, PatrolMap
+from tpuaf.maps import PatrolMap
 from tpuaf.navigation.planner import PathPlanner
 from tpuaf.navigation.travel_time import (
     RobotKinematics,
@@ -23,15 +22,12 @@ from tpuaf.runtimes.config import RunConfig
 from tpuaf.runtimes.graph import GraphRun
 from tpuaf.team.messages import Intention, Visit
 
+from tests.test_travel_time import line_map
+
 
 def tee() -> PatrolMap:
-    """0 - 1 - 2 on a line (2 m edges) and 1 - 3 off to the side (generated corridors)."""
-    pos = np.array([(1.0, 1.0), (3.0, 1.0), (5.0, 1.0), (3.0, 3.0)])
-    return PatrolMap(name="tee", vertex_ids=[0, 1, 2, 3], positions=pos,
-                     edges=[(0, 1, math.nan), (1, 2, math.nan), (1, 3, math.nan)],
-                     importance=np.full(4, 0.01), initial_uncertainty=np.ones(4),
-                     settings=MapSettings(nominal_speed=0.5, goal_tolerance=0.1),
-                     corridor_width=1.0)
+    """0 - 1 - 2 on a line (2 m edges) and 1 - 3 off to the side: test_travel_time's map."""
+    return line_map()
 
 
 def burger_timed():

@@ -45,7 +45,7 @@ def turn_lengths(patrol_map) -> dict[tuple[int, int, int], float]:
 
 
 def make_route(graph, walk, robots, uneven: bool | None = None,
-           turn_m: dict | None = None) -> Route:
+               turn_m: dict | None = None) -> Route:
     """The route of `robots` on `walk`; with `uneven` (default: on one-way maps) its target
     gaps keep robots from reaching a vertex at once from its two passes (`uneven_gaps`).
     Arc positions add `turn_m` (`turn_lengths`) at each walk vertex for the way the walk

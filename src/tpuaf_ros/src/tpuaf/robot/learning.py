@@ -64,6 +64,8 @@ class LearnedTravel:
                 self._arrived[int(message.robot)] = (leg[0], leg[1])
                 seconds = float(message.time) - leg[2]
                 if seconds > 0 and math.isfinite(seconds):
+                    # the turn off, never below half the drive (a turn figure larger than
+                    # the drive is the model's error, not the edge's time)
                     self.durations.add(leg[0], leg[1], max(seconds - leg[3], 0.5 * seconds))
                     self.traversals += 1
 
