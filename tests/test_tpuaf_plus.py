@@ -263,3 +263,30 @@ def test_two_robots_back_and_forth_do_not_meet_at_the_middle_vertex():
     assert gapped_worst_idleness(apart, 1.0) <= 2.0 * even_worst
     # the phase difference is no longer the 6 m between vertex 1's two passes
     assert abs(apart.gaps[0] - 6.0) >= MEET_CLEARANCE_M - 1e-9
+
+
+def test_a_part_of_one_vertex_is_driven_out_and_back_not_stood_on():
+    """Three robots on path4: a part of one vertex is its own (standing on a vertex makes no
+    visit), so its walk drives to the neighbour and back and the vertex keeps being visited."""
+    pm = path4(starts=(0, 1, 3))
+    plan = make_plan(pm, (0, 1, 2), (0, 1, 3), "partition")
+    lone = [r for r in plan.routes if len(set(r.walk)) == 2 and r.length == pytest.approx(20.0)]
+    assert lone, [r.walk for r in plan.routes]
+    engine, summary = run(pm, 3, 300.0, fail=[])
+    times = engine.recorder.vertex_times
+    assert all(len(t) >= 5 for t in times), [len(t) for t in times]
+    assert summary["worst_idleness_s"] <= 2 * summary["idleness_max_s"] + 1e-6
+
+
+@pytest.mark.parametrize("name,n", [("1r5", 8), ("ctcv", 8), ("example", 12)])
+def test_no_robot_parks_on_a_crowded_map(shared_maps, name, n):
+    """Partitions with more robots than the map has room for once gave some robots a vertex to
+    stand on: under the visit rule that vertex was never visited again (worst idleness = the
+    run), hidden by I_max. Every robot now drives and every vertex keeps being visited."""
+    config = RunConfig(map=str(shared_maps / name), strategy="tpuaf_plus", robots=n,
+                       duration_s=600.0, seed=1)
+    engine = GraphRun(config)
+    summary = engine.run()
+    per_robot = np.bincount([r for _, r, _ in engine.recorder.visits], minlength=n)
+    assert per_robot.min() >= 20, per_robot.tolist()
+    assert summary["worst_idleness_s"] <= 2 * summary["idleness_max_s"], summary

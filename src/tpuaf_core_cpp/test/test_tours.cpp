@@ -80,6 +80,24 @@ TEST(Tours, ClosedWalkOfAPathGoesThereAndBack) {
   EXPECT_EQ(std::set<int>(w.walk.begin(), w.walk.end()), (std::set<int>{0, 1, 2, 3}));
 }
 
+TEST(Tours, ClosedWalkOfOneVertexDrivesToItsNearestNeighbourAndBack) {
+  // Standing on a vertex makes no visit: a lone vertex's walk goes out and back, to the
+  // nearer neighbour (vertex 1 at x = 1: 0 is 1 m away, 2 is 2 m away).
+  Points p(3, 2);
+  p << 0, 0, 1, 0, 3, 0;
+  const PatrolGraph g(p, {{0, 1, 1.0}, {1, 2, 2.0}});
+  const ClosedWalk w = closed_walk(g, {1});
+  EXPECT_EQ(w.walk, (std::vector<int>{1, 0}));
+  EXPECT_DOUBLE_EQ(w.length_m, 2.0);
+  EXPECT_DOUBLE_EQ(closed_walk_length(g, {1}), 2.0);
+  EXPECT_TRUE(is_closed_walk(g, w.walk));
+  Points lone(1, 2);
+  lone << 0, 0;
+  const ClosedWalk alone = closed_walk(PatrolGraph(lone, {}), {0});  // no way out: stays
+  EXPECT_EQ(alone.walk, (std::vector<int>{0}));
+  EXPECT_DOUBLE_EQ(alone.length_m, 0.0);
+}
+
 TEST(Tours, ClosedWalkOfAnEvenLatticeIsAHamiltonCycle) {
   const PatrolGraph g = lattice(6, 4);  // 24 vertices: a Hamilton cycle of 24 m exists
   std::vector<int> all(24);

@@ -53,6 +53,15 @@ bool drives_arcs(const PatrolGraph& g, const std::vector<int>& walk) {
   return true;
 }
 
+TEST(DirectedTours, OneVertexWalkGoesRoundItsShortestDirectedCycle) {
+  // vertex 0 leaves only to 1 (top row) and is entered only from 5: 0 1 2 3 4 9 8 7 6 5
+  const PatrolGraph g = figure_eight();
+  const ClosedWalk w = closed_walk(g, {0});
+  EXPECT_EQ(w.walk, (std::vector<int>{0, 1, 2, 3, 4, 9, 8, 7, 6, 5}));
+  EXPECT_DOUBLE_EQ(w.length_m, 10.0);
+  EXPECT_TRUE(drives_arcs(g, w.walk));
+}
+
 TEST(DirectedTours, FigureEightWalkDrivesBothLoopsTheirWay) {
   const PatrolGraph g = figure_eight();
   std::vector<int> all(15);

@@ -49,6 +49,8 @@ struct ClosedWalk {
 // inside their induced subgraph. Throws std::invalid_argument when that subgraph is not
 // connected. On a graph with one-way arcs the walk drives every arc only its way (the dense,
 // asymmetric search of tour_directed.hpp at any size; the subgraph must be strongly connected).
+// One vertex: standing on it makes no visit, so its walk drives to its nearest way out and back
+// (out of the set: the one exception to moving inside it).
 ClosedWalk closed_walk(const PatrolGraph& graph, const std::vector<int>& vertices,
                        const TourSearch& search = {});
 

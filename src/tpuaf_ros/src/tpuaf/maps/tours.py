@@ -128,6 +128,8 @@ def closed_walk(
 ) -> tuple[list[int], float]:
     """Shortest closed walk found through `vertices`, moving only inside them (their induced
     subgraph, which must be connected). Returns (walk without the repeated first vertex, length m).
+    One vertex: standing on it makes no visit, so its walk drives out to its nearest neighbour
+    and back (the one walk that leaves its set).
     Starts and kicks default to `_effort`'s. `adj` is accepted for compatibility (the core reads
     the graph itself)."""
     vertices = sorted(set(int(v) for v in vertices))
@@ -209,7 +211,7 @@ class Partition:
 
 _CACHE: OrderedDict[tuple, Any] = OrderedDict()
 CACHE_ENV = "TPUAF_PLAN_CACHE"  # a folder: plans are also kept there, keyed by the map's content
-_SEARCH_VERSION = "cpp-3"  # part of the disk key: a changed search never reads old plans
+_SEARCH_VERSION = "cpp-4"  # part of the disk key: a changed search never reads old plans
 
 
 def _content_key(graph: Any, key: tuple) -> str:
