@@ -34,7 +34,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from common import RESULTS, header, write  # noqa: E402
+from common import RESULTS, header, visit_rule_reference, write  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 MAPS = SHARED / "maps" / "patrolling_sim"
@@ -190,6 +190,23 @@ def report(before_label: str = "before", after_label: str = "after",
     for (label, what), r in ratios.items():
         lines.append(f"- {label}, {what}: median ratio {statistics.median(r):.3f}, range "
                      f"{min(r):.2f}-{max(r):.2f}x over {len(r)} cases with a bound > 0.")
+    # patrol_bounds.csv's best-known tours park robots on vertices where that pays (1r5, ctcv
+    # at N >= 8): standing makes no visit, so the fair line is the reference under the rule
+    from tpuaf.maps import load_map
+
+    fair = []
+    for m in GRAPH_MAPS:
+        pm = load_map(map_ref(m))
+        for n in GRAPH_N:
+            value = after[f"graph/{m}/{n}"]["steady"]
+            if value is not None:
+                fair.append((value / visit_rule_reference(pm, n), m, n))
+    worst = max(fair)
+    lines.append(f"- {after_label}, steady / the reference tour under the visit rule (a part of "
+                 f"one vertex driven out and back; `common.visit_rule_reference`): median "
+                 f"{statistics.median(f[0] for f in fair):.3f}, range "
+                 f"{min(fair)[0]:.2f}-{worst[0]:.2f}x over {len(fair)} cases (highest: "
+                 f"{worst[1]} N = {worst[2]}).")
     lines.append("\n## Physics runtime: tpuaf_plus I_max, physics / graph runtime (900 s, seed 1)\n")
     lines.append("Robot `auto` (the map's preset); the graph runtime on the robot's timed map.\n")
     lines.append("| map | N | graph I_max [s] | before physics [s] (ratio) | "

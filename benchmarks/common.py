@@ -100,3 +100,14 @@ def drop_edges_keeping_connected(n_vertices: int, edges: list[tuple[int, int]], 
             adjacency[u].add(v)
             adjacency[v].add(u)
     return dropped
+
+
+def visit_rule_reference(patrol_map, n_robots: int) -> float:
+    """[s] the better reference tour's worst idleness (tours.reference_tours at the map's speed)
+    under the visit rule: a part of one vertex is driven out and back, as standing makes no
+    visit. patrol_bounds.csv's best-known tours count a robot parked on a vertex as idleness 0,
+    below what any strategy obeying the rule reaches on crowded maps (1r5, ctcv at N >= 8)."""
+    from tpuaf.maps.tours import reference_tours
+
+    speed = float(patrol_map.settings.nominal_speed)
+    return float(reference_tours(patrol_map, n_robots, speed)["best_worst_idleness_s"])

@@ -22,6 +22,9 @@ import sys
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import visit_rule_reference  # noqa: E402
+
 SHARED = Path(os.environ.get("TPUAF_SHARED", "/work/shared"))
 MAPS_DIR = SHARED / "maps" / "patrolling_sim"
 BOUNDS = SHARED / "reference" / "patrol_bounds.csv"
@@ -88,17 +91,6 @@ def evaluate(strategies, maps, robots, seeds, scenario, processes=2) -> dict:
     return results
 
 
-def visit_rule_reference(map_name: str, n: int) -> float:
-    """[s] the better reference tour's worst idleness (tours.reference_tours at the map's speed)
-    under the visit rule: a part of one vertex is driven out and back, as standing makes no
-    visit (patrol_bounds.csv's best-known tours count a robot parked on a vertex as idleness
-    0: below what any strategy obeying the rule reaches on crowded maps)."""
-    from tpuaf.maps.tours import reference_tours
-
-    pm = _load(map_name)
-    return float(reference_tours(pm, n, float(pm.settings.nominal_speed))["best_worst_idleness_s"])
-
-
 def table(results, strategies, maps, robots, bounds, worst=True) -> list[str]:
     """Markdown rows; `worst` adds each strategy's worst idleness [s] (median): it also counts a
     vertex never visited again, which I_max (gaps between visits) cannot show."""
@@ -111,7 +103,7 @@ def table(results, strategies, maps, robots, bounds, worst=True) -> list[str]:
         for n in robots:
             b = bounds.get((m, n))
             cells = [m, str(n), f"{b:.2f}" if b is not None else "-",
-                     f"{visit_rule_reference(m, n):.2f}"]
+                     f"{visit_rule_reference(_load(m), n):.2f}"]
             for s in strategies:
                 rows = results.get((s, m, n), [])
                 if not rows:
