@@ -89,8 +89,9 @@ def test_recovery_over_the_reachable_vertices_on_a_hand_log():
 @pytest.mark.parametrize("body_m", [0.165, None])
 def test_a_dead_robots_body_on_a_vertex_is_left_out_of_the_reachable_recovery(body_m):
     """Robot 1 dies at 6 s standing 5 cm from v2: with bodies (physics, fleets) no robot's
-    centre can come within the visit radius (0.15 m) of v2, since 2 x 0.165 - 0.15 = 0.18 m >
-    5 cm, so the reachable recovery leaves v2 out; point robots (the graph runtime) keep it."""
+    centre can come within the visit radius (0.15 m) of v2 while keeping the controller's
+    safety margin (0.08 m) from it, since 2 x 0.165 + 0.08 - 0.15 = 0.26 m > 5 cm, so the
+    reachable recovery leaves v2 out; point robots (the graph runtime) keep it."""
     rec = RunRecorder(line_map(), 2, ground_truth=False, teammate_timeout_s=1.0,
                       body_radius_m=body_m)
     rec.record_positions(0.0, np.array([[0.0, 0.0], [20.0, 0.0]]))
@@ -112,6 +113,13 @@ def test_a_dead_robots_body_on_a_vertex_is_left_out_of_the_reachable_recovery(bo
     far.record_positions(6.0, np.array([[6.0, 0.0], [19.7, 0.0]]))  # 0.3 m off: reachable
     far.record_robot_death(1, 6.0)
     assert far.bodies_closed() == set()
+    # 0.19 m off (DIAG_labs N = 12, recovery_physics.md): no robot came within the visit radius,
+    # as each kept 2 radii + the safety margin (0.41 m) from the body's centre
+    near = RunRecorder(line_map(), 2, ground_truth=False, teammate_timeout_s=1.0,
+                       body_radius_m=0.165)
+    near.record_positions(6.0, np.array([[6.0, 0.0], [19.81, 0.0]]))
+    near.record_robot_death(1, 6.0)
+    assert near.bodies_closed() == {2}
 
 
 def test_death_floor_on_a_square_hand_log():

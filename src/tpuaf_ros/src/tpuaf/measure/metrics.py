@@ -38,6 +38,7 @@ from tpuaf.measure.summary import (
     first_coverage,
     idleness_stats,
 )
+from tpuaf.params import CONTROLLER_DEFAULTS
 from tpuaf.topics import DWELL, GOAL, REACHED, START, VERTEX_CLOSED
 
 __all__ = ["TIMESERIES_COLUMNS", "RecorderView", "RunRecorder", "acceleration_ratio",
@@ -97,13 +98,15 @@ class RecorderView:
 
     def bodies_closed(self) -> set[int]:
         """The vertices a dead robot's body lies on: its centre (its last known position)
-        nearer to the vertex than 2 body radii - the visit radius, so that no robot's centre
-        can come within the visit radius of it (walls aside). None without bodies."""
+        nearer to the vertex than 2 body radii + the controller's safety margin - the visit
+        radius, so that no robot keeping that margin from it can bring its centre within the
+        visit radius (walls aside). None without bodies."""
         deaths = self.final_deaths()
         last = self.last_seen
         if self.body_radius_m is None or not deaths or last is None:
             return set()
-        reach = 2.0 * float(self.body_radius_m) - float(self.patrol_map.visit_radius_m)  # [m]
+        reach = (2.0 * float(self.body_radius_m) + CONTROLLER_DEFAULTS.safety_margin
+                 - float(self.patrol_map.visit_radius_m))  # [m]
         if reach <= 0.0:
             return set()
         vertices = np.asarray(self.patrol_map.positions, dtype=float)
