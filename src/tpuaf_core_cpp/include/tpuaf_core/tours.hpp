@@ -54,6 +54,11 @@ struct ClosedWalk {
 ClosedWalk closed_walk(const PatrolGraph& graph, const std::vector<int>& vertices,
                        const TourSearch& search = {});
 
+// A lone vertex v's patrol (standing on it makes no visit): out to the out-neighbour w of least
+// edge(v, w) + d(w, v) [m] and back along a shortest path; [v] with length 0 when v has no way
+// out and back.
+ClosedWalk shuttle_walk(const PatrolGraph& graph, int v);
+
 // Length [m] only (same search as closed_walk).
 double closed_walk_length(const PatrolGraph& graph, const std::vector<int>& vertices,
                           const TourSearch& search = {});
