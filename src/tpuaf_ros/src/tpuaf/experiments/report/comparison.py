@@ -218,7 +218,10 @@ def ratio_section(data: Data) -> list[str]:
           "best-known tour's worst idleness (`best_known_worst_idleness_s` of "
           f"{'`' + data.bounds_path.name + '`' if data.bounds_path else 'the bounds table'}"
           f"); **bold** = within {TARGET_RATIO}× (issue 13's target). The last rows are our "
-          "reference tours (tours.py, analytic), on the same scale.", ""]
+          "reference tours (tours.py, analytic), on the same scale, under the visit rule: a "
+          "part of one vertex is driven out and back, as standing on a vertex makes no visit. "
+          "patrol_bounds.csv's best-known tours park robots on vertices where that pays (1r5 "
+          "and ctcv at N ≥ 8), which no strategy obeying the rule can match there.", ""]
     md += ([ratio, ""] if ratio else ["No map of this comparison is in the bounds table.", ""])
     md += [f"- {n}" for n in notes] + ([""] if notes else [])
     return md
