@@ -290,3 +290,23 @@ def test_no_robot_parks_on_a_crowded_map(shared_maps, name, n):
     per_robot = np.bincount([r for _, r, _ in engine.recorder.visits], minlength=n)
     assert per_robot.min() >= 20, per_robot.tolist()
     assert summary["worst_idleness_s"] <= 2 * summary["idleness_max_s"], summary
+
+
+def test_a_partitioned_team_stays_partitioned_after_a_loss_when_nearly_as_good(shared_maps):
+    """example, 12 robots on 12 parts, robot 4 dies at 1800 s: the survivors' best partition
+    (26.7 s predicted) is within KEEP_PARTITION_MARGIN of a cycle's (25.5 s), so they
+    re-partition and each keeps near its area. All moving to cycle slots, the worst idleness
+    after the death was 2.90x the survivors' ideal."""
+    from tpuaf.policies import tpuaf_plus
+
+    config = RunConfig(map=str(shared_maps / "example"), strategy="tpuaf_plus", robots=12,
+                       duration_s=3600.0, seed=1, fail=[[4, 1800.0]])
+    engine = GraphRun(config)
+    starts = tuple(engine.start_vertices)
+    team = tuple(r for r in range(12) if r != 4)
+    assert make_plan(engine.patrol_map, tuple(range(12)), starts, "auto").kind == "partition"
+    assert make_plan(engine.patrol_map, team, starts, "auto").kind == "partition"
+    summary = engine.run()
+    (death,) = summary["recovery"]
+    assert death["worst_idleness_ratio"] <= 2.2, death
+    assert tpuaf_plus.KEEP_PARTITION_MARGIN < tpuaf_plus.FRESH_MARGIN

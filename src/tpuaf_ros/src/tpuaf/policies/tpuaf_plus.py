@@ -75,6 +75,9 @@ from tpuaf.policies.tpuaf_plus_routes import (
 _CORE_DEFAULTS = tpuaf_core.TpuafPlusParams()  # the core declares the spacing defaults
 SMALL_GRAPH = 60  # vertices: up to this, partitions into every k = 2..N are tried
 FRESH_MARGIN = 1.15  # after a loss, merge unless a fresh plan's worst is lower by more than this
+KEEP_PARTITION_MARGIN = 1.05  # after a loss, a partitioned team re-partitions unless a cycle's
+# predicted worst idleness is lower by more than this (example N = 12, one death: the worst
+# after it 3.44 -> 2.00x the survivors' ideal; benchmarks/results/recovery.md)
 STAY_S = 1.0  # [s] the runtimes' dwell for a goal equal to the current vertex (runtimes.graph)
 INTENTION_TIMEOUT_S = 30.0  # [s] its visit knowledge drops intentions this old (it hears none)
 
@@ -225,6 +228,13 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
             ) / graph.num_vertices
             kind = "partition" if x_part < x_cyc else "cycle"
     full = len(all_starts) == m and team == tuple(range(m))
+    if (not full and all_starts and mode == "auto" and kind == "cycle" and part is not None
+            and part_worst <= KEEP_PARTITION_MARGIN * cyc_worst + EPS
+            and make_plan(patrol_map, tuple(range(len(all_starts))), tuple(all_starts),
+                          mode).kind == "partition"):
+        # after a loss a partitioned team stays partitioned when that is nearly as good: each
+        # survivor keeps to the area nearest its old part instead of all moving to cycle slots
+        kind = "partition"
     if not full and all_starts and repair != "replan":
         merged = _merge_repair(patrol_map, team, all_starts, mode)
         fresh_worst = part_worst if kind == "partition" else cyc_worst
