@@ -41,7 +41,8 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    then recomputes the plan for the survivors (step 1); a cycle re-spaces at once (each
    survivor dwells its share of the survivors' even spacing, capped so that no vertex ahead
    waits beyond L / (m v); `_respace_target`, `_idle_room`), then by step 3;
-   a partition is merged or recomputed and each survivor drives to its new part (several
+   a partition is merged or recomputed (still a partition when that is within
+   KEEP_PARTITION_MARGIN of a cycle) and each survivor drives to its new part (several
    robots new to one walk enter it where the start schedule, from where each stood when the
    team changed, puts their slots: `_transition_entries`). A presumed-dead robot
    that speaks again rejoins. Stale information never blocks a vertex: nothing is reserved;
