@@ -56,12 +56,13 @@ def test_a_robot_heard_again_is_alive_and_only_the_silent_one_dies(tmp_path):
 
 
 def test_the_monitor_leaves_a_vertex_under_a_dead_body_out_of_the_reachable_recovery():
-    # robot 2 dies standing on v2 (id 12): with the map's robot radius no robot can come
-    # within the visit radius of it; a robot of 5 cm radius leaves room
+    # robot 2 dies standing on v2 (id 12): with the map's robot radius no robot keeping the
+    # controller's safety margin (0.08 m) from it can come within the visit radius (0.15 m) of
+    # it; a robot of 2 cm radius leaves room (2 x 0.02 + 0.08 < 0.15)
     s = restart_run()[0].summary()
     assert s["vertices_under_bodies"] == [12]
     assert "worst_idleness_after_reachable_s" in s["recovery"][0]
-    s = restart_run(body_radius_m=0.05)[0].summary()
+    s = restart_run(body_radius_m=0.02)[0].summary()
     assert "vertices_under_bodies" not in s
     assert "worst_idleness_after_reachable_s" not in s["recovery"][0]
 
