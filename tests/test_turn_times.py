@@ -16,7 +16,6 @@ from tpuaf.navigation.travel_time import (
     edge_durations,
     timed_map,
 )
-from tpuaf.policies.tpuaf_plus_routes import make_route, turn_lengths
 from tpuaf.robot.learning import LearnedTravel
 from tpuaf.runtimes.config import RunConfig
 from tpuaf.runtimes.graph import GraphRun
@@ -55,11 +54,11 @@ def test_turning_back_costs_a_half_turn_and_straight_on_is_quicker_than_the_mean
     assert turns[(1, 0, 1)] > 0 and (1, 3, 1) in turns
 
 
-def test_the_graph_runtime_and_tpuaf_plus_time_a_walk_with_its_turns():
+def test_the_graph_runtime_times_a_walk_with_its_turns():
     """A robot patrols the tee alone on a map whose turns say that arriving at 1 from 2 (or
     3) and leaving for the other side arm takes 5 s longer: every lap of tpuaf_plus's closed
     walk (0-1-2-1-3-1, which passes 1 from one side arm to the other once) takes the edges'
-    times plus those 5 s, and tpuaf_plus's walk arcs add the same."""
+    times plus those 5 s."""
     pm = replace(tee(), turns={(2, 1, 3): 5.0, (3, 1, 2): 5.0})
     run = GraphRun(RunConfig(map="tee", strategy="tpuaf_plus", robots=1, duration_s=200),
                    patrol_map=pm)
@@ -69,8 +68,6 @@ def test_the_graph_runtime_and_tpuaf_plus_time_a_walk_with_its_turns():
     walk = [int(v) for v in run._strategy.walk(0)]
     n = len(walk)
     edges_s = sum(graph.edge_length(walk[i], walk[(i + 1) % n]) for i in range(n)) / speed
-    route = make_route(graph, tuple(walk), (0,), turn_m=turn_lengths(run.patrol_map))
-    assert route.length / speed == pytest.approx(edges_s + 5.0)
     times = [t for t, _, v in run.recorder.visits if v == 0]
     gaps = np.diff(times[1:])
     assert len(gaps) >= 3

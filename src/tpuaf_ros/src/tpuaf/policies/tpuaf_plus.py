@@ -32,8 +32,8 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
    the targets are uneven gaps instead (`uneven_gaps`; the nearest rotation of them), and each
    mate's walk position is followed from message to message (a step can be on the walk twice).
    On a two-way map a walk back and forth gets uneven gaps too where the plan has slack
-   (`apart_at_meetings`), and on a timed map the arcs include the walk's turns
-   (`turn_lengths`; the partition is chosen on the edges' times alone).
+   (`apart_at_meetings`). Arcs are the edges' lengths (a timed map's turns are not added:
+   docs/STRATEGIES.md, "Turns in the plan").
 4. Dwelling. A dwelling robot re-visits its vertex every `dwell_revisit_s` (goal = its own
    vertex: it is physically there) and re-announces its departure time (a heartbeat).
 5. Faults. A mate the runtime's one liveness rule reports lost (silent for the teammate
@@ -70,7 +70,6 @@ from tpuaf.policies.tpuaf_plus_routes import (
     Route,
     apart_at_meetings,
     make_route,
-    turn_lengths,
 )
 
 _CORE_DEFAULTS = tpuaf_core.TpuafPlusParams()  # the core declares the spacing defaults
@@ -193,7 +192,6 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     graph = patrol_map.graph
     speed = float(patrol_map.settings.nominal_speed)
     m = len(team)
-    turn_m = turn_lengths(patrol_map)
     cyc = tours.cyclic_tour(patrol_map)
     # Chosen on the edges' times alone: with the turns in, partitions shared by several robots
     # that cross head-on on every walk back and forth win, and crossings are not in the model
@@ -244,7 +242,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
                                    + EPS):
             return merged
     if kind == "cycle" or part is None:
-        route = make_route(graph, cyc.walk, team, turn_m=turn_m)
+        route = make_route(graph, cyc.walk, team)
         routes = (route,)
         route_of = {r: 0 for r in team}
         worst = cyc_worst
@@ -258,7 +256,7 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
             assignment = _assign_survivors(patrol_map, team, all_starts, part, slots, mode)
         route_of = {r: assignment[i] for i, r in enumerate(team)}
         routes = tuple(
-            make_route(graph, t.walk, [r for r in team if route_of[r] == p], turn_m=turn_m)
+            make_route(graph, t.walk, [r for r in team if route_of[r] == p])
             for p, t in enumerate(part.tours)
         )
         worst = part_worst
@@ -271,12 +269,12 @@ def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     return Plan(kind, routes, route_of, float(worst), schedule)
 
 
-def retimed_routes(plan: Plan, graph, turn_m: dict | None = None) -> tuple[Route, ...]:
+def retimed_routes(plan: Plan, graph) -> tuple[Route, ...]:
     """The plan's walks, each with its robots, re-timed on `graph` (a re-timed plan map's:
     lengths = plan speed x learned duration [m]): arc positions, length and uneven target gaps
     on its edge lengths. The walks themselves stay: every robot keeps the one it drives, and
     robots whose learned times differ a little still agree on the plan."""
-    return tuple(make_route(graph, r.walk, r.robots, bool(graph.one_way or r.gaps), turn_m)
+    return tuple(make_route(graph, r.walk, r.robots, bool(graph.one_way or r.gaps))
                  for r in plan.routes)
 
 
@@ -337,8 +335,7 @@ def _merge_repair(patrol_map, team, all_starts, mode) -> Plan | None:
                 progress = True
         if not progress:  # an orphan with no surviving neighbour part: re-plan from scratch
             return None
-    turn_m = turn_lengths(patrol_map)
-    routes = tuple(make_route(graph, g[1], g[2], turn_m=turn_m) for g in groups)
+    routes = tuple(make_route(graph, g[1], g[2]) for g in groups)
     route_of = {r: i for i, g in enumerate(groups) for r in g[2]}
     worst = max(
         tpuaf_core.walk_worst_idleness(graph, list(r.walk), len(r.robots), speed) for r in routes
@@ -491,7 +488,7 @@ class TpuafPlus(CoreStrategyPolicy):
                     else plan_from(patrol_map, tuple(team), tuple(starts), params["plan"]))
             # re-timed (learned travel times): the same walks, on the timing graph's lengths
             chosen = (plan.routes if timing is None
-                      else retimed_routes(plan, timing, turn_lengths(patrol_map)))
+                      else retimed_routes(plan, timing))
             routes = [(list(r.walk), list(r.arc), r.length, list(r.robots), list(r.gaps))
                       for r in chosen]
             route_of = [plan.route_of.get(k, -1) for k in range(n_robots)]

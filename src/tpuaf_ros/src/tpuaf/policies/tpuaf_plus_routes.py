@@ -1,5 +1,5 @@
-"""TPUAF+'s routes (tpuaf_plus.py): the plan's closed walks, their arc positions (a timed
-map's turns included) and the target gaps between the robots that share one (`uneven_gaps`,
+"""TPUAF+'s routes (tpuaf_plus.py): the plan's closed walks, their arc positions and the
+target gaps between the robots that share one (`uneven_gaps`,
 `apart_at_meetings`)."""
 
 from __future__ import annotations
@@ -33,32 +33,17 @@ class Plan:
     schedule: dict
 
 
-def turn_lengths(patrol_map) -> dict[tuple[int, int, int], float]:
-    """[m of plan travel] per (w, u, v): the map's turn times (a timed map's `turns`: arriving
-    at u from w changes edge u-v's time) at its nominal speed; none on a one-way map (on the
-    lab's figure eight at N = 8 the arcs with turns made physics worse in 3 of 3 seeds:
-    docs/STRATEGIES.md, "Turns in the plan")."""
-    if patrol_map.one_way:
-        return {}
-    speed = float(patrol_map.settings.nominal_speed)
-    return {k: speed * float(s) for k, s in patrol_map.turns.items()}
-
-
-def make_route(graph, walk, robots, uneven: bool | None = None,
-               turn_m: dict | None = None) -> Route:
+def make_route(graph, walk, robots, uneven: bool | None = None) -> Route:
     """The route of `robots` on `walk`; with `uneven` (default: on one-way maps) its target
     gaps keep robots from reaching a vertex at once from its two passes (`uneven_gaps`).
-    Arc positions add `turn_m` (`turn_lengths`) at each walk vertex for the way the walk
-    arrives there (a walk back and forth turns back at its ends)."""
+    Arc positions are the edges' lengths alone: with a timed map's turns added, physics was
+    worse in 6 of 7 cases once no robot parked (docs/STRATEGIES.md, "Turns in the plan")."""
     arc, s = [], 0.0
     n = len(walk)
     for i, v in enumerate(walk):
         arc.append(s)
         if n > 1:
-            after = walk[(i + 1) % n]
-            s += graph.edge_length(v, after)
-            if turn_m:
-                s += turn_m.get((int(walk[i - 1]), int(v), int(after)), 0.0)
+            s += graph.edge_length(v, walk[(i + 1) % n])
     if uneven is None:
         uneven = bool(graph.one_way)
     gaps = uneven_gaps(arc, walk, float(s), len(robots)) if uneven else ()
