@@ -1,6 +1,7 @@
 """Turns at vertices in the plan's time (navigation/travel_time.py `turn_times`): a timed map
 says what each way of arriving at an edge's first vertex adds to the edge's mean time; the
-graph runtime's robots, tpuaf_plus's walks and the learned durations use it."""
+graph runtime's robots and the learned durations use it (tpuaf_plus's walk arcs do not:
+docs/STRATEGIES.md, "Turns in the plan")."""
 
 from __future__ import annotations
 

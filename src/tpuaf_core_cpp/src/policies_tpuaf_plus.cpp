@@ -304,8 +304,8 @@ void TpuafPlusStrategy::learn_pace(Robot& r, int k, int vertex, double arrived_s
   if (last == nullptr || last->from == last->to || last->to != vertex) return;
   const double drive_s = arrived_s - last->departure;
   if (!(drive_s > kEps)) return;
-  // [m] the drive: a step of my walk by its arcs (a timed map's turns included, as the drive
-  // time is), else the shortest path
+  // [m] the drive: a step of my walk by its arcs (the edge driven, which a shortcut may
+  // undercut), else the shortest path
   double drive_m = distance(last->from, vertex);
   if (r.plan && r.route >= 0) {
     const PlusRoute& route = route_of(r);

@@ -53,7 +53,7 @@ def make_route(graph, walk, robots, uneven: bool | None = None) -> Route:
 def gapped_worst_idleness(route: Route, speed: float) -> float:
     """[s] the longest interval between two passes of a vertex of `route` when its robots
     keep its target gaps (L / m apart without them) at `speed` [m/s]: as
-    tpuaf_core.walk_worst_idleness, on uneven gaps and the route's arcs (turns included)."""
+    tpuaf_core.walk_worst_idleness, on uneven gaps and the route's arcs."""
     m, length = len(route.robots), route.length
     if m < 1 or length <= 0:
         return 0.0
@@ -75,7 +75,7 @@ def apart_at_meetings(graph, routes: tuple[Route, ...], worst_s: float,
     from its two passes (a walk back and forth along a corridor: head-on at its middle
     vertex, where both aim at one point) get uneven target gaps, where those cost the plan
     nothing: the route's worst idleness on them stays within the plan's worst (`worst_s` [s],
-    or its routes' on their arcs, turns included, if higher): a part with slack, never the
+    or its routes' on their arcs, if higher): a part with slack, never the
     bottleneck's."""
     if graph.one_way:
         return routes  # _route spaces them already
