@@ -54,6 +54,8 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
 
 from __future__ import annotations
 
+import heapq
+import math
 from collections import OrderedDict
 from dataclasses import replace
 
@@ -156,19 +158,21 @@ def make_plan(patrol_map, team: tuple[int, ...], all_starts: tuple[int, ...], mo
 
 
 def _open_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
-    """The plan on `patrol_map` without its closed vertices (robot/lanes.py: each hangs on
-    one edge, so the rest stays connected and no shortest path between the rest passes
-    through one): planned on the map of the other vertices, its walks in `patrol_map`'s
-    indices; a start at a closed vertex counts at the nearest open one."""
+    """The plan on `patrol_map` without its closed vertices (robot/lanes.py: a dead robot's
+    body on them): planned on the map of the other vertices, where two of them joined through
+    closed vertices only are joined by an edge of that route's length (routes pass by the
+    body), its walks in `patrol_map`'s indices; a start at a closed vertex counts at the
+    nearest open one."""
     hit = _OPEN.get(id(patrol_map))
     if hit is None or hit[0] is not patrol_map:
         graph = patrol_map.graph
         keep = [v for v in range(patrol_map.num_vertices) if v not in patrol_map.closed]
         new = {old: k for k, old in enumerate(keep)}
+        edges = [(new[u], new[v], d) for u, v, d in patrol_map.edges if u in new and v in new]
+        edges += [(new[u], new[v], d) for u, v, d in _through_closed(patrol_map)]
         sub = replace(patrol_map, vertex_ids=[patrol_map.vertex_ids[v] for v in keep],
                       positions=np.asarray(patrol_map.positions)[keep],
-                      edges=[(new[u], new[v], d) for u, v, d in patrol_map.edges
-                             if u in new and v in new],
+                      edges=edges,
                       importance=np.asarray(patrol_map.importance)[keep],
                       initial_uncertainty=np.asarray(patrol_map.initial_uncertainty)[keep],
                       one_way=tuple((new[u], new[v]) for u, v in patrol_map.one_way
@@ -186,6 +190,43 @@ def _open_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
     plan = make_plan(sub, team, tuple(near[s] for s in all_starts), mode, repair)
     routes = tuple(replace(r, walk=tuple(keep[v] for v in r.walk)) for r in plan.routes)
     return replace(plan, routes=routes)
+
+
+def _through_closed(patrol_map) -> list[tuple[int, int, float]]:
+    """(u, v, length [m]) for open vertices u < v not adjacent, joined by a path through
+    closed vertices only over two-way edges (the shortest such path's length)."""
+    closed = patrol_map.closed
+    one_way = {frozenset(arc) for arc in patrol_map.one_way}
+    adjacent: dict[int, list[tuple[int, float]]] = {}
+    direct: set[tuple[int, int]] = set()
+    graph = patrol_map.graph
+    for u, v, _ in patrol_map.edges:
+        u, v = int(u), int(v)
+        direct.add((min(u, v), max(u, v)))
+        if frozenset((u, v)) in one_way:
+            continue
+        length = graph.edge_length(u, v)
+        adjacent.setdefault(u, []).append((v, length))
+        adjacent.setdefault(v, []).append((u, length))
+    out: dict[tuple[int, int], float] = {}
+    for a in sorted(adjacent):
+        if a in closed:
+            continue
+        best = {a: 0.0}
+        frontier = [(0.0, a)]
+        while frontier:  # Dijkstra from a, expanding closed vertices only
+            d, w = heapq.heappop(frontier)
+            if d > best[w] or (w != a and w not in closed):
+                continue
+            for x, length in adjacent.get(w, []):
+                if d + length < best.get(x, math.inf):
+                    best[x] = d + length
+                    heapq.heappush(frontier, (d + length, x))
+        for b, d in best.items():
+            pair = (min(a, b), max(a, b))
+            if b != a and b not in closed and pair not in direct:
+                out[pair] = min(out.get(pair, math.inf), d)
+    return [(u, v, d) for (u, v), d in sorted(out.items())]
 
 
 def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:

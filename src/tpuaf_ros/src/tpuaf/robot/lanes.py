@@ -13,7 +13,11 @@ A robot that dies inside a lane blocks it with its body. Its last claim says whi
 that edge from its plan (`blocked_layer`: the rest of the lane becomes a dead end, locked, and
 the one-way lanes keep their direction where the plan stays strongly connected), re-routes and
 re-times its policy on it. An edge whose loss would cut the plan in two is not dropped (the far
-side would be unreachable): the lane's lock is freed as before (docs/LANES.md).
+side would be unreachable): the lane's lock is freed as before (docs/LANES.md). A teammate lost
+standing still outside a lane (its last two claims, about a second apart, both near a vertex)
+closes the vertices its body stands on (`body_vertices`, `closed_layer`): plans skip them,
+routes still pass by. The robots announce where they are on maps without a lane too, so that
+this works there (`lane_layer(..., without_lanes=True)`).
 """
 
 from __future__ import annotations
@@ -58,14 +62,17 @@ class LaneLayer:
         return f"{len(self.lane_map.lanes)} lane(s){one_way}"
 
 
-def lane_layer(planner: Any, world_map: Any, plan_map: Any, one_way: bool) -> LaneLayer | None:
+def lane_layer(planner: Any, world_map: Any, plan_map: Any, one_way: bool,
+               without_lanes: bool = False) -> LaneLayer | None:
     """The lane layer of every runtime (physics, ROS agents): the lanes of `world_map` for the
-    footprint of `planner`, oriented when `one_way`; None when the map has no lane (the run is
-    then the run without the layer). Every robot of one model computes the same lanes (their
+    footprint of `planner`, oriented when `one_way`; when the map has no lane, None (the run
+    is then the run without the layer), or with `without_lanes` a layer of no lane (the
+    robots still announce where they are, so that a lost teammate's body closes the vertices
+    it stands on: `body_vertices`). Every robot of one model computes the same lanes (their
     indices are shared in LaneClaim)."""
     lane_map = find_lanes(planner, world_map)
     if not lane_map.lanes:
-        return None
+        return LaneLayer(lane_map, None, plan_map) if without_lanes else None
     orientation = orient_lanes(lane_map, plan_map) if one_way else None
     if orientation is not None and orientation.chains:
         plan_map = replace(plan_map, one_way=tuple(orientation.arcs))
@@ -95,6 +102,38 @@ def body_blocks(layer: LaneLayer, claim: LaneClaim) -> tuple[tuple[int, int], tu
     occupied = tuple(sorted(w for w in {u, v}
                             if math.hypot(positions[w][0] - x, positions[w][1] - y) < reach))
     return (min(u, v), max(u, v)), occupied
+
+
+def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]]) -> tuple[int, ...]:
+    """The vertices a lost teammate's body stands too near to reach, from where it announced
+    it was (`LaneLocks.last_positions` [m]): within two robots side by side plus the visit
+    radius of both of its last two positions (it stood there, about a second apart); none
+    from fewer positions (a robot that died driving lies on an edge: `body_blocks`)."""
+    if len(positions) < 2:
+        return ()
+    xy = np.asarray(layer.plan_map.positions, dtype=float)
+    reach = layer.lane_map.pass_band_m + float(layer.plan_map.visit_radius_m)  # [m]
+    near = np.ones(len(xy), dtype=bool)
+    for x, y in positions:
+        near &= np.hypot(xy[:, 0] - x, xy[:, 1] - y) < reach
+    return tuple(int(v) for v in np.flatnonzero(near) if int(v) not in layer.plan_map.closed)
+
+
+def closed_layer(layer: LaneLayer, occupied: tuple[int, ...]) -> LaneLayer | None:
+    """`layer` with the vertices `occupied` closed (a dead robot's body on them: plans skip
+    them, goals there fail at once, runtimes/agent.py), their edges kept (routes pass by the
+    body: tpuaf_plus plans through them, policies/tpuaf_plus.py `_open_plan`); None when
+    there is none, or no open vertex would be left. The same on every robot (cached)."""
+    key = (id(layer), "closed", tuple(sorted(occupied)))
+    if key in _BLOCKED:
+        return _BLOCKED[key][1]
+    plan = layer.plan_map
+    closed = plan.closed | frozenset(int(v) for v in occupied)
+    result = None
+    if occupied and len(closed) < plan.num_vertices:
+        result = LaneLayer(layer.lane_map, layer.orientation, replace(plan, closed=closed))
+    _BLOCKED[key] = (layer, result)
+    return result
 
 
 def blocked_layer(layer: LaneLayer, edge: tuple[int, int],
@@ -332,14 +371,18 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
 
         def teammate_lost(robot: int) -> None:
             claim = locks.lost_in(robot)
-            if claim is None:
-                return
-            edge, occupied = body_blocks(current[0], claim)
-            new = blocked_layer(current[0], edge, occupied)
+            new = None
+            if claim is not None:  # lost inside a lane: its edge blocked
+                edge, occupied = body_blocks(current[0], claim)
+                new = blocked_layer(current[0], edge, occupied)
+                if new is not None:
+                    access.blocked.append(edge)
+            if new is None:  # lost standing elsewhere: the vertices it stands on closed
+                new = closed_layer(current[0], body_vertices(current[0],
+                                                             locks.last_positions(robot)))
             if new is None:
                 return
             current[0] = new
-            access.blocked.append(edge)
             for vertex in sorted(new.plan_map.closed - access.closed):
                 report(VERTEX_CLOSED, vertex, machine.now)  # the monitor's reachable recovery
             access.closed = new.plan_map.closed

@@ -86,7 +86,8 @@ def agent_runtime(p: AgentParams, patrol_map, robot: RobotModel, policy, publish
                if p.navigation == "builtin" and p.global_planner else None)
     plan_map = timed_map(patrol_map, robot, shared_planner(patrol_map, robot.radius_m))
     mode = agent_lane_mode(p)
-    layer = lane_layer(planner, patrol_map, plan_map, mode == "one_way") if mode != "off" else None
+    layer = (lane_layer(planner, patrol_map, plan_map, mode == "one_way", without_lanes=True)
+             if mode != "off" else None)
     if layer is not None:
         plan_map = layer.plan_map
     runtime = AgentRuntime(plan_map, policy, p.robot_index, p.robots, p.seed, publish_team,

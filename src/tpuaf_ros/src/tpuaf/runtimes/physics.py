@@ -91,7 +91,7 @@ class PhysicsRun(TeamRun):
                         else None)
         # The lane layer where the map has stretches one robot wide (docs/LANES.md); with
         # one-way lanes the plan's graph (routes, strategies' travel times) follows the arcs.
-        layer = (lane_layer(self.planner, world_map, pm, config.one_way)
+        layer = (lane_layer(self.planner, world_map, pm, config.one_way, without_lanes=True)
                  if self.planner is not None and config.lane_mode() != "off" else None)
         self.lane_map = layer.lane_map if layer is not None else None
         self.orientation = layer.orientation if layer is not None else None

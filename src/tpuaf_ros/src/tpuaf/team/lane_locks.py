@@ -46,6 +46,7 @@ class LaneLocks:
         self.reannounce_s = float(reannounce_s)
         self.mine = LaneClaim(self.robot, -1, 0.0, False, 0.0)
         self.claims: dict[int, LaneClaim] = {}  # teammate -> its latest claim
+        self.previous: dict[int, LaneClaim] = {}  # teammate -> the claim before (where it was)
         self._next_announce = -math.inf
         self.waits = 0  # requests that were not granted at once
         self.wait_s = 0.0  # [s] from those requests to their grant
@@ -114,6 +115,15 @@ class LaneLocks:
         old = self.claims.get(claim.robot)
         if old is None or claim.time >= old.time:
             self.claims[claim.robot] = claim
+            if old is not None:
+                self.previous[claim.robot] = old
+
+    def last_positions(self, robot: int) -> list[tuple[float, float]]:
+        """Where teammate `robot` announced it was in its last two claims [m] (fewer when not
+        heard twice; NaN positions left out)."""
+        claims = [self.previous.get(int(robot)), self.claims.get(int(robot))]
+        return [c.position for c in claims
+                if c is not None and all(math.isfinite(x) for x in c.position)]
 
     def queue(self, lane: int) -> list[LaneClaim]:
         """The known live claims on `lane` (own included), in the queue's order."""
