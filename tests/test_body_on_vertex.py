@@ -1,0 +1,99 @@
+"""A teammate lost standing on a vertex outside any lane: its last two claims say where its
+body stands, and the survivors close the vertices it covers (robot/lanes.py `body_vertices`,
+`closed_layer`); tpuaf_plus plans through them without goals there (`_through_closed`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from tpuaf.maps.model import MapSettings, PatrolMap
+from tpuaf.navigation.lanes import LaneMap
+from tpuaf.robot.lanes import LaneLayer, body_vertices, closed_layer
+from tpuaf.team.lane_locks import LaneLocks
+from tpuaf.team.messages import LaneClaim
+
+PASS_BAND_M = 0.4  # [m] two robots side by side
+
+
+def star_map() -> PatrolMap:
+    """A junction 0 with three arms of two vertices 2 m apart: 0 is a cut vertex."""
+    positions = [(0.0, 0.0)]
+    edges = []
+    for arm, (dx, dy) in enumerate([(1, 0), (-1, 0), (0, 1)]):
+        first = len(positions)
+        positions += [(2.0 * dx, 2.0 * dy), (4.0 * dx, 4.0 * dy)]
+        edges += [(0, first, math.nan), (first, first + 1, math.nan)]
+    n = len(positions)
+    return PatrolMap("star", list(range(n)), np.asarray(positions, dtype=float), edges,
+                     np.ones(n), np.ones(n), MapSettings())
+
+
+def layer_without_lanes(pm: PatrolMap) -> LaneLayer:
+    return LaneLayer(LaneMap([], {}, frozenset(), PASS_BAND_M), None, pm)
+
+
+def test_a_teammate_that_stood_by_a_vertex_covers_it_one_that_drove_or_was_heard_once_not():
+    layer = layer_without_lanes(star_map())
+    assert body_vertices(layer, [(0.05, 0.1), (0.1, 0.05)]) == (0,)
+    assert body_vertices(layer, [(0.05, 0.1), (0.9, 0.0)]) == ()  # it was driving away
+    assert body_vertices(layer, [(0.05, 0.1)]) == ()  # heard once: not known to stand
+    assert body_vertices(layer, [(1.0, 0.0), (1.0, 0.0)]) == ()  # mid-edge: no vertex covered
+
+
+def test_the_locks_keep_a_teammates_last_two_positions():
+    locks = LaneLocks(1, lambda claim: None)
+    assert locks.last_positions(0) == []
+    locks.on_claim(LaneClaim(0, -1, 0.0, False, 1.0, (-1, -1), (1.0, 2.0)))
+    locks.on_claim(LaneClaim(0, -1, 0.0, False, 2.0, (-1, -1), (1.5, 2.0)))
+    locks.on_claim(LaneClaim(0, -1, 0.0, False, 1.5, (-1, -1), (9.0, 9.0)))  # late: ignored
+    assert locks.last_positions(0) == [(1.0, 2.0), (1.5, 2.0)]
+    locks.on_claim(LaneClaim(0, -1, 0.0, False, 3.0))  # position not known
+    assert locks.last_positions(0) == [(1.5, 2.0)]
+
+
+def test_closing_is_one_layer_for_the_team_and_never_closes_everything():
+    layer = layer_without_lanes(star_map())
+    new = closed_layer(layer, (0,))
+    assert new is not None and new is closed_layer(layer, (0,))
+    assert new.plan_map.closed == {0} and len(new.plan_map.edges) == 6  # edges kept
+    assert closed_layer(layer, ()) is None
+    assert closed_layer(layer, tuple(range(7))) is None
+
+
+def test_tpuaf_plus_plans_through_a_closed_cut_vertex_without_a_goal_there():
+    from tpuaf.policies.tpuaf_plus import make_plan
+
+    pm = closed_layer(layer_without_lanes(star_map()), (0,)).plan_map
+    graph = pm.graph
+    for team in [(0, 1), (1, 2, 3), (1,)]:
+        plan = make_plan(pm, team, (0, 1, 3, 5), "auto", "auto")
+        walks = [r.walk for r in plan.routes]
+        assert all(0 not in w for w in walks), walks
+        assert set().union(*walks) == set(range(1, 7))  # every open vertex is planned
+        for w in walks:  # a step is an edge, or the route past the body (through 0)
+            for a, b in zip(w, w[1:] + w[:1], strict=True):
+                assert a == b or b in graph.neighbours(a) or (
+                    0 in graph.neighbours(a) and 0 in graph.neighbours(b)), (a, b, w)
+
+
+def test_survivors_close_the_vertex_a_dead_robot_stands_on_and_patrol_the_rest():
+    """Grid (no lane for the default robot), tpuaf_plus, 4 robots: robot 0 stalls on its
+    start vertex at 0.1 s and dies there at 20 s. Before, the survivors kept trying to visit
+    the vertex under its body."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    run = PhysicsRun(PhysicsConfig(map="grid", strategy="tpuaf_plus", robots=4, duration_s=400.0,
+                                   seed=1, stall=["0@0.1"], fail=["0@20"]))
+    summary = run.run()
+    assert summary["lanes"] == 0  # the layer without lanes: positions are still shared
+    body = run.starts[0]
+    assert [access.closed for access in run.lane_access[1:]] == [{body}] * 3
+    assert run.lane_access[0].closed == frozenset()  # the dead robot hears nothing
+    assert body in run.recorder.closed  # the agents' VERTEX_CLOSED events
+    times = run.recorder.vertex_times
+    assert not [t for t in times[body] if t > 20.0]
+    assert all(len([t for t in ts if t > 60.0]) >= 5 for v, ts in enumerate(times) if v != body)
+    (recovery,) = summary["recovery"]
+    assert recovery["worst_idleness_ratio_reachable"] < 2.5
