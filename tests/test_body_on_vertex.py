@@ -20,7 +20,7 @@ def star_map() -> PatrolMap:
     """A junction 0 with three arms of two vertices 2 m apart: 0 is a cut vertex."""
     positions = [(0.0, 0.0)]
     edges = []
-    for arm, (dx, dy) in enumerate([(1, 0), (-1, 0), (0, 1)]):
+    for dx, dy in [(1, 0), (-1, 0), (0, 1)]:
         first = len(positions)
         positions += [(2.0 * dx, 2.0 * dy), (4.0 * dx, 4.0 * dy)]
         edges += [(0, first, math.nan), (first, first + 1, math.nan)]
