@@ -97,3 +97,22 @@ def test_survivors_close_the_vertex_a_dead_robot_stands_on_and_patrol_the_rest()
     assert all(len([t for t in ts if t > 60.0]) >= 5 for v, ts in enumerate(times) if v != body)
     (recovery,) = summary["recovery"]
     assert recovery["worst_idleness_ratio_reachable"] < 2.5
+
+
+def test_a_teammate_heard_again_reopens_the_vertices_its_body_was_thought_to_close():
+    """A false loss (message loss) or a restarted robot: its vertex must not stay closed."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    run = PhysicsRun(PhysicsConfig(map="grid", strategy="tpuaf_plus", robots=3, duration_s=1.0,
+                                   seed=1))
+    run.run()
+    machine, access = run.agents[1].machine, run.lane_access[1]
+    x, y = run.patrol_map.positions[run.starts[0]]
+    for t in (1.0, 2.0):  # robot 0 stood on its start vertex
+        machine.lane_locks.on_claim(LaneClaim(0, -1, 0.0, False, t, (-1, -1), (x, y)))
+    machine.on_teammate_lost_first(0)
+    assert access.closed == {run.starts[0]}
+    assert run.agents[1].machine.patrol_map.closed == {run.starts[0]}  # the policy's plan map
+    machine.on_teammate_back(0)
+    assert access.closed == frozenset() and not machine.patrol_map.closed

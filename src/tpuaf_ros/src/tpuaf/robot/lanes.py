@@ -136,6 +136,21 @@ def closed_layer(layer: LaneLayer, occupied: tuple[int, ...]) -> LaneLayer | Non
     return result
 
 
+def reopened_layer(layer: LaneLayer, vertices: tuple[int, ...]) -> LaneLayer | None:
+    """`layer` with `vertices` open again (the teammate whose body closed them is heard
+    again: it was not dead, or it was restarted); None when none of them is closed."""
+    key = (id(layer), "open", tuple(sorted(vertices)))
+    if key in _BLOCKED:
+        return _BLOCKED[key][1]
+    plan = layer.plan_map
+    result = None
+    if plan.closed & set(vertices):
+        result = LaneLayer(layer.lane_map, layer.orientation,
+                           replace(plan, closed=plan.closed - frozenset(vertices)))
+    _BLOCKED[key] = (layer, result)
+    return result
+
+
 def blocked_layer(layer: LaneLayer, edge: tuple[int, int],
                   occupied: tuple[int, ...] = ()) -> LaneLayer | None:
     """`layer` with the edge u-v blocked (a dead robot's body on it): the plan's graph without
@@ -368,6 +383,13 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
     agent.navigator.lanes = access
     if BLOCK_LOST_BODIES:
         current = [layer]
+        standing: dict[int, tuple[int, ...]] = {}  # teammate -> the vertices its body closed
+
+        def use(new: LaneLayer) -> None:
+            current[0] = new
+            access.closed = new.plan_map.closed
+            access.use(new.lane_map, new.locked, agent.position, machine.now)
+            agent.replan(new.plan_map)
 
         def teammate_lost(robot: int) -> None:
             claim = locks.lost_in(robot)
@@ -378,18 +400,23 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
                 if new is not None:
                     access.blocked.append(edge)
             if new is None:  # lost standing elsewhere: the vertices it stands on closed
-                new = closed_layer(current[0], body_vertices(current[0],
-                                                             locks.last_positions(robot)))
+                occupied = body_vertices(current[0], locks.last_positions(robot))
+                new = closed_layer(current[0], occupied)
+                if new is not None:
+                    standing[robot] = occupied
             if new is None:
                 return
-            current[0] = new
             for vertex in sorted(new.plan_map.closed - access.closed):
                 report(VERTEX_CLOSED, vertex, machine.now)  # the monitor's reachable recovery
-            access.closed = new.plan_map.closed
-            access.use(new.lane_map, new.locked, agent.position, machine.now)
-            agent.replan(new.plan_map)
+            use(new)
+
+        def teammate_back(robot: int) -> None:
+            new = reopened_layer(current[0], standing.pop(robot, ()))
+            if new is not None:  # (the monitor keeps them closed: docs/LANES.md)
+                use(new)
 
         machine.on_teammate_lost_first = teammate_lost
+        machine.on_teammate_back = teammate_back
     if start_vertex is not None:
         access.start_at(start_vertex, 0.0)
     return access

@@ -116,6 +116,9 @@ class RobotMachine(RobotContextBase):
         # Called with a lost teammate's index before the policy hears of it (the lane layer:
         # a body blocking a lane changes the plan the policy then re-plans on).
         self.on_teammate_lost_first: Callable[[int], None] | None = None
+        # Called with a lost teammate's index when it is heard again (the lane layer reopens
+        # the vertices its body was thought to stand on).
+        self.on_teammate_back: Callable[[int], None] | None = None
 
     # --- the protocol's state ---
     @property
@@ -238,7 +241,10 @@ class RobotMachine(RobotContextBase):
         """Teammate `robot` was heard (a team message or a heartbeat delivered) at run time t
         [s]. True when it had been reported lost (it is back; the policy is not told: it
         hears the teammate's next message)."""
-        return self.protocol.hear(int(robot), float(t))
+        back = self.protocol.hear(int(robot), float(t))
+        if back and self.on_teammate_back is not None:
+            self.on_teammate_back(int(robot))
+        return back
 
     def check_liveness(self, now: float) -> list[int]:
         """Teammates silent for the timeout by run time `now` [s], each reported once: the
