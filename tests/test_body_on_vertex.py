@@ -39,6 +39,12 @@ def test_a_teammate_that_stood_by_a_vertex_covers_it_one_that_drove_or_was_heard
     assert body_vertices(layer, [(0.05, 0.1), (0.9, 0.0)]) == ()  # it was driving away
     assert body_vertices(layer, [(0.05, 0.1)]) == ()  # heard once: not known to stand
     assert body_vertices(layer, [(1.0, 0.0), (1.0, 0.0)]) == ()  # mid-edge: no vertex covered
+    # moving 0.3 m a second near vertex 0: not standing, even with both positions near it
+    assert body_vertices(layer, [(0.3, 0.0), (0.0, 0.1)]) == ()
+    # on its way to its goal 1 (2, 0), 0.4 m short of it: it lies between there and 1
+    assert body_vertices(layer, [(1.0, 0.0), (1.6, 0.0)], goal=1) == (1,)
+    assert body_vertices(layer, [(1.0, 0.0), (1.3, 0.0)], goal=1) == ()  # 0.7 m short
+    assert body_vertices(layer, [(1.6, 0.0)], goal=1) == (1,)  # heard once on its way
 
 
 def test_the_locks_keep_a_teammates_last_two_positions():
@@ -61,7 +67,7 @@ def test_closing_is_one_layer_for_the_team_and_never_closes_everything():
     assert closed_layer(layer, tuple(range(7))) is None
 
 
-def test_tpuaf_plus_plans_through_a_closed_cut_vertex_without_a_goal_there():
+def test_tpuaf_plus_plans_through_a_closed_cut_vertex_only_as_a_way_through():
     from tpuaf.policies.tpuaf_plus import make_plan
 
     pm = closed_layer(layer_without_lanes(star_map()), (0,)).plan_map
@@ -69,12 +75,17 @@ def test_tpuaf_plus_plans_through_a_closed_cut_vertex_without_a_goal_there():
     for team in [(0, 1), (1, 2, 3), (1,)]:
         plan = make_plan(pm, team, (0, 1, 3, 5), "auto", "auto")
         walks = [r.walk for r in plan.routes]
-        assert all(0 not in w for w in walks), walks
-        assert set().union(*walks) == set(range(1, 7))  # every open vertex is planned
-        for w in walks:  # a step is an edge, or the route past the body (through 0)
-            for a, b in zip(w, w[1:] + w[:1], strict=True):
-                assert a == b or b in graph.neighbours(a) or (
-                    0 in graph.neighbours(a) and 0 in graph.neighbours(b)), (a, b, w)
+        assert set().union(*walks) - {0} == set(range(1, 7))  # every open vertex is planned
+        for route in plan.routes:
+            w = route.walk
+            for i, (a, b) in enumerate(zip(w, w[1:] + w[:1], strict=True)):
+                assert a == b or b in graph.neighbours(a), (a, b, w)  # a step is an edge
+                if b == 0:  # the body's vertex only passed through, between two open ones
+                    assert a != 0 and w[(i + 2) % len(w)] not in (0, a), w
+                end = route.arc[i + 1] if i + 1 < len(w) else route.length
+                assert math.isclose(end - route.arc[i], graph.distance(a, b) if a != b else 0.0)
+        # each walk passes the junction at most once per arm (3), as a way through only
+        assert all(w.count(0) <= 3 for w in walks), walks
 
 
 def test_survivors_close_the_vertex_a_dead_robot_stands_on_and_patrol_the_rest():

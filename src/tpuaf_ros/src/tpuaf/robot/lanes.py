@@ -104,19 +104,29 @@ def body_blocks(layer: LaneLayer, claim: LaneClaim) -> tuple[tuple[int, int], tu
     return (min(u, v), max(u, v)), occupied
 
 
-def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]]) -> tuple[int, ...]:
+STANDING_M = 0.1  # [m] a teammate that moved no more between its last two claims stood
+
+
+def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]],
+                  goal: int | None = None) -> tuple[int, ...]:
     """The vertices a lost teammate's body stands too near to reach, from where it announced
-    it was (`LaneLocks.last_positions` [m]): within two robots side by side plus the visit
-    radius of both of its last two positions (it stood there, about a second apart); none
-    from fewer positions (a robot that died driving lies on an edge: `body_blocks`)."""
-    if len(positions) < 2:
+    it was (`LaneLocks.last_positions` [m]) and the goal it was heading to (its latest
+    Intention; None: not known). Near is within two robots side by side plus the visit
+    radius. A vertex near both of its last two positions when they are at most STANDING_M
+    apart (it stood there, about a second apart), and its goal when near its last position (it drove on toward it, no farther: it
+    lies between the two). Else none: a robot that died driving lies on an edge
+    (`body_blocks`)."""
+    if not positions:
         return ()
     xy = np.asarray(layer.plan_map.positions, dtype=float)
     reach = layer.lane_map.pass_band_m + float(layer.plan_map.visit_radius_m)  # [m]
-    near = np.ones(len(xy), dtype=bool)
-    for x, y in positions:
-        near &= np.hypot(xy[:, 0] - x, xy[:, 1] - y) < reach
-    return tuple(int(v) for v in np.flatnonzero(near) if int(v) not in layer.plan_map.closed)
+    near = [np.hypot(xy[:, 0] - x, xy[:, 1] - y) < reach for x, y in positions]
+    covered = np.zeros(len(xy), dtype=bool)
+    if len(positions) >= 2 and math.dist(positions[-2], positions[-1]) <= STANDING_M:
+        covered = np.logical_and.reduce(near)
+    if goal is not None and 0 <= goal < len(xy) and near[-1][goal]:
+        covered[goal] = True
+    return tuple(int(v) for v in np.flatnonzero(covered) if int(v) not in layer.plan_map.closed)
 
 
 def closed_layer(layer: LaneLayer, occupied: tuple[int, ...]) -> LaneLayer | None:
@@ -400,7 +410,9 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
                 if new is not None:
                     access.blocked.append(edge)
             if new is None:  # lost standing elsewhere: the vertices it stands on closed
-                occupied = body_vertices(current[0], locks.last_positions(robot))
+                goal = machine.teammate_goals.get(robot)
+                occupied = body_vertices(current[0], locks.last_positions(robot),
+                                         goal[0] if goal is not None else None)
                 new = closed_layer(current[0], occupied)
                 if new is not None:
                     standing[robot] = occupied
