@@ -1,6 +1,7 @@
 """A teammate lost standing on a vertex outside any lane: its last two claims say where its
 body stands, and the survivors close the vertices it covers (robot/lanes.py `body_vertices`,
-`closed_layer`); tpuaf_plus plans through them without goals there (`_through_closed`)."""
+`closed_layer`: each keeps one edge, unless that cuts the plan in two); tpuaf_plus plans
+without them."""
 
 from __future__ import annotations
 
@@ -58,34 +59,40 @@ def test_the_locks_keep_a_teammates_last_two_positions():
     assert locks.last_positions(0) == [(1.5, 2.0)]
 
 
-def test_closing_is_one_layer_for_the_team_and_never_closes_everything():
-    layer = layer_without_lanes(star_map())
-    new = closed_layer(layer, (0,))
-    assert new is not None and new is closed_layer(layer, (0,))
-    assert new.plan_map.closed == {0} and len(new.plan_map.edges) == 6  # edges kept
+def ring_map() -> PatrolMap:
+    """A ring 0-1-2-3 of 2 m sides with a spur 3-4: 1 is no cut vertex, 3 is."""
+    positions = [(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0), (-2.0, 2.0)]
+    edges = [(0, 1, math.nan), (1, 2, math.nan), (2, 3, math.nan), (3, 0, math.nan),
+             (3, 4, math.nan)]
+    return PatrolMap("ring", list(range(5)), np.asarray(positions, dtype=float), edges,
+                     np.ones(5), np.ones(5), MapSettings())
+
+
+def test_a_closed_vertex_hangs_on_one_edge_and_one_layer_serves_the_team():
+    layer = layer_without_lanes(ring_map())
+    new = closed_layer(layer, (1,))
+    assert new is not None and new is closed_layer(layer, (1,))
+    assert new.plan_map.closed == {1}
+    edges = {(min(u, v), max(u, v)) for u, v, _ in new.plan_map.edges}
+    assert edges == {(0, 1), (2, 3), (0, 3), (3, 4)}  # its tether: the lowest far end
     assert closed_layer(layer, ()) is None
-    assert closed_layer(layer, tuple(range(7))) is None
+    assert closed_layer(layer, (3,)) is None  # a cut vertex: routes must pass by the body
+    assert closed_layer(layer_without_lanes(star_map()), (0,)) is None
 
 
-def test_tpuaf_plus_plans_through_a_closed_cut_vertex_only_as_a_way_through():
+def test_tpuaf_plus_plans_without_the_closed_vertex():
     from tpuaf.policies.tpuaf_plus import make_plan
 
-    pm = closed_layer(layer_without_lanes(star_map()), (0,)).plan_map
+    pm = closed_layer(layer_without_lanes(ring_map()), (1,)).plan_map
     graph = pm.graph
     for team in [(0, 1), (1, 2, 3), (1,)]:
-        plan = make_plan(pm, team, (0, 1, 3, 5), "auto", "auto")
+        plan = make_plan(pm, team, (0, 1, 3, 4), "auto", "auto")
         walks = [r.walk for r in plan.routes]
-        assert set().union(*walks) - {0} == set(range(1, 7))  # every open vertex is planned
-        for route in plan.routes:
-            w = route.walk
-            for i, (a, b) in enumerate(zip(w, w[1:] + w[:1], strict=True)):
-                assert a == b or b in graph.neighbours(a), (a, b, w)  # a step is an edge
-                if b == 0:  # the body's vertex only passed through, between two open ones
-                    assert a != 0 and w[(i + 2) % len(w)] not in (0, a), w
-                end = route.arc[i + 1] if i + 1 < len(w) else route.length
-                assert math.isclose(end - route.arc[i], graph.distance(a, b) if a != b else 0.0)
-        # each walk passes the junction at most once per arm (3), as a way through only
-        assert all(w.count(0) <= 3 for w in walks), walks
+        assert all(1 not in w for w in walks), walks  # no goal at the body
+        assert set().union(*walks) == {0, 2, 3, 4}  # every other vertex is planned
+        for w in walks:  # each step an edge of the plan's graph
+            for a, b in zip(w, w[1:] + w[:1], strict=True):
+                assert a == b or b in graph.neighbours(a), (a, b, w)
 
 
 def test_survivors_close_the_vertex_a_dead_robot_stands_on_and_patrol_the_rest():
@@ -127,3 +134,4 @@ def test_a_teammate_heard_again_reopens_the_vertices_its_body_was_thought_to_clo
     assert run.agents[1].machine.patrol_map.closed == {run.starts[0]}  # the policy's plan map
     machine.on_teammate_back(0)
     assert access.closed == frozenset() and not machine.patrol_map.closed
+    assert len(machine.patrol_map.edges) == len(run.patrol_map.edges)  # its edges back

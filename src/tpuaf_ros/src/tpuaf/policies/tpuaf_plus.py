@@ -54,8 +54,6 @@ Rule (docs/STRATEGIES.md has the why and the measurements):
 
 from __future__ import annotations
 
-import heapq
-import math
 from collections import OrderedDict
 from dataclasses import replace
 
@@ -158,22 +156,19 @@ def make_plan(patrol_map, team: tuple[int, ...], all_starts: tuple[int, ...], mo
 
 
 def _open_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
-    """The plan on `patrol_map` without its closed vertices (robot/lanes.py: a dead robot's
-    body on them): planned on the map of the other vertices, where two of them joined through
-    closed vertices only are joined by an edge of that route's length (routes pass by the
-    body), its walks in `patrol_map`'s indices; a start at a closed vertex counts at the
-    nearest open one."""
+    """The plan on `patrol_map` without its closed vertices (robot/lanes.py: each hangs on
+    one edge, so the rest stays connected and no shortest path between the rest passes
+    through one): planned on the map of the other vertices, its walks in `patrol_map`'s
+    indices; a start at a closed vertex counts at the nearest open one."""
     hit = _OPEN.get(id(patrol_map))
     if hit is None or hit[0] is not patrol_map:
         graph = patrol_map.graph
         keep = [v for v in range(patrol_map.num_vertices) if v not in patrol_map.closed]
         new = {old: k for k, old in enumerate(keep)}
-        edges = [(new[u], new[v], d) for u, v, d in patrol_map.edges if u in new and v in new]
-        through = _through_closed(patrol_map)
-        edges += [(new[u], new[v], d) for (u, v), (d, _) in through.items()]
         sub = replace(patrol_map, vertex_ids=[patrol_map.vertex_ids[v] for v in keep],
                       positions=np.asarray(patrol_map.positions)[keep],
-                      edges=edges,
+                      edges=[(new[u], new[v], d) for u, v, d in patrol_map.edges
+                             if u in new and v in new],
                       importance=np.asarray(patrol_map.importance)[keep],
                       initial_uncertainty=np.asarray(patrol_map.initial_uncertainty)[keep],
                       one_way=tuple((new[u], new[v]) for u, v in patrol_map.one_way
@@ -184,85 +179,13 @@ def _open_plan(patrol_map, team, all_starts, mode, repair) -> Plan:
                       closed=frozenset())
         near = [new[v] if v in new else new[min(keep, key=lambda w: graph.distance(v, w))]
                 for v in range(patrol_map.num_vertices)]
-        hit = _OPEN[id(patrol_map)] = (patrol_map, sub, keep, near, through)
+        hit = _OPEN[id(patrol_map)] = (patrol_map, sub, keep, near)
         while len(_OPEN) > 8:
             _OPEN.popitem(last=False)
-    _, sub, keep, near, through = hit
+    _, sub, keep, near = hit
     plan = make_plan(sub, team, tuple(near[s] for s in all_starts), mode, repair)
-    routes = [_route_past_closed(patrol_map.graph, r, [keep[v] for v in r.walk], through)
-              for r in plan.routes]
-    schedule = {robot: (routes[plan.route_of[robot]][1][i], t)  # entries moved by the new ones
-                for robot, (i, t) in plan.schedule.items()}
-    return replace(plan, routes=tuple(r for r, _ in routes), schedule=schedule)
-
-
-def _route_past_closed(graph, route: Route, walk: list[int],
-                       through: dict) -> tuple[Route, list[int]]:
-    """(`route` on `walk` (the full map's indices) with the closed vertices a step passes
-    through put in, each walk entry's new index): each step an edge again (the core walks
-    edges), their arcs from the step's start along the edges. Goals at them fail at once
-    (runtimes/agent.py), and the robot joins its walk after them, driving on past the body."""
-    if len(walk) < 2 or not through:
-        return replace(route, walk=tuple(walk)), list(range(len(walk)))
-    out_walk: list[int] = []
-    out_arc: list[float] = []
-    index: list[int] = []
-    for i, (a, arc) in enumerate(zip(walk, route.arc, strict=True)):
-        index.append(len(out_walk))
-        out_walk.append(a)
-        out_arc.append(arc)
-        b = walk[(i + 1) % len(walk)]
-        if a == b or graph.has_edge(a, b):
-            continue
-        _, path = through[(min(a, b), max(a, b))]
-        s, before = arc, a
-        for v in path if a < b else path[::-1]:
-            s += graph.edge_length(before, v)
-            out_walk.append(v)
-            out_arc.append(s)
-            before = v
-    return replace(route, walk=tuple(out_walk), arc=tuple(out_arc)), index
-
-
-def _through_closed(patrol_map) -> dict[tuple[int, int], tuple[float, tuple[int, ...]]]:
-    """{(u, v): (length [m], the closed vertices passed from u to v)} for open vertices u < v
-    not adjacent, joined by a path through closed vertices only over two-way edges (the
-    shortest such path)."""
-    closed = patrol_map.closed
-    one_way = {frozenset(arc) for arc in patrol_map.one_way}
-    adjacent: dict[int, list[tuple[int, float]]] = {}
-    direct: set[tuple[int, int]] = set()
-    graph = patrol_map.graph
-    for u, v, _ in patrol_map.edges:
-        u, v = int(u), int(v)
-        direct.add((min(u, v), max(u, v)))
-        if frozenset((u, v)) in one_way:
-            continue
-        length = graph.edge_length(u, v)
-        adjacent.setdefault(u, []).append((v, length))
-        adjacent.setdefault(v, []).append((u, length))
-    out: dict[tuple[int, int], tuple[float, tuple[int, ...]]] = {}
-    for a in sorted(adjacent):
-        if a in closed:
-            continue
-        best, before = {a: 0.0}, {}
-        frontier = [(0.0, a)]
-        while frontier:  # Dijkstra from a, expanding closed vertices only
-            d, w = heapq.heappop(frontier)
-            if d > best[w] or (w != a and w not in closed):
-                continue
-            for x, length in adjacent.get(w, []):
-                if d + length < best.get(x, math.inf):
-                    best[x], before[x] = d + length, w
-                    heapq.heappush(frontier, (d + length, x))
-        for b, d in best.items():
-            if a < b and b not in closed and (a, b) not in direct:
-                path, w = [], before[b]
-                while w != a:
-                    path.append(w)
-                    w = before[w]
-                out[(a, b)] = (d, tuple(reversed(path)))
-    return dict(sorted(out.items()))
+    routes = tuple(replace(r, walk=tuple(keep[v] for v in r.walk)) for r in plan.routes)
+    return replace(plan, routes=routes)
 
 
 def _make_plan(patrol_map, team, all_starts, mode, repair) -> Plan:

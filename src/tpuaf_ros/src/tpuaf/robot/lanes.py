@@ -15,8 +15,8 @@ the one-way lanes keep their direction where the plan stays strongly connected),
 re-times its policy on it. An edge whose loss would cut the plan in two is not dropped (the far
 side would be unreachable): the lane's lock is freed as before (docs/LANES.md). A teammate lost
 standing still outside a lane (its last two claims, about a second apart, both near a vertex)
-closes the vertices its body stands on (`body_vertices`, `closed_layer`): plans skip them,
-routes still pass by. The robots announce where they are on maps without a lane too, so that
+closes the vertices its body stands on (`body_vertices`, `closed_layer`: each keeps one edge,
+as above; none when that would cut the plan in two). The robots announce where they are on maps without a lane too, so that
 this works there (`lane_layer(..., without_lanes=True)`).
 """
 
@@ -130,33 +130,22 @@ def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]],
 
 
 def closed_layer(layer: LaneLayer, occupied: tuple[int, ...]) -> LaneLayer | None:
-    """`layer` with the vertices `occupied` closed (a dead robot's body on them: plans skip
-    them, goals there fail at once, runtimes/agent.py), their edges kept (routes pass by the
-    body: tpuaf_plus plans through them, policies/tpuaf_plus.py `_open_plan`); None when
-    there is none, or no open vertex would be left. The same on every robot (cached)."""
+    """`layer` with the vertices `occupied` closed (a dead robot's body on them): each keeps
+    one edge, its tether, as in `blocked_layer` (plans skip it, goals there fail at once,
+    runtimes/agent.py, and no route passes through it); None when there is none, or when the
+    other vertices would no longer all reach each other (a body on a cut vertex: routes must
+    still pass by it). The same on every robot (cached)."""
     key = (id(layer), "closed", tuple(sorted(occupied)))
     if key in _BLOCKED:
         return _BLOCKED[key][1]
-    plan = layer.plan_map
-    closed = plan.closed | frozenset(int(v) for v in occupied)
     result = None
-    if occupied and len(closed) < plan.num_vertices:
-        result = LaneLayer(layer.lane_map, layer.orientation, replace(plan, closed=closed))
-    _BLOCKED[key] = (layer, result)
-    return result
-
-
-def reopened_layer(layer: LaneLayer, vertices: tuple[int, ...]) -> LaneLayer | None:
-    """`layer` with `vertices` open again (the teammate whose body closed them is heard
-    again: it was not dead, or it was restarted); None when none of them is closed."""
-    key = (id(layer), "open", tuple(sorted(vertices)))
-    if key in _BLOCKED:
-        return _BLOCKED[key][1]
-    plan = layer.plan_map
-    result = None
-    if plan.closed & set(vertices):
-        result = LaneLayer(layer.lane_map, layer.orientation,
-                           replace(plan, closed=plan.closed - frozenset(vertices)))
+    if occupied:
+        plan = replace(layer.plan_map, one_way=())
+        pairs = [(min(int(a), int(b)), max(int(a), int(b))) for a, b, _ in plan.edges]
+        cut = _cut_edges(plan, pairs, (-1, -1), tuple(occupied))  # no edge of its own
+        if cut is not None:
+            plan = replace(plan, closed=plan.closed | frozenset(int(v) for v in occupied))
+            result = _without(layer, plan, pairs, cut)
     _BLOCKED[key] = (layer, result)
     return result
 
@@ -393,7 +382,8 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
     agent.navigator.lanes = access
     if BLOCK_LOST_BODIES:
         current = [layer]
-        standing: dict[int, tuple[int, ...]] = {}  # teammate -> the vertices its body closed
+        # teammate -> (the layer before the vertices its body stood on were closed, after)
+        standing: dict[int, tuple[LaneLayer, LaneLayer]] = {}
 
         def use(new: LaneLayer) -> None:
             current[0] = new
@@ -415,7 +405,7 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
                                          goal[0] if goal is not None else None)
                 new = closed_layer(current[0], occupied)
                 if new is not None:
-                    standing[robot] = occupied
+                    standing[robot] = (current[0], new)
             if new is None:
                 return
             for vertex in sorted(new.plan_map.closed - access.closed):
@@ -423,9 +413,9 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
             use(new)
 
         def teammate_back(robot: int) -> None:
-            new = reopened_layer(current[0], standing.pop(robot, ()))
-            if new is not None:  # (the monitor keeps them closed: docs/LANES.md)
-                use(new)
+            before, after = standing.pop(robot, (None, None))
+            if after is not None and current[0] is after:  # nothing changed since: reopen
+                use(before)  # (the monitor keeps them closed: docs/LANES.md)
 
         machine.on_teammate_lost_first = teammate_lost
         machine.on_teammate_back = teammate_back
