@@ -379,17 +379,18 @@ def plan_from(patrol_map, team: tuple[int, ...], starts: tuple[int, ...], mode: 
 
 def replan_starts(ctx) -> tuple[int, ...] | None:
     """Every robot's vertex when the plan map changes (a lane blocked, robot/lanes.py): the
-    vertex nearest the position of its last lane claim (re-announced every second, so every
-    survivor reads nearly the same; its own: where it is), the dead robot's too (its body);
-    None without lane claims (the run's start vertices then)."""
+    vertex nearest the position of its last lane claim (re-announced every second), its own
+    included (the claim it sent, not where it is now: every survivor then reads the same and
+    matches parts to robots alike), the dead robot's too (its body); None without lane claims
+    (the run's start vertices then)."""
     locks = getattr(ctx, "lane_locks", None)
     if locks is None:
         return None
     pm = ctx.patrol_map
     out = []
     for k in range(ctx.n_robots):
-        xy = ctx.position if k == ctx.robot else locks.claims[k].position if k in locks.claims \
-            else (float("nan"), float("nan"))
+        xy = locks.mine.position if k == ctx.robot else locks.claims[k].position \
+            if k in locks.claims else (float("nan"), float("nan"))
         if not all(np.isfinite(xy)):
             return None
         out.append(int(pm.nearest_vertex(float(xy[0]), float(xy[1]))))
