@@ -135,3 +135,20 @@ def test_a_teammate_heard_again_reopens_the_vertices_its_body_was_thought_to_clo
     machine.on_teammate_back(0)
     assert access.closed == frozenset() and not machine.patrol_map.closed
     assert len(machine.patrol_map.edges) == len(run.patrol_map.edges)  # its edges back
+
+
+def test_a_replan_reads_every_robot_from_its_claims_its_own_too():
+    """Every survivor must match parts to robots alike: its own vertex is read from the claim
+    it sent, as the others read it, not from where it stands now (ctcv, 12 robots, 3 deaths:
+    two survivors took one part and left 7-11 to nobody for half an hour)."""
+    from types import SimpleNamespace
+
+    from tpuaf.policies.tpuaf_plus import replan_starts
+
+    locks = LaneLocks(0, lambda claim: None)
+    locks.position = (2.1, 0.0)  # near vertex 1 when it announced
+    locks.announce(10.0)
+    locks.on_claim(LaneClaim(1, -1, 0.0, False, 10.0, (-1, -1), (0.0, 3.9)))  # near 6
+    ctx = SimpleNamespace(lane_locks=locks, patrol_map=star_map(), n_robots=2, robot=0,
+                          position=(0.2, 0.0))  # it has driven on, nearer 0, since
+    assert replan_starts(ctx) == (1, 6)
