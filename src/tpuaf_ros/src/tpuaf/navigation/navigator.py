@@ -441,14 +441,14 @@ class Navigator(LaneGate, GivingWay):
         return self._gate_wait(t, pose, points, u, nxt, obstacles), Event.NONE, -1
 
     def _near_goal(self, pose: tuple[float, float, float]) -> bool:
-        """Within `near_goal_m` of the goal or of a lane's waiting spot next on the route, or
-        within the clearance of two robots side by side (as near as a robot standing on it
-        lets us come: a teammate's body on the goal must not hold us for good; the other
-        waypoints count as reached farther off: waypoint_tolerance)."""
+        """Within `near_goal_m` of the goal, or of a lane's waiting spot next on the route,
+        within the clearance of two robots side by side at least (the other waypoints count
+        as reached farther off: waypoint_tolerance)."""
         route = self.route
         if self.near_goal_m is None or route is None:
             return False
-        near = max(self.near_goal_m, self._pass_clearance_m())
+        near = self.near_goal_m if route.is_last else max(self.near_goal_m,
+                                                          self._pass_clearance_m())
         gx, gy = route.next_position()
         return math.hypot(pose[0] - gx, pose[1] - gy) <= near
 
