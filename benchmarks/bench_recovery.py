@@ -144,6 +144,8 @@ def main() -> None:
     args = ap.parse_args()
     default_out = "recovery.md" if args.runtime == "graph" else "recovery_physics.md"
     args.out = args.out or default_out
+    if not args.out.endswith(".md"):  # a report name without its suffix
+        args.out += ".md"
     plus_params = dict(kv.split("=", 1) for kv in args.plus_params if "=" in kv)
     if len(plus_params) != len(args.plus_params):
         ap.error("--plus-params takes KEY=VALUE pairs")
