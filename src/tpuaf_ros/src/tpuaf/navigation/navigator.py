@@ -202,7 +202,7 @@ class Navigator(LaneGate, GivingWay):
             corners: list[tuple[float, float]] = []
         else:
             if self.keep_right_m > 0.0 and points is None and (
-                    self.lanes is None or not self.lanes.lane_map.lanes):
+                    self.lanes is None or not self.lanes.has_lanes):
                 # (not with lanes: their locks and waiting spots order the passing there)
                 path = keep_right(path, self.keep_right_m, self.planner, self._right_room_m())
             corners = [(float(px), float(py)) for px, py in path[1:-1]]

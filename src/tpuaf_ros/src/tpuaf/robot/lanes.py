@@ -16,8 +16,8 @@ re-times its policy on it. An edge whose loss would cut the plan in two is not d
 side would be unreachable): the lane's lock is freed as before (docs/LANES.md). A teammate lost
 standing still outside a lane (its last two claims, about a second apart, both near a vertex)
 closes the vertices its body stands on (`body_vertices`, `closed_layer`: each keeps one edge,
-as above; none when that would cut the plan in two). The robots announce where they are on maps without a lane too, so that
-this works there (`lane_layer(..., without_lanes=True)`).
+as above; none when that would cut the plan in two). The robots announce where they are on
+maps without a lane too, so that this works there (`lane_layer(..., without_lanes=True)`).
 """
 
 from __future__ import annotations
@@ -91,6 +91,12 @@ BLOCK_LOST_BODIES = True  # a lost teammate's body blocks the lane edge it drove
 _BLOCKED: dict[tuple, tuple[LaneLayer, LaneLayer | None]] = {}
 
 
+def body_reach_m(layer: LaneLayer) -> float:
+    """[m] A lost teammate's body this near a vertex (its last known position) keeps the
+    others from reaching it: two robots side by side plus the visit radius."""
+    return layer.lane_map.pass_band_m + float(layer.plan_map.visit_radius_m)
+
+
 def body_blocks(layer: LaneLayer, claim: LaneClaim) -> tuple[tuple[int, int], tuple[int, ...]]:
     """Where a lost teammate's body lies, from its last claim: the edge of its leg, and the
     leg's end vertices it stands too near for a robot to reach (closer than two robots side
@@ -98,7 +104,7 @@ def body_blocks(layer: LaneLayer, claim: LaneClaim) -> tuple[tuple[int, int], tu
     u, v = claim.leg
     x, y = claim.position
     positions = np.asarray(layer.plan_map.positions, dtype=float)
-    reach = layer.lane_map.pass_band_m + float(layer.plan_map.visit_radius_m)
+    reach = body_reach_m(layer)
     occupied = tuple(sorted(w for w in {u, v}
                             if math.hypot(positions[w][0] - x, positions[w][1] - y) < reach))
     return (min(u, v), max(u, v)), occupied
@@ -111,15 +117,15 @@ def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]],
                   goal: int | None = None) -> tuple[int, ...]:
     """The vertices a lost teammate's body stands too near to reach, from where it announced
     it was (`LaneLocks.last_positions` [m]) and the goal it was heading to (its latest
-    Intention; None: not known). Near is within two robots side by side plus the visit
-    radius. A vertex near both of its last two positions when they are at most STANDING_M
-    apart (it stood there, about a second apart), and its goal when near its last position (it drove on toward it, no farther: it
+    Intention; None: not known). Near is within `body_reach_m`. A vertex near both of its
+    last two positions when they are at most STANDING_M apart (it stood there, about a second
+    apart), and its goal when near its last position (it drove on toward it, no farther: it
     lies between the two). Else none: a robot that died driving lies on an edge
     (`body_blocks`)."""
     if not positions:
         return ()
     xy = np.asarray(layer.plan_map.positions, dtype=float)
-    reach = layer.lane_map.pass_band_m + float(layer.plan_map.visit_radius_m)  # [m]
+    reach = body_reach_m(layer)
     near = [np.hypot(xy[:, 0] - x, xy[:, 1] - y) < reach for x, y in positions]
     covered = np.zeros(len(xy), dtype=bool)
     if len(positions) >= 2 and math.dist(positions[-2], positions[-1]) <= STANDING_M:
@@ -339,6 +345,11 @@ class LaneAccess:
         self.locked = (frozenset(lane.index for lane in lane_map.lanes) if locked is None
                        else frozenset(locked))
         self.one_way = len(self.locked) < len(lane_map.lanes)  # some lanes driven one way
+
+    @property
+    def has_lanes(self) -> bool:
+        """Whether the map has any lane (a layer without lanes only shares positions)."""
+        return bool(self.lane_map.lanes)
 
     def use(self, lane_map: LaneMap, locked: frozenset[int] | None, position, now: float) -> None:
         """Drive on another lane map from now on (a lane blocked): inside a lane that is now
