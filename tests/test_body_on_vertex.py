@@ -46,6 +46,25 @@ def test_a_teammate_that_stood_by_a_vertex_covers_it_one_that_drove_or_was_heard
     assert body_vertices(layer, [(1.0, 0.0), (1.6, 0.0)], goal=1) == (1,)
     assert body_vertices(layer, [(1.0, 0.0), (1.3, 0.0)], goal=1) == ()  # 0.7 m short
     assert body_vertices(layer, [(1.6, 0.0)], goal=1) == (1,)  # heard once on its way
+    # its Intention left vertex 1 after its last claim, and it can have driven 0.2 m since:
+    # its body lies by 1 (ctcv, 8 robots: it died 0.2 s after leaving a junction)
+    assert body_vertices(layer, [(0.5, 0.0), (1.3, 0.0)], goal=2, left=(1, 0.2)) == (1,)
+    assert body_vertices(layer, [(0.5, 0.0), (1.3, 0.0)], goal=2, left=(1, 0.9)) == ()
+
+
+def test_the_vertex_a_teammate_left_is_read_from_its_intention_newer_than_its_claim():
+    from types import SimpleNamespace
+
+    from tpuaf.robot.lanes import _heading
+
+    locks = LaneLocks(1, lambda claim: None)
+    locks.on_claim(LaneClaim(0, -1, 0.0, False, 10.0, (-1, -1), (1.0, 0.0)))
+    machine = SimpleNamespace(teammate_goals={0: (2, 10.8, 1)})
+    goal, (left, drive) = _heading(machine, locks, 0, 1.0)
+    assert (goal, left) == (2, 1) and math.isclose(drive, 0.2)  # next claim due at 11 s
+    machine.teammate_goals[0] = (2, 9.5, 1)  # older than its claim: where it went is unknown
+    assert _heading(machine, locks, 0, 1.0) == (2, None)
+    assert _heading(SimpleNamespace(teammate_goals={}), locks, 0, 1.0) == (None, None)
 
 
 def test_the_locks_keep_a_teammates_last_two_positions():
@@ -76,8 +95,33 @@ def test_a_closed_vertex_hangs_on_one_edge_and_one_layer_serves_the_team():
     edges = {(min(u, v), max(u, v)) for u, v, _ in new.plan_map.edges}
     assert edges == {(0, 1), (2, 3), (0, 3), (3, 4)}  # its tether: the lowest far end
     assert closed_layer(layer, ()) is None
-    assert closed_layer(layer, (3,)) is None  # a cut vertex: routes must pass by the body
-    assert closed_layer(layer_without_lanes(star_map()), (0,)) is None
+    # a cut vertex robots can pass: a bypass between its open neighbours, then its tether
+    new = closed_layer(layer, (3,))
+    assert new.plan_map.closed == {3}
+    edges = {(min(u, v), max(u, v)): d for u, v, d in new.plan_map.edges}
+    assert set(edges) == {(0, 1), (1, 2), (0, 3), (0, 4), (2, 4)}  # 0-2 has a way round (1)
+    assert edges[(0, 4)] == edges[(2, 4)] == 4.0  # [m] through the body's vertex
+    # ... not one a robot cannot pass by (two robots do not fit side by side there)
+    narrow = LaneLayer(LaneMap([], {}, frozenset({3}), PASS_BAND_M), None, ring_map())
+    assert closed_layer(narrow, (3,)) is None
+
+
+def test_a_body_on_a_junction_is_bypassed_every_arm_reaches_every_other():
+    layer = layer_without_lanes(star_map())
+    pm = closed_layer(layer, (0,)).plan_map
+    assert pm.closed == {0}
+    assert [v for v in pm.graph.neighbours(0)] == [1]  # its tether, to the lowest far end
+    graph = pm.graph
+    for a, b in [(1, 3), (1, 5), (3, 5)]:
+        assert graph.has_edge(a, b) and graph.edge_length(a, b) == 4.0
+        assert 0 not in graph.path(a, b)  # routes drive by the body, never to it
+    # two bodies side by side on a corridor's cut vertices: one bypass over both
+    corridor = PatrolMap("corridor", list(range(4)), np.asarray([(0.0, 0), (1, 0), (2, 0), (3, 0)],
+                                                                dtype=float),
+                         [(0, 1, math.nan), (1, 2, math.nan), (2, 3, math.nan)], np.ones(4),
+                         np.ones(4), MapSettings())
+    pm = closed_layer(layer_without_lanes(corridor), (1, 2)).plan_map
+    assert pm.closed == {1, 2} and pm.graph.edge_length(0, 3) == 3.0
 
 
 def test_tpuaf_plus_plans_without_the_closed_vertex():

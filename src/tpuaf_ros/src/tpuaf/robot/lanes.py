@@ -22,6 +22,7 @@ maps without a lane too, so that this works there (`lane_layer(..., without_lane
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -114,14 +115,17 @@ STANDING_M = 0.1  # [m] a teammate that moved no more between its last two claim
 
 
 def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]],
-                  goal: int | None = None) -> tuple[int, ...]:
+                  goal: int | None = None,
+                  left: tuple[int, float] | None = None) -> tuple[int, ...]:
     """The vertices a lost teammate's body stands too near to reach, from where it announced
-    it was (`LaneLocks.last_positions` [m]) and the goal it was heading to (its latest
-    Intention; None: not known). Near is within `body_reach_m`. A vertex near both of its
-    last two positions when they are at most STANDING_M apart (it stood there, about a second
-    apart), and its goal when near its last position (it drove on toward it, no farther: it
-    lies between the two). Else none: a robot that died driving lies on an edge
-    (`body_blocks`)."""
+    it was (`LaneLocks.last_positions` [m]), the goal it was heading to (its latest
+    Intention; None: not known) and `left`: (the vertex that Intention left, the most it can
+    have driven since [m]) when the Intention is newer than its last position (None: not).
+    Near is within `body_reach_m`. A vertex near both of its last two positions when they are
+    at most STANDING_M apart (it stood there, about a second apart); its goal when near its
+    last position (it drove on toward it, no farther: it lies between the two); the vertex it
+    left when the visit radius plus the drive since is within reach (it died just after
+    leaving it). Else none: a robot that died driving lies on an edge (`body_blocks`)."""
     if not positions:
         return ()
     xy = np.asarray(layer.plan_map.positions, dtype=float)
@@ -132,21 +136,25 @@ def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]],
         covered = np.logical_and.reduce(near)
     if goal is not None and 0 <= goal < len(xy) and near[-1][goal]:
         covered[goal] = True
+    if left is not None and 0 <= left[0] < len(xy) and (
+            float(layer.plan_map.visit_radius_m) + left[1] < reach):
+        covered[left[0]] = True
     return tuple(int(v) for v in np.flatnonzero(covered) if int(v) not in layer.plan_map.closed)
 
 
 def closed_layer(layer: LaneLayer, occupied: tuple[int, ...]) -> LaneLayer | None:
     """`layer` with the vertices `occupied` closed (a dead robot's body on them): each keeps
     one edge, its tether, as in `blocked_layer` (plans skip it, goals there fail at once,
-    runtimes/agent.py, and no route passes through it); None when there is none, or when the
-    other vertices would no longer all reach each other (a body on a cut vertex: routes must
-    still pass by it). The same on every robot (cached)."""
+    runtimes/agent.py, and no route passes through it). A body on a cut vertex robots can pass
+    gets a bypass first (`_bypassed`): routes drive by it, never to it. None when there is
+    none, or when the other vertices would no longer all reach each other (a body on a narrow
+    cut vertex: the goals there keep failing). The same on every robot (cached)."""
     key = (id(layer), "closed", tuple(sorted(occupied)))
     if key in _BLOCKED:
         return _BLOCKED[key][1]
     result = None
     if occupied:
-        plan = replace(layer.plan_map, one_way=())
+        plan = _bypassed(layer, replace(layer.plan_map, one_way=()), tuple(occupied))
         pairs = [(min(int(a), int(b)), max(int(a), int(b))) for a, b, _ in plan.edges]
         cut = _cut_edges(plan, pairs, (-1, -1), tuple(occupied))  # no edge of its own
         if cut is not None:
@@ -154,6 +162,51 @@ def closed_layer(layer: LaneLayer, occupied: tuple[int, ...]) -> LaneLayer | Non
             result = _without(layer, plan, pairs, cut)
     _BLOCKED[key] = (layer, result)
     return result
+
+
+def _bypassed(layer: LaneLayer, plan, occupied: tuple[int, ...]):
+    """`plan` with a bypass round each body on a cut vertex that robots can pass (not one of
+    the lane map's narrow vertices): an edge between two of its open neighbours as long as
+    the way between them through the covered vertices [m], where that is shorter than every
+    way round them. The vertex then hangs on its tether like any other closed one: routes
+    drive past the body on the bypass legs (the planner's path, round it on the laser), and
+    no goal is set on it."""
+    n = plan.num_vertices
+    pairs = [(min(int(a), int(b)), max(int(a), int(b))) for a, b, _ in plan.edges]
+    covered = set(occupied)
+    passable = {v for v in covered if v not in layer.lane_map.narrow_vertices
+                and not _connected(n, [p for p in pairs if v not in p], {v})}
+    if not passable:
+        return plan
+    graph = plan.graph
+    adjacency: dict[int, list[tuple[int, float]]] = {}
+    for a, b in pairs:
+        length = float(graph.edge_length(a, b))
+        adjacency.setdefault(a, []).append((b, length))
+        adjacency.setdefault(b, []).append((a, length))
+    bypass = []
+    for source in sorted({w for v in passable for w, _ in adjacency[v] if w not in covered}):
+        through = _ways(adjacency, source, lambda u: u in passable)
+        around = _ways(adjacency, source, lambda u: u not in covered)
+        bypass += [(source, w, d) for w, d in sorted(through.items())
+                   if w > source and w not in covered and d < around.get(w, math.inf) - 1e-9]
+    return replace(plan, edges=[*plan.edges, *bypass])
+
+
+def _ways(adjacency: dict[int, list[tuple[int, float]]], source: int,
+          via: Callable[[int], bool]) -> dict[int, float]:
+    """Shortest lengths [m] from `source` to every vertex reached through vertices `via`
+    alone (Dijkstra; the ends themselves may be any)."""
+    best, frontier = {source: 0.0}, [(0.0, source)]
+    while frontier:
+        d, u = heapq.heappop(frontier)
+        if d > best[u] or (u != source and not via(u)):
+            continue
+        for w, length in adjacency.get(u, ()):
+            if d + length < best.get(w, math.inf):
+                best[w] = d + length
+                heapq.heappush(frontier, (d + length, w))
+    return best
 
 
 def blocked_layer(layer: LaneLayer, edge: tuple[int, int],
@@ -240,6 +293,22 @@ def _connected(n: int, edges: list[tuple[int, int]], aside: set[int]) -> bool:
                 seen.add(w)
                 stack.append(w)
     return len(seen) == len(rest)
+
+
+def _heading(machine: Any, locks: LaneLocks, robot: int,
+             max_speed: float) -> tuple[int | None, tuple[int, float] | None]:
+    """(goal, left) of `body_vertices` for lost teammate `robot`, from its latest Intention:
+    its goal, and when the Intention is newer than its last claim, the vertex it left and
+    the most it drove since at `max_speed` [m/s] (its next claim, due a re-announcement
+    after the last, never came)."""
+    intent = machine.teammate_goals.get(robot)
+    if intent is None:
+        return None, None
+    goal, sent, left = intent
+    claim = locks.claims.get(int(robot))
+    if claim is None or sent <= claim.time or left < 0:
+        return goal, None
+    return goal, (left, max_speed * max(0.0, claim.time + locks.reannounce_s - sent))
 
 
 class LaneAccess:
@@ -392,6 +461,7 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
     machine.lane_locks = locks
     agent.navigator.lanes = access
     if BLOCK_LOST_BODIES:
+        max_speed = float(agent.navigator.controller.config.max_linear_speed)  # [m/s]
         current = [layer]
         # teammate -> (the layer before the vertices its body stood on were closed, after)
         standing: dict[int, tuple[LaneLayer, LaneLayer]] = {}
@@ -411,9 +481,8 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
                 if new is not None:
                     access.blocked.append(edge)
             if new is None:  # lost standing elsewhere: the vertices it stands on closed
-                goal = machine.teammate_goals.get(robot)
                 occupied = body_vertices(current[0], locks.last_positions(robot),
-                                         goal[0] if goal is not None else None)
+                                         *_heading(machine, locks, robot, max_speed))
                 new = closed_layer(current[0], occupied)
                 if new is not None:
                     standing[robot] = (current[0], new)

@@ -94,6 +94,8 @@ class LearnedTravel:
         self._planned = {(min(int(i), int(j)), max(int(i), int(j))):
                          graph.edge_length(int(i), int(j)) / self.speed
                          for i, j, _ in plan_map.edges}
+        for edge, seconds in self._planned.items():  # a new edge (a bypass): the model's time
+            self.durations.model.setdefault(edge, seconds)
         self._last_retime = -math.inf
 
     def summary(self) -> dict:
