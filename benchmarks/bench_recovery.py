@@ -105,6 +105,9 @@ def one_run(case: tuple[str, str, int, int, int, float, dict, str]) -> dict:
             "x_after": float(np.mean(x_after)) if x_after else math.nan,
             "ideal_s": ideal, "floor_s": floor, "detect_floor_s": detect, "covered": covered,
             "settled_s": settled, "closed": len(closed),
+            # closed by the survivors with no body on them (ground truth): left out of the
+            # figures although a robot could visit them
+            "closed_no_body": len(recorder.closed - recorder.bodies_closed()),
             "cpu_s": time.process_time() - t0}
 
 
@@ -210,7 +213,12 @@ def main() -> None:
              + (" Physics: the worst idleness after, `settled` and `never` are over the vertices "
                 "no dead robot's body lies on (the summary's `vertices_under_bodies`: its centre "
                 "nearer than 2 radii - the visit radius, so no robot can visit them; "
-                f"{sum(1 for r in rows if r.get('closed'))} of {len(rows)} runs had one)."
+                f"{sum(1 for r in rows if r.get('closed'))} of {len(rows)} runs had one), and "
+                "those the survivors closed (`lane_vertices_closed`: a body in a lane or by a "
+                "vertex, as they locate it); of these, with no body on them (a survivor's "
+                "misjudgement, whose idleness the figures then hide): "
+                f"{sum(r.get('closed_no_body', 0) for r in rows)} vertices in "
+                f"{sum(1 for r in rows if r.get('closed_no_body'))} runs."
                 if args.runtime == "physics" else ""), ""]
     verdicts = []
     ours_settled: list[float] = []
