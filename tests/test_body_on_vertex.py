@@ -6,6 +6,7 @@ without them."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 from tpuaf.maps.model import MapSettings, PatrolMap
@@ -14,6 +15,7 @@ from tpuaf.robot.lanes import LaneLayer, body_vertices, closed_layer
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
 
+MAPS = Path(__file__).resolve().parents[2] / "shared" / "maps" / "patrolling_sim"
 PASS_BAND_M = 0.4  # [m] two robots side by side
 
 
@@ -196,3 +198,28 @@ def test_a_replan_reads_every_robot_from_its_claims_its_own_too():
     ctx = SimpleNamespace(lane_locks=locks, patrol_map=star_map(), n_robots=2, robot=0,
                           position=(0.2, 0.0))  # it has driven on, nearer 0, since
     assert replan_starts(ctx) == (1, 6)
+
+
+def test_survivors_drive_past_a_body_on_a_cut_vertex_and_patrol_both_sides():
+    """ctcv (a tree), tpuaf_plus, 3 robots: robot 1 stalls on its start vertex 12, a cut
+    vertex between the two halves of the map, and dies there at 20 s. The survivors close 12
+    with a bypass 10-13 through it and patrol both sides; before, closing it would have cut
+    the plan in two, so 12 stayed a goal none could reach (the 17x physics recovery of
+    recovery_physics.md)."""
+    from tpuaf.runtimes.config import PhysicsConfig
+    from tpuaf.runtimes.physics import PhysicsRun
+
+    run = PhysicsRun(PhysicsConfig(map=str(MAPS / "ctcv"), strategy="tpuaf_plus", robots=3,
+                                   duration_s=600.0, seed=1, stall=["1@0.1"], fail=["1@20"]))
+    summary = run.run()
+    body = run.starts[1]
+    ids = run.patrol_map.vertex_ids
+    assert ids[body] == 12
+    assert [access.closed for access in (run.lane_access[0], run.lane_access[2])] == [{body}] * 2
+    graph = run.agents[0].machine.patrol_map.graph
+    a, b = ids.index(10), ids.index(13)
+    assert graph.has_edge(a, b) and body not in graph.path(a, b)  # the bypass
+    times = run.recorder.vertex_times
+    late = {v: len([t for t in ts if t > 200.0]) for v, ts in enumerate(times) if v != body}
+    assert min(late.values()) >= 2, late  # both halves still patrolled
+    assert summary["goal_failures"] <= 3
