@@ -54,19 +54,40 @@ def test_a_teammate_that_stood_by_a_vertex_covers_it_one_that_drove_or_was_heard
     assert body_vertices(layer, [(0.5, 0.0), (1.3, 0.0)], goal=2, left=(1, 0.9)) == ()
 
 
-def test_the_vertex_a_teammate_left_is_read_from_its_intention_newer_than_its_claim():
+def test_where_a_lost_teammate_went_is_read_from_its_intention_and_claims():
     from types import SimpleNamespace
 
     from tpuaf.robot.lanes import _heading
+    from tpuaf.team.messages import Intention
 
     locks = LaneLocks(1, lambda claim: None)
+    locks.on_claim(LaneClaim(0, -1, 0.0, False, 9.0, (-1, -1), (1.0, 0.0)))
     locks.on_claim(LaneClaim(0, -1, 0.0, False, 10.0, (-1, -1), (1.0, 0.0)))
-    machine = SimpleNamespace(teammate_goals={0: (2, 10.8, 1)})
-    goal, (left, drive) = _heading(machine, locks, 0, 1.0)
-    assert (goal, left) == (2, 1) and math.isclose(drive, 0.2)  # next claim due at 11 s
-    machine.teammate_goals[0] = (2, 9.5, 1)  # older than its claim: where it went is unknown
-    assert _heading(machine, locks, 0, 1.0) == (2, None)
-    assert _heading(SimpleNamespace(teammate_goals={}), locks, 0, 1.0) == (None, None)
+    # it reached 1 and left at once 0.2 s before its next claim was due
+    machine = SimpleNamespace(teammate_goals={0: Intention(0, 1, 2, 12.8, 2.0, 10.8)})
+    goal, (left, drive), moved = _heading(machine, locks, 0, 1.0)
+    assert (goal, left, moved) == (2, 1, 0.0) and math.isclose(drive, 0.2)
+    # ... dwelling there until 11.5 s: it never left
+    machine.teammate_goals[0] = Intention(0, 1, 2, 13.5, 2.0, 10.8)
+    assert _heading(machine, locks, 0, 1.0) == (2, (1, 0.0), 0.0)
+    # it stood at its last two claims and was to leave at 10.3 s: it may be 0.7 m off
+    machine.teammate_goals[0] = Intention(0, 1, 2, 12.3, 2.0, 8.0)
+    goal, left, moved = _heading(machine, locks, 0, 1.0)
+    assert (goal, left) == (2, None) and math.isclose(moved, 0.7)
+    # ... to leave before its last two claims: held there (blocked), it stays put
+    machine.teammate_goals[0] = Intention(0, 1, 2, 10.5, 2.0, 8.0)
+    assert _heading(machine, locks, 0, 1.0) == (2, None, 0.0)
+    # ... unless that was within a turn on the spot of them (ctcv, 12 robots: it turned at 13
+    # for a second, then drove 0.9 m off before it died)
+    goal, left, moved = _heading(machine, locks, 0, 1.0, turn_s=1.0)
+    assert math.isclose(moved, 1.0)
+    assert _heading(SimpleNamespace(teammate_goals={}), locks, 0, 1.0) == (None, None, 0.0)
+
+
+def test_a_teammate_that_stood_then_may_have_left_covers_only_what_it_covers_wherever_it_went():
+    layer = layer_without_lanes(star_map())  # reach 0.4 + 0.15 m
+    assert body_vertices(layer, [(0.05, 0.0), (0.05, 0.0)], moved_m=0.3) == (0,)
+    assert body_vertices(layer, [(0.05, 0.0), (0.05, 0.0)], moved_m=0.6) == ()
 
 
 def test_the_locks_keep_a_teammates_last_two_positions():

@@ -115,14 +115,16 @@ STANDING_M = 0.1  # [m] a teammate that moved no more between its last two claim
 
 
 def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]],
-                  goal: int | None = None,
-                  left: tuple[int, float] | None = None) -> tuple[int, ...]:
+                  goal: int | None = None, left: tuple[int, float] | None = None,
+                  moved_m: float = 0.0) -> tuple[int, ...]:
     """The vertices a lost teammate's body stands too near to reach, from where it announced
     it was (`LaneLocks.last_positions` [m]), the goal it was heading to (its latest
     Intention; None: not known) and `left`: (the vertex that Intention left, the most it can
     have driven since [m]) when the Intention is newer than its last position (None: not).
     Near is within `body_reach_m`. A vertex near both of its last two positions when they are
-    at most STANDING_M apart (it stood there, about a second apart); its goal when near its
+    at most STANDING_M apart (it stood there, about a second apart), nearer still by
+    `moved_m` [m] to the last (how far it may have driven off since: `_heading`); its goal
+    when near its
     last position (it drove on toward it, no farther: it lies between the two); the vertex it
     left when the visit radius plus the drive since is within reach (it died just after
     leaving it). Else none: a robot that died driving lies on an edge (`body_blocks`)."""
@@ -133,7 +135,9 @@ def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]],
     near = [np.hypot(xy[:, 0] - x, xy[:, 1] - y) < reach for x, y in positions]
     covered = np.zeros(len(xy), dtype=bool)
     if len(positions) >= 2 and math.dist(positions[-2], positions[-1]) <= STANDING_M:
-        covered = np.logical_and.reduce(near)
+        x, y = positions[-1]
+        covered = np.logical_and.reduce(near) & (
+            np.hypot(xy[:, 0] - x, xy[:, 1] - y) < reach - moved_m)
     if goal is not None and 0 <= goal < len(xy) and near[-1][goal]:
         covered[goal] = True
     if left is not None and 0 <= left[0] < len(xy) and (
@@ -295,20 +299,33 @@ def _connected(n: int, edges: list[tuple[int, int]], aside: set[int]) -> bool:
     return len(seen) == len(rest)
 
 
-def _heading(machine: Any, locks: LaneLocks, robot: int,
-             max_speed: float) -> tuple[int | None, tuple[int, float] | None]:
-    """(goal, left) of `body_vertices` for lost teammate `robot`, from its latest Intention:
-    its goal, and when the Intention is newer than its last claim, the vertex it left and
-    the most it drove since at `max_speed` [m/s] (its next claim, due a re-announcement
-    after the last, never came)."""
+def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
+             turn_s: float = 0.0) -> tuple[int | None, tuple[int, float] | None, float]:
+    """(goal, left, moved_m) of `body_vertices` for lost teammate `robot`, from its latest
+    Intention and its last claims. Its next claim, due a re-announcement after the last,
+    never came: it died before. When the Intention is newer than the last claim, `left` is
+    the vertex it left and the most it drove since its departure at `max_speed` [m/s]; when
+    it stood at its last two claims and its departure (the Intention's expected arrival -
+    travel time) falls after the first of them less `turn_s` [s] (a turn on the spot, which
+    moves it no farther), `moved_m` is the most it drove from its last position since (it
+    dwelt or turned, then may have left), else 0 (held there long: blocked; or still dwelling
+    at its death)."""
     intent = machine.teammate_goals.get(robot)
-    if intent is None:
-        return None, None
-    goal, sent, left = intent
     claim = locks.claims.get(int(robot))
-    if claim is None or sent <= claim.time or left < 0:
-        return goal, None
-    return goal, (left, max_speed * max(0.0, claim.time + locks.reannounce_s - sent))
+    if intent is None:
+        return None, None, 0.0
+    if claim is None:
+        return intent.vertex, None, 0.0
+    due = claim.time + locks.reannounce_s  # [s] its next claim
+    departure = intent.expected_arrival - intent.travel_time  # [s] (after a dwell: later)
+    if intent.time > claim.time and intent.from_vertex >= 0:
+        drive = max_speed * max(0.0, due - max(intent.time, departure))
+        return intent.vertex, (intent.from_vertex, drive), 0.0
+    before = locks.previous.get(int(robot))
+    moved = 0.0
+    if before is not None and before.time - turn_s < departure < due:
+        moved = max_speed * (due - max(departure, claim.time))
+    return intent.vertex, None, moved
 
 
 class LaneAccess:
@@ -461,7 +478,9 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
     machine.lane_locks = locks
     agent.navigator.lanes = access
     if BLOCK_LOST_BODIES:
-        max_speed = float(agent.navigator.controller.config.max_linear_speed)  # [m/s]
+        config = agent.navigator.controller.config
+        max_speed = float(config.max_linear_speed)  # [m/s]
+        turn_s = math.pi / float(config.max_angular_speed)  # [s] a half turn on the spot
         current = [layer]
         # teammate -> (the layer before the vertices its body stood on were closed, after)
         standing: dict[int, tuple[LaneLayer, LaneLayer]] = {}
@@ -482,7 +501,8 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
                     access.blocked.append(edge)
             if new is None:  # lost standing elsewhere: the vertices it stands on closed
                 occupied = body_vertices(current[0], locks.last_positions(robot),
-                                         *_heading(machine, locks, robot, max_speed))
+                                         *_heading(machine, locks, robot, max_speed,
+                                                   turn_s))
                 new = closed_layer(current[0], occupied)
                 if new is not None:
                     standing[robot] = (current[0], new)

@@ -119,9 +119,9 @@ class RobotMachine(RobotContextBase):
         # Called with a lost teammate's index when it is heard again (the lane layer reopens
         # the vertices its body was thought to stand on).
         self.on_teammate_back: Callable[[int], None] | None = None
-        # teammate -> (the goal of its latest Intention heard, its time [s], the vertex it left):
-        # where a teammate lost on its way was heading (the lane layer: where its body lies)
-        self.teammate_goals: dict[int, tuple[int, float, int]] = {}
+        # teammate -> its latest Intention heard: where a teammate lost on its way was heading
+        # and when it left (the lane layer: where its body lies)
+        self.teammate_goals: dict[int, Intention] = {}
 
     # --- the protocol's state ---
     @property
@@ -237,10 +237,9 @@ class RobotMachine(RobotContextBase):
                 self.lane_locks.on_claim(message)
             return
         if isinstance(message, Intention):
-            goal = self.teammate_goals.get(message.robot)
-            if goal is None or message.time >= goal[1]:
-                self.teammate_goals[message.robot] = (int(message.vertex), float(message.time),
-                                                      int(message.from_vertex))
+            latest = self.teammate_goals.get(message.robot)
+            if latest is None or message.time >= latest.time:
+                self.teammate_goals[message.robot] = message
         if self.protocol.listening:
             self.learned.observe(message)
             self.policy.on_message(message, self)
