@@ -15,9 +15,11 @@ the one-way lanes keep their direction where the plan stays strongly connected),
 re-times its policy on it. An edge whose loss would cut the plan in two is not dropped (the far
 side would be unreachable): the lane's lock is freed as before (docs/LANES.md). A teammate lost
 standing still outside a lane (its last two claims, about a second apart, both near a vertex)
-closes the vertices its body stands on (`body_vertices`, `closed_layer`: each keeps one edge,
-as above; none when that would cut the plan in two). The robots announce where they are on
-maps without a lane too, so that this works there (`lane_layer(..., without_lanes=True)`).
+or just off a vertex (its latest Intention left it after its last claim) closes the vertices
+its body stands on (`body_vertices`, `closed_layer`: each keeps one edge, as above; a cut
+vertex robots can pass gets a bypass first, `_bypassed`; none when closing would still cut
+the plan in two). The robots announce where they are on maps without a lane too, so that
+this works there (`lane_layer(..., without_lanes=True)`).
 """
 
 from __future__ import annotations
