@@ -82,6 +82,13 @@ def test_where_a_lost_teammate_went_is_read_from_its_intention_and_claims():
     goal, left, moved = _heading(machine, locks, 0, 1.0, turn_s=1.0)
     assert math.isclose(moved, 1.0)
     assert _heading(SimpleNamespace(teammate_goals={}), locks, 0, 1.0) == (None, None, 0.0)
+    # heard after its next claim was due: that claim was lost, it may have lived on
+    machine.teammate_goals[0] = Intention(0, 1, 2, 12.8, 2.0, 10.8)
+    goal, (left, drive), _ = _heading(machine, locks, 0, 1.0, heard_s=11.0)  # the claim's time
+    assert left == 1 and math.isclose(drive, 0.2)
+    assert _heading(machine, locks, 0, 1.0, heard_s=11.4) == (None, None, 0.0)
+    machine.teammate_goals[0] = Intention(0, 1, 2, 12.3, 2.0, 8.0)
+    assert _heading(machine, locks, 0, 1.0, heard_s=11.4) == (None, None, math.inf)
 
 
 def test_a_teammate_that_stood_then_may_have_left_covers_only_what_it_covers_wherever_it_went():

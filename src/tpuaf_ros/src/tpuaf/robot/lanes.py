@@ -114,6 +114,7 @@ def body_blocks(layer: LaneLayer, claim: LaneClaim) -> tuple[tuple[int, int], tu
 
 
 STANDING_M = 0.1  # [m] a teammate that moved no more between its last two claims stood
+CLAIM_SLACK_S = 0.2  # [s] a claim goes out on the first control tick (10 Hz) once it is due
 
 
 def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]],
@@ -302,7 +303,8 @@ def _connected(n: int, edges: list[tuple[int, int]], aside: set[int]) -> bool:
 
 
 def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
-             turn_s: float = 0.0) -> tuple[int | None, tuple[int, float] | None, float]:
+             turn_s: float = 0.0,
+             heard_s: float = -math.inf) -> tuple[int | None, tuple[int, float] | None, float]:
     """(goal, left, moved_m) of `body_vertices` for lost teammate `robot`, from its latest
     Intention and its last claims. Its next claim, due a re-announcement after the last,
     never came: it died before. When the Intention is newer than the last claim, `left` is
@@ -311,7 +313,10 @@ def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
     travel time) falls after the first of them less `turn_s` [s] (a turn on the spot, which
     moves it no farther), `moved_m` is the most it drove from its last position since (it
     dwelt or turned, then may have left), else 0 (held there long: blocked; or still dwelling
-    at its death)."""
+    at its death). `heard_s` [s]: when it was last heard (a heartbeat too); later than its
+    next claim was due (+ CLAIM_SLACK_S), that claim was lost and it may have lived on:
+    nothing is placed after its last claim (no goal, no `left`; `moved_m` inf where it may
+    have left)."""
     intent = machine.teammate_goals.get(robot)
     claim = locks.claims.get(int(robot))
     if intent is None:
@@ -320,14 +325,17 @@ def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
         return intent.vertex, None, 0.0
     due = claim.time + locks.reannounce_s  # [s] its next claim
     departure = intent.expected_arrival - intent.travel_time  # [s] (after a dwell: later)
+    # else messages were lost (or came late): its death time is unknown
+    fresh = heard_s <= due + CLAIM_SLACK_S
+    goal = intent.vertex if fresh else None  # (else it may have reached it and driven on)
     if intent.time > claim.time and intent.from_vertex >= 0:
         drive = max_speed * max(0.0, due - max(intent.time, departure))
-        return intent.vertex, (intent.from_vertex, drive), 0.0
+        return goal, (intent.from_vertex, drive) if fresh else None, 0.0
     before = locks.previous.get(int(robot))
     moved = 0.0
     if before is not None and before.time - turn_s < departure < due:
-        moved = max_speed * (due - max(departure, claim.time))
-    return intent.vertex, None, moved
+        moved = max_speed * (due - max(departure, claim.time)) if fresh else math.inf
+    return goal, None, moved
 
 
 class LaneAccess:
@@ -503,8 +511,8 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
                     access.blocked.append(edge)
             if new is None:  # lost standing elsewhere: the vertices it stands on closed
                 occupied = body_vertices(current[0], locks.last_positions(robot),
-                                         *_heading(machine, locks, robot, max_speed,
-                                                   turn_s))
+                                         *_heading(machine, locks, robot, max_speed, turn_s,
+                                                   machine.liveness.last_heard_s(robot)))
                 new = closed_layer(current[0], occupied)
                 if new is not None:
                     standing[robot] = (current[0], new)
