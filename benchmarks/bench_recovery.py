@@ -51,9 +51,9 @@ def map_arg(name: str) -> str:
 
 
 def death_run(name: str, strategy: str, n: int, k: int, seed: int, duration_s: float,
-              params: dict, runtime: str = "graph"):
+              params: dict, runtime: str = "graph", loss: float = 0.0):
     """(run, its summary, the dying robots): the graph (or physics) runtime, K robots (drawn
-    per seed) dying at half the run."""
+    per seed) dying at half the run; `loss`: the team messages' loss probability."""
     from tpuaf.runtimes.config import PhysicsConfig, RunConfig
     from tpuaf.runtimes.graph import make_run
     from tpuaf.runtimes.physics import PhysicsRun
@@ -61,7 +61,7 @@ def death_run(name: str, strategy: str, n: int, k: int, seed: int, duration_s: f
     dying = sorted(np.random.default_rng([seed, n, k]).choice(n, k, replace=False).tolist())
     fields = dict(map=map_arg(name), strategy=strategy, robots=n, duration_s=duration_s,
                   seed=seed, fail=[[int(r), duration_s / 2] for r in dying],
-                  strategy_params=params)
+                  strategy_params=params, loss=loss)
     if runtime == "physics":
         run = PhysicsRun(PhysicsConfig(**fields))
     else:
@@ -69,10 +69,10 @@ def death_run(name: str, strategy: str, n: int, k: int, seed: int, duration_s: f
     return run, run.run(), dying
 
 
-def one_run(case: tuple[str, str, int, int, int, float, dict, str]) -> dict:
-    name, strategy, n, k, seed, duration_s, params, runtime = case
+def one_run(case: tuple[str, str, int, int, int, float, dict, str, float]) -> dict:
+    name, strategy, n, k, seed, duration_s, params, runtime, loss = case
     t0 = time.process_time()
-    run, summary, _ = death_run(name, strategy, n, k, seed, duration_s, params, runtime)
+    run, summary, _ = death_run(name, strategy, n, k, seed, duration_s, params, runtime, loss)
     rec = summary["recovery"]
     recorder = run.recorder
     # physics: vertices a dead robot's body lies on (or a lane body cuts off) no reaction can
@@ -142,6 +142,8 @@ def main() -> None:
     ap.add_argument("--reuse-from", default=None,
                     help="with --reuse: the JSON in benchmarks/results to take them from "
                          "(default: the one beside --out)")
+    ap.add_argument("--loss", type=float, default=0.0,
+                    help="team message loss probability in [0, 1) (default 0)")
     ap.add_argument("--plus-params", nargs="+", default=[], metavar="KEY=VALUE",
                     help="tpuaf_plus parameters for its runs, e.g. repair=merge")
     args = ap.parse_args()
@@ -166,7 +168,7 @@ def main() -> None:
     strategies = list(args.strategies) + [s for s in STRATEGIES if any(
         r["strategy"] == s for r in kept) and s not in args.strategies]
     cases = [(m, s, n, k, seed, args.duration, plus_params if s == "tpuaf_plus" else {},
-              args.runtime)
+              args.runtime, args.loss)
              for m in maps for n in teams
              for k in sorted({1, max(1, n // 4)}) for s in args.strategies
              for seed in range(1, seeds + 1)]
@@ -193,6 +195,7 @@ def main() -> None:
              f" --seeds {seeds} --duration {args.duration:.0f}"
              + (f" --plus-params {' '.join(args.plus_params)}" if plus_params else "")
              + (f" --runtime {args.runtime}" if args.runtime != "graph" else "")
+             + (f" --loss {args.loss:g}" if args.loss else "")
              + (f" --strategies {' '.join(args.strategies)}" if not kept
                 and list(args.strategies) != list(STRATEGIES) else "")
              + (f" --out {args.out}" if args.out != default_out else "")
@@ -201,7 +204,9 @@ def main() -> None:
                 + f"` (the other rows from {source.name})" if kept else "`")
              + (f" (tpuaf_plus with {', '.join(args.plus_params)})" if plus_params else "")
              + f". {len(cases)} runs now, {len(rows)} in the tables, {args.runtime} "
-             f"runtime, {args.duration:.0f} s each, deaths at {args.duration / 2:.0f} s; wall "
+             f"runtime, {args.duration:.0f} s each, deaths at {args.duration / 2:.0f} s"
+             + (f", {100 * args.loss:g} % of team messages lost" if args.loss else "")
+             + "; wall "
              f"{wall:.0f} s with {args.workers} workers; load average (1 min) {load_before:.1f} "
              "at the start.", "",
              "Per cell: median, worst over seeds of the worst idleness after the deaths over "
