@@ -82,11 +82,15 @@ def test_where_a_lost_teammate_went_is_read_from_its_intention_and_claims():
     goal, left, moved = _heading(machine, locks, 0, 1.0, turn_s=1.0)
     assert math.isclose(moved, 1.0)
     assert _heading(SimpleNamespace(teammate_goals={}), locks, 0, 1.0) == (None, None, 0.0)
+    from tpuaf.robot.lanes import claims_current
+
+    assert claims_current(locks, 0, 11.2) and not claims_current(locks, 0, 11.4)
+    assert not claims_current(locks, 5, 0.0)  # never claimed
     # heard after its next claim was due: that claim was lost, it may have lived on
     machine.teammate_goals[0] = Intention(0, 1, 2, 12.8, 2.0, 10.8)
     goal, (left, drive), _ = _heading(machine, locks, 0, 1.0, heard_s=11.0)  # the claim's time
     assert left == 1 and math.isclose(drive, 0.2)
-    assert _heading(machine, locks, 0, 1.0, heard_s=11.4) == (None, None, 0.0)
+    assert _heading(machine, locks, 0, 1.0, heard_s=11.4) == (None, None, math.inf)
     machine.teammate_goals[0] = Intention(0, 1, 2, 12.3, 2.0, 8.0)
     assert _heading(machine, locks, 0, 1.0, heard_s=11.4) == (None, None, math.inf)
 

@@ -302,6 +302,14 @@ def _connected(n: int, edges: list[tuple[int, int]], aside: set[int]) -> bool:
     return len(seen) == len(rest)
 
 
+def claims_current(locks: LaneLocks, robot: int, heard_s: float) -> bool:
+    """Is teammate `robot`'s last claim its last word: heard (`heard_s` [s], a heartbeat too)
+    no later than its next claim was due (+ CLAIM_SLACK_S)? Else that claim was lost (or came
+    late) and the teammate may have lived on and moved: its body is placed by nothing."""
+    claim = locks.claims.get(int(robot))
+    return claim is not None and heard_s <= claim.time + locks.reannounce_s + CLAIM_SLACK_S
+
+
 def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
              turn_s: float = 0.0,
              heard_s: float = -math.inf) -> tuple[int | None, tuple[int, float] | None, float]:
@@ -314,28 +322,26 @@ def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
     moves it no farther), `moved_m` is the most it drove from its last position since (it
     dwelt or turned, then may have left), else 0 (held there long: blocked; or still dwelling
     at its death). `heard_s` [s]: when it was last heard (a heartbeat too); later than its
-    next claim was due (+ CLAIM_SLACK_S), that claim was lost and it may have lived on:
-    nothing is placed after its last claim (no goal, no `left`; `moved_m` inf where it may
-    have left)."""
+    next claim was due (+ CLAIM_SLACK_S), that claim was lost and it may have lived on and
+    moved: it is not placed at all (no goal, no `left`, `moved_m` inf)."""
     intent = machine.teammate_goals.get(robot)
     claim = locks.claims.get(int(robot))
+    if claim is not None and not claims_current(locks, robot, heard_s):
+        return None, None, math.inf  # where it went since its last claim is unknown
     if intent is None:
         return None, None, 0.0
     if claim is None:
         return intent.vertex, None, 0.0
     due = claim.time + locks.reannounce_s  # [s] its next claim
     departure = intent.expected_arrival - intent.travel_time  # [s] (after a dwell: later)
-    # else messages were lost (or came late): its death time is unknown
-    fresh = heard_s <= due + CLAIM_SLACK_S
-    goal = intent.vertex if fresh else None  # (else it may have reached it and driven on)
     if intent.time > claim.time and intent.from_vertex >= 0:
         drive = max_speed * max(0.0, due - max(intent.time, departure))
-        return goal, (intent.from_vertex, drive) if fresh else None, 0.0
+        return intent.vertex, (intent.from_vertex, drive), 0.0
     before = locks.previous.get(int(robot))
     moved = 0.0
     if before is not None and before.time - turn_s < departure < due:
-        moved = max_speed * (due - max(departure, claim.time)) if fresh else math.inf
-    return goal, None, moved
+        moved = max_speed * (due - max(departure, claim.time))
+    return intent.vertex, None, moved
 
 
 class LaneAccess:
@@ -502,7 +508,8 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
             agent.replan(new.plan_map)
 
         def teammate_lost(robot: int) -> None:
-            claim = locks.lost_in(robot)
+            claim = (locks.lost_in(robot) if claims_current(
+                locks, robot, machine.liveness.last_heard_s(robot)) else None)
             new = None
             if claim is not None:  # lost inside a lane: its edge blocked
                 edge, occupied = body_blocks(current[0], claim)
