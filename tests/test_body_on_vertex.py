@@ -64,35 +64,35 @@ def test_where_a_lost_teammate_went_is_read_from_its_intention_and_claims():
     locks.on_claim(LaneClaim(0, -1, 0.0, False, 9.0, (-1, -1), (1.0, 0.0)))
     locks.on_claim(LaneClaim(0, -1, 0.0, False, 10.0, (-1, -1), (1.0, 0.0)))
     # it reached 1 and left at once 0.2 s before its next claim was due
-    machine = SimpleNamespace(teammate_goals={0: Intention(0, 1, 2, 12.8, 2.0, 10.8)})
+    machine = SimpleNamespace(teammate_intentions={0: Intention(0, 1, 2, 12.8, 2.0, 10.8)})
     goal, (left, drive), moved = _heading(machine, locks, 0, 1.0)
     assert (goal, left, moved) == (2, 1, 0.0) and math.isclose(drive, 0.2)
     # ... dwelling there until 11.5 s: it never left
-    machine.teammate_goals[0] = Intention(0, 1, 2, 13.5, 2.0, 10.8)
+    machine.teammate_intentions[0] = Intention(0, 1, 2, 13.5, 2.0, 10.8)
     assert _heading(machine, locks, 0, 1.0) == (2, (1, 0.0), 0.0)
     # it stood at its last two claims and was to leave at 10.3 s: it may be 0.7 m off
-    machine.teammate_goals[0] = Intention(0, 1, 2, 12.3, 2.0, 8.0)
+    machine.teammate_intentions[0] = Intention(0, 1, 2, 12.3, 2.0, 8.0)
     goal, left, moved = _heading(machine, locks, 0, 1.0)
     assert (goal, left) == (2, None) and math.isclose(moved, 0.7)
     # ... to leave before its last two claims: held there (blocked), it stays put
-    machine.teammate_goals[0] = Intention(0, 1, 2, 10.5, 2.0, 8.0)
+    machine.teammate_intentions[0] = Intention(0, 1, 2, 10.5, 2.0, 8.0)
     assert _heading(machine, locks, 0, 1.0) == (2, None, 0.0)
     # ... unless that was within a turn on the spot of them (ctcv, 12 robots: it turned at 13
     # for a second, then drove 0.9 m off before it died)
     goal, left, moved = _heading(machine, locks, 0, 1.0, turn_s=1.0)
     assert math.isclose(moved, 1.0)
-    assert _heading(SimpleNamespace(teammate_goals={}), locks, 0, 1.0) == (None, None, 0.0)
+    assert _heading(SimpleNamespace(teammate_intentions={}), locks, 0, 1.0) == (None, None, 0.0)
     from tpuaf.robot.lanes import claims_current
 
     assert claims_current(locks, 0, 11.2) and not claims_current(locks, 0, 11.4)
     assert not claims_current(locks, 5, 0.0)  # never claimed
     # heard after its next claim was due: that claim was lost, it may have lived on
-    machine.teammate_goals[0] = Intention(0, 1, 2, 12.8, 2.0, 10.8)
-    goal, (left, drive), _ = _heading(machine, locks, 0, 1.0, heard_s=11.0)  # the claim's time
+    machine.teammate_intentions[0] = Intention(0, 1, 2, 12.8, 2.0, 10.8)
+    goal, (left, drive), _ = _heading(machine, locks, 0, 1.0, current=claims_current(locks, 0, 11.0))  # the claim's time
     assert left == 1 and math.isclose(drive, 0.2)
-    assert _heading(machine, locks, 0, 1.0, heard_s=11.4) == (None, None, math.inf)
-    machine.teammate_goals[0] = Intention(0, 1, 2, 12.3, 2.0, 8.0)
-    assert _heading(machine, locks, 0, 1.0, heard_s=11.4) == (None, None, math.inf)
+    assert _heading(machine, locks, 0, 1.0, current=claims_current(locks, 0, 11.4)) == (None, None, math.inf)
+    machine.teammate_intentions[0] = Intention(0, 1, 2, 12.3, 2.0, 8.0)
+    assert _heading(machine, locks, 0, 1.0, current=claims_current(locks, 0, 11.4)) == (None, None, math.inf)
 
 
 def test_a_teammate_that_stood_then_may_have_left_covers_only_what_it_covers_wherever_it_went():

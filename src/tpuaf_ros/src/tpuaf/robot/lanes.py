@@ -127,21 +127,19 @@ def body_vertices(layer: LaneLayer, positions: list[tuple[float, float]],
     Near is within `body_reach_m`. A vertex near both of its last two positions when they are
     at most STANDING_M apart (it stood there, about a second apart), nearer still by
     `moved_m` [m] to the last (how far it may have driven off since: `_heading`); its goal
-    when near its
-    last position (it drove on toward it, no farther: it lies between the two); the vertex it
-    left when the visit radius plus the drive since is within reach (it died just after
-    leaving it). Else none: a robot that died driving lies on an edge (`body_blocks`)."""
+    when near its last position (it drove on toward it, no farther: it lies between the two);
+    the vertex it left when the visit radius plus the drive since is within reach (it died
+    just after leaving it). Else none: a robot that died driving lies on an edge
+    (`body_blocks`)."""
     if not positions:
         return ()
     xy = np.asarray(layer.plan_map.positions, dtype=float)
     reach = body_reach_m(layer)
-    near = [np.hypot(xy[:, 0] - x, xy[:, 1] - y) < reach for x, y in positions]
+    away = [np.hypot(xy[:, 0] - x, xy[:, 1] - y) for x, y in positions[-2:]]  # [m]
     covered = np.zeros(len(xy), dtype=bool)
     if len(positions) >= 2 and math.dist(positions[-2], positions[-1]) <= STANDING_M:
-        x, y = positions[-1]
-        covered = np.logical_and.reduce(near) & (
-            np.hypot(xy[:, 0] - x, xy[:, 1] - y) < reach - moved_m)
-    if goal is not None and 0 <= goal < len(xy) and near[-1][goal]:
+        covered = (away[0] < reach) & (away[1] < reach - moved_m)
+    if goal is not None and 0 <= goal < len(xy) and away[-1][goal] < reach:
         covered[goal] = True
     if left is not None and 0 <= left[0] < len(xy) and (
             float(layer.plan_map.visit_radius_m) + left[1] < reach):
@@ -312,7 +310,7 @@ def claims_current(locks: LaneLocks, robot: int, heard_s: float) -> bool:
 
 def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
              turn_s: float = 0.0,
-             heard_s: float = -math.inf) -> tuple[int | None, tuple[int, float] | None, float]:
+             current: bool = True) -> tuple[int | None, tuple[int, float] | None, float]:
     """(goal, left, moved_m) of `body_vertices` for lost teammate `robot`, from its latest
     Intention and its last claims. Its next claim, due a re-announcement after the last,
     never came: it died before. When the Intention is newer than the last claim, `left` is
@@ -321,12 +319,12 @@ def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
     travel time) falls after the first of them less `turn_s` [s] (a turn on the spot, which
     moves it no farther), `moved_m` is the most it drove from its last position since (it
     dwelt or turned, then may have left), else 0 (held there long: blocked; or still dwelling
-    at its death). `heard_s` [s]: when it was last heard (a heartbeat too); later than its
-    next claim was due (+ CLAIM_SLACK_S), that claim was lost and it may have lived on and
-    moved: it is not placed at all (no goal, no `left`, `moved_m` inf)."""
-    intent = machine.teammate_goals.get(robot)
+    at its death). Not `current` (`claims_current`: its last claim was not its last word):
+    it may have lived on and moved, and is not placed at all (no goal, no `left`, `moved_m`
+    inf)."""
+    intent = machine.teammate_intentions.get(robot)
     claim = locks.claims.get(int(robot))
-    if claim is not None and not claims_current(locks, robot, heard_s):
+    if claim is not None and not current:
         return None, None, math.inf  # where it went since its last claim is unknown
     if intent is None:
         return None, None, 0.0
@@ -508,8 +506,8 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
             agent.replan(new.plan_map)
 
         def teammate_lost(robot: int) -> None:
-            claim = (locks.lost_in(robot) if claims_current(
-                locks, robot, machine.liveness.last_heard_s(robot)) else None)
+            latest = claims_current(locks, robot, machine.liveness.last_heard_s(robot))
+            claim = locks.lost_in(robot) if latest else None
             new = None
             if claim is not None:  # lost inside a lane: its edge blocked
                 edge, occupied = body_blocks(current[0], claim)
@@ -519,7 +517,7 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
             if new is None:  # lost standing elsewhere: the vertices it stands on closed
                 occupied = body_vertices(current[0], locks.last_positions(robot),
                                          *_heading(machine, locks, robot, max_speed, turn_s,
-                                                   machine.liveness.last_heard_s(robot)))
+                                                   latest))
                 new = closed_layer(current[0], occupied)
                 if new is not None:
                     standing[robot] = (current[0], new)

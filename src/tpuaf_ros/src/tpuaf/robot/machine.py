@@ -121,7 +121,7 @@ class RobotMachine(RobotContextBase):
         self.on_teammate_back: Callable[[int], None] | None = None
         # teammate -> its latest Intention heard: where a teammate lost on its way was heading
         # and when it left (the lane layer: where its body lies)
-        self.teammate_goals: dict[int, Intention] = {}
+        self.teammate_intentions: dict[int, Intention] = {}
 
     # --- the protocol's state ---
     @property
@@ -237,9 +237,9 @@ class RobotMachine(RobotContextBase):
                 self.lane_locks.on_claim(message)
             return
         if isinstance(message, Intention):
-            latest = self.teammate_goals.get(message.robot)
+            latest = self.teammate_intentions.get(message.robot)
             if latest is None or message.time >= latest.time:
-                self.teammate_goals[message.robot] = message
+                self.teammate_intentions[message.robot] = message
         if self.protocol.listening:
             self.learned.observe(message)
             self.policy.on_message(message, self)
