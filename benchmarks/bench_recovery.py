@@ -75,9 +75,9 @@ def one_run(case: tuple[str, str, int, int, int, float, dict, str, float]) -> di
     run, summary, _ = death_run(name, strategy, n, k, seed, duration_s, params, runtime, loss)
     rec = summary["recovery"]
     recorder = run.recorder
-    # physics: vertices a dead robot's body lies on (or a lane body cuts off) no reaction can
-    # visit again; the figures are over the other vertices (the summary's `..._reachable`)
-    closed = recorder.closed | recorder.bodies_closed()
+    # physics: vertices the dead robots' bodies cut off in truth (measure/bodies.py) no
+    # reaction can visit again; the figures are over the other vertices (`..._reachable`)
+    closed = recorder.bodies_closed()
     after = max(r.get("worst_idleness_after_reachable_s", r["worst_idleness_after_s"])
                 for r in rec)
     ideal = rec[-1]["ideal_worst_idleness_survivors_s"]
@@ -105,9 +105,9 @@ def one_run(case: tuple[str, str, int, int, int, float, dict, str, float]) -> di
             "x_after": float(np.mean(x_after)) if x_after else math.nan,
             "ideal_s": ideal, "floor_s": floor, "detect_floor_s": detect, "covered": covered,
             "settled_s": settled, "closed": len(closed),
-            # closed by the survivors with no body on them (ground truth): left out of the
-            # figures although a robot could visit them
-            "closed_no_body": len(recorder.closed - recorder.bodies_closed()),
+            # closed by the survivors although a survivor could still reach them (in truth):
+            # in the figures, unvisited
+            "closed_no_body": len(recorder.closed - closed),
             "cpu_s": time.process_time() - t0}
 
 
@@ -216,12 +216,13 @@ def main() -> None:
              "after: the median over seeds of the mean uncertainty (SPEC's X) over the 1 Hz rows "
              "after the deaths."
              + (" Physics: the worst idleness after, `settled` and `never` are over the vertices "
-                "no dead robot's body lies on (the summary's `vertices_under_bodies`: its centre "
-                "nearer than 2 radii - the visit radius, so no robot can visit them; "
-                f"{sum(1 for r in rows if r.get('closed'))} of {len(rows)} runs had one), and "
-                "those the survivors closed (`lane_vertices_closed`: a body in a lane or by a "
-                "vertex, as they locate it); of these, with no body on them (a survivor's "
-                "misjudgement, whose idleness the figures then hide): "
+                "the dead robots' bodies do not cut off, in truth (the summary's "
+                "`vertices_under_bodies`, measure/bodies.py: no survivor can plan a way to within "
+                "the visit radius of them round the bodies; "
+                f"{sum(1 for r in rows if r.get('closed'))} of {len(rows)} runs had one). The "
+                "vertices the survivors closed themselves (`lane_vertices_closed`, as they locate "
+                "a body from the team messages) stay in the figures; of these, a survivor could "
+                "still reach (a misjudgement, which the figures then count against the strategy): "
                 f"{sum(r.get('closed_no_body', 0) for r in rows)} vertices in "
                 f"{sum(1 for r in rows if r.get('closed_no_body'))} runs."
                 if args.runtime == "physics" else ""), ""]

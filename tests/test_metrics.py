@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -108,18 +109,27 @@ def test_a_dead_robots_body_on_a_vertex_is_left_out_of_the_reachable_recovery(bo
     else:
         assert s["vertices_under_bodies"] == [12]
         assert r["worst_idleness_after_reachable_s"] == 15.0  # v1's gap 15 -> 30 s
-    far = RunRecorder(line_map(), 2, ground_truth=False, teammate_timeout_s=1.0,
+    # in a 2 m wide corridor a body 0.3 m off v2 lets a robot by: its centre reaches 0.11 m
+    # from v2 beyond the body, keeping 2 radii + the safety margin (0.41 m) from its centre
+    wide = replace(line_map(), corridor_width=2.0)
+    assert body_cut_off(wide, 19.7) == set()
+    # 0.19 m off (DIAG_labs N = 12, recovery_physics.md): no spot within the visit radius of
+    # v2 is 0.41 m from the body's centre
+    assert body_cut_off(wide, 19.81) == {2}
+    # in the map's own 1.01 m corridor no robot gets by a body, however far from v2 (the old
+    # rule, distance to the vertex alone, called v2 reachable at 0.3 m)
+    assert body_cut_off(line_map(), 19.7) == {2}
+    assert body_cut_off(line_map(), 15.0) == {2}
+    assert body_cut_off(wide, 15.0) == set()
+
+
+def body_cut_off(patrol_map: PatrolMap, body_x: float) -> set[int]:
+    """The vertices a dead robot at (body_x, 0) [m] cuts off from a survivor at (6, 0)."""
+    rec = RunRecorder(patrol_map, 2, ground_truth=False, teammate_timeout_s=1.0,
                       body_radius_m=0.165)
-    far.record_positions(6.0, np.array([[6.0, 0.0], [19.7, 0.0]]))  # 0.3 m off: reachable
-    far.record_robot_death(1, 6.0)
-    assert far.bodies_closed() == set()
-    # 0.19 m off (DIAG_labs N = 12, recovery_physics.md): no robot came within the visit radius,
-    # as each kept 2 radii + the safety margin (0.41 m) from the body's centre
-    near = RunRecorder(line_map(), 2, ground_truth=False, teammate_timeout_s=1.0,
-                       body_radius_m=0.165)
-    near.record_positions(6.0, np.array([[6.0, 0.0], [19.81, 0.0]]))
-    near.record_robot_death(1, 6.0)
-    assert near.bodies_closed() == {2}
+    rec.record_positions(6.0, np.array([[6.0, 0.0], [body_x, 0.0]]))
+    rec.record_robot_death(1, 6.0)
+    return rec.bodies_closed()
 
 
 def test_death_floor_on_a_square_hand_log():

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import tpuaf_core
 
+from tpuaf.measure.bodies import vertices_cut_off
 from tpuaf.measure.recovery import death_floor, recovery_after_deaths
 from tpuaf.measure.summary import (
     acceleration_ratio,
@@ -38,7 +39,6 @@ from tpuaf.measure.summary import (
     first_coverage,
     idleness_stats,
 )
-from tpuaf.params import CONTROLLER_DEFAULTS
 from tpuaf.topics import DWELL, GOAL, REACHED, START, VERTEX_CLOSED
 
 __all__ = ["TIMESERIES_COLUMNS", "RecorderView", "RunRecorder", "acceleration_ratio",
@@ -81,6 +81,7 @@ class RecorderView:
     # robots): `bodies_closed`; None: point robots (the graph runtime)
     body_radius_m: float | None = None
     last_seen: np.ndarray | None = None  # [m] (n_robots, 2) each robot's last known position
+    planner: Any = None  # the robots' PathPlanner (bodies_closed; None: the map's default)
 
     def _start_view(self) -> None:
         # Python copies of the logs, extended on read (the core only ever appends to them).
@@ -97,26 +98,36 @@ class RecorderView:
         self.closed.add(int(vertex))
 
     def bodies_closed(self) -> set[int]:
-        """The vertices a dead robot's body lies on: its centre (its last known position)
-        nearer to the vertex than 2 body radii + the controller's safety margin - the visit
-        radius, so that no robot keeping that margin from it can bring its centre within the
-        visit radius (walls aside). None without bodies."""
+        """The vertices dead robots' bodies cut off, in truth (measure/bodies.py): no survivor,
+        from its last known position, can plan a path ending within the visit radius of them
+        round the bodies at the dead robots' last known positions (the planner the robots
+        drive with: `planner`, else the map's for `body_radius_m`). Empty without bodies. The
+        robots' own closures (`closed`, VERTEX_CLOSED) never enter the figures."""
         deaths = self.final_deaths()
         last = self.last_seen
         if self.body_radius_m is None or not deaths or last is None:
             return set()
-        reach = (2.0 * float(self.body_radius_m) + CONTROLLER_DEFAULTS.safety_margin
-                 - float(self.patrol_map.visit_radius_m))  # [m]
-        if reach <= 0.0:
-            return set()
-        vertices = np.asarray(self.patrol_map.positions, dtype=float)
-        out: set[int] = set()
-        for _, robot in deaths:
-            body = last[int(robot)]
-            if np.isfinite(body).all():
-                near = np.hypot(*(vertices - body).T) < reach
-                out.update(int(v) for v in np.nonzero(near)[0])
-        return out
+        dead = sorted({int(robot) for _, robot in deaths})
+        bodies = last[dead]
+        survivors = np.delete(last, dead, axis=0)
+        key = (tuple(dead), bodies.tobytes(), survivors.tobytes())
+        cached = getattr(self, "_cut_off", None)
+        if cached is None or cached[0] != key:
+            from tpuaf.navigation.planner import shared_planner
+
+            planner = self.planner or shared_planner(self.patrol_map, float(self.body_radius_m))
+            cut = vertices_cut_off(planner, self.patrol_map.positions,
+                                   float(self.patrol_map.visit_radius_m), bodies,
+                                   float(self.body_radius_m), survivors)
+            self._cut_off = cached = (key, cut)
+        return set(cached[1])
+
+    def bodies_located(self) -> bool:
+        """Whether every dead robot's body has a known position (`bodies_closed` is then the
+        truth; without positions, as in a bag with no poses, it is empty)."""
+        deaths = self.final_deaths()
+        return (self.body_radius_m is not None and bool(deaths) and self.last_seen is not None
+                and all(np.isfinite(self.last_seen[int(r)]).all() for _, r in deaths))
 
     def finish(self, end_time: float) -> None:
         """Bring every accumulator to `end_time` [s] (robots held at their last positions)."""
@@ -256,16 +267,18 @@ class RecorderView:
 
     def summary(self, end_time: float) -> dict:
         """Every metric of SPEC section 6 at `end_time` [s], JSON-serialisable (NaN -> null);
-        with vertices recorded closed (`record_closed`: `lane_vertices_closed`, their ids) or
-        under a dead robot's body (`bodies_closed`: `vertices_under_bodies`), the recovery
-        over the other vertices too."""
+        with vertices cut off by dead robots' bodies in truth (`bodies_closed`:
+        `vertices_under_bodies`, their ids), the recovery over the other vertices too. The
+        vertices the robots reported closed (`record_closed`) are listed apart
+        (`lane_vertices_closed`; `closed_but_reachable`: those a survivor could still reach)
+        and never leave the figures."""
         end_time = float(end_time)
         self.finish(end_time)
         core = self._core
         x_final = float(np.mean(core.field_values)) if self.ground_truth else math.nan
         deaths = self.final_deaths()
         under = self.bodies_closed()
-        closed = sorted(self.closed | under)
+        closed = sorted(under)
         summary = build_summary(
             self, end_time, interval_samples=core.interval_samples, ins_sum=core.ins_sum,
             n_rows=core.row_count, worst=core.worst_idleness(end_time), x_sum=core.x_sum,
@@ -276,6 +289,8 @@ class RecorderView:
         ids = self.patrol_map.vertex_ids
         if self.closed:
             summary["lane_vertices_closed"] = [ids[v] for v in sorted(self.closed)]
+            if self.bodies_located():  # else the truth is not known
+                summary["closed_but_reachable"] = [ids[v] for v in sorted(self.closed - under)]
         if under:
             summary["vertices_under_bodies"] = [ids[v] for v in sorted(under)]
         return summary

@@ -89,6 +89,7 @@ class PhysicsRun(TeamRun):
         # One planner (costmap and edge paths) for the team: they share the footprint.
         self.planner = (shared_planner(world_map, robot_model.radius) if config.planner
                         else None)
+        self.recorder.planner = self.planner  # the bodies' truth: the robots' own planner
         # The lane layer where the map has stretches one robot wide (docs/LANES.md); with
         # one-way lanes the plan's graph (routes, strategies' travel times) follows the arcs.
         layer = (lane_layer(self.planner, world_map, pm, config.one_way, without_lanes=True)
