@@ -64,7 +64,8 @@ def test_where_a_lost_teammate_went_is_read_from_its_intention_and_claims():
     locks.on_claim(LaneClaim(0, -1, 0.0, False, 9.0, (-1, -1), (1.0, 0.0)))
     locks.on_claim(LaneClaim(0, -1, 0.0, False, 10.0, (-1, -1), (1.0, 0.0)))
     # it reached 1 and left at once 0.2 s before its next claim was due
-    machine = SimpleNamespace(teammate_intentions={0: Intention(0, 1, 2, 12.8, 2.0, 10.8)})
+    machine = SimpleNamespace(teammate_intentions={0: Intention(0, 1, 2, 12.8, 2.0, 10.8)},
+                              teammate_visits={})
     goal, (left, drive), moved = _heading(machine, locks, 0, 1.0)
     assert (goal, left, moved) == (2, 1, 0.0) and math.isclose(drive, 0.2)
     # ... dwelling there until 11.5 s: it never left
@@ -81,7 +82,8 @@ def test_where_a_lost_teammate_went_is_read_from_its_intention_and_claims():
     # for a second, then drove 0.9 m off before it died)
     goal, left, moved = _heading(machine, locks, 0, 1.0, turn_s=1.0)
     assert math.isclose(moved, 1.0)
-    assert _heading(SimpleNamespace(teammate_intentions={}), locks, 0, 1.0) == (None, None, 0.0)
+    assert _heading(SimpleNamespace(teammate_intentions={}, teammate_visits={}), locks, 0,
+                    1.0) == (None, None, 0.0)
     from tpuaf.robot.lanes import claims_current
 
     assert claims_current(locks, 0, 11.2) and not claims_current(locks, 0, 11.4)
@@ -93,6 +95,40 @@ def test_where_a_lost_teammate_went_is_read_from_its_intention_and_claims():
     assert _heading(machine, locks, 0, 1.0, current=claims_current(locks, 0, 11.4)) == (None, None, math.inf)
     machine.teammate_intentions[0] = Intention(0, 1, 2, 12.3, 2.0, 8.0)
     assert _heading(machine, locks, 0, 1.0, current=claims_current(locks, 0, 11.4)) == (None, None, math.inf)
+
+
+def test_a_visit_newer_than_the_intention_means_its_next_intention_was_lost():
+    """Under message loss: a teammate standing at its last two claims whose latest Visit is
+    newer than its latest Intention (tpuaf and tpuaf_plus send both at each arrival) may have
+    left after its last claim: it covers the vertex only where that drive could not take it
+    off (recovery_physics_loss.md: 9 vertices closed with no body on them)."""
+    from types import SimpleNamespace
+
+    from tpuaf.robot.lanes import _heading
+    from tpuaf.team.messages import Intention, Visit
+
+    locks = LaneLocks(1, lambda claim: None)
+    locks.on_claim(LaneClaim(0, -1, 0.0, False, 9.0, (-1, -1), (1.95, 0.0)))
+    locks.on_claim(LaneClaim(0, -1, 0.0, False, 10.0, (-1, -1), (1.95, 0.0)))
+    # heard: the Intention to vertex 1 (sent at 6 s) and the arrival there at 8.5 s
+    machine = SimpleNamespace(teammate_intentions={0: Intention(0, 0, 1, 8.5, 2.0, 6.0)},
+                              teammate_visits={0: Visit(0, 1, 8.5, 2)})
+    assert _heading(machine, locks, 0, 1.0) == (2, None, 1.0)  # may be 1 m off by 11 s
+    layer = layer_without_lanes(star_map())
+    assert body_vertices(layer, locks.last_positions(0), *_heading(machine, locks, 0, 1.0)) == ()
+    # a slow robot (0.1 m/s) cannot have left the vertex's reach: covered still
+    assert body_vertices(layer, locks.last_positions(0), *_heading(machine, locks, 0, 0.1)) == (
+        1,)
+    # arrived after its last claim (10.8 s): it left vertex 1 at the earliest then
+    machine.teammate_visits[0] = Visit(0, 1, 10.8, 2)
+    goal, (left, drive), moved = _heading(machine, locks, 0, 1.0)
+    assert (goal, left, moved) == (2, 1, 0.0) and math.isclose(drive, 0.2)
+    # the Intention heard with the Visit: the rules of the Intention
+    machine.teammate_intentions[0] = Intention(0, 1, 2, 13.5, 2.0, 10.8)
+    assert _heading(machine, locks, 0, 1.0) == (2, (1, 0.0), 0.0)
+    # a strategy that sends no Intention (gbs, sebs): the Visit alone changes nothing
+    machine = SimpleNamespace(teammate_intentions={}, teammate_visits={0: Visit(0, 1, 8.5, 2)})
+    assert _heading(machine, locks, 0, 1.0) == (None, None, 0.0)
 
 
 def test_a_teammate_that_stood_then_may_have_left_covers_only_what_it_covers_wherever_it_went():

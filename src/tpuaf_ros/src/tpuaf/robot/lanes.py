@@ -321,11 +321,17 @@ def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
     dwelt or turned, then may have left), else 0 (held there long: blocked; or still dwelling
     at its death). Not `current` (`claims_current`: its last claim was not its last word):
     it may have lived on and moved, and is not placed at all (no goal, no `left`, `moved_m`
-    inf)."""
+    inf). A Visit newer than the latest Intention (`_after_lost_intention`): the Intention
+    of its next leg was lost, and it may have left any time since it arrived."""
     intent = machine.teammate_intentions.get(robot)
     claim = locks.claims.get(int(robot))
     if claim is not None and not current:
         return None, None, math.inf  # where it went since its last claim is unknown
+    visit = machine.teammate_visits.get(robot)
+    if claim is not None and visit is not None and intent is not None and (
+            visit.time > intent.time):  # (strategies that send no Intention: below)
+        return _after_lost_intention(visit, claim.time, claim.time + locks.reannounce_s,
+                                     max_speed)
     if intent is None:
         return None, None, 0.0
     if claim is None:
@@ -340,6 +346,20 @@ def _heading(machine: Any, locks: LaneLocks, robot: int, max_speed: float,
     if before is not None and before.time - turn_s < departure < due:
         moved = max_speed * (due - max(departure, claim.time))
     return intent.vertex, None, moved
+
+
+def _after_lost_intention(visit: Any, claimed_s: float, due_s: float,
+                          max_speed: float) -> tuple[int | None, tuple[int, float] | None, float]:
+    """`_heading` for a teammate whose latest Visit (at `visit.vertex`, heading to
+    `visit.next_vertex`) is newer than its latest Intention heard: its leg's Intention was
+    lost (tpuaf and tpuaf_plus send both at each arrival), so its departure is not known.
+    Arrived after its last claim (`claimed_s` [s]): it left that vertex at the earliest then,
+    `left` drove the most since until its next claim was due (`due_s` [s]). Arrived before:
+    it may have left right after that claim, `moved_m` the most it drove since."""
+    nxt = visit.next_vertex if visit.next_vertex not in (-1, visit.vertex) else None
+    if visit.time > claimed_s:
+        return nxt, (int(visit.vertex), max_speed * max(0.0, due_s - visit.time)), 0.0
+    return nxt, None, max_speed * max(0.0, due_s - claimed_s)
 
 
 class LaneAccess:

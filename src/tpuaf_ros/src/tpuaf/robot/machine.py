@@ -122,6 +122,9 @@ class RobotMachine(RobotContextBase):
         # teammate -> its latest Intention heard: where a teammate lost on its way was heading
         # and when it left (the lane layer: where its body lies)
         self.teammate_intentions: dict[int, Intention] = {}
+        # teammate -> its latest Visit heard: an arrival newer than its latest Intention says
+        # that the Intention of its next leg was lost
+        self.teammate_visits: dict[int, Visit] = {}
 
     # --- the protocol's state ---
     @property
@@ -240,6 +243,10 @@ class RobotMachine(RobotContextBase):
             latest = self.teammate_intentions.get(message.robot)
             if latest is None or message.time >= latest.time:
                 self.teammate_intentions[message.robot] = message
+        elif isinstance(message, Visit):
+            arrived = self.teammate_visits.get(message.robot)
+            if arrived is None or message.time >= arrived.time:
+                self.teammate_visits[message.robot] = message
         if self.protocol.listening:
             self.learned.observe(message)
             self.policy.on_message(message, self)
