@@ -35,6 +35,7 @@ import numpy as np
 from tpuaf.navigation.lanes import Lane, LaneMap, find_lanes
 from tpuaf.navigation.one_way import Orientation, orient_lanes
 from tpuaf.params import CONTROLLER_DEFAULTS
+from tpuaf.robot.body_sight import body_reach_m, sight
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
 from tpuaf.topics import LANE_ENTER, LANE_WAIT, VERTEX_CLOSED
@@ -92,12 +93,6 @@ def narrow_headway_s(radius_m: float, speed_mps: float) -> float:
 BLOCK_LOST_BODIES = True  # a lost teammate's body blocks the lane edge it drove (False: the
 # lane's lock is only freed, as before; benchmarks/bench_lane_death.py compares the two)
 _BLOCKED: dict[tuple, tuple[LaneLayer, LaneLayer | None]] = {}
-
-
-def body_reach_m(layer: LaneLayer) -> float:
-    """[m] A lost teammate's body this near a vertex (its last known position) keeps the
-    others from reaching it: two robots side by side plus the visit radius."""
-    return layer.lane_map.pass_band_m + float(layer.plan_map.visit_radius_m)
 
 
 def body_blocks(layer: LaneLayer, claim: LaneClaim) -> tuple[tuple[int, int], tuple[int, ...]]:
@@ -377,6 +372,9 @@ class LaneAccess:
         self.blocked: list[tuple[int, int]] = []  # edges dropped: a lost teammate's body on them
         # vertices cut off (a lost teammate's body too near them): the plan map's `closed`
         self.closed: frozenset[int] = frozenset()
+        # look(pose, laser points in the robot frame): judge the closed vertices in view
+        # (attach_lanes, robot/body_sight.py); None: not judged
+        self.look: Callable[[tuple[float, float, float], np.ndarray], None] | None = None
 
     def start_at(self, vertex: int, now: float) -> None:
         """The robot starts at `vertex` [index] at run time `now` [s]: inside a locked lane, it
@@ -554,6 +552,10 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
 
         machine.on_teammate_lost_first = teammate_lost
         machine.on_teammate_back = teammate_back
+        planner = getattr(agent.navigator, "planner", None)
+        if planner is not None:
+            access.look = sight(planner, standing, current, use, float(config.robot_radius))
     if start_vertex is not None:
         access.start_at(start_vertex, 0.0)
     return access
+

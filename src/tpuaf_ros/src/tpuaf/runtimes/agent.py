@@ -291,6 +291,8 @@ class AgentRuntime:
             return 0.0, 0.0
         if points_pose is not None:
             points = moved_points(points, points_pose, self._pose)
+        if lanes is not None and lanes.look is not None and points is not None:
+            lanes.look(self._pose, points)  # closed vertices in view (robot/body_sight.py)
         if self.navigator.route is None:
             # Standing without a route (waiting for a decision): make room for another robot
             # that comes right up to us (Navigator.park_step; not with move_base).
