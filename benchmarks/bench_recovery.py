@@ -75,7 +75,7 @@ def one_run(case: tuple[str, str, int, int, int, float, dict, str, float]) -> di
     run, summary, _ = death_run(name, strategy, n, k, seed, duration_s, params, runtime, loss)
     rec = summary["recovery"]
     recorder = run.recorder
-    # physics: vertices the dead robots' bodies cut off in truth (measure/bodies.py) no
+    # physics: vertices the dead robots' bodies cut off in truth (navigation/bodies.py) no
     # reaction can visit again; the figures are over the other vertices (`..._reachable`)
     closed = recorder.bodies_closed()
     after = max(r.get("worst_idleness_after_reachable_s", r["worst_idleness_after_s"])
@@ -217,7 +217,7 @@ def main() -> None:
              "after the deaths."
              + (" Physics: the worst idleness after, `settled` and `never` are over the vertices "
                 "the dead robots' bodies do not cut off, in truth (the summary's "
-                "`vertices_under_bodies`, measure/bodies.py: no survivor can plan a way to within "
+                "`vertices_under_bodies`, navigation/bodies.py: no survivor can plan a way to within "
                 "the visit radius of them round the bodies; "
                 f"{sum(1 for r in rows if r.get('closed'))} of {len(rows)} runs had one). The "
                 "vertices the survivors closed themselves (`lane_vertices_closed`, as they locate "

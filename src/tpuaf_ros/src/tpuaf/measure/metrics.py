@@ -30,7 +30,6 @@ from typing import Any
 import numpy as np
 import tpuaf_core
 
-from tpuaf.measure.bodies import vertices_cut_off
 from tpuaf.measure.recovery import death_floor, recovery_after_deaths
 from tpuaf.measure.summary import (
     acceleration_ratio,
@@ -39,6 +38,7 @@ from tpuaf.measure.summary import (
     first_coverage,
     idleness_stats,
 )
+from tpuaf.navigation.bodies import vertices_cut_off
 from tpuaf.topics import DWELL, GOAL, REACHED, START, VERTEX_CLOSED
 
 __all__ = ["TIMESERIES_COLUMNS", "RecorderView", "RunRecorder", "acceleration_ratio",
@@ -98,7 +98,7 @@ class RecorderView:
         self.closed.add(int(vertex))
 
     def bodies_closed(self) -> set[int]:
-        """The vertices dead robots' bodies cut off, in truth (measure/bodies.py): no survivor,
+        """The vertices dead robots' bodies cut off, in truth (navigation/bodies.py): no survivor,
         from its last known position, can plan a path ending within the visit radius of them
         round the bodies at the dead robots' last known positions (the planner the robots
         drive with: `planner`, else the map's for `body_radius_m`). Empty without bodies. The

@@ -4,8 +4,10 @@ After a death in a world with bodies (physics, fleets, robots), the figures "ove
 vertices" leave out the vertices no survivor can reach any more. The robots' own closures
 (VERTEX_CLOSED events, robot/lanes.py) are their estimate from the team messages; they may be
 wrong (a lost message, a teammate read as standing) and a hostile teammate could send them, so
-the figures never use them. They use the recorder's truth instead: the dead robots' last
-positions and the survivors', and the planner the robots drive with.
+the figures never use them. The recorder applies `vertices_cut_off` to the dead robots' last
+positions and the survivors', with the planner the robots drive with. (The same test on a
+survivor's estimate of a body in a lane, in place of the survivors' distance rule, was tried
+and not kept: docs/LANES.md.)
 
 A vertex is cut off when no survivor can reach it with the bodies as obstacles while one could
 without them (a vertex the map itself keeps out of reach, near a wall, is not the bodies'
@@ -64,9 +66,8 @@ def _ends_near(planner: Any, source, goal, tolerance_m: float, discs) -> bool:
     return path is not None and math.dist(path[-1], goal) <= tolerance_m + 1e-9
 
 
-def vertices_cut_off(
-    planner: Any, positions, visit_radius_m: float, bodies_xy, body_radius_m: float, survivors_xy
-) -> set[int]:
+def vertices_cut_off(planner: Any, positions, visit_radius_m: float, bodies_xy,
+                     body_radius_m: float, survivors_xy) -> set[int]:
     """Indices of the vertices (`positions` (n, 2) [m]) that the bodies at `bodies_xy` (k, 2)
     [m] cut off from every survivor at `survivors_xy` (m, 2) [m] (see the module docstring).
     Rows with NaN are ignored; no body or no survivor: none."""
