@@ -263,6 +263,7 @@ class MonitorParams:
     seed: int = 0  # for config.yaml
     pose_source: str = "ground_truth"  # positions for X: ground_truth | tf | odom | amcl
     robot: str = AgentParams.robot  # the agents' robot preset (its radius: a dead robot's body, recovery)
+    safety_margin: float = AgentParams.safety_margin  # [m] the agents' controller margin (how near a robot comes to a dead robot's body, recovery)
     map_frame: str = "map"  # tf: the global frame
     base_frame: str = "base_footprint"  # tf: robot i's frame is <robot_prefix><i>/<base_frame>
     announce_start: bool = True  # announce /fleet/start when all agents are ready; false: follow
@@ -278,7 +279,7 @@ class MonitorParams:
         "robots": (">=", 1), "duration": (">", 0), "death_timeout": (">", 0),
         "stuck_after": (">", 0), "exit_delay": (">=", 0),
         "teammate_timeout": (">", 0), "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0),
-        "start_connect_timeout": (">=", 0),
+        "start_connect_timeout": (">=", 0), "safety_margin": (">=", 0),
     }
 
 

@@ -39,6 +39,7 @@ from tpuaf.measure.summary import (
     idleness_stats,
 )
 from tpuaf.navigation.bodies import vertices_cut_off
+from tpuaf.params import CONTROLLER_DEFAULTS
 from tpuaf.topics import DWELL, GOAL, REACHED, START, VERTEX_CLOSED
 
 __all__ = ["TIMESERIES_COLUMNS", "RecorderView", "RunRecorder", "acceleration_ratio",
@@ -82,6 +83,8 @@ class RecorderView:
     body_radius_m: float | None = None
     last_seen: np.ndarray | None = None  # [m] (n_robots, 2) each robot's last known position
     planner: Any = None  # the robots' PathPlanner (bodies_closed; None: the map's default)
+    # [m] what the robots' controller keeps from obstacles, a body too (bodies_closed)
+    safety_margin_m: float = CONTROLLER_DEFAULTS.safety_margin
 
     def _start_view(self) -> None:
         # Python copies of the logs, extended on read (the core only ever appends to them).
@@ -118,7 +121,8 @@ class RecorderView:
             planner = self.planner or shared_planner(self.patrol_map, float(self.body_radius_m))
             cut = vertices_cut_off(planner, self.patrol_map.positions,
                                    float(self.patrol_map.visit_radius_m), bodies,
-                                   float(self.body_radius_m), survivors)
+                                   float(self.body_radius_m), survivors,
+                                   float(self.safety_margin_m))
             self._cut_off = cached = (key, cut)
         return set(cached[1])
 
@@ -312,7 +316,8 @@ class RunRecorder(RecorderView):
                  start_time: float = _DEFAULTS.start_time_s,
                  max_substep_s: float = _DEFAULTS.max_substep_s,
                  field_merge_s: float = _DEFAULTS.field_merge_s, speed_mps: float | None = None,
-                 teammate_timeout_s: float | None = None, body_radius_m: float | None = None):
+                 teammate_timeout_s: float | None = None, body_radius_m: float | None = None,
+                 safety_margin_m: float = CONTROLLER_DEFAULTS.safety_margin):
         if n_robots <= 0:
             raise ValueError(f"need at least one robot, got {n_robots}")
         if not sample_period_s > 0:
@@ -331,6 +336,7 @@ class RunRecorder(RecorderView):
         self.speed_mps = float(s.nominal_speed if speed_mps is None else speed_mps)
         self.teammate_timeout_s = teammate_timeout_s
         self.body_radius_m = None if body_radius_m is None else float(body_radius_m)
+        self.safety_margin_m = float(safety_margin_m)
         self.d_if = float(s.interference_distance)
         config = tpuaf_core.RecorderConfig()
         config.robots = self.n_robots

@@ -60,7 +60,7 @@ import numpy as np
 from tpuaf.measure.health import FleetHealth
 from tpuaf.measure.metrics import RunRecorder, complete_cycles
 from tpuaf.measure.traffic import TrafficGuard
-from tpuaf.params import HEALTH_DEFAULTS, LIVENESS_DEFAULTS
+from tpuaf.params import CONTROLLER_DEFAULTS, HEALTH_DEFAULTS, LIVENESS_DEFAULTS
 from tpuaf.plain import plain
 from tpuaf.topics import DWELL, GOAL, HEARTBEAT, REACHED, START, VERTEX_CLOSED
 
@@ -83,7 +83,8 @@ class FleetMonitor:
                  visit_source: str = "poses",
                  stuck_after_s: float = HEALTH_DEFAULTS.stuck_after_s,
                  robot_names: list[str] | None = None, exact_start: bool = False,
-                 hold_s: float = 0.0, body_radius_m: float | None = None):
+                 hold_s: float = 0.0, body_radius_m: float | None = None,
+                 safety_margin_m: float = CONTROLLER_DEFAULTS.safety_margin):
         if visit_source not in ("poses", "reports"):
             raise ValueError(f"visit_source must be 'poses' or 'reports', not {visit_source!r}")
         self.visit_source = visit_source
@@ -92,6 +93,7 @@ class FleetMonitor:
         # a real robot's) and may lie on a vertex (recovery); default: the map's robot radius
         self.body_radius_m = float(patrol_map.settings.robot_radius if body_radius_m is None
                                    else body_radius_m)
+        self.safety_margin_m = float(safety_margin_m)  # [m] the agents' controller's
         self.n = int(n_robots)
         self.duration_s = float(duration_s)
         self.start_after = float(start_after)
@@ -389,7 +391,8 @@ class FleetMonitor:
         self.start_time = start
         self.recorder = RunRecorder(self.patrol_map, self.n, sample_period_s=self.sample_period_s,
                                     teammate_timeout_s=self.teammate_timeout_s,
-                                    body_radius_m=self.body_radius_m)
+                                    body_radius_m=self.body_radius_m,
+                                    safety_margin_m=self.safety_margin_m)
         # START events before the run start: first visits at the start; REACHED before it
         # belong to no run.
         self._visits = sorted((max(s, start) if first else s, r, v, first)

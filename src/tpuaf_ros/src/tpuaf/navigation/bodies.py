@@ -29,12 +29,12 @@ import numpy as np
 from tpuaf.params import CONTROLLER_DEFAULTS
 
 
-def body_discs(bodies_xy: np.ndarray, radius_m: float, planner: Any) -> np.ndarray:
+def body_discs(bodies_xy: np.ndarray, radius_m: float, planner: Any,
+               safety_margin_m: float = CONTROLLER_DEFAULTS.safety_margin) -> np.ndarray:
     """(k, 3) obstacle discs (x, y, radius [m]) of the bodies at `bodies_xy` (k, 2) [m],
-    widened by what the controller keeps from obstacles beyond the planner's own margin."""
-    widen = max(
-        0.0, float(CONTROLLER_DEFAULTS.safety_margin) - float(planner.config.safety_margin_m)
-    )  # [m]
+    widened by what the controller keeps from obstacles (`safety_margin_m` [m]) beyond the
+    planner's own margin."""
+    widen = max(0.0, float(safety_margin_m) - float(planner.config.safety_margin_m))  # [m]
     xy = np.asarray(bodies_xy, dtype=float).reshape(-1, 2)
     return np.column_stack((xy, np.full(len(xy), float(radius_m) + widen)))
 
@@ -67,22 +67,21 @@ def _ends_near(planner: Any, source, goal, tolerance_m: float, discs) -> bool:
 
 
 def vertices_cut_off(planner: Any, positions, visit_radius_m: float, bodies_xy,
-                     body_radius_m: float, survivors_xy) -> set[int]:
+                     body_radius_m: float, survivors_xy,
+                     safety_margin_m: float = CONTROLLER_DEFAULTS.safety_margin) -> set[int]:
     """Indices of the vertices (`positions` (n, 2) [m]) that the bodies at `bodies_xy` (k, 2)
-    [m] cut off from every survivor at `survivors_xy` (m, 2) [m] (see the module docstring).
-    Rows with NaN are ignored; no body or no survivor: none."""
+    [m] cut off from every survivor at `survivors_xy` (m, 2) [m] (see the module docstring),
+    for robots whose controller keeps `safety_margin_m` [m] from obstacles. Rows with NaN are
+    ignored; no body or no survivor: none."""
     bodies = np.asarray(bodies_xy, dtype=float).reshape(-1, 2)
     bodies = bodies[np.isfinite(bodies).all(axis=1)]
     sources = np.asarray(survivors_xy, dtype=float).reshape(-1, 2)
     sources = sources[np.isfinite(sources).all(axis=1)]
     if not len(bodies) or not len(sources):
         return set()
-    discs = body_discs(bodies, body_radius_m, planner)
-    keep = (
-        float(body_radius_m)
-        + float(planner.robot_radius_m)
-        + float(CONTROLLER_DEFAULTS.safety_margin)
-    )  # [m] centre to centre
+    discs = body_discs(bodies, body_radius_m, planner, safety_margin_m)
+    # [m] centre to centre
+    keep = float(body_radius_m) + float(planner.robot_radius_m) + float(safety_margin_m)
     # [m] two planning cells' diagonals: the planner's grid rounds the keep-out circle outward
     cell = 2.0 * math.sqrt(2.0) * float(planner.costmap.resolution)
     out: set[int] = set()

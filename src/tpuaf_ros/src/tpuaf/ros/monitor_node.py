@@ -83,7 +83,8 @@ class MonitorNode:
                                stuck_after_s=p.stuck_after, robot_names=self.names,
                                exact_start=True, hold_s=p.death_timeout,
                                body_radius_m=choose_robot(p.robot, patrol_map.settings,
-                                                          option="~robot").radius_m)
+                                                          option="~robot").radius_m,
+                               safety_margin_m=p.safety_margin)
         self.metrics_pub = rospy.Publisher(convert.METRICS_TOPIC, LiveMetrics, queue_size=10,
                                            latch=True)
         self.start_pub = rospy.Publisher(START_TOPIC, RunStart, queue_size=1, latch=True)
