@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 from tpuaf.navigation.planner import PathPlanner
-from tpuaf.robot.body_sight import MIN_RAYS, SIGHT_M, seen_empty, sight
+from tpuaf.robot.body_sight import MIN_RAYS, SIGHT_M, blocking_m, seen_empty, sight
 from tpuaf.robot.lanes import closed_layer
 
 from tests.test_body_on_vertex import layer_without_lanes, ring_map
@@ -64,7 +64,7 @@ def test_a_closure_seen_empty_is_undone_once_and_only_while_nothing_changed_sinc
         used.append(layer)
         current[0] = layer
 
-    look = sight(planner, standing, current, use, 0.1)
+    look = sight(planner, standing, current, use, 0.1, 0.08)
     pose = (0.4, 0.0, 0.0)  # on the edge 0-1, 1.6 m from vertex 1, looking at it
     angles = np.radians(np.arange(0.0, 360.0, 1.0))
     # what the laser returns, robot frame: a body 0.1 m past vertex 1 (unmapped), else far
@@ -79,3 +79,25 @@ def test_a_closure_seen_empty_is_undone_once_and_only_while_nothing_changed_sinc
     assert used == [before] and not standing
     look(pose, rays)  # once only
     assert used == [before]
+
+
+def test_a_body_seen_off_the_vertex_with_room_beside_it_reopens_it():
+    """ctcv N = 12 under 30 % loss (recovery_physics_loss.md): a survivor closed vertex 13 for
+    a body it read as standing 0.6 m off; the body lay 0.85 m off, and the laser sees it there.
+    A body's surface nearer than 3 radii + the safety margin - the visit radius (+ room) may
+    keep a robot off the vertex; farther, the vertex is reachable beside it."""
+    assert math.isclose(blocking_m(0.1, 0.08, 0.15), 0.28)
+    before = layer_without_lanes(ring_map())
+    after = closed_layer(before, (1,))
+    planner = PathPlanner(ring_map(), 0.1)
+    for body_x, reopened in ((1.6 + 0.25, False), (1.6 + 0.45, True)):
+        standing, current, used = {2: (before, after)}, [after], []
+        look = sight(planner, standing, current, lambda layer: used.append(layer), 0.1, 0.08)
+        # robot frame: the body's near surface at body_x - 0.1 m straight ahead, the map's
+        # walls (explained) beyond and around it
+        angles = np.radians(np.arange(-30.0, 30.0, 1.0))
+        rays = np.column_stack((2.4 * np.cos(angles), 2.4 * np.sin(angles)))
+        hit = np.abs(rays[:, 1] / 2.4 * body_x) < 0.1  # rays that meet the body
+        rays[hit] = rays[hit] * ((body_x - 0.1) / 2.4)
+        look((0.4, 0.0, 0.0), rays)
+        assert bool(used) == reopened, body_x

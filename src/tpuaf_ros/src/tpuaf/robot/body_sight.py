@@ -1,12 +1,14 @@
-"""A survivor's own laser on a vertex it closed: a closure it sees no body at is undone.
+"""A survivor's own laser on a vertex it closed: a closure it sees no blocking body at is undone.
 
 A survivor closes the vertices a lost teammate's body stands on from the team messages
 (robot/lanes.py, `body_vertices`). Under message loss it can misplace the body (a teammate that
 drove off is read as standing) and close a vertex nobody blocks, which it would then never
-visit. So while a closed vertex is in plain view, the laser checks it: the body, a disc of the
-robot's radius within `reach` [m] of the vertex, would return laser points there. The vertex is
-seen empty when the laser's rays toward it cover it with nothing in front and none of their
-points the map does not explain lies near it (`seen_empty`).
+visit. So while a closed vertex is in plain view, the laser checks it. A body keeps a robot
+from the vertex when its centre is nearer than 2 radii + the controller's safety margin - the
+visit radius (the recorder's truth, navigation/bodies.py), so when a point of its surface is
+nearer than one radius more (`blocking_m`, with SIGHT_ROOM_M to spare). The vertex is seen
+clear when the laser's rays toward that disc cover it with nothing in front and none of their
+points the map does not explain lies in it (`seen_empty`).
 """
 
 from __future__ import annotations
@@ -22,6 +24,14 @@ from tpuaf.navigation.navigator import UNMAPPED_DISTANCE_M
 
 SIGHT_M = 2.5  # [m] a closed vertex farther than this is not judged (laser points thin out)
 MIN_RAYS = 5  # laser points toward the vertex's surroundings needed to judge it
+SIGHT_ROOM_M = 0.05  # [m] room a robot is to have beside a seen body for the vertex to reopen
+
+
+def blocking_m(radius_m: float, safety_margin_m: float, visit_radius_m: float) -> float:
+    """[m] A body's surface this near a vertex may keep a robot of `radius_m` [m] from it: 3
+    radii (the body's centre behind its surface, two robots side by side) + the controller's
+    `safety_margin_m` [m] - the visit radius [m] + SIGHT_ROOM_M."""
+    return 3.0 * radius_m + safety_margin_m - visit_radius_m + SIGHT_ROOM_M
 
 
 def body_reach_m(layer: Any) -> float:
@@ -59,17 +69,19 @@ def seen_empty(pose: tuple[float, float, float], points_xy: np.ndarray | None,
 
 
 def sight(planner: Any, standing: dict, current: list, use: Callable[[Any], None],
-          radius_m: float) -> Callable[[tuple[float, float, float], np.ndarray], None]:
+          radius_m: float, safety_margin_m: float,
+          ) -> Callable[[tuple[float, float, float], np.ndarray], None]:
     """`LaneAccess.look` of robot/lanes.py's `attach_lanes`: a teammate's closure with a
-    vertex the robot's laser shows empty (`seen_empty`) is undone, as when the teammate is
-    heard again. `standing`: teammate -> the lane layers before and after its closure;
-    `current`: [the layer in use]; `use`: drive on another layer."""
+    vertex the robot's laser shows clear of a blocking body (`seen_empty`, `blocking_m`) is
+    undone, as when the teammate is heard again. `standing`: teammate -> the lane layers before
+    and after its closure; `current`: [the layer in use]; `use`: drive on another layer."""
 
     def look(pose: tuple[float, float, float], points: np.ndarray) -> None:
         for robot, (before, after) in list(standing.items()):
             if current[0] is not after:
                 continue
-            reach = body_reach_m(after) + radius_m  # [m] the body's surface from the vertex
+            reach = max(blocking_m(radius_m, safety_margin_m,
+                                   float(after.plan_map.visit_radius_m)), radius_m)  # [m]
             xy = np.asarray(after.plan_map.positions, dtype=float)
             shut = [v for v in sorted(after.plan_map.closed - before.plan_map.closed)
                     if math.dist(xy[v], pose[:2]) <= SIGHT_M]

@@ -554,7 +554,8 @@ def attach_lanes(agent: Any, layer: LaneLayer, start_vertex: int | None) -> Lane
         machine.on_teammate_back = teammate_back
         planner = getattr(agent.navigator, "planner", None)
         if planner is not None:
-            access.look = sight(planner, standing, current, use, float(config.robot_radius))
+            access.look = sight(planner, standing, current, use, float(config.robot_radius),
+                                float(config.safety_margin))
     if start_vertex is not None:
         access.start_at(start_vertex, 0.0)
     return access
