@@ -92,7 +92,7 @@ def test_a_body_seen_off_the_vertex_with_room_beside_it_reopens_it():
     planner = PathPlanner(ring_map(), 0.1)
     for body_x, reopened in ((1.6 + 0.25, False), (1.6 + 0.45, True)):
         standing, current, used = {2: (before, after)}, [after], []
-        look = sight(planner, standing, current, lambda layer: used.append(layer), 0.1, 0.08)
+        look = sight(planner, standing, current, used.append, 0.1, 0.08)
         # robot frame: the body's near surface at body_x - 0.1 m straight ahead, the map's
         # walls (explained) beyond and around it
         angles = np.radians(np.arange(-30.0, 30.0, 1.0))
