@@ -46,7 +46,7 @@ with rosbag.Bag({str(bag)!r}) as b:
             epoch = msg.header.stamp.to_sec()  # tpuaf_ros/RunStart, re-latched by every agent
             out["start"] = epoch if out["start"] is None else min(out["start"], epoch)
         elif msg.event in (0, 2) and msg.vertex >= 0:  # START, REACHED
-            out["events"].append((msg.robot_index, msg.header.stamp.to_sec()))
+            out["events"].append((msg.robot_index, msg.header.stamp.to_sec(), msg.vertex))
 print(json.dumps(out))
 """
     from .conftest import VENV_PYTHON, workspace_env
@@ -59,7 +59,7 @@ print(json.dumps(out))
 
 def per_robot(reports: list, t0: float = -1.0, t1: float = float("inf")) -> dict[int, int]:
     counts = {r: 0 for r in range(ROBOTS)}
-    for r, t in reports:
+    for r, t, *_ in reports:
         if t0 <= t <= t1:
             counts[r] += 1
     return counts
@@ -113,12 +113,37 @@ def test_rehearsal_keeps_visiting_and_the_monitor_counts_the_reports(rehearsal):
     # the death timeout; its reports still count, in the monitor and in the analysis alike)
     assert summary["uncertainty_mean"] is not None  # X from tf
     end = summary["start_time_s"] + summary["duration_s"]
-    in_run = per_robot(reports["events"], t1=end)
+    counted = monitor_visits(results)
+    assert summary["visits"] == len(counted)
+    assert_reported(counted, reports["events"], summary["start_time_s"], end)
+
+
+def monitor_visits(results: Path) -> list[tuple[int, float, int]]:
+    """(robot, run time [s], vertex id) of each visit in a results folder's visits.csv."""
     with open(results / "visits.csv") as f:
-        counted = sorted((int(row["robot"]), float(row["time_s"])) for row in csv.DictReader(f))
-    assert summary["visits"] == sum(in_run.values()), (
-        summary["visits"], in_run, "start", summary["start_time_s"], "end", end, "monitor",
-        counted, "reports", sorted(map(tuple, reports["events"])), "announced", reports["start"])
+        return sorted((int(row["robot"]), float(row["time_s"]), int(row["vertex_id"]))
+                      for row in csv.DictReader(f))
+
+
+REPORT_LAG_S = 2.0  # [s] an agent's REACHED report may follow the monitor's pose-based visit
+
+
+def assert_reported(counted: list, events: list, start: float, end: float) -> None:
+    """The monitor's visits (robot, run time [s], vertex id) up to the run's end `end` [s]
+    are the agents' START / REACHED reports (robot, stamp [s], vertex id), robot by robot and
+    in order: the same vertices, each report within REPORT_LAG_S of its visit, every report
+    stamped by the end counted; a visit near the end may be reported just after it (the
+    monitor reads poses, the agent reports on its own clock: under load up to ~1 s later)."""
+    for robot in range(ROBOTS):
+        mine = [(start + t, v) for r, t, v in counted if r == robot]
+        told = sorted((t, v) for r, t, v in events if r == robot)
+        by_end = [t for t, _ in told if t <= end]
+        assert len(by_end) <= len(mine) <= len(told), (robot, mine, told, end)
+        assert [v for _, v in mine] == [v for _, v in told[:len(mine)]], (robot, mine, told)
+        lags = [b[0] - a[0] for a, b in zip(mine, told, strict=False)]
+        assert all(-0.5 <= lag <= REPORT_LAG_S for lag in lags), (robot, lags)
+        late = told[len(by_end):len(mine)]  # counted, reported after the end
+        assert all(t <= end + REPORT_LAG_S for t, _ in late), (robot, late, end)
 
 
 def test_analyze_of_the_plain_bag_counts_the_agents_reports(rehearsal):
@@ -145,4 +170,6 @@ def test_analyze_of_the_plain_bag_counts_the_agents_reports(rehearsal):
     # the live monitor and the analysis of the plain bag agree over the monitor's run
     live = json.loads((results / "summary.json").read_text())
     live_end = live["start_time_s"] + live["duration_s"]
-    assert live["visits"] == sum(per_robot(reports["events"], t1=live_end).values())
+    live_visits = monitor_visits(results)
+    assert live["visits"] == len(live_visits)
+    assert_reported(live_visits, reports["events"], live["start_time_s"], live_end)
