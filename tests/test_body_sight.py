@@ -101,3 +101,19 @@ def test_a_body_seen_off_the_vertex_with_room_beside_it_reopens_it():
         rays[hit] = rays[hit] * ((body_x - 0.1) / 2.4)
         look((0.4, 0.0, 0.0), rays)
         assert bool(used) == reopened, body_x
+
+
+def test_tpuaf_run_names_the_vertices_bodies_cut_off_and_the_wrong_closures():
+    from tpuaf.cli.run import format_summary
+
+    text = format_summary({"vertices_under_bodies": [12], "closed_but_reachable": [4, 7]})
+    assert "bodies cut off (left out of the reachable recovery): 12" in text
+    assert "could still reach (counted in every figure): 4, 7" in text
+    assert "cut off" not in format_summary({})
+    rec = {"robot": 1, "time_s": 150.0, "survivors": 3, "recovery_time_s": None,
+           "worst_idleness_after_s": 153.3, "worst_idleness_after_reachable_s": 41.0,
+           "ideal_worst_idleness_survivors_s": 43.1, "floor_worst_idleness_after_s": 42.7,
+           "detection_floor_worst_idleness_after_s": 42.2, "intentions": [3],
+           "intentions_honoured": 1}
+    assert "153.3 s, 41.0 s over the vertices still reachable" in format_summary(
+        {"recovery": [rec]})

@@ -269,9 +269,12 @@ def format_faults(summary: dict) -> str:
             return "n/a" if v is None else f"{v:,.1f} s"
         back = r.get("recovery_time_s")
         back = "not by the end" if back is None else f"in {back:,.1f} s"
+        reachable = r.get("worst_idleness_after_reachable_s")
+        within = ("" if reachable is None else
+                  f", {num('worst_idleness_after_reachable_s')} over the vertices still reachable")
         lines.append(
             f"  after robot {r['robot']} died at {r['time_s']:,.1f} s: every vertex visited "
-            f"again {back}; worst idleness {num('worst_idleness_after_s')}"
+            f"again {back}; worst idleness {num('worst_idleness_after_s')}{within}"
             f" (ideal for the {r['survivors']} survivors "
             f"{num('ideal_worst_idleness_survivors_s')}, unavoidable after this death "
             f"{num('floor_worst_idleness_after_s')}, after its detection "
@@ -312,6 +315,12 @@ def format_summary(summary: dict) -> str:
     if summary.get("lane_edges_blocked"):  # a dead robot's body in a lane (docs/LANES.md)
         edges = ", ".join(f"{u}-{v}" for u, v in summary["lane_edges_blocked"])
         lines.append(f"  lane edges blocked by a dead robot's body: {edges}")
+    for key, label in (("vertices_under_bodies", "vertices the dead robots' bodies cut off "
+                        "(left out of the reachable recovery)"),
+                       ("closed_but_reachable", "vertices survivors closed that a robot could "
+                        "still reach (counted in every figure)")):
+        if summary.get(key):  # navigation/bodies.py, docs/LANES.md
+            lines.append(f"  {label}: {', '.join(str(v) for v in summary[key])}")
     faults = format_faults(summary)
     return "\n".join(lines) + ("\n" + faults if faults else "")
 
