@@ -253,6 +253,7 @@ class MonitorParams:
     death_timeout: float = _L.death_timeout_s  # [s] an agent silent this long is dead (not set: ~teammate_timeout, one rule)
     teammate_timeout: float = _L.teammate_timeout_s  # [s] the agents' ~teammate_timeout: when survivors can know of a death (recovery's floor at detection)
     start_delay: float = 1.0  # [s] between all agents ready and the announced start
+    start_not_before: float = 0.0  # [s of ROS time] the start is announced start_delay after this at the earliest (lock-step: the simulator's ~start_hold, one start in every run)
     start_wall_delay: float = 0.0  # [s of wall time] to wait once all are ready (connections)
     recorder_node: str = ""  # start only once the rosbag node of this name records the agent events ('' = no wait)
     # [s of wall time] at most this long once all are ready, wait until every agent (a node in
@@ -278,7 +279,7 @@ class MonitorParams:
     ranges: ClassVar[dict[str, tuple[str, float]]] = {
         "robots": (">=", 1), "duration": (">", 0), "death_timeout": (">", 0),
         "stuck_after": (">", 0), "exit_delay": (">=", 0),
-        "teammate_timeout": (">", 0), "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0),
+        "teammate_timeout": (">", 0), "start_delay": (">=", 0), "start_wall_delay": (">=", 0), "seed": (">=", 0), "start_not_before": (">=", 0),
         "start_connect_timeout": (">=", 0), "safety_margin": (">=", 0),
     }
 

@@ -165,7 +165,8 @@ class MonitorNode:
         # a start already past reached the agents late, and each began the run when it
         # heard it (10-16 s after it, differently in every run: issue 33 item 7).
         message = convert.run_start_message(
-            max(stamp, self.fm.now, rospy.get_time()) + self.p.start_delay, rospy.get_name(),
+            max(stamp, self.fm.now, rospy.get_time(), self.p.start_not_before)
+            + self.p.start_delay, rospy.get_name(),
             self.names)
         # the start as the agents and the bag read it (the stamp's whole nanoseconds): an
         # event stamped at the start counts live as it does in `tpuaf analyze`
