@@ -141,10 +141,14 @@ def test_stop_signal_leaves_valid_results(tmp_path, sig):
     assert float(rows[-1]["time_s"]) >= summary["duration_s"] - 2.0
     visits = list(csv.DictReader((out / "visits.csv").open()))
     assert len(visits) >= summary["visits"] - 4
+    assert not list(out.glob(".*.tmp")), "a temporary file was left behind"
+    if "end_files" in summary:  # the documented degradation: a loaded machine took longer
+        # than END_FILES_AFTER_SIGNAL_S to write them (the suite saw it once under load)
+        assert summary["end_files"].startswith("cut short by a stop signal"), summary
+        return
     for name in ("info.csv", "idleness.csv", "timeresults.csv"):
         assert (out / name).is_file(), name
     assert "ABORT" in (out / "info.csv").read_text()
-    assert not list(out.glob(".*.tmp")), "a temporary file was left behind"
 
 
 def test_ctrl_c_test_passes_with_sigint_ignored(tmp_path):
