@@ -95,6 +95,7 @@ class RecorderView:
         # vertices no robot can reach after a death (VERTEX_CLOSED events: a dead robot's body
         # next to them, robot/lanes.py); the recovery also counts without them
         self.closed: set[int] = set()
+        self._cut_off: tuple | None = None  # (deaths and bodies, bodies_closed for them)
 
     def record_closed(self, vertex: int) -> None:
         """A survivor reported vertex `vertex` (index) cut off by a lost teammate's body."""
@@ -113,8 +114,10 @@ class RecorderView:
         dead = sorted({int(robot) for _, robot in deaths})
         bodies = last[dead]
         survivors = np.delete(last, dead, axis=0)
-        key = (tuple(dead), bodies.tobytes(), survivors.tobytes())
-        cached = getattr(self, "_cut_off", None)
+        # once per set of bodies (a live monitor asks every second): the survivors as they
+        # stood then are the sources, any of them reaching a vertex will do
+        key = (tuple(dead), bodies.tobytes())
+        cached = self._cut_off
         if cached is None or cached[0] != key:
             from tpuaf.navigation.planner import shared_planner
 

@@ -34,12 +34,6 @@ def blocking_m(radius_m: float, safety_margin_m: float, visit_radius_m: float) -
     return 3.0 * radius_m + safety_margin_m - visit_radius_m + SIGHT_ROOM_M
 
 
-def body_reach_m(layer: Any) -> float:
-    """[m] A lost teammate's body this near a vertex (its last known position) keeps the
-    others from reaching it: two robots side by side plus the visit radius (a LaneLayer's)."""
-    return layer.lane_map.pass_band_m + float(layer.plan_map.visit_radius_m)
-
-
 def seen_empty(pose: tuple[float, float, float], points_xy: np.ndarray | None,
                unexplained: np.ndarray | None, vertex_xy, reach_m: float) -> bool:
     """Does the laser, from `pose` (x [m], y [m], heading [rad]), show no body near the vertex

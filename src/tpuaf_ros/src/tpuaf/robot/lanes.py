@@ -35,7 +35,7 @@ import numpy as np
 from tpuaf.navigation.lanes import Lane, LaneMap, find_lanes
 from tpuaf.navigation.one_way import Orientation, orient_lanes
 from tpuaf.params import CONTROLLER_DEFAULTS
-from tpuaf.robot.body_sight import body_reach_m, sight
+from tpuaf.robot.body_sight import sight
 from tpuaf.team.lane_locks import LaneLocks
 from tpuaf.team.messages import LaneClaim
 from tpuaf.topics import LANE_ENTER, LANE_WAIT, VERTEX_CLOSED
@@ -93,6 +93,12 @@ def narrow_headway_s(radius_m: float, speed_mps: float) -> float:
 BLOCK_LOST_BODIES = True  # a lost teammate's body blocks the lane edge it drove (False: the
 # lane's lock is only freed, as before; benchmarks/bench_lane_death.py compares the two)
 _BLOCKED: dict[tuple, tuple[LaneLayer, LaneLayer | None]] = {}
+
+
+def body_reach_m(layer: LaneLayer) -> float:
+    """[m] A lost teammate's body this near a vertex (its last known position) keeps the
+    others from reaching it: two robots side by side plus the visit radius."""
+    return layer.lane_map.pass_band_m + float(layer.plan_map.visit_radius_m)
 
 
 def body_blocks(layer: LaneLayer, claim: LaneClaim) -> tuple[tuple[int, int], tuple[int, ...]]:
