@@ -39,6 +39,12 @@ def body_discs(bodies_xy: np.ndarray, radius_m: float, planner: Any,
     return np.column_stack((xy, np.full(len(xy), float(radius_m) + widen)))
 
 
+def keep_out_m(body_radius_m: float, robot_radius_m: float, safety_margin_m: float) -> float:
+    """[m] How near a robot's centre comes to a body's centre: both radii + the controller's
+    safety margin."""
+    return float(body_radius_m) + float(robot_radius_m) + float(safety_margin_m)
+
+
 def approach(vertex_xy, bodies_xy: np.ndarray, keep_m: float, visit_radius_m: float):
     """The spot [m] nearest `vertex_xy` that a robot's centre may occupy, at least `keep_m`
     [m] from every body's centre, when it is within the visit radius of the vertex; else
@@ -80,8 +86,7 @@ def vertices_cut_off(planner: Any, positions, visit_radius_m: float, bodies_xy,
     if not len(bodies) or not len(sources):
         return set()
     discs = body_discs(bodies, body_radius_m, planner, safety_margin_m)
-    # [m] centre to centre
-    keep = float(body_radius_m) + float(planner.robot_radius_m) + float(safety_margin_m)
+    keep = keep_out_m(body_radius_m, planner.robot_radius_m, safety_margin_m)
     # [m] two planning cells' diagonals: the planner's grid rounds the keep-out circle outward
     cell = 2.0 * math.sqrt(2.0) * float(planner.costmap.resolution)
     out: set[int] = set()

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from tpuaf.navigation.bodies import keep_out_m
 from tpuaf.navigation.give_way import map_points
 from tpuaf.navigation.navigator import UNMAPPED_DISTANCE_M
 
@@ -31,7 +32,7 @@ def blocking_m(radius_m: float, safety_margin_m: float, visit_radius_m: float) -
     """[m] A body's surface this near a vertex may keep a robot of `radius_m` [m] from it: 3
     radii (the body's centre behind its surface, two robots side by side) + the controller's
     `safety_margin_m` [m] - the visit radius [m] + SIGHT_ROOM_M."""
-    return 3.0 * radius_m + safety_margin_m - visit_radius_m + SIGHT_ROOM_M
+    return keep_out_m(radius_m, radius_m, safety_margin_m) + radius_m - visit_radius_m + SIGHT_ROOM_M
 
 
 def seen_empty(pose: tuple[float, float, float], points_xy: np.ndarray | None,
